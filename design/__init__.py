@@ -1,0 +1,1 @@
+"""design: see ARCHITECTURE.md (filled by later issues)."""

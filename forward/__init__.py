@@ -1,0 +1,1 @@
+"""The forward model: one indentation simulation (spec, mesh, material, solver, results)."""

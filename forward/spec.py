@@ -1,0 +1,208 @@
+"""The model spec: everything that defines one indentation simulation (paper 2.4, 2.5).
+
+A :class:`ModelSpec` is a frozen, validated record of geometry, indenter, protocol, material,
+mesh and solver options. Every result file stores it (``to_dict``) so a run can be traced and
+repeated. Invalid input raises :class:`SpecError`, whose message names the offending field.
+
+Units everywhere: mm, kPa, mN, s.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field, fields, replace
+from typing import Any
+
+#: Indenter radii of the paper's two spheres (9.5 mm and 16 mm diameter), mm.
+INDENTER_PRESETS: dict[str, float] = {"small": 4.77, "large": 8.0}
+
+#: Deepest indentation accepted, as a fraction of the block height.
+MAX_DEPTH_FRACTION = 0.5
+
+
+class SpecError(ValueError):
+    """A model spec field holds a value the model cannot take; the message names the field."""
+
+    def __init__(self, field_name: str, message: str) -> None:
+        self.field = field_name
+        super().__init__(f"{field_name}: {message}")
+
+
+def _finite_positive(name: str, value: float) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError) as exc:
+        raise SpecError(name, f"must be a number, got {value!r}") from exc
+    if not math.isfinite(v):
+        raise SpecError(name, f"must be finite, got {value!r}")
+    if v <= 0.0:
+        raise SpecError(name, f"must be positive, got {value!r}")
+    return v
+
+
+@dataclass(frozen=True)
+class Geometry:
+    """The quarter block: x in [0, half_x], y in [0, half_y], z in [0, height], mm.
+
+    The full specimen is 100 x 100 x 60 mm; symmetry planes x = 0 and y = 0 cut it to a quarter.
+    """
+
+    half_x: float = 50.0
+    half_y: float = 50.0
+    height: float = 60.0
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            object.__setattr__(self, f.name, _finite_positive(f"geometry.{f.name}", getattr(self, f.name)))
+
+
+@dataclass(frozen=True)
+class Indenter:
+    """A rigid sphere, lowest point touching the top face at (0, 0, height) at depth 0."""
+
+    radius: float = INDENTER_PRESETS["small"]
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "radius", _finite_positive("indenter.radius", self.radius))
+
+    @classmethod
+    def preset(cls, name: str) -> Indenter:
+        if name not in INDENTER_PRESETS:
+            raise SpecError("indenter.radius", f"unknown preset {name!r}; use {sorted(INDENTER_PRESETS)}")
+        return cls(INDENTER_PRESETS[name])
+
+
+@dataclass(frozen=True)
+class Protocol:
+    """Quasi-static indentation in equal steps (paper 2.7: 28 steps of 0.5 mm)."""
+
+    step_size: float = 0.5
+    steps: int = 28
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "step_size", _finite_positive("protocol.step_size", self.step_size))
+        if isinstance(self.steps, bool) or int(self.steps) != self.steps or self.steps < 1:
+            raise SpecError("protocol.steps", f"must be a whole number >= 1, got {self.steps!r}")
+        object.__setattr__(self, "steps", int(self.steps))
+
+    @property
+    def max_depth(self) -> float:
+        return self.step_size * self.steps
+
+    @property
+    def depths(self) -> list[float]:
+        """Depths at the end of each step, mm (depth 0 excluded)."""
+        return [self.step_size * (k + 1) for k in range(self.steps)]
+
+
+@dataclass(frozen=True)
+class Material:
+    """Uncoupled fiber-reinforced neo-Hookean (eq. 3): FEBio's trans iso Mooney-Rivlin with
+    c2 = 0 and lam_max = 1. Moduli in kPa; ``fiber`` is the reference fiber direction."""
+
+    c1: float = 10.0
+    c5: float = 350.0
+    kappa: float = 1000.0
+    fiber: tuple[float, float, float] = (0.0, 1.0, 0.0)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "c1", _finite_positive("material.c1", self.c1))
+        object.__setattr__(self, "kappa", _finite_positive("material.kappa", self.kappa))
+        try:
+            c5 = float(self.c5)
+        except (TypeError, ValueError) as exc:
+            raise SpecError("material.c5", f"must be a number, got {self.c5!r}") from exc
+        if not math.isfinite(c5) or c5 < 0.0:
+            raise SpecError("material.c5", f"must be finite and >= 0 (0: isotropic), got {self.c5!r}")
+        object.__setattr__(self, "c5", c5)
+        try:
+            a = tuple(float(v) for v in self.fiber)
+        except (TypeError, ValueError) as exc:
+            raise SpecError("material.fiber", f"must be three numbers, got {self.fiber!r}") from exc
+        norm = math.sqrt(sum(v * v for v in a)) if len(a) == 3 else 0.0
+        if len(a) != 3 or not all(math.isfinite(v) for v in a) or norm == 0.0:
+            raise SpecError("material.fiber", f"must be a finite non-zero 3-vector, got {self.fiber!r}")
+        object.__setattr__(self, "fiber", tuple(v / norm for v in a))
+
+    @property
+    def theta(self) -> dict[str, float]:
+        """The identified parameters theta = (c1, c5)."""
+        return {"c1": self.c1, "c5": self.c5}
+
+
+@dataclass(frozen=True)
+class MeshChoice:
+    """Which block mesh: a named preset of :mod:`forward.mesh`, or the hex8 block of a FEBio file."""
+
+    preset: str = "default"
+    feb_file: str | None = None
+
+    def __post_init__(self) -> None:
+        from .mesh import MESH_PRESETS  # local import: mesh imports nothing from here
+
+        if self.feb_file is None and self.preset not in MESH_PRESETS:
+            raise SpecError("mesh.preset", f"unknown preset {self.preset!r}; use {sorted(MESH_PRESETS)}")
+
+
+@dataclass(frozen=True)
+class SolverOptions:
+    """Numerical controls of the embedded solver (forward.solver)."""
+
+    substeps: int = 2
+    residual_tol: float = 1e-8
+    max_newton: int = 25
+    max_cutbacks: int = 6
+    max_contact_passes: int = 12
+
+    def __post_init__(self) -> None:
+        for name in ("substeps", "max_newton", "max_contact_passes"):
+            v = getattr(self, name)
+            if int(v) != v or v < 1:
+                raise SpecError(f"solver.{name}", f"must be a whole number >= 1, got {v!r}")
+        if int(self.max_cutbacks) != self.max_cutbacks or self.max_cutbacks < 0:
+            raise SpecError("solver.max_cutbacks", f"must be a whole number >= 0, got {self.max_cutbacks!r}")
+        object.__setattr__(self, "residual_tol", _finite_positive("solver.residual_tol", self.residual_tol))
+
+
+@dataclass(frozen=True)
+class ModelSpec:
+    """One indentation simulation: geometry, indenter, protocol, material, mesh, solver."""
+
+    geometry: Geometry = field(default_factory=Geometry)
+    indenter: Indenter = field(default_factory=Indenter)
+    protocol: Protocol = field(default_factory=Protocol)
+    material: Material = field(default_factory=Material)
+    mesh: MeshChoice = field(default_factory=MeshChoice)
+    solver: SolverOptions = field(default_factory=SolverOptions)
+
+    def __post_init__(self) -> None:
+        limit = MAX_DEPTH_FRACTION * self.geometry.height
+        if self.protocol.max_depth > limit:
+            raise SpecError(
+                "protocol.steps",
+                f"maximum depth {self.protocol.max_depth:g} mm (steps x step_size) exceeds what the "
+                f"{self.geometry.height:g} mm block can take ({limit:g} mm)",
+            )
+
+    def with_material(self, **changes: float) -> ModelSpec:
+        """The same spec with some material fields changed (e.g. ``c1=12``)."""
+        return replace(self, material=replace(self.material, **changes))
+
+    def to_dict(self) -> dict[str, Any]:
+        d = asdict(self)
+        d["material"]["fiber"] = list(self.material.fiber)
+        return d
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> ModelSpec:
+        material = dict(d.get("material", {}))
+        if "fiber" in material:
+            material["fiber"] = tuple(material["fiber"])
+        return cls(
+            geometry=Geometry(**d.get("geometry", {})),
+            indenter=Indenter(**d.get("indenter", {})),
+            protocol=Protocol(**d.get("protocol", {})),
+            material=Material(**material),
+            mesh=MeshChoice(**d.get("mesh", {})),
+            solver=SolverOptions(**d.get("solver", {})),
+        )

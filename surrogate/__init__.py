@@ -1,0 +1,1 @@
+"""surrogate: see ARCHITECTURE.md (filled by later issues)."""

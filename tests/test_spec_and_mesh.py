@@ -1,0 +1,83 @@
+"""Model spec validation and the graded block meshes."""
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from indentation_studio.forward.feb_mesh import FebMeshError, read_feb_block_mesh
+from indentation_studio.forward.mesh import MESH_PRESETS, preset_mesh
+from indentation_studio.forward.spec import (
+    Indenter,
+    Material,
+    ModelSpec,
+    Protocol,
+    SpecError,
+)
+
+BASELINE = Path(__file__).resolve().parents[2] / "shared" / "febio" / "baseline"
+
+
+@pytest.mark.parametrize(
+    ("build", "field"),
+    [
+        (lambda: Material(c1=-1.0), "material.c1"),
+        (lambda: Material(c1=math.nan), "material.c1"),
+        (lambda: Material(c5=math.inf), "material.c5"),
+        (lambda: Material(kappa=0.0), "material.kappa"),
+        (lambda: Material(fiber=(0.0, 0.0, 0.0)), "material.fiber"),
+        (lambda: Indenter(radius=0.0), "indenter.radius"),
+        (lambda: Indenter(radius=-4.77), "indenter.radius"),
+        (lambda: Protocol(step_size=0.5, steps=0), "protocol.steps"),
+        (lambda: ModelSpec(protocol=Protocol(step_size=1.0, steps=40)), "protocol.steps"),
+    ],
+)
+def test_bad_spec_names_the_field(build, field):
+    with pytest.raises(SpecError) as info:
+        build()
+    assert info.value.field == field
+    assert field in str(info.value)
+
+
+def test_spec_round_trips_and_normalises_fiber():
+    spec = ModelSpec(material=Material(c1=12.0, c5=250.0, fiber=(0.0, 2.0, 0.0)))
+    assert spec.material.fiber == (0.0, 1.0, 0.0)
+    assert ModelSpec.from_dict(spec.to_dict()) == spec
+    assert Indenter.preset("large").radius == 8.0
+    assert spec.protocol.max_depth == 14.0
+
+
+@pytest.mark.parametrize("name", sorted(MESH_PRESETS))
+def test_preset_meshes_are_valid_quarter_blocks(name):
+    mesh = preset_mesh(name)
+    assert mesh.n_nodes == MESH_PRESETS[name].node_count()
+    assert np.allclose(mesh.nodes.min(axis=0), [0, 0, 0])
+    assert np.allclose(mesh.nodes.max(axis=0), [50, 50, 60])
+    assert np.all(mesh.nodes[mesh.top, 2] == 60.0)
+    assert np.all(mesh.nodes[mesh.xsym, 0] == 0.0)
+    # graded toward (0, 0, 60): the smallest cell touches the indentation point
+    x = np.unique(mesh.nodes[:, 0])
+    assert np.diff(x)[0] == pytest.approx(np.diff(x).min())
+    if name == "reference":
+        assert 25_000 <= mesh.n_nodes <= 30_000
+
+
+def test_febio_block_mesh_is_read_and_default_preset_reproduces_it():
+    feb = read_feb_block_mesh(BASELINE / "baseline.feb")
+    assert (feb.n_nodes, feb.n_elements, feb.top.size) == (1452, 1100, 121)
+    ref = np.load(BASELINE / "baseline.npz")
+    assert np.array_equal(feb.node_ids[feb.top], ref["top_ids"])
+    assert np.allclose(feb.nodes[feb.top], ref["top_xyz0"], atol=1e-8)
+    ours = preset_mesh("default")
+    assert np.allclose(ours.nodes, feb.nodes, atol=1e-7)
+    assert np.array_equal(ours.elements, feb.elements)
+
+
+def test_malformed_feb_is_named(tmp_path):
+    bad = tmp_path / "bad.feb"
+    bad.write_text("<febio_spec><Mesh><Nodes><node id='1'>0,0</node></Nodes></Mesh></febio_spec>")
+    with pytest.raises(FebMeshError, match="bad.feb"):
+        read_feb_block_mesh(bad)
+    with pytest.raises(FebMeshError, match="no such file"):
+        read_feb_block_mesh(tmp_path / "missing.feb")
