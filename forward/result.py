@@ -1,0 +1,97 @@
+"""The result of one indentation simulation and its file (``.npz``, written atomically).
+
+Every solver (embedded, FEBio) returns this schema. Forces are for the whole specimen: the
+quarter model's force times 4 (``force_quarter`` keeps the quarter's). Displacements are of the
+top-surface nodes, per step, with the nodes' ids and reference coordinates.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+#: Whole specimen = this many quarter models (symmetry planes x = 0 and y = 0).
+SYMMETRY_FACTOR = 4
+
+
+@dataclass
+class SimulationResult:
+    """Per-step outputs of one simulation (steps + 1 rows: depth 0 first)."""
+
+    depth: np.ndarray  # (s,) mm
+    force: np.ndarray  # (s,) mN, whole specimen
+    top_node_ids: np.ndarray  # (nt,)
+    top_xyz: np.ndarray  # (nt, 3) reference coordinates, mm
+    displacement: np.ndarray  # (s, nt, 3) mm
+    spec: dict[str, Any]
+    solver: dict[str, Any]  # name, version, mesh, options
+    convergence: dict[str, np.ndarray] = field(default_factory=dict)  # per step
+    wall_s: float = 0.0
+    force_sensitivity: np.ndarray | None = None  # (s, p) mN per kPa: d force / d theta
+    displacement_sensitivity: np.ndarray | None = None  # (s, nt, 3, p) mm per kPa
+    parameters: tuple[str, ...] = ("c1", "c5")
+
+    @property
+    def force_quarter(self) -> np.ndarray:
+        return self.force / SYMMETRY_FACTOR
+
+    @property
+    def newton_iterations(self) -> int:
+        it = self.convergence.get("newton_iterations")
+        return int(np.sum(it)) if it is not None else 0
+
+    def table(self) -> list[dict[str, float]]:
+        return [{"depth_mm": float(d), "force_mN": float(f)} for d, f in zip(self.depth, self.force, strict=True)]
+
+    def save(self, path: str | Path) -> Path:
+        """Write the result atomically (temporary file in the same folder, then rename)."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        arrays: dict[str, np.ndarray] = {
+            "depth": self.depth, "force": self.force, "force_quarter": self.force_quarter,
+            "top_node_ids": self.top_node_ids, "top_xyz": self.top_xyz, "displacement": self.displacement,
+        }
+        arrays.update({f"conv_{k}": np.asarray(v) for k, v in self.convergence.items()})
+        if self.force_sensitivity is not None:
+            arrays["force_sensitivity"] = self.force_sensitivity
+            arrays["displacement_sensitivity"] = self.displacement_sensitivity
+        meta = {
+            "schema": "indentation-studio/simulation/1",
+            "spec": self.spec, "solver": self.solver, "wall_s": self.wall_s,
+            "parameters": list(self.parameters), "units": {"length": "mm", "stress": "kPa", "force": "mN"},
+            "force": "whole specimen = 4 x quarter model",
+        }
+        fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
+        try:
+            with os.fdopen(fd, "wb") as fh:
+                np.savez_compressed(fh, meta=np.array(json.dumps(meta)), **arrays)
+            os.replace(tmp, path)
+        except BaseException:
+            Path(tmp).unlink(missing_ok=True)
+            raise
+        return path
+
+    @classmethod
+    def load(cls, path: str | Path) -> SimulationResult:
+        path = Path(path)
+        try:
+            with np.load(path, allow_pickle=False) as z:
+                meta = json.loads(str(z["meta"]))
+                conv = {k[5:]: z[k] for k in z.files if k.startswith("conv_")}
+                sens = "force_sensitivity" in z.files
+                return cls(
+                    depth=z["depth"], force=z["force"], top_node_ids=z["top_node_ids"], top_xyz=z["top_xyz"],
+                    displacement=z["displacement"], spec=meta["spec"], solver=meta["solver"],
+                    convergence=conv, wall_s=float(meta.get("wall_s", 0.0)),
+                    force_sensitivity=z["force_sensitivity"] if sens else None,
+                    displacement_sensitivity=z["displacement_sensitivity"] if sens else None,
+                    parameters=tuple(meta.get("parameters", ("c1", "c5"))),
+                )
+        except (OSError, KeyError, ValueError) as exc:
+            raise ValueError(f"{path}: not a readable simulation result ({exc})") from exc

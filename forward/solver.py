@@ -1,0 +1,303 @@
+"""The embedded FE solver of one indentation simulation (paper 2.4.1).
+
+Quasi-static, displacement-controlled: the rigid sphere descends in the protocol's steps (each
+split into ``substeps`` increments); each increment is solved by Newton-Raphson with the exact
+tangent of the three-field hex8 (:mod:`forward.hex8_mean_dilatation`), starting from a predictor
+(the last increment's displacement extrapolated, then one tangent step that carries the
+prescribed contact displacements into the body). The stick contact set
+(:mod:`forward.stick_contact`) is settled by re-solving until no free node penetrates the sphere
+and no attached node pulls on it. An increment that fails (no convergence, an inverted element,
+a contact set that does not settle) is cut in half, up to ``max_cutbacks`` times.
+
+With ``sensitivities=True`` the converged tangent of each step also gives d(force)/d(theta) and
+d(top displacements)/d(theta) for theta = (c1, c5): one extra back-substitution per parameter
+with right-hand side -dR/dtheta (the internal force is linear in c1 and c5).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from .. import __version__
+from .feb_mesh import read_feb_block_mesh
+from .hex8_mean_dilatation import ReferenceGeometry, element_state
+from .linear_solver import LinearSolveError, solve
+from .mesh import BlockMesh, preset_mesh
+from .result import SYMMETRY_FACTOR, SimulationResult
+from .spec import ModelSpec
+from .stick_contact import RigidSphere, StickContactState
+
+
+class SimulationError(RuntimeError):
+    """A simulation that could not reach its final depth; names the depth reached."""
+
+    def __init__(self, message: str, depth_reached: float, partial: SimulationResult | None = None):
+        super().__init__(message)
+        self.depth_reached = depth_reached
+        self.partial = partial
+
+
+class _IncrementFailed(Exception):
+    pass
+
+
+def build_mesh(spec: ModelSpec) -> BlockMesh:
+    """The block mesh a spec asks for: a preset, or the hex8 block of a FEBio file."""
+    if spec.mesh.feb_file:
+        return read_feb_block_mesh(spec.mesh.feb_file)
+    return preset_mesh(spec.mesh.preset, spec.geometry)
+
+
+@dataclass
+class _Equilibrium:
+    u: np.ndarray  # (n, 3)
+    R: np.ndarray  # (3n,) internal force = external force at equilibrium
+    K: sp.csr_matrix
+    iterations: int
+
+
+class EmbeddedSolver:
+    """Solves one :class:`ModelSpec` on its mesh. ``linear_solver`` names a backend of
+    :mod:`forward.linear_solver`."""
+
+    name = "embedded"
+
+    def __init__(self, spec: ModelSpec, mesh: BlockMesh | None = None, linear_solver: str = "superlu"):
+        self.spec = spec
+        self.mesh = mesh if mesh is not None else build_mesh(spec)
+        self.linear_solver = linear_solver
+        self.geometry = ReferenceGeometry.of(self.mesh)
+        n = self.mesh.n_nodes
+        self.n_dofs = 3 * n
+        self.edofs = (3 * self.mesh.elements[:, :, None] + np.arange(3)).reshape(-1, 24)
+        from .sparse_assembly import SparsePattern
+
+        self.pattern = SparsePattern(self.edofs, self.n_dofs)
+        fixed = np.zeros((n, 3), dtype=bool)
+        fixed[self.mesh.bottom] = True
+        fixed[self.mesh.xsym, 0] = True
+        fixed[self.mesh.ysym, 1] = True
+        self.bc_fixed = fixed
+        self.top = self.mesh.top
+        top_z = float(self.mesh.nodes[:, 2].max())
+        self.sphere = RigidSphere(spec.indenter.radius, top_z)
+        m = spec.material
+        self._mat = (m.c1, m.c5, m.kappa, np.asarray(m.fiber, dtype=float))
+        # scale of forces for tolerances: c1 * (first top cell size)^2
+        top_xy = self.mesh.nodes[self.top, :2]
+        h = np.sort(np.unique(np.round(top_xy[:, 0], 9)))
+        self._force_scale = m.c1 * float(h[1] - h[0]) ** 2 if h.size > 1 else m.c1
+        self.stats = {"assemblies": 0, "assembly_s": 0.0, "solves": 0, "solve_s": 0.0}
+
+    # ------------------------------------------------------------------ numerics
+    def assemble(self, u: np.ndarray, tangent: bool = True, parameter_derivatives: bool = False):
+        """Global internal force (3n,), tangent (CSR) and, if asked, dR/dtheta (3n, 2)."""
+        t = time.perf_counter()
+        c1, c5, kappa, a0 = self._mat
+        st = element_state(self.geometry, u[self.mesh.elements], c1, c5, kappa, a0, tangent, parameter_derivatives)
+        R = self.pattern.vector(st.force)
+        K = self.pattern.matrix(st.stiffness) if tangent else None
+        dR = None
+        if parameter_derivatives:
+            dR = np.stack([self.pattern.vector(st.dforce_dtheta[:, k]) for k in range(2)], axis=1)
+        self.stats["assemblies"] += 1
+        self.stats["assembly_s"] += time.perf_counter() - t
+        return R, K, dR
+
+    def _solve(self, K: sp.csr_matrix, rhs: np.ndarray) -> np.ndarray:
+        t = time.perf_counter()
+        x = solve(K, rhs, self.linear_solver)
+        self.stats["solves"] += 1
+        self.stats["solve_s"] += time.perf_counter() - t
+        return x
+
+    def _constraints(self, contact: StickContactState, depth: float) -> tuple[np.ndarray, np.ndarray]:
+        """Mask of constrained dofs (3n,) and their prescribed displacement values."""
+        mask = self.bc_fixed.copy()
+        values = np.zeros((self.mesh.n_nodes, 3))
+        att = self.top[contact.attached]
+        mask[att] = True
+        values[att] = contact.prescribed_displacement(depth)[contact.attached]
+        values[self.bc_fixed] = 0.0
+        mask = mask.ravel()
+        return mask, values.ravel()[mask]
+
+    def _newton(self, u0: np.ndarray, cmask: np.ndarray, target: np.ndarray) -> _Equilibrium:
+        opts = self.spec.solver
+        free = ~cmask
+        u = u0.reshape(-1).copy()
+        du_c = target - u[cmask]
+        try:
+            R, K, _ = self.assemble(u.reshape(-1, 3))
+            Kf = K[free]
+            rhs = -(R[free] + (Kf[:, cmask] @ du_c if du_c.any() else 0.0))
+            u[free] += self._solve(Kf[:, free], rhs)
+            u[cmask] = target
+            for it in range(1, opts.max_newton + 1):
+                R, K, _ = self.assemble(u.reshape(-1, 3))
+                rf = R[free]
+                ref = max(np.linalg.norm(R[cmask]), self._force_scale)
+                if np.linalg.norm(rf) <= opts.residual_tol * ref:
+                    return _Equilibrium(u.reshape(-1, 3), R, K, it)
+                du = self._solve(K[free][:, free], -rf)
+                u[free] += du
+        except (FloatingPointError, LinearSolveError) as exc:
+            raise _IncrementFailed(str(exc)) from exc
+        raise _IncrementFailed(f"Newton did not converge in {opts.max_newton} iterations")
+
+    def _reaction_top(self, R: np.ndarray) -> np.ndarray:
+        """External force on the top nodes, with the components that symmetry planes carry zeroed."""
+        r = R.reshape(-1, 3)[self.top].copy()
+        on_x = np.isin(self.top, self.mesh.xsym)
+        on_y = np.isin(self.top, self.mesh.ysym)
+        r[on_x, 0] = 0.0
+        r[on_y, 1] = 0.0
+        return r
+
+    def _increment(
+        self, u: np.ndarray, u_pred: np.ndarray, d0: float, d1: float, contact: StickContactState
+    ) -> tuple[_Equilibrium, StickContactState, int, int]:
+        """Solve the increment d0 -> d1; returns equilibrium, contact set, Newton its, passes."""
+        c = contact.copy()
+        u_top0 = u[self.top]
+        released = np.zeros_like(c.attached)
+        trial = u_pred
+        iters = 0
+        tol_pen = 1e-9 * self.sphere.radius
+        for passes in range(1, self.spec.solver.max_contact_passes + 1):
+            cmask, target = self._constraints(c, d1)
+            eq = self._newton(trial, cmask, target)
+            iters += eq.iterations
+            trial = eq.u
+            normal = c.normal_reaction(self._reaction_top(eq.R))
+            tol_t = 1e-9 * max(float(np.abs(normal).max(initial=0.0)), self._force_scale)
+            pulling = c.attached & (normal < -tol_t)
+            pen = c.penetrating(trial[self.top], d1, tol_pen)
+            if not pulling.any() and not pen.any():
+                return eq, c, iters, passes
+            c.attached[pulling] = False
+            released |= pulling
+            again = np.flatnonzero(pen & released)  # slipped back in: re-attach where it is now
+            c.attach(again, trial[self.top], d1, trial[self.top], d1)
+            new = np.flatnonzero(pen & ~released)
+            c.attach(new, u_top0, d0, trial[self.top], d1)
+        raise _IncrementFailed("the contact set did not settle")
+
+    # ------------------------------------------------------------------ driver
+    def run(
+        self, sensitivities: bool = False, progress: Callable[[int, int, float], None] | None = None
+    ) -> SimulationResult:
+        """Run the protocol; ``progress(step, steps, force)`` is called after each step."""
+        t_start = time.perf_counter()
+        proto, opts = self.spec.protocol, self.spec.solver
+        n, nt = self.mesh.n_nodes, self.top.size
+        u = np.zeros((n, 3))
+        last_inc = np.zeros((n, 3))
+        last_dd = 0.0
+        contact = StickContactState(self.sphere, self.mesh.nodes[self.top])
+        depths = [0.0]
+        forces = [0.0]
+        disp = [np.zeros((nt, 3))]
+        conv = {k: [0] for k in ("newton_iterations", "increments", "cutbacks", "contact_passes", "attached_nodes")}
+        conv["wall_s"] = [0.0]
+        f_sens = [np.zeros(2)]
+        u_sens = [np.zeros((nt, 3, 2))]
+        d = 0.0
+        nominal = proto.step_size / opts.substeps
+        for k, d_target in enumerate(proto.depths, start=1):
+            t_step = time.perf_counter()
+            rec = dict.fromkeys(("newton_iterations", "increments", "cutbacks", "contact_passes"), 0)
+            inc = nominal
+            eq = None
+            while d < d_target - 1e-12:
+                dd = min(inc, d_target - d)
+                if d_target - (d + dd) < 1e-9 * proto.step_size:
+                    dd = d_target - d
+                u_pred = u + (dd / last_dd) * last_inc if last_dd > 0 else u.copy()
+                try:
+                    eq, contact_new, its, passes = self._increment(u, u_pred, d, d + dd, contact)
+                except _IncrementFailed as exc:
+                    rec["cutbacks"] += 1
+                    if rec["cutbacks"] > opts.max_cutbacks:
+                        partial = self._result(depths, forces, disp, conv, f_sens, u_sens, sensitivities, t_start)
+                        raise SimulationError(
+                            f"simulation failed at depth {d + dd:.4g} mm (last converged {d:.4g} mm of "
+                            f"{proto.max_depth:g}): {exc}",
+                            depth_reached=d,
+                            partial=partial,
+                        ) from exc
+                    inc = dd / 2.0
+                    continue
+                last_inc = eq.u - u
+                last_dd = dd
+                u = eq.u
+                contact = contact_new
+                d += dd
+                rec["newton_iterations"] += its
+                rec["increments"] += 1
+                rec["contact_passes"] += passes
+                inc = min(nominal, 2.0 * inc)
+            assert eq is not None
+            F_quarter = -float(np.sum(eq.R.reshape(-1, 3)[self.top[contact.attached], 2]))
+            depths.append(d_target)
+            forces.append(SYMMETRY_FACTOR * F_quarter)
+            disp.append(u[self.top].copy())
+            if sensitivities:
+                fs, us = self._sensitivities(eq, contact, d_target)
+                f_sens.append(fs)
+                u_sens.append(us)
+            for key, val in rec.items():
+                conv[key].append(val)
+            conv["attached_nodes"].append(int(contact.attached.sum()))
+            conv["wall_s"].append(time.perf_counter() - t_step)
+            if progress is not None:
+                progress(k, proto.steps, forces[-1])
+        return self._result(depths, forces, disp, conv, f_sens, u_sens, sensitivities, t_start)
+
+    def _sensitivities(self, eq: _Equilibrium, contact: StickContactState, depth: float):
+        """d(force)/d(theta) (2,) and d(u_top)/d(theta) (nt, 3, 2) at a converged state, with the
+        contact set held fixed."""
+        cmask, _ = self._constraints(contact, depth)
+        free = ~cmask
+        _, _, dR = self.assemble(eq.u, tangent=False, parameter_derivatives=True)
+        du = np.zeros((self.n_dofs, 2))
+        du[free] = self._solve(eq.K[free][:, free], -dR[free])
+        # reactions: R_c(u, theta); dR_c/dtheta = dR_c + K_cf du_f
+        dRc = dR + eq.K @ du
+        att = self.top[contact.attached]
+        dforce = -SYMMETRY_FACTOR * dRc.reshape(-1, 3, 2)[att, 2].sum(axis=0)
+        return dforce, du.reshape(-1, 3, 2)[self.top]
+
+    def _result(self, depths, forces, disp, conv, f_sens, u_sens, sensitivities, t_start) -> SimulationResult:
+        mesh = self.mesh
+        return SimulationResult(
+            depth=np.asarray(depths),
+            force=np.asarray(forces),
+            top_node_ids=mesh.node_ids[self.top],
+            top_xyz=mesh.nodes[self.top],
+            displacement=np.asarray(disp),
+            spec=self.spec.to_dict(),
+            solver={
+                "name": self.name,
+                "version": __version__,
+                "element": "hex8 three-field (mean dilatation), 2x2x2 Gauss",
+                "contact": "rigid sphere, node-to-surface stick (attach at path crossing, release on tension)",
+                "linear_solver": self.linear_solver,
+                "mesh": {"source": mesh.source, "nodes": mesh.n_nodes, "elements": mesh.n_elements},
+                "stats": dict(self.stats),
+            },
+            convergence={k: np.asarray(v) for k, v in conv.items()},
+            wall_s=time.perf_counter() - t_start,
+            force_sensitivity=np.asarray(f_sens) if sensitivities else None,
+            displacement_sensitivity=np.asarray(u_sens) if sensitivities else None,
+        )
+
+
+def simulate(spec: ModelSpec, mesh: BlockMesh | None = None, sensitivities: bool = False, **kwargs) -> SimulationResult:
+    """Run one simulation of ``spec`` on the embedded solver."""
+    return EmbeddedSolver(spec, mesh, **kwargs).run(sensitivities=sensitivities)
