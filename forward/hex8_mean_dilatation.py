@@ -27,7 +27,16 @@ from .mesh import BlockMesh
 _G = 1.0 / np.sqrt(3.0)
 #: Natural coordinates of the hex8 nodes in FEBio's order.
 HEX8_NODES = np.array(
-    [[-1, -1, -1], [1, -1, -1], [1, 1, -1], [-1, 1, -1], [-1, -1, 1], [1, -1, 1], [1, 1, 1], [-1, 1, 1]],
+    [
+        [-1, -1, -1],
+        [1, -1, -1],
+        [1, 1, -1],
+        [-1, 1, -1],
+        [-1, -1, 1],
+        [1, -1, 1],
+        [1, 1, 1],
+        [-1, 1, 1],
+    ],
     dtype=float,
 )
 GAUSS_POINTS = HEX8_NODES * _G
@@ -80,8 +89,14 @@ class ElementState:
 
 
 def element_state(
-    geometry: ReferenceGeometry, u_e: np.ndarray, c1: float, c5: float, kappa: float,
-    fiber: np.ndarray, tangent: bool = True, parameter_derivatives: bool = False,
+    geometry: ReferenceGeometry,
+    u_e: np.ndarray,
+    c1: float,
+    c5: float,
+    kappa: float,
+    fiber: np.ndarray,
+    tangent: bool = True,
+    parameter_derivatives: bool = False,
 ) -> ElementState:
     """Energy, internal forces and exact tangent of every element at element displacements
     ``u_e`` (ne, 8, 3), by the compiled kernel (:mod:`forward.hex8_kernel_numba`)."""
@@ -91,21 +106,41 @@ def element_state(
     dforce = np.empty((ne, 2, 24)) if parameter_derivatives else np.empty((1, 2, 24))
     energy = np.empty(ne)
     min_j = hex8_three_field_kernel(
-        geometry.dNdX, geometry.wdetJ0, geometry.volume, np.ascontiguousarray(u_e, dtype=float),
-        float(c1), float(c5), float(kappa), np.asarray(fiber, dtype=float), tangent,
-        parameter_derivatives, force, K, energy, dforce,
+        geometry.dNdX,
+        geometry.wdetJ0,
+        geometry.volume,
+        np.ascontiguousarray(u_e, dtype=float),
+        float(c1),
+        float(c5),
+        float(kappa),
+        np.asarray(fiber, dtype=float),
+        tangent,
+        parameter_derivatives,
+        force,
+        K,
+        energy,
+        dforce,
     )
     if not np.isfinite(min_j) or min_j <= 0.0:
         raise FloatingPointError("inverted or degenerate element: det F <= 0")
     return ElementState(
-        float(energy.sum()), force, K if tangent else None,
-        dforce if parameter_derivatives else None, float(min_j),
+        float(energy.sum()),
+        force,
+        K if tangent else None,
+        dforce if parameter_derivatives else None,
+        float(min_j),
     )
 
 
 def element_state_numpy(
-    geometry: ReferenceGeometry, u_e: np.ndarray, c1: float, c5: float, kappa: float,
-    fiber: np.ndarray, tangent: bool = True, parameter_derivatives: bool = False,
+    geometry: ReferenceGeometry,
+    u_e: np.ndarray,
+    c1: float,
+    c5: float,
+    kappa: float,
+    fiber: np.ndarray,
+    tangent: bool = True,
+    parameter_derivatives: bool = False,
 ) -> ElementState:
     """Reference numpy implementation of :func:`element_state` (same closed form).
 
@@ -165,7 +200,11 @@ def element_state_numpy(
         wc3 = (w * ((4.0 / 9.0) * beta + pJ))[..., None, None]
         wg = w[..., None, None]
         left = np.concatenate(
-            [wc3 * gx - (2.0 / 3.0) * wg * sx, -(2.0 / 3.0) * wg * gx, (w * c5 * d2h)[..., None, None] * dx],
+            [
+                wc3 * gx - (2.0 / 3.0) * wg * sx,
+                -(2.0 / 3.0) * wg * gx,
+                (w * c5 * d2h)[..., None, None] * dx,
+            ],
             axis=1,
         ).reshape(ne, -1, 24)
         right = np.concatenate([gx, sx, dx], axis=1).reshape(ne, -1, 24)

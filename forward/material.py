@@ -36,8 +36,13 @@ class DeviatoricResponse:
 
 
 def _isochoric_invariant(
-    I: np.ndarray, G: np.ndarray, GG: np.ndarray | None, m: np.ndarray, H: np.ndarray,
-    HH: np.ndarray | None, HxH: np.ndarray | None,
+    I: np.ndarray,
+    G: np.ndarray,
+    GG: np.ndarray | None,
+    m: np.ndarray,
+    H: np.ndarray,
+    HH: np.ndarray | None,
+    HxH: np.ndarray | None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """I~ = J^(-2/3) I with its first and second derivatives with respect to F.
 
@@ -56,7 +61,11 @@ def _isochoric_invariant(
 
 
 def deviatoric_response(
-    F: np.ndarray, c1: float, c5: float, fiber: np.ndarray, tangent: bool = True,
+    F: np.ndarray,
+    c1: float,
+    c5: float,
+    fiber: np.ndarray,
+    tangent: bool = True,
     parameter_derivatives: bool = False,
 ) -> DeviatoricResponse:
     """Isochoric part of eq. 3 at deformation gradients ``F`` (..., 3, 3)."""
@@ -100,7 +109,8 @@ def deviatoric_response(
             c1 * d2I1t
             + (c5 * dh)[..., None, None, None, None] * d2I4t
             + (c5 * d2h)[..., None, None, None, None]
-            * dI4t[..., :, :, None, None] * dI4t[..., None, None, :, :]
+            * dI4t[..., :, :, None, None]
+            * dI4t[..., None, None, :, :]
         )
     dP = None
     if parameter_derivatives:
@@ -140,7 +150,9 @@ def cauchy_stress(F: np.ndarray, material: Material) -> np.ndarray:
     return P @ np.swapaxes(F, -1, -2) / J[..., None, None]
 
 
-def equibiaxial_stress_incompressible(lam: np.ndarray, c1: float, c5: float) -> tuple[np.ndarray, np.ndarray]:
+def equibiaxial_stress_incompressible(
+    lam: np.ndarray, c1: float, c5: float
+) -> tuple[np.ndarray, np.ndarray]:
     """Eq. 10a, 10b: Cauchy stresses along (sigma11) and across (sigma22) the fibers under
     incompressible equibiaxial stretch ``lam`` with the fibers along direction 1."""
     lam = np.asarray(lam, dtype=float)
@@ -149,7 +161,9 @@ def equibiaxial_stress_incompressible(lam: np.ndarray, c1: float, c5: float) -> 
     return s11, s22
 
 
-def uniaxial_stress_incompressible(lam: np.ndarray, c1: float, c5: float, along_fiber: bool) -> np.ndarray:
+def uniaxial_stress_incompressible(
+    lam: np.ndarray, c1: float, c5: float, along_fiber: bool
+) -> np.ndarray:
     """Cauchy stress of eq. 2 under incompressible uniaxial stretch ``lam`` (supplement S2).
 
     Along the fibers: 2 c1 (lam^2 - 1/lam) + c5 (lam - 1) for lam > 1. Across the fibers the

@@ -139,13 +139,19 @@ def structured_block(geometry: Geometry, preset: MeshPreset, name: str = "custom
     def idx(i: np.ndarray, j: np.ndarray, k: np.ndarray) -> np.ndarray:
         return k + nz * (j + ny * i)
 
-    ci, cj, ck = (a.ravel() for a in np.meshgrid(
-        np.arange(nx - 1), np.arange(ny - 1), np.arange(nz - 1), indexing="ij"
-    ))
+    ci, cj, ck = (
+        a.ravel()
+        for a in np.meshgrid(np.arange(nx - 1), np.arange(ny - 1), np.arange(nz - 1), indexing="ij")
+    )
     elements = np.stack(
         [
-            idx(ci, cj, ck), idx(ci + 1, cj, ck), idx(ci + 1, cj + 1, ck), idx(ci, cj + 1, ck),
-            idx(ci, cj, ck + 1), idx(ci + 1, cj, ck + 1), idx(ci + 1, cj + 1, ck + 1),
+            idx(ci, cj, ck),
+            idx(ci + 1, cj, ck),
+            idx(ci + 1, cj + 1, ck),
+            idx(ci, cj + 1, ck),
+            idx(ci, cj, ck + 1),
+            idx(ci + 1, cj, ck + 1),
+            idx(ci + 1, cj + 1, ck + 1),
             idx(ci, cj + 1, ck + 1),
         ],
         axis=1,

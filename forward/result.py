@@ -47,15 +47,22 @@ class SimulationResult:
         return int(np.sum(it)) if it is not None else 0
 
     def table(self) -> list[dict[str, float]]:
-        return [{"depth_mm": float(d), "force_mN": float(f)} for d, f in zip(self.depth, self.force, strict=True)]
+        return [
+            {"depth_mm": float(d), "force_mN": float(f)}
+            for d, f in zip(self.depth, self.force, strict=True)
+        ]
 
     def save(self, path: str | Path) -> Path:
         """Write the result atomically (temporary file in the same folder, then rename)."""
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         arrays: dict[str, np.ndarray] = {
-            "depth": self.depth, "force": self.force, "force_quarter": self.force_quarter,
-            "top_node_ids": self.top_node_ids, "top_xyz": self.top_xyz, "displacement": self.displacement,
+            "depth": self.depth,
+            "force": self.force,
+            "force_quarter": self.force_quarter,
+            "top_node_ids": self.top_node_ids,
+            "top_xyz": self.top_xyz,
+            "displacement": self.displacement,
         }
         arrays.update({f"conv_{k}": np.asarray(v) for k, v in self.convergence.items()})
         if self.force_sensitivity is not None:
@@ -63,8 +70,11 @@ class SimulationResult:
             arrays["displacement_sensitivity"] = self.displacement_sensitivity
         meta = {
             "schema": "indentation-studio/simulation/1",
-            "spec": self.spec, "solver": self.solver, "wall_s": self.wall_s,
-            "parameters": list(self.parameters), "units": {"length": "mm", "stress": "kPa", "force": "mN"},
+            "spec": self.spec,
+            "solver": self.solver,
+            "wall_s": self.wall_s,
+            "parameters": list(self.parameters),
+            "units": {"length": "mm", "stress": "kPa", "force": "mN"},
             "force": "whole specimen = 4 x quarter model",
         }
         fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
@@ -86,9 +96,15 @@ class SimulationResult:
                 conv = {k[5:]: z[k] for k in z.files if k.startswith("conv_")}
                 sens = "force_sensitivity" in z.files
                 return cls(
-                    depth=z["depth"], force=z["force"], top_node_ids=z["top_node_ids"], top_xyz=z["top_xyz"],
-                    displacement=z["displacement"], spec=meta["spec"], solver=meta["solver"],
-                    convergence=conv, wall_s=float(meta.get("wall_s", 0.0)),
+                    depth=z["depth"],
+                    force=z["force"],
+                    top_node_ids=z["top_node_ids"],
+                    top_xyz=z["top_xyz"],
+                    displacement=z["displacement"],
+                    spec=meta["spec"],
+                    solver=meta["solver"],
+                    convergence=conv,
+                    wall_s=float(meta.get("wall_s", 0.0)),
                     force_sensitivity=z["force_sensitivity"] if sens else None,
                     displacement_sensitivity=z["displacement_sensitivity"] if sens else None,
                     parameters=tuple(meta.get("parameters", ("c1", "c5"))),

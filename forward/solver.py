@@ -26,7 +26,7 @@ import scipy.sparse as sp
 from .. import __version__
 from .feb_mesh import read_feb_block_mesh
 from .hex8_mean_dilatation import ReferenceGeometry, element_state
-from .linear_solver import LinearSolveError, solve
+from .linear_solver import ConstrainedSymmetricSolver, LinearSolveError
 from .mesh import BlockMesh, preset_mesh
 from .result import SYMMETRY_FACTOR, SimulationResult
 from .spec import ModelSpec
@@ -67,10 +67,11 @@ class EmbeddedSolver:
 
     name = "embedded"
 
-    def __init__(self, spec: ModelSpec, mesh: BlockMesh | None = None, linear_solver: str = "superlu"):
+    def __init__(
+        self, spec: ModelSpec, mesh: BlockMesh | None = None, linear_solver: str | None = None
+    ):
         self.spec = spec
         self.mesh = mesh if mesh is not None else build_mesh(spec)
-        self.linear_solver = linear_solver
         self.geometry = ReferenceGeometry.of(self.mesh)
         n = self.mesh.n_nodes
         self.n_dofs = 3 * n
@@ -78,6 +79,8 @@ class EmbeddedSolver:
         from .sparse_assembly import SparsePattern
 
         self.pattern = SparsePattern(self.edofs, self.n_dofs)
+        self.linear = ConstrainedSymmetricSolver(self.pattern, linear_solver)
+        self.linear_solver = self.linear.backend
         fixed = np.zeros((n, 3), dtype=bool)
         fixed[self.mesh.bottom] = True
         fixed[self.mesh.xsym, 0] = True
@@ -92,14 +95,16 @@ class EmbeddedSolver:
         top_xy = self.mesh.nodes[self.top, :2]
         h = np.sort(np.unique(np.round(top_xy[:, 0], 9)))
         self._force_scale = m.c1 * float(h[1] - h[0]) ** 2 if h.size > 1 else m.c1
-        self.stats = {"assemblies": 0, "assembly_s": 0.0, "solves": 0, "solve_s": 0.0}
+        self.stats = {"assemblies": 0, "assembly_s": 0.0, "factorizations": 0, "solve_s": 0.0}
 
     # ------------------------------------------------------------------ numerics
     def assemble(self, u: np.ndarray, tangent: bool = True, parameter_derivatives: bool = False):
         """Global internal force (3n,), tangent (CSR) and, if asked, dR/dtheta (3n, 2)."""
         t = time.perf_counter()
         c1, c5, kappa, a0 = self._mat
-        st = element_state(self.geometry, u[self.mesh.elements], c1, c5, kappa, a0, tangent, parameter_derivatives)
+        st = element_state(
+            self.geometry, u[self.mesh.elements], c1, c5, kappa, a0, tangent, parameter_derivatives
+        )
         R = self.pattern.vector(st.force)
         K = self.pattern.matrix(st.stiffness) if tangent else None
         dR = None
@@ -109,14 +114,21 @@ class EmbeddedSolver:
         self.stats["assembly_s"] += time.perf_counter() - t
         return R, K, dR
 
-    def _solve(self, K: sp.csr_matrix, rhs: np.ndarray) -> np.ndarray:
+    def _factorize(self, K: sp.csr_matrix, constrained: np.ndarray) -> None:
         t = time.perf_counter()
-        x = solve(K, rhs, self.linear_solver)
-        self.stats["solves"] += 1
+        self.linear.factorize(K, constrained)
+        self.stats["factorizations"] += 1
+        self.stats["solve_s"] += time.perf_counter() - t
+
+    def _solve(self, rhs: np.ndarray) -> np.ndarray:
+        t = time.perf_counter()
+        x = self.linear.solve(rhs)
         self.stats["solve_s"] += time.perf_counter() - t
         return x
 
-    def _constraints(self, contact: StickContactState, depth: float) -> tuple[np.ndarray, np.ndarray]:
+    def _constraints(
+        self, contact: StickContactState, depth: float
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Mask of constrained dofs (3n,) and their prescribed displacement values."""
         mask = self.bc_fixed.copy()
         values = np.zeros((self.mesh.n_nodes, 3))
@@ -127,25 +139,30 @@ class EmbeddedSolver:
         mask = mask.ravel()
         return mask, values.ravel()[mask]
 
-    def _newton(self, u0: np.ndarray, cmask: np.ndarray, target: np.ndarray) -> _Equilibrium:
+    def equilibrate(self, u0: np.ndarray, cmask: np.ndarray, target: np.ndarray) -> _Equilibrium:
+        """Newton-Raphson to equilibrium with the dofs in ``cmask`` prescribed to ``target``.
+
+        The first iteration carries the prescribed increments into the body through the
+        tangent (consistent predictor); the residual is checked on the free dofs against the
+        reactions."""
         opts = self.spec.solver
-        free = ~cmask
         u = u0.reshape(-1).copy()
-        du_c = target - u[cmask]
+        jump = np.zeros(self.n_dofs)
+        jump[cmask] = target - u[cmask]
         try:
             R, K, _ = self.assemble(u.reshape(-1, 3))
-            Kf = K[free]
-            rhs = -(R[free] + (Kf[:, cmask] @ du_c if du_c.any() else 0.0))
-            u[free] += self._solve(Kf[:, free], rhs)
-            u[cmask] = target
+            self._factorize(K, cmask)
+            rhs = -(R + K @ jump)
+            rhs[cmask] = 0.0
+            u += self._solve(rhs) + jump
             for it in range(1, opts.max_newton + 1):
                 R, K, _ = self.assemble(u.reshape(-1, 3))
-                rf = R[free]
+                rf = np.where(cmask, 0.0, R)
                 ref = max(np.linalg.norm(R[cmask]), self._force_scale)
                 if np.linalg.norm(rf) <= opts.residual_tol * ref:
                     return _Equilibrium(u.reshape(-1, 3), R, K, it)
-                du = self._solve(K[free][:, free], -rf)
-                u[free] += du
+                self._factorize(K, cmask)
+                u -= self._solve(rf)
         except (FloatingPointError, LinearSolveError) as exc:
             raise _IncrementFailed(str(exc)) from exc
         raise _IncrementFailed(f"Newton did not converge in {opts.max_newton} iterations")
@@ -171,7 +188,7 @@ class EmbeddedSolver:
         tol_pen = 1e-9 * self.sphere.radius
         for passes in range(1, self.spec.solver.max_contact_passes + 1):
             cmask, target = self._constraints(c, d1)
-            eq = self._newton(trial, cmask, target)
+            eq = self.equilibrate(trial, cmask, target)
             iters += eq.iterations
             trial = eq.u
             normal = c.normal_reaction(self._reaction_top(eq.R))
@@ -203,7 +220,16 @@ class EmbeddedSolver:
         depths = [0.0]
         forces = [0.0]
         disp = [np.zeros((nt, 3))]
-        conv = {k: [0] for k in ("newton_iterations", "increments", "cutbacks", "contact_passes", "attached_nodes")}
+        conv = {
+            k: [0]
+            for k in (
+                "newton_iterations",
+                "increments",
+                "cutbacks",
+                "contact_passes",
+                "attached_nodes",
+            )
+        }
         conv["wall_s"] = [0.0]
         f_sens = [np.zeros(2)]
         u_sens = [np.zeros((nt, 3, 2))]
@@ -211,7 +237,9 @@ class EmbeddedSolver:
         nominal = proto.step_size / opts.substeps
         for k, d_target in enumerate(proto.depths, start=1):
             t_step = time.perf_counter()
-            rec = dict.fromkeys(("newton_iterations", "increments", "cutbacks", "contact_passes"), 0)
+            rec = dict.fromkeys(
+                ("newton_iterations", "increments", "cutbacks", "contact_passes"), 0
+            )
             inc = nominal
             eq = None
             while d < d_target - 1e-12:
@@ -224,7 +252,9 @@ class EmbeddedSolver:
                 except _IncrementFailed as exc:
                     rec["cutbacks"] += 1
                     if rec["cutbacks"] > opts.max_cutbacks:
-                        partial = self._result(depths, forces, disp, conv, f_sens, u_sens, sensitivities, t_start)
+                        partial = self._result(
+                            depths, forces, disp, conv, f_sens, u_sens, sensitivities, t_start
+                        )
                         raise SimulationError(
                             f"simulation failed at depth {d + dd:.4g} mm (last converged {d:.4g} mm of "
                             f"{proto.max_depth:g}): {exc}",
@@ -263,17 +293,18 @@ class EmbeddedSolver:
         """d(force)/d(theta) (2,) and d(u_top)/d(theta) (nt, 3, 2) at a converged state, with the
         contact set held fixed."""
         cmask, _ = self._constraints(contact, depth)
-        free = ~cmask
         _, _, dR = self.assemble(eq.u, tangent=False, parameter_derivatives=True)
-        du = np.zeros((self.n_dofs, 2))
-        du[free] = self._solve(eq.K[free][:, free], -dR[free])
+        self._factorize(eq.K, cmask)
+        du = self._solve(-np.where(cmask[:, None], 0.0, dR))
         # reactions: R_c(u, theta); dR_c/dtheta = dR_c + K_cf du_f
         dRc = dR + eq.K @ du
         att = self.top[contact.attached]
         dforce = -SYMMETRY_FACTOR * dRc.reshape(-1, 3, 2)[att, 2].sum(axis=0)
         return dforce, du.reshape(-1, 3, 2)[self.top]
 
-    def _result(self, depths, forces, disp, conv, f_sens, u_sens, sensitivities, t_start) -> SimulationResult:
+    def _result(
+        self, depths, forces, disp, conv, f_sens, u_sens, sensitivities, t_start
+    ) -> SimulationResult:
         mesh = self.mesh
         return SimulationResult(
             depth=np.asarray(depths),
@@ -298,6 +329,8 @@ class EmbeddedSolver:
         )
 
 
-def simulate(spec: ModelSpec, mesh: BlockMesh | None = None, sensitivities: bool = False, **kwargs) -> SimulationResult:
+def simulate(
+    spec: ModelSpec, mesh: BlockMesh | None = None, sensitivities: bool = False, **kwargs
+) -> SimulationResult:
     """Run one simulation of ``spec`` on the embedded solver."""
     return EmbeddedSolver(spec, mesh, **kwargs).run(sensitivities=sensitivities)

@@ -46,7 +46,9 @@ def path_meets_sphere(r0: np.ndarray, r1: np.ndarray, radius: float) -> np.ndarr
     r = r0 + alpha[:, None] * d
     norm = np.linalg.norm(r, axis=1)
     fallback = np.array([0.0, 0.0, -radius])
-    return np.where(norm[:, None] > 0.0, r * (radius / np.where(norm > 0, norm, 1.0))[:, None], fallback)
+    return np.where(
+        norm[:, None] > 0.0, r * (radius / np.where(norm > 0, norm, 1.0))[:, None], fallback
+    )
 
 
 @dataclass
@@ -81,7 +83,11 @@ class StickContactState:
         return ~self.attached & inside & (rel[:, 2] < 0.0)
 
     def attach(
-        self, nodes: np.ndarray, u_start: np.ndarray, depth_start: float, u_end: np.ndarray,
+        self,
+        nodes: np.ndarray,
+        u_start: np.ndarray,
+        depth_start: float,
+        u_end: np.ndarray,
         depth_end: float,
     ) -> None:
         """Attach ``nodes`` (indices into the top set) where their increment path meets the sphere."""

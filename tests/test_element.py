@@ -3,7 +3,6 @@ forces, the compiled kernel equals the numpy reference, and mean dilatation remo
 
 import numpy as np
 import pytest
-
 from indentation_studio.forward.hex8_mean_dilatation import (
     ReferenceGeometry,
     element_state,
@@ -49,7 +48,11 @@ def test_compiled_kernel_equals_numpy_reference(setup):
     a = element_state(geo, u[mesh.elements], 10.0, 350.0, 1000.0, FIBER, True, True)
     b = element_state_numpy(geo, u[mesh.elements], 10.0, 350.0, 1000.0, FIBER, True, True)
     assert a.energy == pytest.approx(b.energy, rel=1e-12)
-    for x, y in ((a.force, b.force), (a.stiffness, b.stiffness), (a.dforce_dtheta, b.dforce_dtheta)):
+    for x, y in (
+        (a.force, b.force),
+        (a.stiffness, b.stiffness),
+        (a.dforce_dtheta, b.dforce_dtheta),
+    ):
         assert np.abs(x - y).max() < 1e-12 * np.abs(y).max()
 
 

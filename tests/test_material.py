@@ -3,8 +3,6 @@ closed forms of eq. 10 (supplement S2)."""
 
 import numpy as np
 import pytest
-from scipy.optimize import brentq
-
 from indentation_studio.forward.material import (
     cauchy_stress,
     equibiaxial_stress_incompressible,
@@ -12,6 +10,7 @@ from indentation_studio.forward.material import (
     uniaxial_stress_incompressible,
 )
 from indentation_studio.forward.spec import Material
+from scipy.optimize import brentq
 
 
 @pytest.fixture
@@ -71,7 +70,9 @@ def test_equibiaxial_tends_to_eq10_when_nearly_incompressible(lam):
 
 def test_uniaxial_closed_form_along_and_across_fibers():
     lam = np.array([1.0, 1.5, 2.0])
-    assert np.allclose(uniaxial_stress_incompressible(lam, 10.0, 0.0, True), 20.0 * (lam**2 - 1 / lam))
+    assert np.allclose(
+        uniaxial_stress_incompressible(lam, 10.0, 0.0, True), 20.0 * (lam**2 - 1 / lam)
+    )
     along = uniaxial_stress_incompressible(lam, 10.0, 350.0, True)
     across = uniaxial_stress_incompressible(lam, 10.0, 350.0, False)
     assert np.allclose(along - across, 350.0 * (lam - 1.0))

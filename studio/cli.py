@@ -1,0 +1,241 @@
+"""The ``indent-studio`` command line (typer).
+
+Contract (ARCHITECTURE.md): every command takes ``--json`` and then prints exactly one JSON object
+on stdout; progress and logs go to stderr.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import time
+from enum import Enum
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+from rich.console import Console
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+from rich.table import Table
+
+from ..forward.spec import (
+    Geometry,
+    Indenter,
+    Material,
+    MeshChoice,
+    ModelSpec,
+    Protocol,
+    SolverOptions,
+    SpecError,
+)
+
+app = typer.Typer(
+    help="Indentation Studio: identify (c1, c5) of soft tissue from indentation force and 3D-DIC.",
+    no_args_is_help=True,
+    add_completion=False,
+)
+err = Console(stderr=True)
+
+
+class SolverName(str, Enum):
+    embedded = "embedded"
+
+
+def _fail(message: str, as_json: bool, code: int = 1) -> None:
+    if as_json:
+        print(json.dumps({"error": message}))
+    err.print(f"[bold red]error:[/] {message}")
+    raise typer.Exit(code)
+
+
+def _spec(c1, c5, kappa, radius, steps, step_size, mesh, mesh_from, substeps) -> ModelSpec:
+    return ModelSpec(
+        geometry=Geometry(),
+        indenter=Indenter(radius),
+        protocol=Protocol(step_size=step_size, steps=steps),
+        material=Material(c1=c1, c5=c5, kappa=kappa),
+        mesh=MeshChoice(preset=mesh, feb_file=str(mesh_from) if mesh_from else None),
+        solver=SolverOptions(substeps=substeps),
+    )
+
+
+def _progress(label: str) -> Progress:
+    return Progress(
+        TextColumn(f"[bold]{label}[/]"),
+        BarColumn(),
+        TextColumn("{task.completed}/{task.total}"),
+        TextColumn("{task.fields[info]}"),
+        TimeElapsedColumn(),
+        TimeRemainingColumn(),
+        console=err,
+        transient=False,
+    )
+
+
+C1 = Annotated[float, typer.Option(help="c1, kPa (eq. 3)")]
+C5 = Annotated[float, typer.Option(help="c5, kPa (eq. 3)")]
+KAPPA = Annotated[float, typer.Option(help="bulk-like modulus kappa, kPa")]
+RADIUS = Annotated[float, typer.Option(help="sphere radius, mm (paper: 4.77 or 8)")]
+STEPS = Annotated[int, typer.Option(help="number of indentation steps")]
+STEP_SIZE = Annotated[float, typer.Option(help="depth per step, mm")]
+MESH = Annotated[str, typer.Option(help="mesh preset: coarse, default, fine, reference")]
+MESH_FROM = Annotated[
+    Path | None, typer.Option(help="run on the hex8 block mesh of this FEBio .feb file")
+]
+SUBSTEPS = Annotated[int, typer.Option(help="solver increments per step")]
+JSON = Annotated[bool, typer.Option("--json", help="print one JSON object on stdout")]
+
+
+@app.command()
+def simulate(
+    c1: C1 = 10.0,
+    c5: C5 = 350.0,
+    kappa: KAPPA = 1000.0,
+    radius: RADIUS = 4.77,
+    steps: STEPS = 28,
+    step_size: STEP_SIZE = 0.5,
+    mesh: MESH = "default",
+    mesh_from: MESH_FROM = None,
+    solver: Annotated[SolverName, typer.Option(help="FE solver")] = SolverName.embedded,
+    substeps: SUBSTEPS = 2,
+    sensitivities: Annotated[
+        bool, typer.Option(help="also d(force, displacement)/d(c1, c5)")
+    ] = False,
+    out: Annotated[
+        Path | None, typer.Option(help="result file (.npz); default under runs/simulations/")
+    ] = None,
+    as_json: JSON = False,
+) -> None:
+    """One indentation simulation (default: the paper's baseline, R = 4.77 mm, 28 x 0.5 mm)."""
+    from ..forward.solver import EmbeddedSolver, SimulationError
+
+    try:
+        spec = _spec(c1, c5, kappa, radius, steps, step_size, mesh, mesh_from, substeps)
+        engine = EmbeddedSolver(spec)
+    except (SpecError, ValueError) as exc:
+        _fail(str(exc), as_json)
+    if out is None:
+        tag = Path(mesh_from).stem if mesh_from else mesh
+        out = Path("runs/simulations") / f"c1={c1:g}_c5={c5:g}_R={radius:g}_{tag}.npz"
+    t0 = time.perf_counter()
+    with _progress("simulate") as bar:
+        task = bar.add_task("steps", total=spec.protocol.steps, info="")
+        try:
+            result = engine.run(
+                sensitivities=sensitivities,
+                progress=lambda k, n, f: bar.update(
+                    task, completed=k, info=f"{k * step_size:.1f} mm  {f:.1f} mN"
+                ),
+            )
+        except SimulationError as exc:
+            if exc.partial is not None and len(exc.partial.depth) > 1:
+                partial = exc.partial.save(out.with_name(out.stem + ".partial.npz"))
+                err.print(f"steps completed before the failure are kept in {partial}")
+            _fail(str(exc), as_json)
+    path = result.save(out)
+    payload: dict[str, Any] = {
+        "depth_mm": result.depth.tolist(),
+        "force_mN": result.force.tolist(),
+        "force_is": "whole specimen (4 x quarter model)",
+        "wall_s": time.perf_counter() - t0,
+        "newton_iterations": result.newton_iterations,
+        "result_file": str(path),
+        "solver": result.solver["name"],
+        "mesh": result.solver["mesh"],
+    }
+    if as_json:
+        print(json.dumps(payload))
+        return
+    table = Table(
+        title=f"c1 = {c1:g} kPa, c5 = {c5:g} kPa, R = {radius:g} mm, mesh {result.solver['mesh']['source']}"
+    )
+    table.add_column("depth [mm]", justify="right")
+    table.add_column("force [mN] (whole specimen)", justify="right")
+    for d, f in zip(result.depth, result.force, strict=True):
+        table.add_row(f"{d:.2f}", f"{f:.2f}")
+    Console().print(table)
+    Console().print(
+        f"wall time {payload['wall_s']:.2f} s, {result.newton_iterations} Newton iterations, result: {path}"
+    )
+
+
+@app.command("mesh-study")
+def mesh_study(
+    presets: Annotated[
+        str, typer.Option(help="comma-separated presets to compare with 'reference'")
+    ] = "coarse,default,fine",
+    reference: Annotated[str, typer.Option(help="the 'ground truth' preset")] = "reference",
+    c1: C1 = 9.4,
+    c5: C5 = 321.0,
+    kappa: KAPPA = 1000.0,
+    radius: RADIUS = 4.77,
+    steps: STEPS = 28,
+    step_size: STEP_SIZE = 0.5,
+    substeps: SUBSTEPS = 2,
+    as_json: JSON = False,
+) -> None:
+    """Mesh convergence (eq. 1a, 1b) of presets against a reference mesh (paper: c1 = 9.4, c5 = 321)."""
+    from ..forward.mesh_study import mesh_errors
+    from ..forward.solver import EmbeddedSolver, SimulationError
+
+    names = [p.strip() for p in presets.split(",") if p.strip()]
+    results = {}
+    try:
+        specs = {
+            n: _spec(c1, c5, kappa, radius, steps, step_size, n, None, substeps)
+            for n in [*names, reference]
+        }
+    except (SpecError, ValueError) as exc:
+        _fail(str(exc), as_json)
+    with _progress("mesh study") as bar:
+        for name, spec in specs.items():
+            task = bar.add_task(name, total=steps, info=name)
+            try:
+                results[name] = EmbeddedSolver(spec).run(
+                    progress=lambda k, n, f, t=task: bar.update(t, completed=k)
+                )
+            except SimulationError as exc:
+                _fail(f"mesh {name}: {exc}", as_json)
+    rows = []
+    for name in names:
+        e = mesh_errors(results[name], results[reference])
+        r = results[name]
+        rows.append(
+            {
+                "preset": name,
+                "nodes": r.solver["mesh"]["nodes"],
+                "elements": r.solver["mesh"]["elements"],
+                "E_f_pct": e.E_f_pct,
+                "E_f_rel_pct": e.E_f_rel_pct,
+                "E_u_pct": e.E_u_pct,
+                "wall_s": r.wall_s,
+            }
+        )
+    if as_json:
+        print(
+            json.dumps(
+                {
+                    "reference": reference,
+                    "reference_nodes": results[reference].solver["mesh"]["nodes"],
+                    "rows": rows,
+                }
+            )
+        )
+        return
+    table = Table(title=f"mesh convergence against '{reference}' (eq. 1a, 1b)")
+    for col in ("preset", "nodes", "E_f (eq. 1a) %", "||dF||/||F|| %", "E_u (eq. 1b) %", "wall s"):
+        table.add_column(col, justify="right")
+    for r in rows:
+        table.add_row(
+            r["preset"],
+            str(r["nodes"]),
+            f"{r['E_f_pct']:.3f}",
+            f"{r['E_f_rel_pct']:.2f}",
+            f"{r['E_u_pct']:.2f}",
+            f"{r['wall_s']:.1f}",
+        )
+    Console().print(table)
+
+
+def main() -> None:  # pragma: no cover
+    sys.exit(app())
