@@ -49,13 +49,9 @@ def read_feb_block_mesh(path: str | Path) -> BlockMesh:
             try:
                 ids = [int(v) for v in (elem.text or "").split(",")]
             except ValueError as exc:
-                raise FebMeshError(
-                    f"{path}: malformed hex8 element {elem.attrib.get('id')}"
-                ) from exc
+                raise FebMeshError(f"{path}: malformed hex8 element {elem.attrib.get('id')}") from exc
             if len(ids) != 8:
-                raise FebMeshError(
-                    f"{path}: hex8 element {elem.attrib.get('id')} has {len(ids)} nodes"
-                )
+                raise FebMeshError(f"{path}: hex8 element {elem.attrib.get('id')} has {len(ids)} nodes")
             conn.append(ids)
     if not conn:
         raise FebMeshError(f"{path}: no hex8 elements")

@@ -116,9 +116,7 @@ def hex8_three_field_kernel(
                     D[i, j] = m * (G4 - _TWO_THIRDS * I4 * H[i, j])
             cP = pJ - _TWO_THIRDS * beta
             for a in range(8):
-                na[a] = (
-                    dNdX[e, g, a, 0] * a0[0] + dNdX[e, g, a, 1] * a0[1] + dNdX[e, g, a, 2] * a0[2]
-                )
+                na[a] = dNdX[e, g, a, 0] * a0[0] + dNdX[e, g, a, 1] * a0[1] + dNdX[e, g, a, 2] * a0[2]
                 for i in range(3):
                     sg = 0.0
                     ss = 0.0

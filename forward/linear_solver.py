@@ -107,9 +107,7 @@ class ConstrainedSymmetricSolver:
         """Solve with the last factorisation; ``rhs`` (n,) or (n, m), zero at constrained dofs."""
         if self.backend == "pardiso":
             self._pardiso.set_phase(33)
-            x = self._pardiso._call_pardiso(
-                self._matrix, np.asfortranarray(rhs.reshape(rhs.shape[0], -1))
-            )
+            x = self._pardiso._call_pardiso(self._matrix, np.asfortranarray(rhs.reshape(rhs.shape[0], -1)))
             x = x.reshape(rhs.shape)
         else:
             x = self._lu.solve(rhs)

@@ -150,9 +150,7 @@ def cauchy_stress(F: np.ndarray, material: Material) -> np.ndarray:
     return P @ np.swapaxes(F, -1, -2) / J[..., None, None]
 
 
-def equibiaxial_stress_incompressible(
-    lam: np.ndarray, c1: float, c5: float
-) -> tuple[np.ndarray, np.ndarray]:
+def equibiaxial_stress_incompressible(lam: np.ndarray, c1: float, c5: float) -> tuple[np.ndarray, np.ndarray]:
     """Eq. 10a, 10b: Cauchy stresses along (sigma11) and across (sigma22) the fibers under
     incompressible equibiaxial stretch ``lam`` with the fibers along direction 1."""
     lam = np.asarray(lam, dtype=float)
@@ -161,9 +159,7 @@ def equibiaxial_stress_incompressible(
     return s11, s22
 
 
-def uniaxial_stress_incompressible(
-    lam: np.ndarray, c1: float, c5: float, along_fiber: bool
-) -> np.ndarray:
+def uniaxial_stress_incompressible(lam: np.ndarray, c1: float, c5: float, along_fiber: bool) -> np.ndarray:
     """Cauchy stress of eq. 2 under incompressible uniaxial stretch ``lam`` (supplement S2).
 
     Along the fibers: 2 c1 (lam^2 - 1/lam) + c5 (lam - 1) for lam > 1. Across the fibers the

@@ -140,8 +140,7 @@ def structured_block(geometry: Geometry, preset: MeshPreset, name: str = "custom
         return k + nz * (j + ny * i)
 
     ci, cj, ck = (
-        a.ravel()
-        for a in np.meshgrid(np.arange(nx - 1), np.arange(ny - 1), np.arange(nz - 1), indexing="ij")
+        a.ravel() for a in np.meshgrid(np.arange(nx - 1), np.arange(ny - 1), np.arange(nz - 1), indexing="ij")
     )
     elements = np.stack(
         [

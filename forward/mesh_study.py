@@ -10,9 +10,7 @@ from scipy.interpolate import RegularGridInterpolator
 from .result import SimulationResult
 
 
-def interpolate_top_displacement(
-    reference: SimulationResult, xy: np.ndarray, step: int = -1
-) -> np.ndarray:
+def interpolate_top_displacement(reference: SimulationResult, xy: np.ndarray, step: int = -1) -> np.ndarray:
     """The reference's top-surface displacement at step ``step`` interpolated at points ``xy``
     (n, 2). The top surface of a structured block is a tensor grid, so the interpolation is
     bilinear on it, as the mesh's own shape functions are."""
@@ -41,9 +39,7 @@ class MeshErrors:
 def mesh_errors(result: SimulationResult, reference: SimulationResult) -> MeshErrors:
     """Eq. 1a (forces over all steps) and eq. 1b (final top-surface displacements, the
     reference interpolated at the result's top nodes), in percent."""
-    if result.depth.shape != reference.depth.shape or not np.allclose(
-        result.depth, reference.depth
-    ):
+    if result.depth.shape != reference.depth.shape or not np.allclose(result.depth, reference.depth):
         raise ValueError("result and reference must share the protocol (depths)")
     F, Fr = result.force[1:], reference.force[1:]
     rel = float(np.linalg.norm(F - Fr) / np.linalg.norm(Fr))

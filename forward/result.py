@@ -48,8 +48,7 @@ class SimulationResult:
 
     def table(self) -> list[dict[str, float]]:
         return [
-            {"depth_mm": float(d), "force_mN": float(f)}
-            for d, f in zip(self.depth, self.force, strict=True)
+            {"depth_mm": float(d), "force_mN": float(f)} for d, f in zip(self.depth, self.force, strict=True)
         ]
 
     def save(self, path: str | Path) -> Path:

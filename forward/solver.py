@@ -67,9 +67,7 @@ class EmbeddedSolver:
 
     name = "embedded"
 
-    def __init__(
-        self, spec: ModelSpec, mesh: BlockMesh | None = None, linear_solver: str | None = None
-    ):
+    def __init__(self, spec: ModelSpec, mesh: BlockMesh | None = None, linear_solver: str | None = None):
         self.spec = spec
         self.mesh = mesh if mesh is not None else build_mesh(spec)
         self.geometry = ReferenceGeometry.of(self.mesh)
@@ -126,9 +124,7 @@ class EmbeddedSolver:
         self.stats["solve_s"] += time.perf_counter() - t
         return x
 
-    def _constraints(
-        self, contact: StickContactState, depth: float
-    ) -> tuple[np.ndarray, np.ndarray]:
+    def _constraints(self, contact: StickContactState, depth: float) -> tuple[np.ndarray, np.ndarray]:
         """Mask of constrained dofs (3n,) and their prescribed displacement values."""
         mask = self.bc_fixed.copy()
         values = np.zeros((self.mesh.n_nodes, 3))
@@ -237,9 +233,7 @@ class EmbeddedSolver:
         nominal = proto.step_size / opts.substeps
         for k, d_target in enumerate(proto.depths, start=1):
             t_step = time.perf_counter()
-            rec = dict.fromkeys(
-                ("newton_iterations", "increments", "cutbacks", "contact_passes"), 0
-            )
+            rec = dict.fromkeys(("newton_iterations", "increments", "cutbacks", "contact_passes"), 0)
             inc = nominal
             eq = None
             while d < d_target - 1e-12:
@@ -302,9 +296,7 @@ class EmbeddedSolver:
         dforce = -SYMMETRY_FACTOR * dRc.reshape(-1, 3, 2)[att, 2].sum(axis=0)
         return dforce, du.reshape(-1, 3, 2)[self.top]
 
-    def _result(
-        self, depths, forces, disp, conv, f_sens, u_sens, sensitivities, t_start
-    ) -> SimulationResult:
+    def _result(self, depths, forces, disp, conv, f_sens, u_sens, sensitivities, t_start) -> SimulationResult:
         mesh = self.mesh
         return SimulationResult(
             depth=np.asarray(depths),

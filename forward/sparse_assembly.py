@@ -32,6 +32,4 @@ class SparsePattern:
         return sp.csr_matrix((data, self.indices, self.indptr), shape=(self.n_dofs, self.n_dofs))
 
     def vector(self, element_vectors: np.ndarray) -> np.ndarray:
-        return np.bincount(
-            self.edofs.ravel(), weights=element_vectors.ravel(), minlength=self.n_dofs
-        )
+        return np.bincount(self.edofs.ravel(), weights=element_vectors.ravel(), minlength=self.n_dofs)

@@ -53,9 +53,7 @@ class Geometry:
 
     def __post_init__(self) -> None:
         for f in fields(self):
-            object.__setattr__(
-                self, f.name, _finite_positive(f"geometry.{f.name}", getattr(self, f.name))
-            )
+            object.__setattr__(self, f.name, _finite_positive(f"geometry.{f.name}", getattr(self, f.name)))
 
 
 @dataclass(frozen=True)
@@ -70,9 +68,7 @@ class Indenter:
     @classmethod
     def preset(cls, name: str) -> Indenter:
         if name not in INDENTER_PRESETS:
-            raise SpecError(
-                "indenter.radius", f"unknown preset {name!r}; use {sorted(INDENTER_PRESETS)}"
-            )
+            raise SpecError("indenter.radius", f"unknown preset {name!r}; use {sorted(INDENTER_PRESETS)}")
         return cls(INDENTER_PRESETS[name])
 
 
@@ -84,9 +80,7 @@ class Protocol:
     steps: int = 28
 
     def __post_init__(self) -> None:
-        object.__setattr__(
-            self, "step_size", _finite_positive("protocol.step_size", self.step_size)
-        )
+        object.__setattr__(self, "step_size", _finite_positive("protocol.step_size", self.step_size))
         if isinstance(self.steps, bool) or int(self.steps) != self.steps or self.steps < 1:
             raise SpecError("protocol.steps", f"must be a whole number >= 1, got {self.steps!r}")
         object.__setattr__(self, "steps", int(self.steps))
@@ -119,9 +113,7 @@ class Material:
         except (TypeError, ValueError) as exc:
             raise SpecError("material.c5", f"must be a number, got {self.c5!r}") from exc
         if not math.isfinite(c5) or c5 < 0.0:
-            raise SpecError(
-                "material.c5", f"must be finite and >= 0 (0: isotropic), got {self.c5!r}"
-            )
+            raise SpecError("material.c5", f"must be finite and >= 0 (0: isotropic), got {self.c5!r}")
         object.__setattr__(self, "c5", c5)
         try:
             a = tuple(float(v) for v in self.fiber)
@@ -129,9 +121,7 @@ class Material:
             raise SpecError("material.fiber", f"must be three numbers, got {self.fiber!r}") from exc
         norm = math.sqrt(sum(v * v for v in a)) if len(a) == 3 else 0.0
         if len(a) != 3 or not all(math.isfinite(v) for v in a) or norm == 0.0:
-            raise SpecError(
-                "material.fiber", f"must be a finite non-zero 3-vector, got {self.fiber!r}"
-            )
+            raise SpecError("material.fiber", f"must be a finite non-zero 3-vector, got {self.fiber!r}")
         object.__setattr__(self, "fiber", tuple(v / norm for v in a))
 
     @property
@@ -151,9 +141,7 @@ class MeshChoice:
         from .mesh import MESH_PRESETS  # local import: mesh imports nothing from here
 
         if self.feb_file is None and self.preset not in MESH_PRESETS:
-            raise SpecError(
-                "mesh.preset", f"unknown preset {self.preset!r}; use {sorted(MESH_PRESETS)}"
-            )
+            raise SpecError("mesh.preset", f"unknown preset {self.preset!r}; use {sorted(MESH_PRESETS)}")
 
 
 @dataclass(frozen=True)
@@ -172,12 +160,8 @@ class SolverOptions:
             if int(v) != v or v < 1:
                 raise SpecError(f"solver.{name}", f"must be a whole number >= 1, got {v!r}")
         if int(self.max_cutbacks) != self.max_cutbacks or self.max_cutbacks < 0:
-            raise SpecError(
-                "solver.max_cutbacks", f"must be a whole number >= 0, got {self.max_cutbacks!r}"
-            )
-        object.__setattr__(
-            self, "residual_tol", _finite_positive("solver.residual_tol", self.residual_tol)
-        )
+            raise SpecError("solver.max_cutbacks", f"must be a whole number >= 0, got {self.max_cutbacks!r}")
+        object.__setattr__(self, "residual_tol", _finite_positive("solver.residual_tol", self.residual_tol))
 
 
 @dataclass(frozen=True)

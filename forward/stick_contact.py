@@ -46,9 +46,7 @@ def path_meets_sphere(r0: np.ndarray, r1: np.ndarray, radius: float) -> np.ndarr
     r = r0 + alpha[:, None] * d
     norm = np.linalg.norm(r, axis=1)
     fallback = np.array([0.0, 0.0, -radius])
-    return np.where(
-        norm[:, None] > 0.0, r * (radius / np.where(norm > 0, norm, 1.0))[:, None], fallback
-    )
+    return np.where(norm[:, None] > 0.0, r * (radius / np.where(norm > 0, norm, 1.0))[:, None], fallback)
 
 
 @dataclass

@@ -9,7 +9,7 @@ from __future__ import annotations
 import json
 import sys
 import time
-from enum import Enum
+from enum import StrEnum
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -37,7 +37,7 @@ app = typer.Typer(
 err = Console(stderr=True)
 
 
-class SolverName(str, Enum):
+class SolverName(StrEnum):
     embedded = "embedded"
 
 
@@ -79,9 +79,7 @@ RADIUS = Annotated[float, typer.Option(help="sphere radius, mm (paper: 4.77 or 8
 STEPS = Annotated[int, typer.Option(help="number of indentation steps")]
 STEP_SIZE = Annotated[float, typer.Option(help="depth per step, mm")]
 MESH = Annotated[str, typer.Option(help="mesh preset: coarse, default, fine, reference")]
-MESH_FROM = Annotated[
-    Path | None, typer.Option(help="run on the hex8 block mesh of this FEBio .feb file")
-]
+MESH_FROM = Annotated[Path | None, typer.Option(help="run on the hex8 block mesh of this FEBio .feb file")]
 SUBSTEPS = Annotated[int, typer.Option(help="solver increments per step")]
 JSON = Annotated[bool, typer.Option("--json", help="print one JSON object on stdout")]
 
@@ -98,9 +96,7 @@ def simulate(
     mesh_from: MESH_FROM = None,
     solver: Annotated[SolverName, typer.Option(help="FE solver")] = SolverName.embedded,
     substeps: SUBSTEPS = 2,
-    sensitivities: Annotated[
-        bool, typer.Option(help="also d(force, displacement)/d(c1, c5)")
-    ] = False,
+    sensitivities: Annotated[bool, typer.Option(help="also d(force, displacement)/d(c1, c5)")] = False,
     out: Annotated[
         Path | None, typer.Option(help="result file (.npz); default under runs/simulations/")
     ] = None,
@@ -182,8 +178,7 @@ def mesh_study(
     results = {}
     try:
         specs = {
-            n: _spec(c1, c5, kappa, radius, steps, step_size, n, None, substeps)
-            for n in [*names, reference]
+            n: _spec(c1, c5, kappa, radius, steps, step_size, n, None, substeps) for n in [*names, reference]
         }
     except (SpecError, ValueError) as exc:
         _fail(str(exc), as_json)

@@ -23,7 +23,7 @@ def deformations() -> np.ndarray:
 
 def test_stress_and_tangent_match_finite_differences(deformations):
     mat = Material(c1=10.0, c5=350.0, kappa=1000.0, fiber=(0.3, 1.0, 0.2))
-    W, P, A = full_response(deformations, mat)
+    _, P, A = full_response(deformations, mat)
     h = 1e-6
     P_fd = np.zeros_like(P)
     A_fd = np.zeros_like(A)
@@ -70,9 +70,7 @@ def test_equibiaxial_tends_to_eq10_when_nearly_incompressible(lam):
 
 def test_uniaxial_closed_form_along_and_across_fibers():
     lam = np.array([1.0, 1.5, 2.0])
-    assert np.allclose(
-        uniaxial_stress_incompressible(lam, 10.0, 0.0, True), 20.0 * (lam**2 - 1 / lam)
-    )
+    assert np.allclose(uniaxial_stress_incompressible(lam, 10.0, 0.0, True), 20.0 * (lam**2 - 1 / lam))
     along = uniaxial_stress_incompressible(lam, 10.0, 350.0, True)
     across = uniaxial_stress_incompressible(lam, 10.0, 350.0, False)
     assert np.allclose(along - across, 350.0 * (lam - 1.0))

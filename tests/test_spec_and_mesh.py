@@ -76,7 +76,7 @@ def test_febio_block_mesh_is_read_and_default_preset_reproduces_it():
 def test_malformed_feb_is_named(tmp_path):
     bad = tmp_path / "bad.feb"
     bad.write_text("<febio_spec><Mesh><Nodes><node id='1'>0,0</node></Nodes></Mesh></febio_spec>")
-    with pytest.raises(FebMeshError, match="bad.feb"):
+    with pytest.raises(FebMeshError, match=r"bad\.feb"):
         read_feb_block_mesh(bad)
     with pytest.raises(FebMeshError, match="no such file"):
         read_feb_block_mesh(tmp_path / "missing.feb")
