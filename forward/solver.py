@@ -59,6 +59,7 @@ class _Equilibrium:
     R: np.ndarray  # (3n,) internal force = external force at equilibrium
     K: sp.csr_matrix
     iterations: int
+    dR: np.ndarray | None = None  # (3n, p): d(internal force)/d(theta) at u
 
 
 class EmbeddedSolver:
@@ -93,6 +94,7 @@ class EmbeddedSolver:
         top_xy = self.mesh.nodes[self.top, :2]
         h = np.sort(np.unique(np.round(top_xy[:, 0], 9)))
         self._force_scale = m.c1 * float(h[1] - h[0]) ** 2 if h.size > 1 else m.c1
+        self._sensitivities = False
         self.stats = {"assemblies": 0, "assembly_s": 0.0, "factorizations": 0, "solve_s": 0.0}
 
     # ------------------------------------------------------------------ numerics
@@ -152,13 +154,18 @@ class EmbeddedSolver:
             rhs[cmask] = 0.0
             u += self._solve(rhs) + jump
             for it in range(1, opts.max_newton + 1):
-                R, K, _ = self.assemble(u.reshape(-1, 3))
+                R, K, dR = self.assemble(u.reshape(-1, 3), parameter_derivatives=self._sensitivities)
                 rf = np.where(cmask, 0.0, R)
                 ref = max(np.linalg.norm(R[cmask]), self._force_scale)
                 if np.linalg.norm(rf) <= opts.residual_tol * ref:
-                    return _Equilibrium(u.reshape(-1, 3), R, K, it)
+                    return _Equilibrium(u.reshape(-1, 3), R, K, it, dR)
                 self._factorize(K, cmask)
-                u -= self._solve(rf)
+                du = self._solve(rf)
+                u -= du
+                if np.abs(du).max() <= 1e-13 * max(np.abs(u).max(), 1.0):
+                    # correction at round-off level: the residual cannot get smaller
+                    R, K, dR = self.assemble(u.reshape(-1, 3), parameter_derivatives=self._sensitivities)
+                    return _Equilibrium(u.reshape(-1, 3), R, K, it + 1, dR)
         except (FloatingPointError, LinearSolveError) as exc:
             raise _IncrementFailed(str(exc)) from exc
         raise _IncrementFailed(f"Newton did not converge in {opts.max_newton} iterations")
@@ -173,33 +180,66 @@ class EmbeddedSolver:
         return r
 
     def _increment(
-        self, u: np.ndarray, u_pred: np.ndarray, d0: float, d1: float, contact: StickContactState
-    ) -> tuple[_Equilibrium, StickContactState, int, int]:
-        """Solve the increment d0 -> d1; returns equilibrium, contact set, Newton its, passes."""
+        self,
+        u: np.ndarray,
+        u_pred: np.ndarray,
+        d0: float,
+        d1: float,
+        contact: StickContactState,
+        du_start: np.ndarray | None,
+    ) -> tuple[_Equilibrium, StickContactState, int, int, np.ndarray | None]:
+        """Solve the increment d0 -> d1. Returns the equilibrium, the contact set, Newton
+        iterations, contact passes and (with sensitivities) d u / d theta (n, 3, p)."""
         c = contact.copy()
         u_top0 = u[self.top]
         released = np.zeros_like(c.attached)
         trial = u_pred
         iters = 0
         tol_pen = 1e-9 * self.sphere.radius
+        sens = None
         for passes in range(1, self.spec.solver.max_contact_passes + 1):
             cmask, target = self._constraints(c, d1)
             eq = self.equilibrate(trial, cmask, target)
             iters += eq.iterations
             trial = eq.u
+            if self._sensitivities:
+                sens = self._state_sensitivity(eq, cmask, c)
             normal = c.normal_reaction(self._reaction_top(eq.R))
             tol_t = 1e-9 * max(float(np.abs(normal).max(initial=0.0)), self._force_scale)
             pulling = c.attached & (normal < -tol_t)
             pen = c.penetrating(trial[self.top], d1, tol_pen)
             if not pulling.any() and not pen.any():
-                return eq, c, iters, passes
+                return eq, c, iters, passes, sens
             c.attached[pulling] = False
             released |= pulling
+            s_top = sens[self.top] if sens is not None else None
+            s0_top = du_start[self.top] if du_start is not None else None
             again = np.flatnonzero(pen & released)  # slipped back in: re-attach where it is now
-            c.attach(again, trial[self.top], d1, trial[self.top], d1)
+            c.attach(again, trial[self.top], d1, trial[self.top], d1, s_top, s_top)
             new = np.flatnonzero(pen & ~released)
-            c.attach(new, u_top0, d0, trial[self.top], d1)
+            c.attach(new, u_top0, d0, trial[self.top], d1, s0_top, s_top)
         raise _IncrementFailed("the contact set did not settle")
+
+    def _state_sensitivity(
+        self, eq: _Equilibrium, cmask: np.ndarray, contact: StickContactState
+    ) -> np.ndarray:
+        """d u / d theta (n, 3, p) of a converged state: K_ff du_f = -(dR_f + K_fc du_c), where
+        du_c is the anchors' derivative at attached nodes (0 at supports). Solved with the last
+        Newton factorisation plus two refinement steps with the exact converged tangent."""
+        n_p = eq.dR.shape[1]
+        jump = np.zeros((self.mesh.n_nodes, 3, n_p))
+        att = self.top[contact.attached]
+        jump[att] = contact.danchor[contact.attached]
+        jump[self.bc_fixed] = 0.0
+        jump = jump.reshape(-1, n_p)
+        b = -(eq.dR + eq.K @ jump)
+        b[cmask] = 0.0
+        x = self._solve(b)
+        for _ in range(2):
+            r = b - eq.K @ x
+            r[cmask] = 0.0
+            x += self._solve(r)
+        return (x + jump).reshape(-1, 3, n_p)
 
     # ------------------------------------------------------------------ driver
     def run(
@@ -207,6 +247,7 @@ class EmbeddedSolver:
     ) -> SimulationResult:
         """Run the protocol; ``progress(step, steps, force)`` is called after each step."""
         t_start = time.perf_counter()
+        self._sensitivities = sensitivities
         proto, opts = self.spec.protocol, self.spec.solver
         n, nt = self.mesh.n_nodes, self.top.size
         u = np.zeros((n, 3))
@@ -229,6 +270,7 @@ class EmbeddedSolver:
         conv["wall_s"] = [0.0]
         f_sens = [np.zeros(2)]
         u_sens = [np.zeros((nt, 3, 2))]
+        du_dtheta = np.zeros((n, 3, 2)) if sensitivities else None
         d = 0.0
         nominal = proto.step_size / opts.substeps
         for k, d_target in enumerate(proto.depths, start=1):
@@ -242,7 +284,9 @@ class EmbeddedSolver:
                     dd = d_target - d
                 u_pred = u + (dd / last_dd) * last_inc if last_dd > 0 else u.copy()
                 try:
-                    eq, contact_new, its, passes = self._increment(u, u_pred, d, d + dd, contact)
+                    eq, contact_new, its, passes, sens = self._increment(
+                        u, u_pred, d, d + dd, contact, du_dtheta
+                    )
                 except _IncrementFailed as exc:
                     rec["cutbacks"] += 1
                     if rec["cutbacks"] > opts.max_cutbacks:
@@ -261,6 +305,7 @@ class EmbeddedSolver:
                 last_dd = dd
                 u = eq.u
                 contact = contact_new
+                du_dtheta = sens
                 d += dd
                 rec["newton_iterations"] += its
                 rec["increments"] += 1
@@ -272,9 +317,10 @@ class EmbeddedSolver:
             forces.append(SYMMETRY_FACTOR * F_quarter)
             disp.append(u[self.top].copy())
             if sensitivities:
-                fs, us = self._sensitivities(eq, contact, d_target)
-                f_sens.append(fs)
-                u_sens.append(us)
+                dRc = eq.dR + eq.K @ du_dtheta.reshape(-1, 2)
+                att = self.top[contact.attached]
+                f_sens.append(-SYMMETRY_FACTOR * dRc.reshape(-1, 3, 2)[att, 2].sum(axis=0))
+                u_sens.append(du_dtheta[self.top].copy())
             for key, val in rec.items():
                 conv[key].append(val)
             conv["attached_nodes"].append(int(contact.attached.sum()))
@@ -282,19 +328,6 @@ class EmbeddedSolver:
             if progress is not None:
                 progress(k, proto.steps, forces[-1])
         return self._result(depths, forces, disp, conv, f_sens, u_sens, sensitivities, t_start)
-
-    def _sensitivities(self, eq: _Equilibrium, contact: StickContactState, depth: float):
-        """d(force)/d(theta) (2,) and d(u_top)/d(theta) (nt, 3, 2) at a converged state, with the
-        contact set held fixed."""
-        cmask, _ = self._constraints(contact, depth)
-        _, _, dR = self.assemble(eq.u, tangent=False, parameter_derivatives=True)
-        self._factorize(eq.K, cmask)
-        du = self._solve(-np.where(cmask[:, None], 0.0, dR))
-        # reactions: R_c(u, theta); dR_c/dtheta = dR_c + K_cf du_f
-        dRc = dR + eq.K @ du
-        att = self.top[contact.attached]
-        dforce = -SYMMETRY_FACTOR * dRc.reshape(-1, 3, 2)[att, 2].sum(axis=0)
-        return dforce, du.reshape(-1, 3, 2)[self.top]
 
     def _result(self, depths, forces, disp, conv, f_sens, u_sens, sensitivities, t_start) -> SimulationResult:
         mesh = self.mesh
