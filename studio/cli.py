@@ -168,6 +168,7 @@ def mesh_study(
     steps: STEPS = 28,
     step_size: STEP_SIZE = 0.5,
     substeps: SUBSTEPS = 2,
+    out_dir: Annotated[Path | None, typer.Option(help="also keep each mesh's result file here")] = None,
     as_json: JSON = False,
 ) -> None:
     """Mesh convergence (eq. 1a, 1b) of presets against a reference mesh (paper: c1 = 9.4, c5 = 321)."""
@@ -189,6 +190,8 @@ def mesh_study(
                 results[name] = EmbeddedSolver(spec).run(
                     progress=lambda k, n, f, t=task: bar.update(t, completed=k)
                 )
+                if out_dir is not None:
+                    results[name].save(Path(out_dir) / f"{name}.npz")
             except SimulationError as exc:
                 _fail(f"mesh {name}: {exc}", as_json)
     rows = []

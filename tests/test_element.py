@@ -3,6 +3,7 @@ forces, the compiled kernel equals the numpy reference, and mean dilatation remo
 
 import numpy as np
 import pytest
+
 from indentation_studio.forward.hex8_mean_dilatation import (
     ReferenceGeometry,
     element_state,

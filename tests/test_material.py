@@ -3,6 +3,8 @@ closed forms of eq. 10 (supplement S2)."""
 
 import numpy as np
 import pytest
+from scipy.optimize import brentq
+
 from indentation_studio.forward.material import (
     cauchy_stress,
     equibiaxial_stress_incompressible,
@@ -10,7 +12,6 @@ from indentation_studio.forward.material import (
     uniaxial_stress_incompressible,
 )
 from indentation_studio.forward.spec import Material
-from scipy.optimize import brentq
 
 
 @pytest.fixture

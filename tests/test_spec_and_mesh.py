@@ -5,6 +5,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
 from indentation_studio.forward.feb_mesh import FebMeshError, read_feb_block_mesh
 from indentation_studio.forward.mesh import MESH_PRESETS, preset_mesh
 from indentation_studio.forward.spec import (
