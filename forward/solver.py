@@ -46,6 +46,10 @@ class _IncrementFailed(Exception):
     pass
 
 
+#: A correction keeps the current factorisation while the residual shrinks at least this much.
+REFACTOR_RATIO = 0.1
+
+
 def build_mesh(spec: ModelSpec) -> BlockMesh:
     """The block mesh a spec asks for: a preset, or the hex8 block of a FEBio file."""
     if spec.mesh.feb_file:
@@ -140,32 +144,50 @@ class EmbeddedSolver:
     def equilibrate(self, u0: np.ndarray, cmask: np.ndarray, target: np.ndarray) -> _Equilibrium:
         """Newton-Raphson to equilibrium with the dofs in ``cmask`` prescribed to ``target``.
 
-        The first iteration carries the prescribed increments into the body through the
-        tangent (consistent predictor); the residual is checked on the free dofs against the
-        reactions."""
+        The first iteration carries the prescribed increments into the body through the exact
+        tangent (consistent predictor). The corrections reuse that factorisation while the
+        residual contracts by at least ``REFACTOR_RATIO`` per iteration and refactorise at the
+        current state otherwise (a full Newton step), so most corrections cost a residual and a
+        back-substitution. The residual is checked on the free dofs against the reactions."""
         opts = self.spec.solver
         u = u0.reshape(-1).copy()
         jump = np.zeros(self.n_dofs)
         jump[cmask] = target - u[cmask]
+        want_dR = self._sensitivities
         try:
             R, K, _ = self.assemble(u.reshape(-1, 3))
             self._factorize(K, cmask)
             rhs = -(R + K @ jump)
             rhs[cmask] = 0.0
             u += self._solve(rhs) + jump
+            last = np.inf
+            stale = False  # True when the factorisation is older than the current state
+            stale_before = True  # was the step that led here taken with an old factorisation?
+            u_prev = u.copy()
             for it in range(1, opts.max_newton + 1):
-                R, K, dR = self.assemble(u.reshape(-1, 3), parameter_derivatives=self._sensitivities)
+                R, _, dR = self.assemble(u.reshape(-1, 3), tangent=False, parameter_derivatives=want_dR)
                 rf = np.where(cmask, 0.0, R)
+                norm = np.linalg.norm(rf)
                 ref = max(np.linalg.norm(R[cmask]), self._force_scale)
-                if np.linalg.norm(rf) <= opts.residual_tol * ref:
+                at_round_off = not stale_before and norm > 0.5 * last and norm <= 1e-6 * ref
+                if norm <= opts.residual_tol * ref or at_round_off:
+                    K = self.assemble(u.reshape(-1, 3))[1] if want_dR else None
                     return _Equilibrium(u.reshape(-1, 3), R, K, it, dR)
-                self._factorize(K, cmask)
+                if stale and norm > REFACTOR_RATIO * last:
+                    if norm > last:  # the old factorisation made it worse: step back
+                        u = u_prev
+                        R, _, _ = self.assemble(u.reshape(-1, 3), tangent=False)
+                        rf = np.where(cmask, 0.0, R)
+                        norm = last
+                    K = self.assemble(u.reshape(-1, 3))[1]
+                    self._factorize(K, cmask)
+                    stale = False
+                stale_before = stale
+                last = norm
+                stale = True
+                u_prev = u.copy()
                 du = self._solve(rf)
                 u -= du
-                if np.abs(du).max() <= 1e-13 * max(np.abs(u).max(), 1.0):
-                    # correction at round-off level: the residual cannot get smaller
-                    R, K, dR = self.assemble(u.reshape(-1, 3), parameter_derivatives=self._sensitivities)
-                    return _Equilibrium(u.reshape(-1, 3), R, K, it + 1, dR)
         except (FloatingPointError, LinearSolveError) as exc:
             raise _IncrementFailed(str(exc)) from exc
         raise _IncrementFailed(f"Newton did not converge in {opts.max_newton} iterations")
@@ -225,7 +247,7 @@ class EmbeddedSolver:
     ) -> np.ndarray:
         """d u / d theta (n, 3, p) of a converged state: K_ff du_f = -(dR_f + K_fc du_c), where
         du_c is the anchors' derivative at attached nodes (0 at supports). Solved with the last
-        Newton factorisation plus two refinement steps with the exact converged tangent."""
+        Newton factorisation, refined with the exact converged tangent."""
         n_p = eq.dR.shape[1]
         jump = np.zeros((self.mesh.n_nodes, 3, n_p))
         att = self.top[contact.attached]
@@ -234,11 +256,17 @@ class EmbeddedSolver:
         jump = jump.reshape(-1, n_p)
         b = -(eq.dR + eq.K @ jump)
         b[cmask] = 0.0
+        scale = np.linalg.norm(b, axis=0) + 1e-300
         x = self._solve(b)
-        for _ in range(2):
+        for _ in range(30):  # iterative refinement with the exact tangent
             r = b - eq.K @ x
             r[cmask] = 0.0
+            if np.all(np.linalg.norm(r, axis=0) <= 1e-12 * scale):
+                break
             x += self._solve(r)
+        else:
+            self._factorize(eq.K, cmask)
+            x = self._solve(b)
         return (x + jump).reshape(-1, 3, n_p)
 
     # ------------------------------------------------------------------ driver
