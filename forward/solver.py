@@ -160,34 +160,43 @@ class EmbeddedSolver:
             rhs = -(R + K @ jump)
             rhs[cmask] = 0.0
             u += self._solve(rhs) + jump
-            last = np.inf
-            stale = False  # True when the factorisation is older than the current state
-            stale_before = True  # was the step that led here taken with an old factorisation?
-            u_prev = u.copy()
+            last = np.inf  # residual norm before the last step
+            stale = False  # the factorisation is older than the current state
+            fresh_step = False  # the last step was taken with a factorisation made at its start
+            u_prev, du = u.copy(), None
+            shortenings = 0
             for it in range(1, opts.max_newton + 1):
-                R, _, dR = self.assemble(u.reshape(-1, 3), tangent=False, parameter_derivatives=want_dR)
-                rf = np.where(cmask, 0.0, R)
-                norm = np.linalg.norm(rf)
-                ref = max(np.linalg.norm(R[cmask]), self._force_scale)
-                at_round_off = not stale_before and norm > 0.5 * last and norm <= 1e-6 * ref
-                if norm <= opts.residual_tol * ref or at_round_off:
-                    K = self.assemble(u.reshape(-1, 3))[1] if want_dR else None
-                    return _Equilibrium(u.reshape(-1, 3), R, K, it, dR)
-                if stale and norm > REFACTOR_RATIO * last:
-                    if norm > last:  # the old factorisation made it worse: step back
-                        u = u_prev
-                        R, _, _ = self.assemble(u.reshape(-1, 3), tangent=False)
-                        rf = np.where(cmask, 0.0, R)
-                        norm = last
-                    K = self.assemble(u.reshape(-1, 3))[1]
-                    self._factorize(K, cmask)
+                try:
+                    R, _, dR = self.assemble(u.reshape(-1, 3), tangent=False, parameter_derivatives=want_dR)
+                    norm = np.linalg.norm(np.where(cmask, 0.0, R))
+                except FloatingPointError:
+                    if du is None or shortenings >= 6:
+                        raise
+                    norm = np.inf  # an element inverted: handled below like a diverging step
+                if np.isfinite(norm):
+                    ref = max(np.linalg.norm(R[cmask]), self._force_scale)
+                    at_round_off = fresh_step and norm > 0.5 * last and norm <= 1e-6 * ref
+                    if norm <= opts.residual_tol * ref or at_round_off:
+                        K = self.assemble(u.reshape(-1, 3))[1] if want_dR else None
+                        return _Equilibrium(u.reshape(-1, 3), R, K, it, dR)
+                if norm > last and fresh_step:
+                    # an exact Newton step that diverged: shorten it
+                    shortenings += 1
+                    du *= 0.5
+                    u = u_prev - du
+                    continue
+                if norm > last:  # a step with an old factorisation made it worse: undo it
+                    u, norm = u_prev, last
+                    R, _, _ = self.assemble(u.reshape(-1, 3), tangent=False)
+                    stale = True
+                if (stale and norm > REFACTOR_RATIO * last) or norm == last:
+                    self._factorize(self.assemble(u.reshape(-1, 3))[1], cmask)
                     stale = False
-                stale_before = stale
-                last = norm
+                fresh_step = not stale
+                last, u_prev = norm, u.copy()
+                du = self._solve(np.where(cmask, 0.0, R))
+                u = u - du
                 stale = True
-                u_prev = u.copy()
-                du = self._solve(rf)
-                u -= du
         except (FloatingPointError, LinearSolveError) as exc:
             raise _IncrementFailed(str(exc)) from exc
         raise _IncrementFailed(f"Newton did not converge in {opts.max_newton} iterations")
