@@ -15,7 +15,6 @@ from typing import Annotated, Any
 
 import typer
 from rich.console import Console
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from rich.table import Table
 
 from ..forward.spec import (
@@ -28,6 +27,7 @@ from ..forward.spec import (
     SolverOptions,
     SpecError,
 )
+from .progress import step_progress
 
 app = typer.Typer(
     help="Indentation Studio: identify (c1, c5) of soft tissue from indentation force and 3D-DIC.",
@@ -56,19 +56,6 @@ def _spec(c1, c5, kappa, radius, steps, step_size, mesh, mesh_from, substeps) ->
         material=Material(c1=c1, c5=c5, kappa=kappa),
         mesh=MeshChoice(preset=mesh, feb_file=str(mesh_from) if mesh_from else None),
         solver=SolverOptions(substeps=substeps),
-    )
-
-
-def _progress(label: str) -> Progress:
-    return Progress(
-        TextColumn(f"[bold]{label}[/]"),
-        BarColumn(),
-        TextColumn("{task.completed}/{task.total}"),
-        TextColumn("{task.fields[info]}"),
-        TimeElapsedColumn(),
-        TimeRemainingColumn(),
-        console=err,
-        transient=False,
     )
 
 
@@ -114,14 +101,11 @@ def simulate(
         tag = Path(mesh_from).stem if mesh_from else mesh
         out = Path("runs/simulations") / f"c1={c1:g}_c5={c5:g}_R={radius:g}_{tag}.npz"
     t0 = time.perf_counter()
-    with _progress("simulate") as bar:
-        task = bar.add_task("steps", total=spec.protocol.steps, info="")
+    with step_progress(err, "simulate", spec.protocol.steps) as bar:
         try:
             result = engine.run(
                 sensitivities=sensitivities,
-                progress=lambda k, n, f: bar.update(
-                    task, completed=k, info=f"{k * step_size:.1f} mm  {f:.1f} mN"
-                ),
+                progress=lambda k, n, f: bar.update(k, f"{k * step_size:.1f} mm  {f:.1f} mN"),
             )
         except SimulationError as exc:
             if exc.partial is not None and len(exc.partial.depth) > 1:
@@ -183,12 +167,11 @@ def mesh_study(
         }
     except (SpecError, ValueError) as exc:
         _fail(str(exc), as_json)
-    with _progress("mesh study") as bar:
-        for name, spec in specs.items():
-            task = bar.add_task(name, total=steps, info=name)
+    for name, spec in specs.items():
+        with step_progress(err, f"mesh {name}", steps) as bar:
             try:
                 results[name] = EmbeddedSolver(spec).run(
-                    progress=lambda k, n, f, t=task: bar.update(t, completed=k)
+                    progress=lambda k, n, f, b=bar: b.update(k, f"{f:.1f} mN")
                 )
                 if out_dir is not None:
                     results[name].save(Path(out_dir) / f"{name}.npz")

@@ -1,0 +1,49 @@
+"""The CLI contract: --json prints exactly one JSON object on stdout; bad input is a named error."""
+
+import json
+
+import numpy as np
+from typer.testing import CliRunner
+
+from indentation_studio.forward.result import SimulationResult
+from indentation_studio.studio.cli import app
+
+runner = CliRunner()
+
+
+def test_simulate_json_contract(tmp_path):
+    out = tmp_path / "r.npz"
+    res = runner.invoke(app, ["simulate", "--mesh", "coarse", "--steps", "2", "--out", str(out), "--json"])
+    assert res.exit_code == 0, res.output
+    payload = json.loads(res.stdout)
+    for key in ("depth_mm", "force_mN", "wall_s", "newton_iterations", "result_file"):
+        assert key in payload
+    assert payload["depth_mm"] == [0.0, 0.5, 1.0]
+    saved = SimulationResult.load(payload["result_file"])
+    assert np.allclose(saved.force, payload["force_mN"])
+    assert saved.spec["mesh"]["preset"] == "coarse"
+    assert payload["force_mN"][2] > payload["force_mN"][1] > 0
+
+
+def test_simulate_bad_modulus_is_named():
+    res = runner.invoke(app, ["simulate", "--c5", "nan", "--json"])
+    assert res.exit_code == 1
+    assert "material.c5" in json.loads(res.stdout)["error"]
+
+
+def test_simulate_missing_feb_is_named(tmp_path):
+    res = runner.invoke(app, ["simulate", "--mesh-from", str(tmp_path / "none.feb"), "--json"])
+    assert res.exit_code == 1
+    assert "none.feb" in json.loads(res.stdout)["error"]
+
+
+def test_mesh_study_json_rows():
+    res = runner.invoke(
+        app, ["mesh-study", "--presets", "coarse", "--reference", "default", "--steps", "2", "--json"]
+    )
+    assert res.exit_code == 0, res.output
+    rows = json.loads(res.stdout)["rows"]
+    assert [r["preset"] for r in rows] == ["coarse"]
+    assert rows[0]["nodes"] == 576
+    assert 0.0 < rows[0]["E_u_pct"] < 50.0
+    assert rows[0]["E_f_rel_pct"] == rows[0]["E_f_pct"] * 2  # eq. 1a divides by N_s = 2
