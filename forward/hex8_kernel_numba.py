@@ -11,21 +11,38 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 _TWO_THIRDS = 2.0 / 3.0
 _FOUR_NINTHS = 4.0 / 9.0
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, parallel=True)
 def hex8_three_field_kernel(
     dNdX, w, vol, ue, c1, c5, kappa, a0, want_K, want_dtheta, force, K, energy, dforce
 ):  # pragma: no cover - compiled
     """Fill ``force`` (ne, 24), ``K`` (ne, 24, 24), ``energy`` (ne,), ``dforce`` (ne, 2, 24).
 
-    Returns the smallest Gauss-point det F (<= 0 signals an inverted element; outputs are then
-    incomplete)."""
+    Elements are split into chunks processed in parallel (numba threads; a campaign pins them
+    to one per process). Returns the smallest Gauss-point det F (<= 0 signals an inverted
+    element; outputs are then incomplete)."""
     ne = dNdX.shape[0]
+    n_chunks = min(ne, 64)
+    chunk_min = np.full(n_chunks, np.inf)
+    for ch in prange(n_chunks):
+        lo = ch * ne // n_chunks
+        hi = (ch + 1) * ne // n_chunks
+        chunk_min[ch] = _elements(
+            lo, hi, dNdX, w, vol, ue, c1, c5, kappa, a0, want_K, want_dtheta, force, K, energy, dforce
+        )
+    return chunk_min.min()
+
+
+@njit(cache=True, nogil=True)
+def _elements(
+    lo, hi, dNdX, w, vol, ue, c1, c5, kappa, a0, want_K, want_dtheta, force, K, energy, dforce
+):  # pragma: no cover - compiled
+    """Elements lo..hi-1 of :func:`hex8_three_field_kernel`; returns their smallest det F."""
     minJ = np.inf
     F = np.empty((8, 3, 3))
     Jg = np.empty(8)
@@ -38,7 +55,7 @@ def hex8_three_field_kernel(
     na = np.empty(8)
     gv = np.empty(24)
     Fa = np.empty(3)
-    for e in range(ne):
+    for e in range(lo, hi):
         v = 0.0
         for g in range(8):
             for i in range(3):

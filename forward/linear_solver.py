@@ -44,37 +44,54 @@ def default_backend() -> str:
 class ConstrainedSymmetricSolver:
     """Factorise K with a set of constrained dofs eliminated, then solve for many right-hand sides."""
 
-    def __init__(self, pattern: SparsePattern, backend: str | None = None) -> None:
+    def __init__(
+        self, pattern: SparsePattern, backend: str | None = None, permanent: np.ndarray | None = None
+    ) -> None:
+        """``permanent`` (n,) marks dofs constrained for the whole run (supports, symmetry
+        planes): they are dropped from the factorised system altogether."""
         self.pattern = pattern
         self.backend = backend or default_backend()
         if self.backend not in ("pardiso", "superlu"):
             raise ValueError(f"unknown linear solver {self.backend!r}; use 'pardiso' or 'superlu'")
         n = pattern.n_dofs
-        self._diag_slot = np.empty(n, dtype=np.int64)
-        is_diag = pattern.indices == pattern.row
-        self._diag_slot[pattern.row[is_diag]] = np.flatnonzero(is_diag)
-        upper = pattern.indices >= pattern.row
-        self._upper_slots = np.flatnonzero(upper)
-        self._upper_indices = pattern.indices[upper]
-        self._upper_indptr = np.searchsorted(pattern.row[upper], np.arange(n + 1)).astype(np.int32)
+        self.permanent = np.zeros(n, bool) if permanent is None else np.asarray(permanent, bool)
+        self.kept = np.flatnonzero(~self.permanent)
+        new_index = np.full(n, -1, dtype=np.int64)
+        new_index[self.kept] = np.arange(self.kept.size)
+        self.m = int(self.kept.size)
+        row, col = pattern.row, pattern.indices
+        keep = ~self.permanent[row] & ~self.permanent[col]
+        is_diag = keep & (row == col)
+        self._diag_slot = np.full(n, -1, dtype=np.int64)
+        self._diag_slot[row[is_diag]] = np.flatnonzero(is_diag)
+        for name, sel in (("_full", keep), ("_upper", keep & (col >= row))):
+            slots = np.flatnonzero(sel)  # CSR order: rows ascending, columns ascending
+            r = new_index[row[slots]]
+            setattr(self, name + "_slots", slots)
+            setattr(self, name + "_indices", new_index[col[slots]].astype(np.int32))
+            setattr(self, name + "_indptr", np.searchsorted(r, np.arange(self.m + 1)).astype(np.int32))
         self._pardiso = None
         self._analysed = False
         self._lu = None
         self._matrix = None
 
     def factorize(self, K: sp.csr_matrix, constrained: np.ndarray) -> None:
-        """Factorise ``K`` (assembled on this pattern) with ``constrained`` (n,) dofs eliminated."""
+        """Factorise ``K`` (assembled on this pattern) with the ``constrained`` (n,) dofs
+        eliminated (zero row and column, unit diagonal)."""
         data = K.data.copy()
         p = self.pattern
         data[constrained[p.row] | constrained[p.indices]] = 0.0
-        data[self._diag_slot[constrained]] = 1.0
+        free_diag = constrained & ~self.permanent
+        data[self._diag_slot[free_diag]] = 1.0
         try:
             if self.backend == "pardiso":
                 self._factorize_pardiso(data)
             else:
-                A = sp.csc_matrix((data, p.indices, p.indptr), shape=K.shape)
+                A = sp.csr_matrix(
+                    (data[self._full_slots], self._full_indices, self._full_indptr), shape=(self.m, self.m)
+                )
                 self._lu = spla.splu(
-                    A,
+                    A.tocsc(),
                     permc_spec="MMD_AT_PLUS_A",
                     diag_pivot_thresh=0.0,
                     options={"SymmetricMode": True},
@@ -90,11 +107,10 @@ class ConstrainedSymmetricSolver:
         if self._pardiso is None:
             self._pardiso = pypardiso.PyPardisoSolver(mtype=-2)
         A = sp.csr_matrix(
-            (data[self._upper_slots], self._upper_indices, self._upper_indptr),
-            shape=(self.pattern.n_dofs, self.pattern.n_dofs),
+            (data[self._upper_slots], self._upper_indices, self._upper_indptr), shape=(self.m, self.m)
         )
         self._pardiso._check_A(A)
-        b = np.zeros((A.shape[0], 1))
+        b = np.zeros((self.m, 1))
         if not self._analysed:
             self._pardiso.set_phase(11)
             self._pardiso._call_pardiso(A, b)
@@ -104,15 +120,19 @@ class ConstrainedSymmetricSolver:
         self._matrix = A
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
-        """Solve with the last factorisation; ``rhs`` (n,) or (n, m), zero at constrained dofs."""
+        """Solve with the last factorisation; ``rhs`` (n,) or (n, m) must be zero at the
+        constrained dofs, and so is the solution."""
+        b = rhs[self.kept]
         if self.backend == "pardiso":
             self._pardiso.set_phase(33)
-            x = self._pardiso._call_pardiso(self._matrix, np.asfortranarray(rhs.reshape(rhs.shape[0], -1)))
-            x = x.reshape(rhs.shape)
+            y = self._pardiso._call_pardiso(self._matrix, np.asfortranarray(b.reshape(self.m, -1)))
+            y = y.reshape(b.shape)
         else:
-            x = self._lu.solve(rhs)
-        if not np.all(np.isfinite(x)):
+            y = self._lu.solve(b)
+        if not np.all(np.isfinite(y)):
             raise LinearSolveError(f"{self.backend}: non-finite solution (singular stiffness?)")
+        x = np.zeros(rhs.shape)
+        x[self.kept] = y
         return x
 
     def release(self) -> None:

@@ -29,6 +29,7 @@ from .hex8_mean_dilatation import ReferenceGeometry, element_state
 from .linear_solver import ConstrainedSymmetricSolver, LinearSolveError
 from .mesh import BlockMesh, preset_mesh
 from .result import SYMMETRY_FACTOR, SimulationResult
+from .sparse_assembly import SparsePattern
 from .spec import ModelSpec
 from .stick_contact import RigidSphere, StickContactState
 
@@ -79,16 +80,14 @@ class EmbeddedSolver:
         n = self.mesh.n_nodes
         self.n_dofs = 3 * n
         self.edofs = (3 * self.mesh.elements[:, :, None] + np.arange(3)).reshape(-1, 24)
-        from .sparse_assembly import SparsePattern
-
         self.pattern = SparsePattern(self.edofs, self.n_dofs)
-        self.linear = ConstrainedSymmetricSolver(self.pattern, linear_solver)
-        self.linear_solver = self.linear.backend
         fixed = np.zeros((n, 3), dtype=bool)
         fixed[self.mesh.bottom] = True
         fixed[self.mesh.xsym, 0] = True
         fixed[self.mesh.ysym, 1] = True
         self.bc_fixed = fixed
+        self.linear = ConstrainedSymmetricSolver(self.pattern, linear_solver, permanent=fixed.ravel())
+        self.linear_solver = self.linear.backend
         self.top = self.mesh.top
         top_z = float(self.mesh.nodes[:, 2].max())
         self.sphere = RigidSphere(spec.indenter.radius, top_z)

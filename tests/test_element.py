@@ -71,3 +71,24 @@ def test_inverted_element_is_refused(setup):
     u[mesh.top, 2] = -70.0  # pushes the top below the bottom
     with pytest.raises(FloatingPointError, match="det F"):
         element_state(geo, u[mesh.elements], 10.0, 350.0, 1000.0, FIBER)
+
+
+def test_linear_solver_backends_agree(setup):
+    from indentation_studio.forward.linear_solver import ConstrainedSymmetricSolver
+
+    mesh, geo, pattern, u, rng = setup
+    K = pattern.matrix(element_state(geo, 0.01 * u[mesh.elements], 10.0, 350.0, 1000.0, FIBER).stiffness)
+    permanent = np.zeros(pattern.n_dofs, bool)
+    permanent[3 * mesh.bottom[:, None] + np.arange(3)] = True
+    constrained = permanent.copy()
+    constrained[3 * mesh.top[:3] + 2] = True
+    b = np.where(constrained, 0.0, rng.standard_normal(pattern.n_dofs))
+    xs = []
+    for backend in ("superlu", "pardiso"):
+        lin = ConstrainedSymmetricSolver(pattern, backend, permanent=permanent)
+        lin.factorize(K, constrained)
+        xs.append(lin.solve(b))
+    free = ~constrained
+    assert np.abs((K @ xs[0])[free] - b[free]).max() < 1e-9 * np.abs(b).max()
+    assert np.allclose(xs[0], xs[1], rtol=0, atol=1e-10 * np.abs(xs[0]).max())
+    assert np.all(xs[0][constrained] == 0.0)
