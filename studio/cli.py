@@ -39,12 +39,13 @@ err = Console(stderr=True)
 
 class SolverName(StrEnum):
     embedded = "embedded"
+    febio = "febio"
 
 
 def _fail(message: str, as_json: bool, code: int = 1) -> None:
     if as_json:
         print(json.dumps({"error": message}))
-    err.print(f"[bold red]error:[/] {message}")
+    err.print(f"[bold red]error:[/] {message}", soft_wrap=True, highlight=False)
     raise typer.Exit(code)
 
 
@@ -89,24 +90,38 @@ def simulate(
     ] = None,
     as_json: JSON = False,
 ) -> None:
-    """One indentation simulation (default: the paper's baseline, R = 4.77 mm, 28 x 0.5 mm)."""
+    """One indentation simulation (default: the paper's baseline, R = 4.77 mm, 28 x 0.5 mm).
+
+    ``--solver febio`` runs the same model on FEBio 4 (FEBIO_PATH or PATH); its .feb, log and
+    plot file stay in a folder beside the result file."""
     from ..forward.solver import EmbeddedSolver, SimulationError
 
     try:
         spec = _spec(c1, c5, kappa, radius, steps, step_size, mesh, mesh_from, substeps)
-        engine = EmbeddedSolver(spec)
     except (SpecError, ValueError) as exc:
         _fail(str(exc), as_json)
     if out is None:
         tag = Path(mesh_from).stem if mesh_from else mesh
-        out = Path("runs/simulations") / f"c1={c1:g}_c5={c5:g}_R={radius:g}_{tag}.npz"
+        out = Path("runs/simulations") / f"c1={c1:g}_c5={c5:g}_R={radius:g}_{tag}_{solver.value}.npz"
+    try:
+        if solver == SolverName.febio:
+            from ..forward.febio_runner import FebioSolver
+
+            if sensitivities:
+                raise ValueError("--sensitivities needs the embedded solver")
+            engine = FebioSolver(spec, workdir=out.with_name(out.stem + ".febio"))
+        else:
+            engine = EmbeddedSolver(spec)
+    except (SpecError, ValueError, FileNotFoundError) as exc:
+        _fail(str(exc), as_json)
     t0 = time.perf_counter()
-    with step_progress(err, "simulate", spec.protocol.steps) as bar:
+    with step_progress(err, f"simulate ({solver.value})", spec.protocol.steps) as bar:
+        report = lambda k, n, f: bar.update(k, f"{k * step_size:.1f} mm  {f:.1f} mN")  # noqa: E731
         try:
-            result = engine.run(
-                sensitivities=sensitivities,
-                progress=lambda k, n, f: bar.update(k, f"{k * step_size:.1f} mm  {f:.1f} mN"),
-            )
+            if solver == SolverName.febio:
+                result = engine.run(progress=lambda k, n, d: bar.update(k, f"{d:.2f} mm"))
+            else:
+                result = engine.run(sensitivities=sensitivities, progress=report)
         except SimulationError as exc:
             if exc.partial is not None and len(exc.partial.depth) > 1:
                 partial = exc.partial.save(out.with_name(out.stem + ".partial.npz"))
@@ -121,13 +136,13 @@ def simulate(
         "newton_iterations": result.newton_iterations,
         "result_file": str(path),
         "solver": result.solver["name"],
-        "mesh": result.solver["mesh"],
+        "mesh": result.solver.get("mesh", {"source": str(mesh_from or mesh)}),
     }
     if as_json:
         print(json.dumps(payload))
         return
     table = Table(
-        title=f"c1 = {c1:g} kPa, c5 = {c5:g} kPa, R = {radius:g} mm, mesh {result.solver['mesh']['source']}"
+        title=f"c1 = {c1:g} kPa, c5 = {c5:g} kPa, R = {radius:g} mm, {solver.value}, mesh {payload['mesh']['source']}"
     )
     table.add_column("depth [mm]", justify="right")
     table.add_column("force [mN] (whole specimen)", justify="right")
@@ -137,6 +152,35 @@ def simulate(
     Console().print(
         f"wall time {payload['wall_s']:.2f} s, {result.newton_iterations} Newton iterations, result: {path}"
     )
+
+
+@app.command("export-feb")
+def export_feb(
+    out: Annotated[Path, typer.Option(help="the .feb file to write")],
+    c1: C1 = 10.0,
+    c5: C5 = 350.0,
+    kappa: KAPPA = 1000.0,
+    radius: RADIUS = 4.77,
+    steps: STEPS = 28,
+    step_size: STEP_SIZE = 0.5,
+    mesh: MESH = "default",
+    mesh_from: MESH_FROM = None,
+    as_json: JSON = False,
+) -> None:
+    """Write the model as a FEBio 4.0 .feb to run with febio4 or open in FEBio Studio."""
+    from ..forward.feb_writer import write_feb
+
+    try:
+        spec = _spec(c1, c5, kappa, radius, steps, step_size, mesh, mesh_from, 2)
+        path = write_feb(spec, out)
+    except (SpecError, ValueError, OSError) as exc:
+        _fail(str(exc), as_json)
+    if as_json:
+        print(json.dumps({"feb_file": str(path), "log_file": str(path.with_suffix(".log"))}))
+    else:
+        Console().print(
+            f"wrote {path}: run it with  febio4 -i {path.name}  (data log: {path.with_suffix('.log').name})"
+        )
 
 
 @app.command("mesh-study")

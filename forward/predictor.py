@@ -1,0 +1,146 @@
+"""The one seam of ARCHITECTURE.md: a Predictor maps parameters to force curves and fields.
+
+``predict(theta (n, p), kPa) -> Prediction(force (n, steps) mN, displacement (n, steps, nodes, 3) mm)``.
+The steps are the indentation steps 1..N_s (depth 0, where everything is zero, is left out, so
+that relative force errors, eq. 4a, are defined at every step). ``theta``'s columns are named by
+the Predictor's ``parameters``; nothing downstream assumes p = 2.
+
+:class:`FESolverPredictor` runs the embedded FE solver (with its exact sensitivities when asked)
+or FEBio; the surrogates implement the same protocol.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+from .result import SimulationResult
+from .spec import ModelSpec, SpecError
+
+
+@dataclass
+class Prediction:
+    """Force curves and top-surface displacement fields for n parameter points."""
+
+    force: np.ndarray  # (n, steps) mN, whole specimen
+    displacement: np.ndarray  # (n, steps, nodes, 3) mm
+    depth: np.ndarray  # (steps,) mm
+    top_xyz: np.ndarray  # (nodes, 3) reference coordinates, mm
+    parameters: tuple[str, ...] = ("c1", "c5")
+    force_jacobian: np.ndarray | None = None  # (n, steps, p) mN/kPa
+    displacement_jacobian: np.ndarray | None = None  # (n, steps, nodes, 3, p) mm/kPa
+
+    @property
+    def n(self) -> int:
+        return int(self.force.shape[0])
+
+    @classmethod
+    def from_results(cls, results: list[SimulationResult], parameters: tuple[str, ...]) -> Prediction:
+        """Stack simulation results (depth 0 dropped) into one Prediction."""
+        first = results[0]
+        sens = all(r.force_sensitivity is not None for r in results)
+        return cls(
+            force=np.stack([r.force[1:] for r in results]),
+            displacement=np.stack([r.displacement[1:] for r in results]),
+            depth=np.asarray(first.depth[1:]),
+            top_xyz=np.asarray(first.top_xyz),
+            parameters=parameters,
+            force_jacobian=np.stack([r.force_sensitivity[1:] for r in results]) if sens else None,
+            displacement_jacobian=np.stack([r.displacement_sensitivity[1:] for r in results])
+            if sens
+            else None,
+        )
+
+
+@runtime_checkable
+class Predictor(Protocol):
+    """Anything that predicts force curves and fields from parameters (ARCHITECTURE.md)."""
+
+    parameters: tuple[str, ...]
+
+    def predict(self, theta: np.ndarray) -> Prediction: ...
+
+
+def as_theta(theta: np.ndarray | list, p: int) -> np.ndarray:
+    """``theta`` as a finite (n, p) float array; one point may be given as (p,)."""
+    t = np.atleast_2d(np.asarray(theta, dtype=float))
+    if t.ndim != 2 or t.shape[1] != p:
+        raise ValueError(f"theta must have {p} columns, got shape {np.shape(theta)}")
+    if not np.all(np.isfinite(t)):
+        raise ValueError("theta holds NaN or infinite values")
+    return t
+
+
+class FESolverPredictor:
+    """A Predictor that runs one FE simulation per parameter point.
+
+    ``solver`` is ``"embedded"`` (sensitivities available: exact d force / d theta and
+    d u / d theta from the solver) or ``"febio"`` (needs FEBio 4, see forward.febio_runner).
+    ``n_jobs`` > 1 runs points in parallel with joblib processes.
+    """
+
+    def __init__(
+        self,
+        spec: ModelSpec,
+        solver: str = "embedded",
+        sensitivities: bool = False,
+        parameters: tuple[str, ...] = ("c1", "c5"),
+        n_jobs: int = 1,
+        workdir: str | Path | None = None,
+    ) -> None:
+        if solver not in ("embedded", "febio"):
+            raise ValueError(f"unknown solver {solver!r}; use 'embedded' or 'febio'")
+        if sensitivities and solver != "embedded":
+            raise ValueError("exact sensitivities come from the embedded solver only")
+        if tuple(parameters) != ("c1", "c5"):
+            raise ValueError(f"the FE solvers take parameters ('c1', 'c5'), got {parameters}")
+        if solver == "febio":
+            from .febio_runner import find_febio
+
+            find_febio()  # fail now, with the FEBIO_PATH message, not inside a worker
+        self.spec = spec
+        self.solver = solver
+        self.sensitivities = sensitivities
+        self.parameters = tuple(parameters)
+        self.n_jobs = n_jobs
+        self.workdir = Path(workdir) if workdir else None
+
+    def spec_at(self, point: np.ndarray) -> ModelSpec:
+        """The model spec at one parameter point (a bad value raises SpecError naming it)."""
+        return self.spec.with_material(**{k: float(v) for k, v in zip(self.parameters, point, strict=True)})
+
+    def simulate(self, point: np.ndarray, index: int = 0) -> SimulationResult:
+        spec = self.spec_at(point)
+        if self.solver == "embedded":
+            from .solver import simulate
+
+            return simulate(spec, sensitivities=self.sensitivities)
+        from .febio_runner import FebioSolver
+
+        workdir = self.workdir / f"point-{index:05d}" if self.workdir else None
+        return FebioSolver(spec, workdir=workdir).run()
+
+    def predict(self, theta: np.ndarray) -> Prediction:
+        t = as_theta(theta, len(self.parameters))
+        for point in t:
+            self.spec_at(point)  # validate every point before any is solved
+        if self.n_jobs == 1 or len(t) == 1:
+            results = [self.simulate(point, i) for i, point in enumerate(t)]
+        else:
+            from joblib import Parallel, delayed
+
+            results = Parallel(n_jobs=self.n_jobs)(delayed(self.simulate)(p, i) for i, p in enumerate(t))
+        return Prediction.from_results(results, self.parameters)
+
+    def with_spec(self, **changes) -> FESolverPredictor:
+        """The same predictor on a changed spec (e.g. ``indenter=Indenter(8.0)``)."""
+        try:
+            spec = replace(self.spec, **changes)
+        except TypeError as exc:
+            raise SpecError("spec", str(exc)) from exc
+        return FESolverPredictor(
+            spec, self.solver, self.sensitivities, self.parameters, self.n_jobs, self.workdir
+        )
