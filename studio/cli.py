@@ -9,7 +9,6 @@ from __future__ import annotations
 import json
 import sys
 import time
-from enum import StrEnum
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -17,15 +16,23 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from ..forward.spec import (
-    Geometry,
-    Indenter,
-    Material,
-    MeshChoice,
-    ModelSpec,
-    Protocol,
-    SolverOptions,
-    SpecError,
+from ..forward.spec import SpecError
+from .campaign_cli import campaign_app
+from .options import (
+    C1,
+    C5,
+    JSON,
+    KAPPA,
+    MESH,
+    MESH_FROM,
+    RADIUS,
+    STEP_SIZE,
+    STEPS,
+    SUBSTEPS,
+    SolverName,
+    err,
+    fail,
+    model_spec,
 )
 from .progress import step_progress
 
@@ -34,42 +41,7 @@ app = typer.Typer(
     no_args_is_help=True,
     add_completion=False,
 )
-err = Console(stderr=True)
-
-
-class SolverName(StrEnum):
-    embedded = "embedded"
-    febio = "febio"
-
-
-def _fail(message: str, as_json: bool, code: int = 1) -> None:
-    if as_json:
-        print(json.dumps({"error": message}))
-    err.print(f"[bold red]error:[/] {message}", soft_wrap=True, highlight=False)
-    raise typer.Exit(code)
-
-
-def _spec(c1, c5, kappa, radius, steps, step_size, mesh, mesh_from, substeps) -> ModelSpec:
-    return ModelSpec(
-        geometry=Geometry(),
-        indenter=Indenter(radius),
-        protocol=Protocol(step_size=step_size, steps=steps),
-        material=Material(c1=c1, c5=c5, kappa=kappa),
-        mesh=MeshChoice(preset=mesh, feb_file=str(mesh_from) if mesh_from else None),
-        solver=SolverOptions(substeps=substeps),
-    )
-
-
-C1 = Annotated[float, typer.Option(help="c1, kPa (eq. 3)")]
-C5 = Annotated[float, typer.Option(help="c5, kPa (eq. 3)")]
-KAPPA = Annotated[float, typer.Option(help="bulk-like modulus kappa, kPa")]
-RADIUS = Annotated[float, typer.Option(help="sphere radius, mm (paper: 4.77 or 8)")]
-STEPS = Annotated[int, typer.Option(help="number of indentation steps")]
-STEP_SIZE = Annotated[float, typer.Option(help="depth per step, mm")]
-MESH = Annotated[str, typer.Option(help="mesh preset: coarse, default, fine, reference")]
-MESH_FROM = Annotated[Path | None, typer.Option(help="run on the hex8 block mesh of this FEBio .feb file")]
-SUBSTEPS = Annotated[int, typer.Option(help="solver increments per step")]
-JSON = Annotated[bool, typer.Option("--json", help="print one JSON object on stdout")]
+app.add_typer(campaign_app, name="campaign")
 
 
 @app.command()
@@ -97,9 +69,9 @@ def simulate(
     from ..forward.solver import EmbeddedSolver, SimulationError
 
     try:
-        spec = _spec(c1, c5, kappa, radius, steps, step_size, mesh, mesh_from, substeps)
+        spec = model_spec(c1, c5, kappa, radius, steps, step_size, mesh, mesh_from, substeps)
     except (SpecError, ValueError) as exc:
-        _fail(str(exc), as_json)
+        fail(str(exc), as_json)
     if out is None:
         tag = Path(mesh_from).stem if mesh_from else mesh
         out = Path("runs/simulations") / f"c1={c1:g}_c5={c5:g}_R={radius:g}_{tag}_{solver.value}.npz"
@@ -113,7 +85,7 @@ def simulate(
         else:
             engine = EmbeddedSolver(spec)
     except (SpecError, ValueError, FileNotFoundError) as exc:
-        _fail(str(exc), as_json)
+        fail(str(exc), as_json)
     t0 = time.perf_counter()
     with step_progress(err, f"simulate ({solver.value})", spec.protocol.steps) as bar:
         report = lambda k, n, f: bar.update(k, f"{k * step_size:.1f} mm  {f:.1f} mN")  # noqa: E731
@@ -126,7 +98,7 @@ def simulate(
             if exc.partial is not None and len(exc.partial.depth) > 1:
                 partial = exc.partial.save(out.with_name(out.stem + ".partial.npz"))
                 err.print(f"steps completed before the failure are kept in {partial}")
-            _fail(str(exc), as_json)
+            fail(str(exc), as_json)
     path = result.save(out)
     payload: dict[str, Any] = {
         "depth_mm": result.depth.tolist(),
@@ -171,10 +143,10 @@ def export_feb(
     from ..forward.feb_writer import write_feb
 
     try:
-        spec = _spec(c1, c5, kappa, radius, steps, step_size, mesh, mesh_from, 2)
+        spec = model_spec(c1, c5, kappa, radius, steps, step_size, mesh, mesh_from, 2)
         path = write_feb(spec, out)
     except (SpecError, ValueError, OSError) as exc:
-        _fail(str(exc), as_json)
+        fail(str(exc), as_json)
     if as_json:
         print(json.dumps({"feb_file": str(path), "log_file": str(path.with_suffix(".log"))}))
     else:
@@ -207,10 +179,11 @@ def mesh_study(
     results = {}
     try:
         specs = {
-            n: _spec(c1, c5, kappa, radius, steps, step_size, n, None, substeps) for n in [*names, reference]
+            n: model_spec(c1, c5, kappa, radius, steps, step_size, n, None, substeps)
+            for n in [*names, reference]
         }
     except (SpecError, ValueError) as exc:
-        _fail(str(exc), as_json)
+        fail(str(exc), as_json)
     for name, spec in specs.items():
         with step_progress(err, f"mesh {name}", steps) as bar:
             try:
@@ -220,7 +193,7 @@ def mesh_study(
                 if out_dir is not None:
                     results[name].save(Path(out_dir) / f"{name}.npz")
             except SimulationError as exc:
-                _fail(f"mesh {name}: {exc}", as_json)
+                fail(f"mesh {name}: {exc}", as_json)
     rows = []
     for name in names:
         e = mesh_errors(results[name], results[reference])
@@ -264,3 +237,7 @@ def mesh_study(
 
 def main() -> None:  # pragma: no cover
     sys.exit(app())
+
+
+if __name__ == "__main__":  # pragma: no cover
+    main()

@@ -1,0 +1,136 @@
+"""Parameter designs of a campaign: the paper's grid, user grids, CSV points, LHS and Sobol.
+
+The paper (2.6) runs 775 simulations over c1 in [1, 21] kPa and c5 in [82.5, 578] kPa without
+giving the spacing; 775 = 25 x 31, so :func:`paper_grid` takes 25 evenly spaced c1 values times
+31 evenly spaced c5 values, ends included.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from scipy.stats import qmc
+
+#: The paper's parameter box, kPa.
+PAPER_BOUNDS: dict[str, tuple[float, float]] = {"c1": (1.0, 21.0), "c5": (82.5, 578.0)}
+PAPER_COUNTS: dict[str, int] = {"c1": 25, "c5": 31}
+
+
+class DesignError(ValueError):
+    """A design that cannot be built; the message names the offending part."""
+
+
+@dataclass(frozen=True)
+class Design:
+    """Parameter points (n, p) with named columns and a description that reproduces them."""
+
+    points: np.ndarray
+    parameters: tuple[str, ...]
+    description: str
+
+    def __post_init__(self) -> None:
+        pts = np.asarray(self.points, dtype=float)
+        if pts.ndim != 2 or pts.shape[1] != len(self.parameters) or len(pts) == 0:
+            raise DesignError(f"design {self.description!r}: points must be (n >= 1, {len(self.parameters)})")
+        object.__setattr__(self, "points", pts)
+
+
+def grid(bounds: dict[str, tuple[float, float]], counts: dict[str, int], description: str) -> Design:
+    """Full factorial grid, evenly spaced per parameter (ends included), first parameter slowest."""
+    names = tuple(bounds)
+    axes = []
+    for k in names:
+        lo, hi = bounds[k]
+        n = counts[k]
+        if not (np.isfinite(lo) and np.isfinite(hi)) or n < 1 or (n > 1 and hi <= lo):
+            raise DesignError(f"{k}: need finite LO < HI and N >= 1, got {lo}:{hi}:{n}")
+        axes.append(np.linspace(lo, hi, n) if n > 1 else np.array([lo]))
+    mesh = np.meshgrid(*axes, indexing="ij")
+    return Design(np.column_stack([m.ravel() for m in mesh]), names, description)
+
+
+def paper_grid() -> Design:
+    """The paper's 775 points: 25 c1 x 31 c5 over its box (module docstring)."""
+    return grid(PAPER_BOUNDS, PAPER_COUNTS, "paper")
+
+
+_RANGE = re.compile(r"^\s*(\w+)\s*=\s*([^:]+):([^:]+):(\d+)\s*$")
+
+
+def parse_grid(text: str) -> Design:
+    """A grid from ``c1=LO:HI:N,c5=LO:HI:N``."""
+    bounds, counts = {}, {}
+    for part in text.split(","):
+        m = _RANGE.match(part)
+        if not m:
+            raise DesignError(f"grid part {part!r}: expected NAME=LO:HI:N, e.g. c1=1:21:25")
+        name = m.group(1)
+        try:
+            bounds[name] = (float(m.group(2)), float(m.group(3)))
+        except ValueError as exc:
+            raise DesignError(f"grid part {part!r}: LO and HI must be numbers") from exc
+        counts[name] = int(m.group(4))
+    return grid(bounds, counts, text.replace(" ", ""))
+
+
+def points_from_csv(path: str | Path, parameters: tuple[str, ...] = ("c1", "c5")) -> Design:
+    """Points from a CSV file with a header naming the parameter columns (other columns ignored)."""
+    import pandas as pd
+
+    path = Path(path)
+    try:
+        table = pd.read_csv(path)
+    except (OSError, ValueError) as exc:
+        raise DesignError(f"{path}: cannot read the points CSV ({exc})") from exc
+    missing = [k for k in parameters if k not in table.columns]
+    if missing:
+        raise DesignError(f"{path}: missing column(s) {missing}; the header must name {list(parameters)}")
+    values = table[list(parameters)].apply(pd.to_numeric, errors="coerce")
+    bad = values.isna().any(axis=1)
+    if bad.any():
+        row = int(np.argmax(bad.to_numpy()))
+        col = next(k for k in parameters if pd.isna(values.iloc[row][k]))
+        raise DesignError(f"{path}: row {row + 2}, column {col!r}: not a number ({table.iloc[row][col]!r})")
+    return Design(values.to_numpy(float), tuple(parameters), f"csv:{path}")
+
+
+def space_filling(
+    kind: str, n: int, bounds: dict[str, tuple[float, float]] | None = None, seed: int = 0
+) -> Design:
+    """``n`` points of a Latin hypercube (``lhs``) or scrambled Sobol (``sobol``) design in ``bounds``
+    (default: the paper's box), reproducible from ``seed`` (scipy.stats.qmc)."""
+    bounds = bounds or PAPER_BOUNDS
+    d = len(bounds)
+    if n < 1:
+        raise DesignError(f"{kind}: need n >= 1 points, got {n}")
+    if kind == "lhs":
+        unit = qmc.LatinHypercube(d=d, seed=seed).random(n)
+    elif kind == "sobol":
+        unit = qmc.Sobol(d=d, scramble=True, seed=seed).random(n)
+    else:
+        raise DesignError(f"unknown design kind {kind!r}; use 'lhs' or 'sobol'")
+    lo, hi = np.array(list(bounds.values())).T
+    return Design(qmc.scale(unit, lo, hi), tuple(bounds), f"{kind}:n={n}:seed={seed}")
+
+
+def design_from_option(text: str) -> Design:
+    """The CLI's ``--grid``: ``paper``, a CSV path, ``c1=LO:HI:N,c5=LO:HI:N``, or ``lhs:N[:SEED]`` /
+    ``sobol:N[:SEED]`` over the paper's box."""
+    t = text.strip()
+    if t == "paper":
+        return paper_grid()
+    kind = t.split(":", 1)[0]
+    if kind in ("lhs", "sobol"):
+        parts = t.split(":")
+        try:
+            n = int(parts[1])
+            seed = int(parts[2]) if len(parts) > 2 else 0
+        except (IndexError, ValueError) as exc:
+            raise DesignError(f"--grid {t!r}: expected {kind}:N or {kind}:N:SEED") from exc
+        return space_filling(kind, n, seed=seed)
+    if t.lower().endswith(".csv"):
+        return points_from_csv(t)
+    return parse_grid(t)

@@ -1,0 +1,80 @@
+"""A finished campaign as arrays, for the surrogates and the design tools, and as a tidy table."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from ..forward.result import SimulationResult
+from .store import CampaignError, CampaignStore
+
+
+@dataclass
+class CampaignData:
+    """The done points of a campaign. Steps are 1..N_s (depth 0 left out, as in a Prediction)."""
+
+    theta: np.ndarray  # (n, p) kPa
+    force: np.ndarray  # (n, steps) mN, whole specimen
+    displacement: np.ndarray  # (n, steps, nodes, 3) mm
+    depth: np.ndarray  # (steps,) mm
+    top_xyz: np.ndarray  # (nodes, 3) mm
+    top_node_ids: np.ndarray  # (nodes,)
+    parameters: tuple[str, ...]
+    points: np.ndarray  # (n,) point numbers in the store
+    spec: dict[str, Any]  # the campaign spec (campaign.json)
+
+    @property
+    def n(self) -> int:
+        return len(self.theta)
+
+
+def open_campaign(name_or_path: str | Path, runs_dir: str | Path = "runs") -> CampaignStore:
+    """A campaign by folder path or by name under ``runs_dir``."""
+    p = Path(name_or_path)
+    root = p if (p / "campaign.json").is_file() else Path(runs_dir) / str(name_or_path)
+    return CampaignStore.open(root)
+
+
+def load_campaign(name_or_path: str | Path, runs_dir: str | Path = "runs") -> CampaignData:
+    """Arrays of every done point (failed and pending points are left out)."""
+    store = open_campaign(name_or_path, runs_dir)
+    done = store.points_with("done")
+    if len(done) == 0:
+        raise CampaignError(f"campaign {store.spec.name!r} has no finished points yet")
+    results = [SimulationResult.load(store.result_path(i)) for i in done]
+    first = results[0]
+    for i, r in zip(done, results, strict=True):
+        if r.force.shape != first.force.shape or not np.array_equal(r.top_node_ids, first.top_node_ids):
+            raise CampaignError(f"point {i}: its result has other steps or nodes than point {done[0]}")
+    return CampaignData(
+        theta=store.spec.design.points[done],
+        force=np.stack([r.force[1:] for r in results]),
+        displacement=np.stack([r.displacement[1:] for r in results]),
+        depth=np.asarray(first.depth[1:]),
+        top_xyz=np.asarray(first.top_xyz),
+        top_node_ids=np.asarray(first.top_node_ids),
+        parameters=store.spec.design.parameters,
+        points=done,
+        spec=store.spec.to_dict(),
+    )
+
+
+def force_table(store: CampaignStore) -> pd.DataFrame:
+    """Tidy table of the done points: one row per point and step (point, parameters, step,
+    depth_mm, force_mN)."""
+    rows = []
+    names = store.spec.design.parameters
+    for i in store.points_with("done"):
+        r = SimulationResult.load(store.result_path(i))
+        k = np.arange(len(r.depth))
+        block = pd.DataFrame({"point": i, "step": k, "depth_mm": r.depth, "force_mN": r.force})
+        for j, name in enumerate(names):
+            block.insert(1 + j, name, store.spec.design.points[i, j])
+        rows.append(block)
+    if not rows:
+        return pd.DataFrame(columns=["point", *names, "step", "depth_mm", "force_mN"])
+    return pd.concat(rows, ignore_index=True)

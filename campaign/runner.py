@@ -1,0 +1,147 @@
+"""Run the pending points of a campaign in parallel with joblib: local processes, or the dask
+backend on a dask.distributed cluster (``scheduler="tcp://host:8786"``).
+
+Each worker solves one point single-threaded (BLAS/MKL and numba threads pinned to 1, so that
+``jobs`` processes use ``jobs`` cores), writes its result file atomically and returns its index
+row; the parent records each row as it arrives. A point that fails (spec error, no convergence,
+solver error, timeout) is recorded with its reason and the campaign goes on.
+"""
+
+from __future__ import annotations
+
+import time
+import traceback
+from collections.abc import Callable
+from contextlib import nullcontext
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..forward.spec import ModelSpec
+from .store import CampaignStore
+
+
+class PointTimeout(RuntimeError):
+    """A point that ran longer than the campaign's per-point timeout."""
+
+
+def solve_point(
+    point: int,
+    model: dict[str, Any],
+    solver: str,
+    parameters: tuple[str, ...],
+    values: list[float],
+    out: str,
+    partial_out: str,
+    timeout_s: float | None,
+    workdir: str | None = None,
+) -> dict[str, Any]:
+    """Solve one point and write its result file; never raises (a failure becomes the row)."""
+    t0 = time.perf_counter()
+    row: dict[str, Any] = {
+        "point": point,
+        "status": "failed",
+        "wall_s": np.nan,
+        "newton_iterations": None,
+        "error": None,
+    }
+    try:
+        import numba
+        from threadpoolctl import threadpool_limits
+
+        numba.set_num_threads(1)
+        with threadpool_limits(1):
+            spec = ModelSpec.from_dict(model).with_material(**dict(zip(parameters, values, strict=True)))
+            if solver == "febio":
+                from ..forward.febio_runner import FebioSolver
+
+                result = FebioSolver(spec, workdir=workdir, timeout_s=timeout_s).run()
+            else:
+                from ..forward.solver import EmbeddedSolver
+
+                def deadline(k: int, n: int, f: float) -> None:
+                    if timeout_s is not None and time.perf_counter() - t0 > timeout_s:
+                        raise PointTimeout(f"timeout: {timeout_s:g} s exceeded after step {k} of {n}")
+
+                result = EmbeddedSolver(spec).run(progress=deadline)
+        result.save(out)
+        row.update(status="done", newton_iterations=result.newton_iterations)
+    except Exception as exc:  # recorded, never propagated: one bad point must not stop a campaign
+        partial = getattr(exc, "partial", None)
+        if partial is not None and len(partial.depth) > 1:
+            try:
+                partial.save(partial_out)
+            except OSError:
+                pass
+        message = f"{type(exc).__name__}: {exc}".strip()
+        if not isinstance(exc, (ValueError, RuntimeError, TimeoutError, OSError)):
+            message += " | " + traceback.format_exc(limit=3).replace("\n", " ")
+        row["error"] = message[:2000]
+    row["wall_s"] = time.perf_counter() - t0
+    row["finished"] = time.strftime("%Y-%m-%dT%H:%M:%S")
+    return row
+
+
+def run_campaign(
+    store: CampaignStore,
+    jobs: int = 1,
+    scheduler: str | None = None,
+    retry_failed: bool = False,
+    timeout_s: float | None = None,
+    progress: Callable[[int, int, dict[str, int]], None] | None = None,
+    index_every_s: float = 1.0,
+) -> dict[str, Any]:
+    """Solve the pending points (and the failed ones with ``retry_failed``); returns the summary."""
+    from joblib import Parallel, delayed, parallel_config
+
+    todo = store.points_with("pending", "failed") if retry_failed else store.points_with("pending")
+    spec = store.spec
+    model = spec.model.to_dict()
+    t0 = time.perf_counter()
+    total = len(todo)
+    if total:
+        client = None
+        if scheduler:
+            from distributed import Client
+
+            client = Client(scheduler)
+            context = parallel_config(backend="dask", wait_for_workers_timeout=60)
+        else:
+            context = nullcontext()
+        calls = (
+            delayed(solve_point)(
+                int(i),
+                model,
+                spec.solver,
+                spec.design.parameters,
+                spec.design.points[i].tolist(),
+                str(store.result_path(i)),
+                str(store.partial_path(i)),
+                timeout_s,
+                str(store.root / "febio" / f"{i:05d}") if spec.solver == "febio" else None,
+            )
+            for i in todo
+        )
+        try:
+            with context:
+                runner = Parallel(n_jobs=jobs if not scheduler else -1, return_as="generator_unordered")
+                last_write = time.perf_counter()
+                done = 0
+                for row in runner(calls):  # in completion order; each row names its point
+                    store.record(int(row.pop("point")), row, write=False)
+                    done += 1
+                    if time.perf_counter() - last_write > index_every_s or done == total:
+                        store.write_index()
+                        last_write = time.perf_counter()
+                    if progress is not None:
+                        progress(done, total, store.counts())
+        finally:
+            store.write_index()
+            if client is not None:
+                client.close()
+    return store.summary() | {"wall_s": time.perf_counter() - t0, "solved_now": total}
+
+
+def default_runs_dir() -> Path:
+    return Path("runs")

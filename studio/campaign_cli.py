@@ -1,0 +1,167 @@
+"""``indent-studio campaign run | status | export``."""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from ..campaign.designs import DesignError, design_from_option
+from ..campaign.store import CampaignError
+from ..forward.spec import SpecError
+from .options import (
+    JSON,
+    KAPPA,
+    MESH,
+    MESH_FROM,
+    RADIUS,
+    STEP_SIZE,
+    STEPS,
+    SUBSTEPS,
+    SolverName,
+    err,
+    fail,
+    model_spec,
+)
+from .progress import step_progress
+
+campaign_app = typer.Typer(help="Many simulations over a parameter design, resumable, in parallel.")
+
+NAME = Annotated[str, typer.Option(help="campaign name: its folder under --runs-dir")]
+RUNS_DIR = Annotated[Path, typer.Option(help="where campaigns live")]
+
+
+def _print_summary(summary: dict[str, Any], title: str) -> None:
+    table = Table(title=title)
+    for key in ("points", "done", "failed", "pending", "solver_wall_s", "median_point_s", "store_bytes"):
+        value = summary.get(key)
+        table.add_row(key, f"{value:.3g}" if isinstance(value, float) else str(value))
+    Console().print(table)
+    for f in summary.get("failures", [])[:10]:
+        Console().print(f"failed point {f['point']}: {f['error']}", soft_wrap=True, highlight=False)
+
+
+@campaign_app.command("run")
+def run(
+    name: NAME,
+    grid: Annotated[
+        str,
+        typer.Option(help="paper | FILE.csv | c1=LO:HI:N,c5=LO:HI:N | lhs:N[:SEED] | sobol:N[:SEED]"),
+    ] = "paper",
+    kappa: KAPPA = 1000.0,
+    radius: RADIUS = 4.77,
+    steps: STEPS = 28,
+    step_size: STEP_SIZE = 0.5,
+    mesh: MESH = "default",
+    mesh_from: MESH_FROM = None,
+    substeps: SUBSTEPS = 2,
+    solver: Annotated[SolverName, typer.Option(help="FE solver")] = SolverName.embedded,
+    jobs: Annotated[int, typer.Option(help="parallel processes (default: all cores)")] = 0,
+    scheduler: Annotated[
+        str | None, typer.Option(help="dask.distributed scheduler address, e.g. tcp://10.0.0.1:8786")
+    ] = None,
+    timeout: Annotated[float | None, typer.Option(help="per-point timeout, s")] = None,
+    retry_failed: Annotated[bool, typer.Option(help="solve the failed points again")] = False,
+    runs_dir: RUNS_DIR = Path("runs"),
+    as_json: JSON = False,
+) -> None:
+    """Run (or resume) a campaign; finished points are skipped, failures recorded."""
+    from ..campaign.runner import run_campaign
+    from ..campaign.store import CampaignSpec, CampaignStore
+
+    try:
+        design = design_from_option(grid)
+        # the material values of the base spec are placeholders: each point sets its own
+        base = model_spec(1.0, 1.0, kappa, radius, steps, step_size, mesh, mesh_from, substeps)
+        spec = CampaignSpec(name, design, base, solver.value)
+        store = CampaignStore.create_or_open(runs_dir, spec)
+        if solver == SolverName.febio:
+            from ..forward.febio_runner import find_febio
+
+            find_febio()
+    except (DesignError, CampaignError, SpecError, ValueError, FileNotFoundError) as exc:
+        fail(str(exc), as_json)
+    n_jobs = jobs if jobs > 0 else (os.cpu_count() or 1)
+    todo = len(store.points_with("pending", "failed") if retry_failed else store.points_with("pending"))
+    err.print(
+        f"campaign {name}: {len(design.points)} points ({design.description}), {todo} to solve, "
+        f"{'dask ' + scheduler if scheduler else f'{n_jobs} processes'}; store {store.root}",
+        highlight=False,
+    )
+    t0 = time.perf_counter()
+    with step_progress(err, f"campaign {name}", max(todo, 1)) as bar:
+
+        def report(done: int, total: int, counts: dict[str, int]) -> None:
+            rate = done / max(time.perf_counter() - t0, 1e-9) * 60.0
+            bar.update(done, f"done {counts['done']} failed {counts['failed']}  {rate:.1f} points/min")
+
+        try:
+            summary = run_campaign(
+                store,
+                jobs=n_jobs,
+                scheduler=scheduler,
+                retry_failed=retry_failed,
+                timeout_s=timeout,
+                progress=report,
+            )
+        except (OSError, ValueError) as exc:
+            fail(f"campaign {name}: {exc} (finished points are kept in {store.root})", as_json)
+    if as_json:
+        print(json.dumps(summary))
+        return
+    _print_summary(summary, f"campaign {name}: {summary['wall_s']:.1f} s")
+
+
+@campaign_app.command("status")
+def status(name: NAME, runs_dir: RUNS_DIR = Path("runs"), as_json: JSON = False) -> None:
+    """Done, failed and pending points, wall time, failures with their reasons."""
+    from ..campaign.loader import open_campaign
+
+    try:
+        store = open_campaign(name, runs_dir)
+    except CampaignError as exc:
+        fail(str(exc), as_json)
+    summary = store.summary()
+    if as_json:
+        print(json.dumps(summary))
+        return
+    _print_summary(summary, f"campaign {name} ({store.root})")
+
+
+@campaign_app.command("export")
+def export(
+    name: NAME,
+    out: Annotated[Path, typer.Option(help="table file: .parquet or .csv")],
+    runs_dir: RUNS_DIR = Path("runs"),
+    as_json: JSON = False,
+) -> None:
+    """A tidy table of force per step (point, c1, c5, step, depth_mm, force_mN) for pandas."""
+    from ..campaign.loader import force_table, open_campaign
+
+    try:
+        store = open_campaign(name, runs_dir)
+        table = force_table(store)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        if out.suffix == ".csv":
+            table.to_csv(out, index=False)
+        elif out.suffix == ".parquet":
+            table.to_parquet(out, index=False)
+        else:
+            raise ValueError(f"{out}: use a .parquet or .csv file name")
+    except (CampaignError, ValueError, OSError) as exc:
+        fail(str(exc), as_json)
+    payload = {
+        "table": str(out),
+        "rows": len(table),
+        "points": int(table["point"].nunique()) if len(table) else 0,
+    }
+    if as_json:
+        print(json.dumps(payload))
+    else:
+        Console().print(f"wrote {payload['rows']} rows ({payload['points']} points) to {out}")

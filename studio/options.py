@@ -1,0 +1,58 @@
+"""Options, spec building and error reporting shared by the ``indent-studio`` commands."""
+
+from __future__ import annotations
+
+import json
+from enum import StrEnum
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+
+from ..forward.spec import (
+    Geometry,
+    Indenter,
+    Material,
+    MeshChoice,
+    ModelSpec,
+    Protocol,
+    SolverOptions,
+)
+
+err = Console(stderr=True)
+
+
+class SolverName(StrEnum):
+    embedded = "embedded"
+    febio = "febio"
+
+
+def fail(message: str, as_json: bool, code: int = 1) -> None:
+    if as_json:
+        print(json.dumps({"error": message}))
+    err.print(f"[bold red]error:[/] {message}", soft_wrap=True, highlight=False)
+    raise typer.Exit(code)
+
+
+def model_spec(c1, c5, kappa, radius, steps, step_size, mesh, mesh_from, substeps) -> ModelSpec:
+    return ModelSpec(
+        geometry=Geometry(),
+        indenter=Indenter(radius),
+        protocol=Protocol(step_size=step_size, steps=steps),
+        material=Material(c1=c1, c5=c5, kappa=kappa),
+        mesh=MeshChoice(preset=mesh, feb_file=str(mesh_from) if mesh_from else None),
+        solver=SolverOptions(substeps=substeps),
+    )
+
+
+C1 = Annotated[float, typer.Option(help="c1, kPa (eq. 3)")]
+C5 = Annotated[float, typer.Option(help="c5, kPa (eq. 3)")]
+KAPPA = Annotated[float, typer.Option(help="bulk-like modulus kappa, kPa")]
+RADIUS = Annotated[float, typer.Option(help="sphere radius, mm (paper: 4.77 or 8)")]
+STEPS = Annotated[int, typer.Option(help="number of indentation steps")]
+STEP_SIZE = Annotated[float, typer.Option(help="depth per step, mm")]
+MESH = Annotated[str, typer.Option(help="mesh preset: coarse, default, fine, reference")]
+MESH_FROM = Annotated[Path | None, typer.Option(help="run on the hex8 block mesh of this FEBio .feb file")]
+SUBSTEPS = Annotated[int, typer.Option(help="solver increments per step")]
+JSON = Annotated[bool, typer.Option("--json", help="print one JSON object on stdout")]
