@@ -2,8 +2,9 @@
 backend on a dask.distributed cluster (``scheduler="tcp://host:8786"``).
 
 Each worker solves one point single-threaded (BLAS/MKL and numba threads pinned to 1, so that
-``jobs`` processes use ``jobs`` cores), writes its result file atomically and returns its index
-row; the parent records each row as it arrives. A point that fails (spec error, no convergence,
+``jobs`` processes use ``jobs`` cores) and returns its index row with the result; the parent
+writes each result file atomically as it arrives and records the row, so cluster workers need no
+access to the store. A point that fails (spec error, no convergence,
 solver error, timeout) is recorded with its reason and the campaign goes on.
 """
 
@@ -32,12 +33,11 @@ def solve_point(
     solver: str,
     parameters: tuple[str, ...],
     values: list[float],
-    out: str,
-    partial_out: str,
     timeout_s: float | None,
     workdir: str | None = None,
 ) -> dict[str, Any]:
-    """Solve one point and write its result file; never raises (a failure becomes the row)."""
+    """Solve one point; returns its index row with the result (or the partial result of a
+    failure) for the parent to save. Never raises: a failure becomes the row's error."""
     t0 = time.perf_counter()
     row: dict[str, Any] = {
         "point": point,
@@ -65,15 +65,11 @@ def solve_point(
                         raise PointTimeout(f"timeout: {timeout_s:g} s exceeded after step {k} of {n}")
 
                 result = EmbeddedSolver(spec).run(progress=deadline)
-        result.save(out)
-        row.update(status="done", newton_iterations=result.newton_iterations)
+        row.update(status="done", newton_iterations=result.newton_iterations, result=result)
     except Exception as exc:  # recorded, never propagated: one bad point must not stop a campaign
         partial = getattr(exc, "partial", None)
         if partial is not None and len(partial.depth) > 1:
-            try:
-                partial.save(partial_out)
-            except OSError:
-                pass
+            row["partial"] = partial
         message = f"{type(exc).__name__}: {exc}".strip()
         if not isinstance(exc, (ValueError, RuntimeError, TimeoutError, OSError)):
             message += " | " + traceback.format_exc(limit=3).replace("\n", " ")
@@ -116,8 +112,6 @@ def run_campaign(
                 spec.solver,
                 spec.design.parameters,
                 spec.design.points[i].tolist(),
-                str(store.result_path(i)),
-                str(store.partial_path(i)),
                 timeout_s,
                 str(store.root / "febio" / f"{i:05d}") if spec.solver == "febio" else None,
             )
@@ -129,7 +123,13 @@ def run_campaign(
                 last_write = time.perf_counter()
                 done = 0
                 for row in runner(calls):  # in completion order; each row names its point
-                    store.record(int(row.pop("point")), row, write=False)
+                    i = int(row.pop("point"))
+                    result, partial = row.pop("result", None), row.pop("partial", None)
+                    if result is not None:
+                        result.save(store.result_path(i))  # atomic: temporary file, then rename
+                    if partial is not None:
+                        partial.save(store.partial_path(i))
+                    store.record(i, row, write=False)
                     done += 1
                     if time.perf_counter() - last_write > index_every_s or done == total:
                         store.write_index()
