@@ -1,0 +1,99 @@
+"""Certainty bounds from the Hessian of the objective (paper eq. 6 to 8), in normalised parameters
+theta_bar = theta / theta*.
+
+Two Hessians (eq. 7):
+
+* :func:`gauss_newton_term_hessians`: 2 J_k^T J_k per objective term from exact residual
+  Jacobians (the embedded solver's sensitivities, or a surrogate's derivatives). At theta_hat =
+  theta* the residuals vanish, so this is the exact Hessian there.
+* :func:`finite_difference_term_hessians`: central second differences of each F_k on any
+  Predictor, over a 3^p stencil of step ``h`` in theta_bar (the authors' code does this on the
+  campaign grid).
+
+Because F = sum eta_k F_k, H(eta) = sum eta_k H_k (:func:`combine`). Bounds: theta_i = theta_hat_i
++- s sqrt(2 H^-1_ii) (eq. 6), printed as percent of theta_hat_i; s fixed at the design stage or
+from the F distribution (eq. 8).
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+from scipy import stats
+
+from .objective import TERMS, Objective, check_weights
+
+
+def gauss_newton_term_hessians(objective: Objective, prediction, theta_star: np.ndarray) -> np.ndarray:
+    """H_k = 2 J_k^T J_k (4, p, p) in theta_bar, from the Jacobians of a one-point Prediction."""
+    if prediction.force_jacobian is None:
+        raise ValueError("the prediction carries no Jacobian: use the embedded solver with sensitivities")
+    scale = np.asarray(theta_star, float)
+    jacs = objective.term_jacobians(prediction.force_jacobian[:1], prediction.displacement_jacobian[:1])
+    return np.stack([2.0 * (j[0] * scale).T @ (j[0] * scale) for j in jacs])
+
+
+def stencil(p: int, h: float) -> np.ndarray:
+    """The 3^p central-difference stencil in theta_bar offsets (3^p, p)."""
+    return h * np.array(list(itertools.product((-1.0, 0.0, 1.0), repeat=p)))
+
+
+def finite_difference_term_hessians(
+    objective: Objective, predictor, theta_star: np.ndarray, h: float = 0.02
+) -> np.ndarray:
+    """H_k (4, p, p) in theta_bar by central second differences of F_k over the 3^p stencil."""
+    theta_star = np.asarray(theta_star, float)
+    p = len(theta_star)
+    offsets = stencil(p, h)
+    pred = predictor.predict(theta_star * (1.0 + offsets))
+    F = objective.terms(pred)  # (3^p, 4)
+    index = {tuple(np.round(o / h).astype(int)): i for i, o in enumerate(offsets)}
+
+    def at(**where: int) -> np.ndarray:
+        """F at the stencil point with offsets {axis: -1 | 0 | 1}, zero elsewhere."""
+        k = [0] * p
+        for axis, v in where.items():
+            k[int(axis[1:])] = v
+        return F[index[tuple(k)]]
+
+    H = np.zeros((4, p, p))
+    for i in range(p):
+        H[:, i, i] = (at(**{f"a{i}": 1}) - 2 * at() + at(**{f"a{i}": -1})) / h**2
+        for j in range(i + 1, p):
+            ai, aj = f"a{i}", f"a{j}"
+            cross = (
+                at(**{ai: 1, aj: 1}) - at(**{ai: 1, aj: -1}) - at(**{ai: -1, aj: 1}) + at(**{ai: -1, aj: -1})
+            )
+            H[:, i, j] = H[:, j, i] = cross / (4 * h**2)
+    return H
+
+
+def combine(term_hessians: np.ndarray, eta) -> np.ndarray:
+    """H(eta) = sum_k eta_k H_k (eq. 5, 7)."""
+    return np.einsum("k,kij->ij", check_weights(eta), term_hessians)
+
+
+def bounds_pct(H: np.ndarray, s: float) -> np.ndarray:
+    """Eq. 6 in percent of theta_hat: 100 s sqrt(2 (H^-1)_ii); inf where H is singular."""
+    if not (np.isfinite(s) and s > 0):
+        raise ValueError(f"s must be a positive number, got {s!r}")
+    try:
+        inv = np.linalg.inv(H)
+    except np.linalg.LinAlgError:
+        return np.full(len(H), np.inf)
+    d = np.diag(inv)
+    if np.linalg.cond(H) > 1e14 or np.any(d <= 0):
+        return np.full(len(H), np.inf)
+    return 100.0 * s * np.sqrt(2.0 * d)
+
+
+def s_from_data(F_hat: float, n: int, p: int = 2, alpha: float = 0.05) -> float:
+    """Eq. 8: s^2 = p / (n - p) F_{p, n-p}^{1-alpha} F(theta_hat)."""
+    if n <= p:
+        raise ValueError(f"eq. 8 needs more data points than parameters (n = {n}, p = {p})")
+    return float(np.sqrt(p / (n - p) * stats.f.ppf(1.0 - alpha, p, n - p) * F_hat))
+
+
+def term_names() -> tuple[str, ...]:
+    return TERMS

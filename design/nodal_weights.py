@@ -1,0 +1,79 @@
+"""Nodal weights of the displacement objectives (paper Appendix B, eq. B.1 to B.3) and the mask of
+nodes with measured data.
+
+Two readings (../shared/reference/authors-code-notes.md):
+
+* ``paper`` (default): B.1 to B.3 as printed, normalised to sum to one over the nodes with data;
+  nodes obscured by the indenter (within the sphere's radius of the axis) get weight 0.
+* ``authors``: the authors' code: only nodes in the ring 1.2 R to 5.5 R from the indentation
+  point enter; inverse distances with an offset of a tenth of the mean nearest-node spacing;
+  not normalised.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+#: Anisotropy factors of B.1 to B.3: weight_j ~ (a_x x^2 + a_y y^2)^(-1/2) for direction j.
+DIRECTION_FACTORS = {"ux": (0.1, 1.0), "uy": (1.0, 0.1), "uz": (1.0, 1.0)}
+
+
+@dataclass(frozen=True)
+class NodeSelection:
+    """Which top-surface nodes carry data: an annulus ``inner`` <= r <= ``outer`` (mm) around the
+    indentation axis, and optionally a user mask (True = measured)."""
+
+    inner: float
+    outer: float = np.inf
+    mask: np.ndarray | None = None
+
+    def measured(self, xy: np.ndarray) -> np.ndarray:
+        r = np.hypot(xy[:, 0], xy[:, 1])
+        keep = (r > self.inner) & (r <= self.outer)
+        if self.mask is not None:
+            m = np.asarray(self.mask, bool)
+            if m.shape != keep.shape:
+                raise ValueError(f"node mask has {m.size} entries for {keep.size} top nodes")
+            keep &= m
+        return keep
+
+
+def default_selection(radius: float, reading: str = "paper", mask: np.ndarray | None = None) -> NodeSelection:
+    """The nodes with data by default: outside the sphere's radius (paper), or the 1.2 R to 5.5 R
+    ring (authors' code)."""
+    if reading == "paper":
+        return NodeSelection(inner=radius, mask=mask)
+    if reading == "authors":
+        return NodeSelection(inner=1.2 * radius, outer=5.5 * radius, mask=mask)
+    raise ValueError(f"unknown reading {reading!r}; use 'paper' or 'authors'")
+
+
+def nodal_weights(xy: np.ndarray, measured: np.ndarray, reading: str = "paper") -> dict[str, np.ndarray]:
+    """Weights w_j of B.1 (ux), B.2 (uy), B.3 (uz) at nodes ``xy`` (n, 2), zero where not measured.
+
+    ``paper``: normalised to sum to one over the measured nodes (as B.1 to B.3 print them).
+    ``authors``: unnormalised, with an offset of 0.1 x the mean nearest-node spacing under the root.
+    """
+    xy = np.asarray(xy, float)
+    measured = np.asarray(measured, bool)
+    if not measured.any():
+        raise ValueError("no top-surface node has measured data: every nodal weight would be 0")
+    offset = 0.0
+    if reading == "authors":
+        d, _ = cKDTree(xy).query(xy, k=2)
+        offset = 0.1 * float(np.mean(d[:, 1]))
+    elif reading != "paper":
+        raise ValueError(f"unknown reading {reading!r}; use 'paper' or 'authors'")
+    out = {}
+    for name, (ax, ay) in DIRECTION_FACTORS.items():
+        dist = np.sqrt(ax * xy[:, 0] ** 2 + ay * xy[:, 1] ** 2) + offset
+        w = np.zeros(len(xy))
+        with np.errstate(divide="ignore"):
+            w[measured] = 1.0 / dist[measured]
+        if not np.all(np.isfinite(w)):
+            raise ValueError("a measured node sits on the indentation axis: B.1 to B.3 are infinite there")
+        out[name] = w / w.sum() if reading == "paper" else w
+    return out

@@ -1,0 +1,139 @@
+"""The objective of the paper (eq. 4a, 4b, 5): force and per-direction displacement errors against a
+measured (or baseline) response, their weighted sum, and the residual vector whose squared sum it is.
+
+Readings (../shared/reference/authors-code-notes.md), chosen with ``reading``:
+
+* ``paper`` (default): eq. 4a sums over all steps the force error relative to that step's
+  measured force; eq. 4b sums over all steps the displacement errors over max |u_j,exp| with the
+  normalised B.1 to B.3 weights, nodes within the sphere's radius of the axis obscured.
+* ``authors``: one step (``step``, default the deepest); force error over max |f_exp|;
+  displacement errors over max |u_j,exp| at the last step; the 1.2 R to 5.5 R ring; unnormalised
+  inverse-distance weights.
+
+F_k(theta) = sum r_k^2 for each term k in (force, ux, uy, uz); F = sum eta_k F_k (eq. 5) with eta on
+the simplex; the residual vector is the concatenation of sqrt(eta_k) r_k.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .nodal_weights import default_selection, nodal_weights
+
+TERMS = ("force", "ux", "uy", "uz")
+
+
+def check_weights(eta) -> np.ndarray:
+    """``eta`` (4,) as an array; refused unless on the simplex (eq. 5: eta_i in [0, 1], sum 1)."""
+    e = np.asarray(eta, dtype=float).ravel()
+    if e.shape != (4,) or not np.all(np.isfinite(e)):
+        raise ValueError(f"objective weights must be 4 finite numbers (force, ux, uy, uz), got {eta!r}")
+    if np.any(e < -1e-12) or abs(e.sum() - 1.0) > 1e-9:
+        raise ValueError(
+            f"objective weights must lie on the simplex (each in [0, 1], sum 1), got {e.tolist()}"
+        )
+    return np.clip(e, 0.0, 1.0)
+
+
+@dataclass
+class Objective:
+    """Eq. 4 and 5 against a target response.
+
+    ``force`` (steps,) and ``displacement`` (steps, nodes, 3) are the measured (or baseline)
+    response at ``top_xyz`` (nodes, 3); ``radius`` is the indenter's. ``mask`` (nodes,) marks nodes
+    with data (default: see the readings).
+    """
+
+    force: np.ndarray
+    displacement: np.ndarray
+    top_xyz: np.ndarray
+    radius: float
+    reading: str = "paper"
+    step: int | None = None
+    mask: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        self.force = np.asarray(self.force, float)
+        self.displacement = np.asarray(self.displacement, float)
+        if self.displacement.shape != (len(self.force), len(self.top_xyz), 3):
+            raise ValueError(
+                f"displacement must be (steps, nodes, 3) = ({len(self.force)}, {len(self.top_xyz)}, 3), "
+                f"got {self.displacement.shape}"
+            )
+        if not (np.all(np.isfinite(self.force)) and np.all(np.isfinite(self.displacement))):
+            raise ValueError("the target force or displacement holds NaN or infinite values")
+        selection = default_selection(self.radius, self.reading, self.mask)
+        self.measured = selection.measured(np.asarray(self.top_xyz)[:, :2])
+        self.weights = nodal_weights(np.asarray(self.top_xyz)[:, :2], self.measured, self.reading)
+        if self.reading == "authors":
+            k = len(self.force) - 1 if self.step is None else self.step
+            self.steps = np.array([k])
+            self.force_scale = np.full(1, np.max(np.abs(self.force)))
+            u_norm = np.max(np.abs(self.displacement[-1][self.measured]), axis=0)
+        else:
+            self.steps = np.arange(len(self.force)) if self.step is None else np.array([self.step])
+            self.force_scale = self.force[self.steps]
+            u_norm = np.max(np.abs(self.displacement[:, self.measured]), axis=(0, 1))
+        if np.any(np.abs(self.force_scale) <= 0.0):
+            raise ValueError("the target force is zero at a step the objective uses (eq. 4a divides by it)")
+        if np.any(u_norm <= 0.0):
+            raise ValueError("a displacement direction is zero at every measured node (eq. 4b divides by it)")
+        self.u_norm = u_norm
+        self._sqrt_w = np.stack([np.sqrt(self.weights[t]) for t in TERMS[1:]], axis=-1)  # (nodes, 3)
+
+    @classmethod
+    def from_prediction(cls, target, index: int = 0, **kwargs) -> Objective:
+        """The objective against point ``index`` of a Prediction (e.g. the response at theta*)."""
+        return cls(target.force[index], target.displacement[index], target.top_xyz, **kwargs)
+
+    # --------------------------------------------------------------- residuals
+    def term_residuals(self, force: np.ndarray, displacement: np.ndarray) -> list[np.ndarray]:
+        """Residuals r_k per term for a batch: force (n, steps), displacement (n, steps, nodes, 3).
+
+        Returns [force (n, s), ux (n, s * m), uy, uz] with m the measured nodes."""
+        f = np.asarray(force)[:, self.steps]
+        r_f = (f - self.force[self.steps]) / self.force_scale
+        du = (
+            np.asarray(displacement)[:, self.steps][:, :, self.measured]
+            - self.displacement[self.steps][:, self.measured]
+        )
+        du = du * (self._sqrt_w[self.measured] / self.u_norm)
+        n = du.shape[0]
+        return [r_f, *(du[..., j].reshape(n, -1) for j in range(3))]
+
+    def term_jacobians(self, force_jac: np.ndarray, displacement_jac: np.ndarray) -> list[np.ndarray]:
+        """d r_k / d theta for a batch: force_jac (n, steps, p), displacement_jac (n, steps, nodes, 3, p)."""
+        jf = np.asarray(force_jac)[:, self.steps] / self.force_scale[:, None]
+        ju = np.asarray(displacement_jac)[:, self.steps][:, :, self.measured]
+        ju = ju * (self._sqrt_w[self.measured] / self.u_norm)[..., None]
+        n, p = ju.shape[0], ju.shape[-1]
+        return [jf, *(ju[..., j, :].reshape(n, -1, p) for j in range(3))]
+
+    def terms(self, prediction) -> np.ndarray:
+        """F_k (n, 4): force, ux, uy, uz (eq. 4a, 4b)."""
+        return np.stack(
+            [np.sum(r**2, axis=1) for r in self.term_residuals(prediction.force, prediction.displacement)],
+            axis=1,
+        )
+
+    def value(self, prediction, eta) -> np.ndarray:
+        """F (n,) of eq. 5."""
+        return self.terms(prediction) @ check_weights(eta)
+
+    def residuals(self, prediction, eta) -> np.ndarray:
+        """The residual vector (n, m) whose squared sum is F: sqrt(eta_k) r_k concatenated."""
+        e = check_weights(eta)
+        parts = self.term_residuals(prediction.force, prediction.displacement)
+        return np.concatenate([np.sqrt(w) * r for w, r in zip(e, parts, strict=True)], axis=1)
+
+    def jacobian(self, prediction, eta) -> np.ndarray:
+        """d residuals / d theta (n, m, p) from a Prediction carrying its Jacobians."""
+        if prediction.force_jacobian is None:
+            raise ValueError(
+                "this prediction carries no Jacobian (ask the embedded solver for sensitivities)"
+            )
+        e = check_weights(eta)
+        parts = self.term_jacobians(prediction.force_jacobian, prediction.displacement_jacobian)
+        return np.concatenate([np.sqrt(w) * j for w, j in zip(e, parts, strict=True)], axis=1)

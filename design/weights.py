@@ -1,0 +1,106 @@
+"""Objective weights eta on the simplex that shrink the certainty bounds (paper 2.6, Table 1).
+
+H(eta) = sum eta_k H_k, so a weight search needs only the four term Hessians. Criteria on
+H(eta)^-1 (in theta_bar): ``c1`` or ``c5`` (that parameter's bound), ``combined`` (sum of the
+squared relative bounds, i.e. the trace; default), ``det`` (det H^-1, the ellipse's area).
+scipy SLSQP on the simplex from several starts (the corners' mid-points and random ones).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import minimize
+
+from .certainty import bounds_pct, combine
+
+#: The rows of Table 1 that do not come from an optimisation.
+FIXED_ROWS = {"force only": (1.0, 0.0, 0.0, 0.0)}
+
+
+@dataclass(frozen=True)
+class WeightRow:
+    name: str
+    weights: tuple[float, ...]
+    c1_pct: float
+    c5_pct: float
+
+
+def criterion_value(H: np.ndarray, criterion: str, parameters: tuple[str, ...] = ("c1", "c5")) -> float:
+    """The scalar a weight search minimises, from H(eta) in theta_bar."""
+    try:
+        inv = np.linalg.inv(H)
+    except np.linalg.LinAlgError:
+        return np.inf
+    if not np.all(np.isfinite(inv)) or np.any(np.diag(inv) <= 0) or np.linalg.cond(H) > 1e14:
+        return np.inf
+    if criterion in parameters:
+        return float(inv[parameters.index(criterion)][parameters.index(criterion)])
+    if criterion == "combined":
+        return float(np.trace(inv))
+    if criterion == "det":
+        return float(np.linalg.det(inv))
+    raise ValueError(f"unknown criterion {criterion!r}; use {', '.join(parameters)}, combined or det")
+
+
+def optimise_weights(
+    term_hessians: np.ndarray,
+    criterion: str = "combined",
+    starts: int = 12,
+    seed: int = 0,
+    allowed: np.ndarray | None = None,
+) -> np.ndarray:
+    """eta (4,) on the simplex minimising ``criterion``; ``allowed`` (4,) bool restricts which terms
+    may get weight (e.g. displacements only)."""
+    k = term_hessians.shape[0]
+    allowed = np.ones(k, bool) if allowed is None else np.asarray(allowed, bool)
+    idx = np.nonzero(allowed)[0]
+    rng = np.random.default_rng(seed)
+
+    def full(x: np.ndarray) -> np.ndarray:
+        e = np.zeros(k)
+        e[idx] = np.clip(x, 0.0, None)
+        return e / e.sum() if e.sum() > 0 else np.full(k, 1.0 / k)
+
+    def f(x: np.ndarray) -> float:
+        v = criterion_value(combine(term_hessians, full(x)), criterion)
+        return np.log(v) if np.isfinite(v) and v > 0 else 1e6
+
+    x0s = [np.full(len(idx), 1.0 / len(idx))]
+    x0s += [rng.dirichlet(np.ones(len(idx))) for _ in range(max(starts - 1, 0))]
+    best, best_val = x0s[0], f(x0s[0])
+    for x0 in x0s:
+        res = minimize(
+            f,
+            x0,
+            method="SLSQP",
+            bounds=[(0.0, 1.0)] * len(idx),
+            constraints=[{"type": "eq", "fun": lambda x: np.sum(x) - 1.0}],
+            options={"ftol": 1e-12, "maxiter": 300},
+        )
+        if res.fun < best_val:
+            best, best_val = res.x, res.fun
+    return full(best)
+
+
+def table1(term_hessians: np.ndarray, s: float = 0.05, criterion: str = "combined") -> list[WeightRow]:
+    """The layout of the paper's Table 1: force only; deformation only (best displacement-only
+    weights for ``criterion``); optimal for c1; optimal for c5; combined optimal."""
+    rows = []
+
+    def row(name: str, eta: np.ndarray) -> WeightRow:
+        b = bounds_pct(combine(term_hessians, eta), s)
+        return WeightRow(name, tuple(float(v) for v in eta), float(b[0]), float(b[1]))
+
+    rows.append(row("force only", np.array(FIXED_ROWS["force only"])))
+    rows.append(
+        row(
+            "deformation only",
+            optimise_weights(term_hessians, criterion, allowed=np.array([0, 1, 1, 1], bool)),
+        )
+    )
+    rows.append(row("optimal for c1", optimise_weights(term_hessians, "c1")))
+    rows.append(row("optimal for c5", optimise_weights(term_hessians, "c5")))
+    rows.append(row(f"{criterion} optimal", optimise_weights(term_hessians, criterion)))
+    return rows
