@@ -65,7 +65,9 @@ def main() -> None:
     if best is not None:
         for name, F in (("FEBio", F_fe), ("ours", F_us)):
             dev = np.abs(F[rows] / best.force[rows] - 1) * 100
-            print(f"{name} vs {best.solver['mesh']['source']}: mean |diff| {dev.mean():.2f}%, max {dev.max():.2f}%")
+            print(
+                f"{name} vs {best.solver['mesh']['source']}: mean |diff| {dev.mean():.2f}%, max {dev.max():.2f}%"
+            )
     u_fe = febio["U_top"][-1]
     print(f"E_u (eq. 1b form) ours vs FEBio at 14 mm: {eq1b(ours.displacement[-1], u_fe):.2f}%")
     for name, r in finer.items():

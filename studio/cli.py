@@ -18,6 +18,7 @@ from rich.table import Table
 
 from ..forward.spec import SpecError
 from .campaign_cli import campaign_app
+from .design_cli import design_app
 from .options import (
     C1,
     C5,
@@ -42,6 +43,7 @@ app = typer.Typer(
     add_completion=False,
 )
 app.add_typer(campaign_app, name="campaign")
+app.add_typer(design_app, name="design")
 
 
 @app.command()
