@@ -98,7 +98,14 @@ class EmbeddedSolver:
         h = np.sort(np.unique(np.round(top_xy[:, 0], 9)))
         self._force_scale = m.c1 * float(h[1] - h[0]) ** 2 if h.size > 1 else m.c1
         self._sensitivities = False
-        self.stats = {"assemblies": 0, "assembly_s": 0.0, "factorizations": 0, "solve_s": 0.0}
+        self.stats = {
+            "assemblies": 0,
+            "tangent_assemblies": 0,
+            "assembly_s": 0.0,
+            "factorizations": 0,
+            "solves": 0,
+            "solve_s": 0.0,
+        }
 
     # ------------------------------------------------------------------ numerics
     def assemble(self, u: np.ndarray, tangent: bool = True, parameter_derivatives: bool = False):
@@ -114,6 +121,7 @@ class EmbeddedSolver:
         if parameter_derivatives:
             dR = np.stack([self.pattern.vector(st.dforce_dtheta[:, k]) for k in range(2)], axis=1)
         self.stats["assemblies"] += 1
+        self.stats["tangent_assemblies"] += int(tangent)
         self.stats["assembly_s"] += time.perf_counter() - t
         return R, K, dR
 
@@ -126,6 +134,7 @@ class EmbeddedSolver:
     def _solve(self, rhs: np.ndarray) -> np.ndarray:
         t = time.perf_counter()
         x = self.linear.solve(rhs)
+        self.stats["solves"] += 1
         self.stats["solve_s"] += time.perf_counter() - t
         return x
 
@@ -217,6 +226,7 @@ class EmbeddedSolver:
         d1: float,
         contact: StickContactState,
         du_start: np.ndarray | None,
+        du_pred: np.ndarray | None = None,
     ) -> tuple[_Equilibrium, StickContactState, int, int, np.ndarray | None]:
         """Solve the increment d0 -> d1. Returns the equilibrium, the contact set, Newton
         iterations, contact passes and (with sensitivities) d u / d theta (n, 3, p)."""
@@ -227,6 +237,12 @@ class EmbeddedSolver:
         iters = 0
         tol_pen = 1e-9 * self.sphere.radius
         sens = None
+        # nodes the predicted state pushes into the sphere are attached where the predicted path
+        # crosses its surface, which usually spares a second contact pass
+        s0_top = du_start[self.top] if du_start is not None else None
+        sp_top = du_pred[self.top] if du_pred is not None else None
+        ahead = np.flatnonzero(c.penetrating(u_pred[self.top], d1, tol_pen))
+        c.attach(ahead, u_top0, d0, u_pred[self.top], d1, s0_top, sp_top)
         for passes in range(1, self.spec.solver.max_contact_passes + 1):
             cmask, target = self._constraints(c, d1)
             eq = self.equilibrate(trial, cmask, target)
@@ -243,7 +259,6 @@ class EmbeddedSolver:
             c.attached[pulling] = False
             released |= pulling
             s_top = sens[self.top] if sens is not None else None
-            s0_top = du_start[self.top] if du_start is not None else None
             again = np.flatnonzero(pen & released)  # slipped back in: re-attach where it is now
             c.attach(again, trial[self.top], d1, trial[self.top], d1, s_top, s_top)
             new = np.flatnonzero(pen & ~released)
@@ -307,6 +322,7 @@ class EmbeddedSolver:
         f_sens = [np.zeros(2)]
         u_sens = [np.zeros((nt, 3, 2))]
         du_dtheta = np.zeros((n, 3, 2)) if sensitivities else None
+        last_dinc = np.zeros((n, 3, 2)) if sensitivities else None
         d = 0.0
         nominal = proto.step_size / opts.substeps
         for k, d_target in enumerate(proto.depths, start=1):
@@ -318,10 +334,12 @@ class EmbeddedSolver:
                 dd = min(inc, d_target - d)
                 if d_target - (d + dd) < 1e-9 * proto.step_size:
                     dd = d_target - d
-                u_pred = u + (dd / last_dd) * last_inc if last_dd > 0 else u.copy()
+                ratio = dd / last_dd if last_dd > 0 else 0.0
+                u_pred = u + ratio * last_inc
+                du_pred = du_dtheta + ratio * last_dinc if sensitivities else None
                 try:
                     eq, contact_new, its, passes, sens = self._increment(
-                        u, u_pred, d, d + dd, contact, du_dtheta
+                        u, u_pred, d, d + dd, contact, du_dtheta, du_pred
                     )
                 except _IncrementFailed as exc:
                     rec["cutbacks"] += 1
@@ -341,6 +359,8 @@ class EmbeddedSolver:
                 last_dd = dd
                 u = eq.u
                 contact = contact_new
+                if sensitivities:
+                    last_dinc = sens - du_dtheta
                 du_dtheta = sens
                 d += dd
                 rec["newton_iterations"] += its
