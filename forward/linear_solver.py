@@ -22,6 +22,8 @@ cholespy    about 115 ms                about 10 s
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
@@ -39,6 +41,18 @@ def default_backend() -> str:
     except Exception:  # MKL missing or not loadable
         return "superlu"
     return "pardiso"
+
+
+def _new_pardiso():
+    """A symmetric-indefinite PARDISO solver. pypardiso looks for MKL by walking the whole
+    environment folder (about 0.3 s) unless ``PYPARDISO_MKL_RT`` names the library, so the path
+    found by the first solver of a process is recorded there for the next ones (a campaign
+    worker runs hundreds)."""
+    import pypardiso
+
+    solver = pypardiso.PyPardisoSolver(mtype=-2)
+    os.environ.setdefault("PYPARDISO_MKL_RT", solver.libmkl._name)
+    return solver
 
 
 class ConstrainedSymmetricSolver:
@@ -102,10 +116,8 @@ class ConstrainedSymmetricSolver:
             raise LinearSolveError(f"{self.backend}: {exc}") from exc
 
     def _factorize_pardiso(self, data: np.ndarray) -> None:
-        import pypardiso
-
         if self._pardiso is None:
-            self._pardiso = pypardiso.PyPardisoSolver(mtype=-2)
+            self._pardiso = _new_pardiso()
         A = sp.csr_matrix(
             (data[self._upper_slots], self._upper_indices, self._upper_indptr), shape=(self.m, self.m)
         )

@@ -48,7 +48,11 @@ class _IncrementFailed(Exception):
 
 
 #: A correction keeps the current factorisation while the residual shrinks at least this much.
-REFACTOR_RATIO = 0.1
+REFACTOR_RATIO = 0.3
+#: ... and for at most this many corrections in a row.
+MAX_STALE_STEPS = 6
+#: A Newton step that inverts an element is halved at most this many times.
+MAX_HALVINGS = 6
 
 
 def build_mesh(spec: ModelSpec) -> BlockMesh:
@@ -154,9 +158,11 @@ class EmbeddedSolver:
 
         The first iteration carries the prescribed increments into the body through the exact
         tangent (consistent predictor). The corrections reuse that factorisation while the
-        residual contracts by at least ``REFACTOR_RATIO`` per iteration and refactorise at the
-        current state otherwise (a full Newton step), so most corrections cost a residual and a
-        back-substitution. The residual is checked on the free dofs against the reactions."""
+        residual contracts by at least ``REFACTOR_RATIO`` per iteration (``MAX_STALE_STEPS`` in
+        a row at most) and refactorise at the current state otherwise, so most corrections cost
+        a residual and a back-substitution. A correction with an old factorisation that makes
+        the residual worse is undone and redone as a full Newton step; a step that inverts an
+        element is halved. The residual is checked on the free dofs against the reactions."""
         opts = self.spec.solver
         u = u0.reshape(-1).copy()
         jump = np.zeros(self.n_dofs)
@@ -169,42 +175,40 @@ class EmbeddedSolver:
             rhs[cmask] = 0.0
             u += self._solve(rhs) + jump
             last = np.inf  # residual norm before the last step
-            stale = False  # the factorisation is older than the current state
+            stale = True  # the factorisation was made at another state than the current one
             fresh_step = False  # the last step was taken with a factorisation made at its start
             u_prev, du = u.copy(), None
-            shortenings = 0
+            halvings = 0
+            stale_steps = 0  # corrections in a row with the same factorisation
             for it in range(1, opts.max_newton + 1):
                 try:
                     R, _, dR = self.assemble(u.reshape(-1, 3), tangent=False, parameter_derivatives=want_dR)
-                    norm = np.linalg.norm(np.where(cmask, 0.0, R))
                 except FloatingPointError:
-                    if du is None or shortenings >= 6:
+                    if du is None or halvings >= MAX_HALVINGS:
                         raise
-                    norm = np.inf  # an element inverted: handled below like a diverging step
-                if np.isfinite(norm):
-                    ref = max(np.linalg.norm(R[cmask]), self._force_scale)
-                    at_round_off = fresh_step and norm > 0.5 * last and norm <= 1e-6 * ref
-                    if norm <= opts.residual_tol * ref or at_round_off:
-                        K = self.assemble(u.reshape(-1, 3))[1] if want_dR else None
-                        return _Equilibrium(u.reshape(-1, 3), R, K, it, dR)
-                if norm > last and fresh_step:
-                    # an exact Newton step that diverged: shorten it
-                    shortenings += 1
+                    halvings += 1  # the step inverted an element: halve it
                     du *= 0.5
                     u = u_prev - du
                     continue
-                if norm > last:  # a step with an old factorisation made it worse: undo it
+                norm = np.linalg.norm(np.where(cmask, 0.0, R))
+                ref = max(np.linalg.norm(R[cmask]), self._force_scale)
+                at_round_off = fresh_step and norm > 0.5 * last and norm <= 1e-6 * ref
+                if norm <= opts.residual_tol * ref or at_round_off:
+                    K = self.assemble(u.reshape(-1, 3))[1] if want_dR else None
+                    return _Equilibrium(u.reshape(-1, 3), R, K, it, dR)
+                if norm > last and not fresh_step:  # a step with an old factorisation made it worse: undo it
                     u, norm = u_prev, last
                     R, _, _ = self.assemble(u.reshape(-1, 3), tangent=False)
-                    stale = True
-                if (stale and norm > REFACTOR_RATIO * last) or norm == last:
+                worn = norm > REFACTOR_RATIO * last or stale_steps >= MAX_STALE_STEPS
+                if (stale and worn) or norm == last:
                     self._factorize(self.assemble(u.reshape(-1, 3))[1], cmask)
-                    stale = False
+                    stale, stale_steps = False, 0
                 fresh_step = not stale
                 last, u_prev = norm, u.copy()
                 du = self._solve(np.where(cmask, 0.0, R))
                 u = u - du
                 stale = True
+                stale_steps += 1
         except (FloatingPointError, LinearSolveError) as exc:
             raise _IncrementFailed(str(exc)) from exc
         raise _IncrementFailed(f"Newton did not converge in {opts.max_newton} iterations")

@@ -148,7 +148,7 @@ class MeshChoice:
 class SolverOptions:
     """Numerical controls of the embedded solver (forward.solver)."""
 
-    substeps: int = 2
+    substeps: int = 1
     residual_tol: float = 1e-8
     max_newton: int = 25
     max_cutbacks: int = 6

@@ -60,7 +60,7 @@ def run(
     step_size: STEP_SIZE = 0.5,
     mesh: MESH = "default",
     mesh_from: MESH_FROM = None,
-    substeps: SUBSTEPS = 2,
+    substeps: SUBSTEPS = 1,
     solver: Annotated[SolverName, typer.Option(help="FE solver")] = SolverName.embedded,
     jobs: Annotated[int, typer.Option(help="parallel processes (default: all cores)")] = 0,
     scheduler: Annotated[

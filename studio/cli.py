@@ -57,7 +57,7 @@ def simulate(
     mesh: MESH = "default",
     mesh_from: MESH_FROM = None,
     solver: Annotated[SolverName, typer.Option(help="FE solver")] = SolverName.embedded,
-    substeps: SUBSTEPS = 2,
+    substeps: SUBSTEPS = 1,
     sensitivities: Annotated[bool, typer.Option(help="also d(force, displacement)/d(c1, c5)")] = False,
     out: Annotated[
         Path | None, typer.Option(help="result file (.npz); default under runs/simulations/")
@@ -169,7 +169,7 @@ def mesh_study(
     radius: RADIUS = 4.77,
     steps: STEPS = 28,
     step_size: STEP_SIZE = 0.5,
-    substeps: SUBSTEPS = 2,
+    substeps: SUBSTEPS = 1,
     out_dir: Annotated[Path | None, typer.Option(help="also keep each mesh's result file here")] = None,
     as_json: JSON = False,
 ) -> None:
