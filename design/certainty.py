@@ -34,21 +34,32 @@ def gauss_newton_term_hessians(objective: Objective, prediction, theta_star: np.
     return np.stack([2.0 * (j[0] * scale).T @ (j[0] * scale) for j in jacs])
 
 
-def stencil(p: int, h: float) -> np.ndarray:
-    """The 3^p central-difference stencil in theta_bar offsets (3^p, p)."""
-    return h * np.array(list(itertools.product((-1.0, 0.0, 1.0), repeat=p)))
+def stencil(p: int, h) -> np.ndarray:
+    """The 3^p central-difference stencil in theta_bar offsets (3^p, p); ``h`` a step for all
+    axes or one per axis."""
+    steps = np.broadcast_to(np.asarray(h, float), (p,))
+    return np.array(list(itertools.product((-1.0, 0.0, 1.0), repeat=p))) * steps
+
+
+#: The spacing of the paper's 25 x 31 grid in theta_bar at theta* = (10, 350) kPa: the step the
+#: authors' code differentiates with (authors-code-notes.md).
+PAPER_GRID_STEP = (20.0 / 24.0 / 10.0, (578.0 - 82.5) / 30.0 / 350.0)
 
 
 def finite_difference_term_hessians(
-    objective: Objective, predictor, theta_star: np.ndarray, h: float = 0.02
+    objective: Objective, predictor, theta_star: np.ndarray, h=0.02
 ) -> np.ndarray:
-    """H_k (4, p, p) in theta_bar by central second differences of F_k over the 3^p stencil."""
+    """H_k (4, p, p) in theta_bar by central second differences of F_k over the 3^p stencil of
+    step ``h`` (one for all parameters, or one per parameter, e.g. :data:`PAPER_GRID_STEP`)."""
     theta_star = np.asarray(theta_star, float)
     p = len(theta_star)
-    offsets = stencil(p, h)
+    steps = np.broadcast_to(np.asarray(h, float), (p,))
+    if np.any(~np.isfinite(steps)) or np.any(steps <= 0) or np.any(steps >= 1):
+        raise ValueError(f"finite-difference steps must lie in (0, 1) in theta/theta*, got {steps.tolist()}")
+    offsets = stencil(p, steps)
     pred = predictor.predict(theta_star * (1.0 + offsets))
     F = objective.terms(pred)  # (3^p, 4)
-    index = {tuple(np.round(o / h).astype(int)): i for i, o in enumerate(offsets)}
+    index = {tuple(np.round(o / steps).astype(int)): i for i, o in enumerate(offsets)}
 
     def at(**where: int) -> np.ndarray:
         """F at the stencil point with offsets {axis: -1 | 0 | 1}, zero elsewhere."""
@@ -59,13 +70,13 @@ def finite_difference_term_hessians(
 
     H = np.zeros((4, p, p))
     for i in range(p):
-        H[:, i, i] = (at(**{f"a{i}": 1}) - 2 * at() + at(**{f"a{i}": -1})) / h**2
+        H[:, i, i] = (at(**{f"a{i}": 1}) - 2 * at() + at(**{f"a{i}": -1})) / steps[i] ** 2
         for j in range(i + 1, p):
             ai, aj = f"a{i}", f"a{j}"
             cross = (
                 at(**{ai: 1, aj: 1}) - at(**{ai: 1, aj: -1}) - at(**{ai: -1, aj: 1}) + at(**{ai: -1, aj: -1})
             )
-            H[:, i, j] = H[:, j, i] = cross / (4 * h**2)
+            H[:, i, j] = H[:, j, i] = cross / (4 * steps[i] * steps[j])
     return H
 
 

@@ -37,7 +37,7 @@ def fe_design_study(
     method: str = "exact",
     reading: str = "paper",
     step: int | None = None,
-    h: float = 0.02,
+    h: float | tuple[float, ...] = 0.02,
     n_jobs: int = 1,
 ) -> DesignStudy:
     """Hessians from the embedded FE solver: ``exact`` (Gauss-Newton with its sensitivities, one

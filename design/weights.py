@@ -18,6 +18,18 @@ from .certainty import bounds_pct, combine
 #: The rows of Table 1 that do not come from an optimisation.
 FIXED_ROWS = {"force only": (1.0, 0.0, 0.0, 0.0)}
 
+#: The paper's Table 1 (theta* = {10, 350} kPa, s = 0.05): row, weights (force, ux, uy, uz),
+#: bounds of c1 and c5 in percent.
+PAPER_TABLE1 = (
+    ("force only", (1.0, 0.0, 0.0, 0.0), 22.5, 210.2),
+    ("deformation only", (0.0, 0.35, 0.35, 0.3), 12.8, 50.7),
+    ("optimal for c1", (0.7, 0.3, 0.0, 0.0), 4.5, 29.8),
+    ("optimal for c5", (0.4, 0.35, 0.25, 0.0), 5.4, 28.3),
+    ("combined optimal", (0.45, 0.35, 0.2, 0.0), 5.2, 28.3),
+)
+#: The paper's H(theta*) for the combined weights (eq. 14), in theta_bar.
+PAPER_HESSIAN = ((2.07, -0.12), (-0.12, 0.07))
+
 
 @dataclass(frozen=True)
 class WeightRow:
@@ -103,4 +115,34 @@ def table1(term_hessians: np.ndarray, s: float = 0.05, criterion: str = "combine
     rows.append(row("optimal for c1", optimise_weights(term_hessians, "c1")))
     rows.append(row("optimal for c5", optimise_weights(term_hessians, "c5")))
     rows.append(row(f"{criterion} optimal", optimise_weights(term_hessians, criterion)))
+    return rows
+
+
+@dataclass(frozen=True)
+class ComparisonRow:
+    """One row of Table 1: the paper's weights and bounds, ours at the paper's weights, and our
+    own optimum for the same row."""
+
+    name: str
+    paper_weights: tuple[float, ...]
+    paper_c1_pct: float
+    paper_c5_pct: float
+    c1_pct_at_paper_weights: float
+    c5_pct_at_paper_weights: float
+    weights: tuple[float, ...]
+    c1_pct: float
+    c5_pct: float
+
+
+def compare_with_paper(
+    term_hessians: np.ndarray, s: float = 0.05, criterion: str = "combined"
+) -> list[ComparisonRow]:
+    """Table 1 row by row: the paper's numbers beside ours at its weights and at our optimum."""
+    ours = table1(term_hessians, s, criterion)
+    rows = []
+    for (name, eta, p1, p5), opt in zip(PAPER_TABLE1, ours, strict=True):
+        b = bounds_pct(combine(term_hessians, np.array(eta)), s)
+        rows.append(
+            ComparisonRow(name, eta, p1, p5, float(b[0]), float(b[1]), opt.weights, opt.c1_pct, opt.c5_pct)
+        )
     return rows

@@ -33,22 +33,47 @@ THETA = Annotated[str, typer.Option(help="theta* = c1,c5 in kPa")]
 S = Annotated[float, typer.Option("--s", help="noise level s of eq. 6 (design stage: 0.05)")]
 METHOD = Annotated[str, typer.Option(help="Hessian: exact (Gauss-Newton, solver sensitivities) or fd")]
 READING = Annotated[str, typer.Option(help="objective reading: paper (eq. 4 as printed) or authors")]
+FD_STEP = Annotated[
+    str,
+    typer.Option(
+        help="fd step in theta/theta*: one number, c1,c5, or 'grid' (the paper grid's spacing, "
+        "as the authors' code)"
+    ),
+]
+JOBS = Annotated[int, typer.Option("--jobs", help="parallel simulations for the fd stencil")]
 
 
-def _study(theta, kappa, radius, steps, step_size, mesh, mesh_from, substeps, method, reading, as_json):
+def _fd_step(text: str):
+    from ..design.certainty import PAPER_GRID_STEP
+
+    if text.strip() == "grid":
+        return PAPER_GRID_STEP
+    values = [float(v) for v in text.split(",")]
+    return values[0] if len(values) == 1 else tuple(values)
+
+
+def _study(
+    theta, kappa, radius, steps, step_size, mesh, mesh_from, substeps, method, reading, as_json, fd_step, jobs
+):
     from ..design.study import fe_design_study
 
     try:
         c1, c5 = (float(v) for v in theta.split(","))
         spec = model_spec(c1, c5, kappa, radius, steps, step_size, mesh, mesh_from, substeps)
         err.print(f"design study at theta* = ({c1:g}, {c5:g}) kPa, R = {radius:g} mm, {method} Hessian ...")
-        return fe_design_study(spec, (c1, c5), method=method, reading=reading)
+        return fe_design_study(
+            spec, (c1, c5), method=method, reading=reading, h=_fd_step(fd_step), n_jobs=jobs
+        )
     except (SpecError, ValueError) as exc:
         fail(str(exc), as_json)
 
 
 def _fmt(eta) -> str:
-    return "(" + ", ".join(f"{v:.2f}" for v in eta) + ")"
+    return "(" + ",".join(f"{v:.2f}" for v in eta) + ")"
+
+
+def _pair(c1: float, c5: float) -> str:
+    return f"{c1:.1f} / {c5:.1f}"
 
 
 @design_app.command("bounds")
@@ -65,6 +90,8 @@ def bounds(
     substeps: SUBSTEPS = 1,
     method: METHOD = "exact",
     reading: READING = "paper",
+    fd_step: FD_STEP = "0.02",
+    jobs: JOBS = 1,
     as_json: JSON = False,
 ) -> None:
     """Certainty bounds of c1 and c5 (eq. 6) for one set of objective weights."""
@@ -75,7 +102,19 @@ def bounds(
     except ValueError as exc:
         fail(str(exc), as_json)
     study = _study(
-        theta, kappa, radius, steps, step_size, mesh, mesh_from, substeps, method, reading, as_json
+        theta,
+        kappa,
+        radius,
+        steps,
+        step_size,
+        mesh,
+        mesh_from,
+        substeps,
+        method,
+        reading,
+        as_json,
+        fd_step,
+        jobs,
     )
     H = study.hessian(eta)
     b = study.bounds(eta, s)
@@ -114,27 +153,49 @@ def weights_cmd(
     substeps: SUBSTEPS = 1,
     method: METHOD = "exact",
     reading: READING = "paper",
+    fd_step: FD_STEP = "0.02",
+    jobs: JOBS = 1,
     out: Annotated[Path | None, typer.Option(help="also write the table as JSON here")] = None,
     as_json: JSON = False,
 ) -> None:
-    """The layout of Table 1: force only; deformation only; optimal for c1; for c5; combined."""
-    from ..design.weights import table1
+    """The layout of Table 1: force only; deformation only; optimal for c1; for c5; combined; each
+    row beside the paper's bounds and ours at the paper's weights."""
+    from ..design.weights import PAPER_HESSIAN, compare_with_paper
 
     study = _study(
-        theta, kappa, radius, steps, step_size, mesh, mesh_from, substeps, method, reading, as_json
+        theta,
+        kappa,
+        radius,
+        steps,
+        step_size,
+        mesh,
+        mesh_from,
+        substeps,
+        method,
+        reading,
+        as_json,
+        fd_step,
+        jobs,
     )
     try:
-        rows = table1(study.term_hessians, s, criterion)
+        rows = compare_with_paper(study.term_hessians, s, criterion)
     except ValueError as exc:
         fail(str(exc), as_json)
+    H_paper_weights = study.hessian(rows[-1].paper_weights)
     payload = {
-        "rows": [r.__dict__ for r in rows],
+        "rows": [
+            {"name": r.name, "weights": list(r.weights), "c1_pct": r.c1_pct, "c5_pct": r.c5_pct} for r in rows
+        ],
+        "paper_rows": [r.__dict__ for r in rows],
         "s": s,
         "criterion": criterion,
         "method": method,
         "reading": reading,
+        "fd_step": fd_step if method == "fd" else None,
         "theta_star": study.theta_star.tolist(),
         "hessian_combined": study.hessian(rows[-1].weights).tolist(),
+        "hessian_paper_weights": H_paper_weights.tolist(),
+        "paper_hessian": [list(r) for r in PAPER_HESSIAN],
         "term_hessians": study.term_hessians.tolist(),
         "spec": study.spec,
     }
@@ -144,11 +205,29 @@ def weights_cmd(
     if as_json:
         print(json.dumps(payload))
         return
-    table = Table(
-        title=f"Table 1 layout at theta* = {theta} kPa, s = {s:g} ({method} Hessian, {reading} reading)"
-    )
-    for col in ("test design", "c1", "c5", "weights (force, ux, uy, uz)"):
+    table = Table(title=f"Table 1 at theta* = {theta} kPa, s = {s:g} ({method} Hessian, {reading} reading)")
+    for col in (
+        "+- % of c1 / c5",
+        "paper",
+        "paper weights",
+        "ours, paper weights",
+        "ours, optimised",
+        "our weights",
+    ):
         table.add_column(col)
     for r in rows:
-        table.add_row(r.name, f"+-{r.c1_pct:.1f} %", f"+-{r.c5_pct:.1f} %", _fmt(r.weights))
-    Console().print(table)
+        table.add_row(
+            r.name,
+            _pair(r.paper_c1_pct, r.paper_c5_pct),
+            _fmt(r.paper_weights),
+            _pair(r.c1_pct_at_paper_weights, r.c5_pct_at_paper_weights),
+            _pair(r.c1_pct, r.c5_pct),
+            _fmt(r.weights),
+        )
+    Console(width=130).print(table)
+    H = H_paper_weights
+    P = PAPER_HESSIAN
+    Console(width=130).print(
+        f"H(theta*) at the paper's combined weights: [[{H[0, 0]:.3g}, {H[0, 1]:.3g}], [{H[1, 0]:.3g}, {H[1, 1]:.3g}]]"
+        f"   (paper eq. 14: [[{P[0][0]}, {P[0][1]}], [{P[1][0]}, {P[1][1]}]])"
+    )
