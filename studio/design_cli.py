@@ -231,3 +231,49 @@ def weights_cmd(
         f"H(theta*) at the paper's combined weights: [[{H[0, 0]:.3g}, {H[0, 1]:.3g}], [{H[1, 0]:.3g}, {H[1, 1]:.3g}]]"
         f"   (paper eq. 14: [[{P[0][0]}, {P[0][1]}], [{P[1][0]}, {P[1][1]}]])"
     )
+
+
+@design_app.command("baseline")
+def baseline_cmd(
+    mu_matrix: Annotated[float, typer.Option(help="matrix neo-Hookean shear modulus mu, kPa")] = 19.4,
+    fiber_c1: Annotated[float, typer.Option(help="fiber Mooney-Rivlin c1, kPa")] = -1227.0,
+    fiber_c2: Annotated[float, typer.Option(help="fiber Mooney-Rivlin c2, kPa")] = 5945.0,
+    fvf: Annotated[float, typer.Option(help="fiber volume fraction (0..1)")] = 0.07,
+    equibiaxial: Annotated[
+        Path | None,
+        typer.Option(
+            help="CSV of equibiaxial data (stretch, sigma_fiber, sigma_transverse; kPa) to fit eq. 10"
+        ),
+    ] = None,
+    as_json: JSON = False,
+) -> None:
+    """Baseline theta* from the constituents (eq. 11) and, if given, the eq. 10 fit of equibiaxial data."""
+    import pandas as pd
+
+    from ..design.constituents import fit_equibiaxial, rule_of_mixtures
+
+    try:
+        c1, c5 = rule_of_mixtures(mu_matrix, fiber_c1, fiber_c2, fvf)
+        payload = {"c1": c1, "c5": c5, "source": "eq. 11 (rule of mixtures)"}
+        if equibiaxial is not None:
+            table = pd.read_csv(equibiaxial)
+            missing = {"stretch", "sigma_fiber", "sigma_transverse"} - set(table.columns)
+            if missing:
+                raise ValueError(f"{equibiaxial}: missing column(s) {', '.join(sorted(missing))}")
+            fit = fit_equibiaxial(table["stretch"], table["sigma_fiber"], table["sigma_transverse"])
+            payload["equibiaxial_fit"] = {
+                "values": fit.values,
+                "std_errors": fit.std_errors,
+                "rms_kPa": fit.rms_kPa,
+            }
+    except (OSError, ValueError, RuntimeError) as exc:
+        fail(str(exc), as_json)
+    if as_json:
+        print(json.dumps(payload))
+        return
+    Console().print(f"eq. 11: c1 = {c1:.2f} kPa, c5 = {c5:.1f} kPa (FVF {fvf:g})")
+    if "equibiaxial_fit" in payload:
+        v, e = fit.values, fit.std_errors
+        Console().print(
+            f"eq. 10 fit: c1 = {v['c1']:.2f} +- {e['c1']:.2f} kPa, c5 = {v['c5']:.1f} +- {e['c5']:.1f} kPa"
+        )

@@ -1,0 +1,115 @@
+"""A baseline theta* before the experiment, from the constituents (paper 3.1, eq. 10, 11; supplement S3).
+
+* :func:`rule_of_mixtures`: eq. 11a, 11b from the matrix's neo-Hookean shear modulus, the fibers'
+  Mooney-Rivlin constants and the fiber volume fraction.
+* :func:`fit_neo_hookean_uniaxial`: the matrix's mu from uniaxial tension (or compression) data.
+* :func:`fit_mooney_rivlin_uniaxial`: the fibers' (c1, c2) from uniaxial tension data.
+* :func:`fit_equibiaxial`: (c1, c5) of eq. 2 from equibiaxial stress-stretch data (eq. 10a, 10b),
+  e.g. the averaged stresses of a composite FE model (paper 2.9).
+
+All stresses are Cauchy (true) stresses in kPa of an incompressible specimen; give
+``nominal=True`` for force over reference area. Every fit returns the estimates with their
+standard errors (scipy.optimize.curve_fit's covariance).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import curve_fit
+
+from ..forward.material import equibiaxial_stress_incompressible
+
+
+@dataclass(frozen=True)
+class Fit:
+    """Fitted parameters (by name, kPa), their standard errors and the RMS residual (kPa)."""
+
+    values: dict[str, float]
+    std_errors: dict[str, float]
+    rms_kPa: float
+    n_points: int
+
+
+def rule_of_mixtures(
+    mu_matrix: float, c1_fiber: float, c2_fiber: float, fiber_volume_fraction: float
+) -> tuple[float, float]:
+    """Eq. 11: c1 = mu_m / 2 (11a), c5 = FVF (c1_f + c2_f) + (1 - FVF) c1 (11b), kPa."""
+    if not (np.isfinite(mu_matrix) and mu_matrix > 0):
+        raise ValueError(f"the matrix shear modulus must be a positive number (kPa), got {mu_matrix!r}")
+    if not (np.isfinite(fiber_volume_fraction) and 0 < fiber_volume_fraction < 1):
+        raise ValueError(f"the fiber volume fraction must lie in (0, 1), got {fiber_volume_fraction!r}")
+    if not (np.isfinite(c1_fiber) and np.isfinite(c2_fiber)) or c1_fiber + c2_fiber <= 0:
+        raise ValueError(
+            f"the fibers' initial stiffness c1_f + c2_f must be positive, got {c1_fiber!r} + {c2_fiber!r}"
+        )
+    c1 = mu_matrix / 2.0
+    c5 = fiber_volume_fraction * (c1_fiber + c2_fiber) + (1.0 - fiber_volume_fraction) * c1
+    return float(c1), float(c5)
+
+
+def _clean(stretch, *stresses) -> tuple[np.ndarray, ...]:
+    lam = np.asarray(stretch, dtype=float).ravel()
+    out = [np.asarray(s, dtype=float).ravel() for s in stresses]
+    if any(s.shape != lam.shape for s in out):
+        raise ValueError("stretch and stress must have the same number of points")
+    if lam.size < 2:
+        raise ValueError("a fit needs at least two stress-stretch points")
+    if not (np.all(np.isfinite(lam)) and all(np.all(np.isfinite(s)) for s in out)):
+        raise ValueError("the stress-stretch data hold NaN or infinite values")
+    if np.any(lam <= 0):
+        raise ValueError("stretches must be positive (lambda = current / reference length)")
+    return lam, *out
+
+
+def _to_cauchy(lam: np.ndarray, stress: np.ndarray, nominal: bool) -> np.ndarray:
+    """Uniaxial, incompressible: sigma = lam P (P force over reference area)."""
+    return lam * stress if nominal else stress
+
+
+def _fit(model, x, y, names: tuple[str, ...], p0) -> Fit:
+    popt, pcov = curve_fit(model, x, y, p0=p0)
+    resid = y - model(x, *popt)
+    err = (
+        np.sqrt(np.clip(np.diag(pcov), 0.0, None))
+        if np.all(np.isfinite(pcov))
+        else np.full(len(popt), np.inf)
+    )
+    return Fit(
+        dict(zip(names, map(float, popt), strict=True)),
+        dict(zip(names, map(float, err), strict=True)),
+        float(np.sqrt(np.mean(resid**2))),
+        len(y),
+    )
+
+
+def fit_neo_hookean_uniaxial(stretch, stress, nominal: bool = False) -> Fit:
+    """Incompressible neo-Hookean, sigma = mu (lam^2 - 1 / lam): the matrix's ``mu`` (S3)."""
+    lam, s = _clean(stretch, stress)
+    return _fit(lambda x, mu: mu * (x**2 - 1.0 / x), lam, _to_cauchy(lam, s, nominal), ("mu",), (1.0,))
+
+
+def fit_mooney_rivlin_uniaxial(stretch, stress, nominal: bool = False) -> Fit:
+    """Incompressible Mooney-Rivlin, sigma = 2 (c1 + c2 / lam)(lam^2 - 1 / lam): the fibers' (c1, c2) (S3)."""
+    lam, s = _clean(stretch, stress)
+    return _fit(
+        lambda x, c1, c2: 2.0 * (c1 + c2 / x) * (x**2 - 1.0 / x),
+        lam,
+        _to_cauchy(lam, s, nominal),
+        ("c1", "c2"),
+        (1.0, 1.0),
+    )
+
+
+def fit_equibiaxial(stretch, sigma_fiber, sigma_transverse) -> Fit:
+    """(c1, c5) of eq. 2 from equibiaxial Cauchy stresses along and across the fibers (eq. 10a, 10b),
+    both fitted at once."""
+    lam, s11, s22 = _clean(stretch, sigma_fiber, sigma_transverse)
+    n = lam.size
+
+    def model(x, c1, c5):
+        a, b = equibiaxial_stress_incompressible(x[:n], c1, c5)
+        return np.concatenate([a, b])
+
+    return _fit(model, np.concatenate([lam, lam]), np.concatenate([s11, s22]), ("c1", "c5"), (1.0, 10.0))
