@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from ..forward.predictor import Prediction
 from ..forward.result import SimulationResult
 from .store import CampaignError, CampaignStore
 
@@ -30,6 +31,10 @@ class CampaignData:
     @property
     def n(self) -> int:
         return len(self.theta)
+
+    def prediction(self) -> Prediction:
+        """The campaign as a Prediction (the seam of ARCHITECTURE.md) at its points ``theta``."""
+        return Prediction(self.force, self.displacement, self.depth, self.top_xyz, self.parameters)
 
 
 def open_campaign(name_or_path: str | Path, runs_dir: str | Path = "runs") -> CampaignStore:

@@ -10,7 +10,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from ..forward.spec import SpecError
+from ..forward.spec import ModelSpec, SpecError
 from .options import (
     JSON,
     KAPPA,
@@ -277,3 +277,138 @@ def baseline_cmd(
         Console().print(
             f"eq. 10 fit: c1 = {v['c1']:.2f} +- {e['c1']:.2f} kPa, c5 = {v['c5']:.1f} +- {e['c5']:.1f} kPa"
         )
+
+
+@design_app.command("map")
+def map_cmd(
+    campaign: Annotated[str, typer.Option(help="campaign name under runs/ (or its folder)")],
+    weights: Annotated[str, typer.Option(help="eta = force,ux,uy,uz on the simplex")] = "0.45,0.35,0.2,0",
+    s: S = 0.05,
+    theta: THETA = "10,350",
+    reading: READING = "paper",
+    out: Annotated[
+        Path | None, typer.Option(help="PNG to write (default runs/<campaign>/figure8.png)")
+    ] = None,
+    as_json: JSON = False,
+) -> None:
+    """Fig. 8: the objective over a campaign's (c1, c5) points against the response at theta*
+    (simulated on the campaign's model with sensitivities), the certainty ellipse and theta*."""
+    import numpy as np
+
+    from ..campaign.loader import load_campaign
+    from ..design.certainty import bounds_pct, combine, gauss_newton_term_hessians
+    from ..design.objective import Objective, check_weights
+    from ..forward.predictor import FESolverPredictor
+    from .figures import objective_map_figure
+
+    try:
+        eta = check_weights([float(v) for v in weights.split(",")])
+        theta_star = np.array([float(v) for v in theta.split(",")])
+        data = load_campaign(campaign)
+        spec = ModelSpec.from_dict(data.spec["model"])
+        err.print(f"simulating theta* = {theta} kPa on the campaign's model with sensitivities ...")
+        target = FESolverPredictor(spec, sensitivities=True).predict(theta_star)
+        objective = Objective.from_prediction(target, radius=spec.indenter.radius, reading=reading)
+        F = objective.value(data.prediction(), eta)
+        H = combine(gauss_newton_term_hessians(objective, target, theta_star), eta)
+        bars = data.theta / theta_star
+        path = Path(out) if out is not None else Path("runs") / data.spec["name"] / "figure8.png"
+        objective_map_figure(
+            bars[:, 0],
+            bars[:, 1],
+            F,
+            H,
+            s,
+            path,
+            title=f"F over {data.n} simulations, weights {_fmt(eta)}, R = {spec.indenter.radius:g} mm",
+        )
+    except (ValueError, OSError) as exc:
+        fail(str(exc), as_json)
+    b = bounds_pct(H, s)
+    payload = {
+        "png": str(path),
+        "points": int(data.n),
+        "hessian": H.tolist(),
+        "c1_pct": float(b[0]),
+        "c5_pct": float(b[1]),
+    }
+    if as_json:
+        print(json.dumps(payload))
+        return
+    Console().print(f"wrote {path} ({data.n} points); bounds c1 +-{b[0]:.1f} %, c5 +-{b[1]:.1f} %")
+
+
+def _floats(text: str) -> list[float]:
+    return [float(v) for v in text.split(",") if v.strip()]
+
+
+@design_app.command("compare")
+def compare_cmd(
+    radii: Annotated[str, typer.Option(help="indenter radii, mm")] = "4.77,8",
+    depths: Annotated[str, typer.Option(help="maximum depths, mm")] = "5,7,10.5,14",
+    every: Annotated[str, typer.Option(help="measure every k-th 0.5 mm step (k values)")] = "1",
+    fovs: Annotated[str, typer.Option(help="DIC field-of-view radii, mm ('all' = whole top)")] = "all",
+    noise: Annotated[str, typer.Option("--s", help="noise levels s")] = "0.05",
+    weights: Annotated[
+        str, typer.Option(help="fixed weights to report beside the optimum")
+    ] = "0.45,0.35,0.2,0",
+    criterion: Annotated[str, typer.Option(help="weight optimum: c1, c5, combined or det")] = "combined",
+    theta: THETA = "10,350",
+    kappa: KAPPA = 1000.0,
+    step_size: STEP_SIZE = 0.5,
+    mesh: MESH = "default",
+    mesh_from: MESH_FROM = None,
+    reading: READING = "paper",
+    out_dir: Annotated[Path, typer.Option(help="folder for design-comparison.csv and .png")] = Path(
+        "runs/design"
+    ),
+    as_json: JSON = False,
+) -> None:
+    """Which experiment to run: bounds of every candidate design (radius x depth x sampling x field
+    of view x noise), as a table and a plot (one simulation with sensitivities per radius)."""
+    import numpy as np
+
+    from ..design.experiment_choice import candidate_grid, compare_designs
+    from .figures import design_comparison_figure
+
+    try:
+        c1, c5 = _floats(theta)
+        max_depth = max(_floats(depths))
+        spec = model_spec(
+            c1, c5, kappa, 4.77, int(np.ceil(max_depth / step_size - 1e-9)), step_size, mesh, mesh_from, 1
+        )
+        fov_values = [None if v.strip() == "all" else float(v) for v in fovs.split(",")]
+        candidates = candidate_grid(
+            _floats(radii), _floats(depths), [int(v) for v in _floats(every)], fov_values, _floats(noise)
+        )
+        table = compare_designs(
+            spec, candidates, (c1, c5), _floats(weights), criterion, reading, progress=err.print
+        )
+    except (SpecError, ValueError) as exc:
+        fail(str(exc), as_json)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    csv = out_dir / "design-comparison.csv"
+    table.to_csv(csv, index=False)
+    png = design_comparison_figure(table, out_dir / "design-comparison.png")
+    if as_json:
+        rows = json.loads(table.to_json(orient="records"))
+        print(json.dumps({"rows": rows, "csv": str(csv), "png": str(png), "theta_star": [c1, c5]}))
+        return
+    view = Table(
+        title=f"candidate designs at theta* = {theta} kPa (fixed weights {weights}; optimised for {criterion})"
+    )
+    for col in ("R mm", "depth mm", "steps", "FOV mm", "s", "c1 / c5 fixed", "c1 / c5 optimised", "weights"):
+        view.add_column(col)
+    for r in table.itertuples():
+        view.add_row(
+            f"{r.radius_mm:g}",
+            f"{r.max_depth_mm:g}",
+            str(r.steps),
+            "all" if np.isnan(r.fov_mm) else f"{r.fov_mm:g}",
+            f"{r.s:g}",
+            _pair(r.c1_pct, r.c5_pct),
+            _pair(r.c1_pct_optimised, r.c5_pct_optimised),
+            _fmt(r.optimised_weights),
+        )
+    Console(width=130).print(view)
+    Console().print(f"wrote {csv} and {png}")

@@ -1,0 +1,130 @@
+"""Which experiment to run: certainty bounds (eq. 6) of candidate test designs before the test.
+
+A candidate is an indenter radius, a maximum depth, a measurement every ``every``-th step of
+the protocol, a DIC field of view (radius around the indentation point, mm) and a noise level s.
+One simulation with exact sensitivities at theta* per radius serves all candidates of that
+radius: a shallower or sparser test measures a subset of the deeper test's steps (quasi-static
+loading), and a smaller field of view masks nodes. For each candidate the bounds are given at
+fixed weights (default: the paper's combined weights, eq. 13) and at the weights optimised for
+that design (:func:`design.weights.optimise_weights`).
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass, replace
+
+import numpy as np
+import pandas as pd
+
+from ..forward.predictor import FESolverPredictor, Prediction
+from ..forward.spec import Indenter, ModelSpec, Protocol
+from .certainty import bounds_pct, combine, gauss_newton_term_hessians
+from .objective import Objective, check_weights
+from .weights import optimise_weights
+
+PAPER_COMBINED_WEIGHTS = (0.45, 0.35, 0.2, 0.0)
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """One test design. ``fov`` None: the whole top surface is seen."""
+
+    radius: float
+    max_depth: float
+    every: int = 1
+    fov: float | None = None
+    s: float = 0.05
+
+
+def _subset(pred: Prediction, steps: np.ndarray) -> Prediction:
+    return replace(
+        pred,
+        force=pred.force[:, steps],
+        displacement=pred.displacement[:, steps],
+        depth=pred.depth[steps],
+        force_jacobian=pred.force_jacobian[:, steps],
+        displacement_jacobian=pred.displacement_jacobian[:, steps],
+    )
+
+
+def measured_steps(depth: np.ndarray, candidate: Candidate) -> np.ndarray:
+    """Indices of the protocol steps a candidate measures: every ``every``-th step down to its
+    maximum depth, the deepest one included."""
+    if candidate.max_depth > depth[-1] + 1e-9:
+        raise ValueError(
+            f"max depth {candidate.max_depth:g} mm is deeper than the simulation ({depth[-1]:g} mm)"
+        )
+    if int(candidate.every) != candidate.every or candidate.every < 1:
+        raise ValueError(f"'every' must be a positive whole number of steps, got {candidate.every!r}")
+    within = np.flatnonzero(depth <= candidate.max_depth + 1e-9)
+    steps = within[::-1][:: int(candidate.every)][::-1]  # keep the deepest step, thin toward the surface
+    if steps.size == 0:
+        raise ValueError(f"no protocol step is as shallow as {candidate.max_depth:g} mm")
+    return steps
+
+
+def candidate_term_hessians(
+    base: Prediction, candidate: Candidate, theta_star: np.ndarray, reading: str = "paper"
+) -> np.ndarray:
+    """H_k (4, p, p) of one candidate from the deepest simulation ``base`` of its radius."""
+    sub = _subset(base, measured_steps(base.depth, candidate))
+    mask = None
+    if candidate.fov is not None:
+        if not (np.isfinite(candidate.fov) and candidate.fov > 0):
+            raise ValueError(f"the field of view must be a positive radius in mm, got {candidate.fov!r}")
+        mask = np.hypot(base.top_xyz[:, 0], base.top_xyz[:, 1]) <= candidate.fov
+    objective = Objective.from_prediction(sub, radius=candidate.radius, reading=reading, mask=mask)
+    return gauss_newton_term_hessians(objective, sub, theta_star)
+
+
+def compare_designs(
+    spec: ModelSpec,
+    candidates: list[Candidate],
+    theta_star=(10.0, 350.0),
+    weights=PAPER_COMBINED_WEIGHTS,
+    criterion: str = "combined",
+    reading: str = "paper",
+    progress=None,
+) -> pd.DataFrame:
+    """One row per candidate: its design, the bounds at ``weights`` and at its own optimum."""
+    theta_star = np.asarray(theta_star, float)
+    eta = check_weights(weights)
+    base_by_radius: dict[float, Prediction] = {}
+    deepest = max(c.max_depth for c in candidates)
+    step = spec.protocol.step_size
+    protocol = Protocol(step_size=step, steps=int(np.ceil(deepest / step - 1e-9)))
+    rows = []
+    for c in candidates:
+        if c.radius not in base_by_radius:
+            if progress is not None:
+                progress(f"simulating R = {c.radius:g} mm to {protocol.max_depth:g} mm with sensitivities")
+            r_spec = replace(spec, indenter=Indenter(radius=c.radius), protocol=protocol)
+            base_by_radius[c.radius] = FESolverPredictor(r_spec, sensitivities=True).predict(theta_star)
+        H = candidate_term_hessians(base_by_radius[c.radius], c, theta_star, reading)
+        b_fixed = bounds_pct(combine(H, eta), c.s)
+        eta_opt = optimise_weights(H, criterion)
+        b_opt = bounds_pct(combine(H, eta_opt), c.s)
+        rows.append(
+            {
+                "radius_mm": c.radius,
+                "max_depth_mm": c.max_depth,
+                "steps": int(measured_steps(base_by_radius[c.radius].depth, c).size),
+                "every": c.every,
+                "fov_mm": np.nan if c.fov is None else c.fov,
+                "s": c.s,
+                "c1_pct": float(b_fixed[0]),
+                "c5_pct": float(b_fixed[1]),
+                "c1_pct_optimised": float(b_opt[0]),
+                "c5_pct_optimised": float(b_opt[1]),
+                "optimised_weights": tuple(round(float(v), 4) for v in eta_opt),
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def candidate_grid(
+    radii=(4.77, 8.0), depths=(7.0, 10.5, 14.0), every=(1,), fovs=(None,), noise=(0.05,)
+) -> list[Candidate]:
+    """Every combination of the given design choices."""
+    return [Candidate(*c) for c in itertools.product(radii, depths, every, fovs, noise)]
