@@ -147,9 +147,12 @@ class ConstrainedSymmetricSolver:
         x[self.kept] = y
         return x
 
+    def __del__(self) -> None:
+        self.release()
+
     def release(self) -> None:
         """Free the solver's memory (PARDISO keeps its factors outside Python)."""
-        if self._pardiso is not None:
+        if getattr(self, "_pardiso", None) is not None:
             self._pardiso.free_memory(everything=True)
             self._pardiso = None
             self._analysed = False

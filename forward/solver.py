@@ -300,7 +300,16 @@ class EmbeddedSolver:
     def run(
         self, sensitivities: bool = False, progress: Callable[[int, int, float], None] | None = None
     ) -> SimulationResult:
-        """Run the protocol; ``progress(step, steps, force)`` is called after each step."""
+        """Run the protocol; ``progress(step, steps, force)`` is called after each step. The
+        linear solver's memory (PARDISO keeps its factors outside Python) is freed at the end."""
+        try:
+            return self._run(sensitivities, progress)
+        finally:
+            self.linear.release()
+
+    def _run(
+        self, sensitivities: bool, progress: Callable[[int, int, float], None] | None
+    ) -> SimulationResult:
         t_start = time.perf_counter()
         self._sensitivities = sensitivities
         proto, opts = self.spec.protocol, self.spec.solver
