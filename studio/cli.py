@@ -36,6 +36,7 @@ from .options import (
     model_spec,
 )
 from .progress import step_progress
+from .surrogate_cli import surrogate_app
 
 app = typer.Typer(
     help="Indentation Studio: identify (c1, c5) of soft tissue from indentation force and 3D-DIC.",
@@ -44,6 +45,7 @@ app = typer.Typer(
 )
 app.add_typer(campaign_app, name="campaign")
 app.add_typer(design_app, name="design")
+app.add_typer(surrogate_app, name="surrogate")
 
 
 @app.command()

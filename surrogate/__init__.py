@@ -1,1 +1,1 @@
-"""surrogate: see ARCHITECTURE.md (filled by later issues)."""
+"""Emulators of the forward model trained on a campaign: Gaussian process and MLP."""

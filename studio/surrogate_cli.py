@@ -1,0 +1,156 @@
+"""``indent-studio surrogate train | evaluate``: emulators of the forward model from a campaign."""
+
+from __future__ import annotations
+
+import json
+import time
+from enum import StrEnum
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from .options import JSON, err, fail
+
+surrogate_app = typer.Typer(
+    help="Gaussian-process and MLP emulators of the forward model, trained on a campaign."
+)
+
+CAMPAIGN = Annotated[str, typer.Option(help="campaign name under --runs-dir (or its folder)")]
+RUNS_DIR = Annotated[Path, typer.Option(help="where campaigns live")]
+
+
+class Kind(StrEnum):
+    gp = "gp"
+    mlp = "mlp"
+
+
+def make_surrogate(kind: str, input_scale: str = "linear", pca_tol: float = 1e-3, **kwargs):
+    """An untrained surrogate of ``kind`` ('gp' or 'mlp')."""
+    if kind == "gp":
+        from ..surrogate.gaussian_process import GaussianProcessSurrogate
+
+        return GaussianProcessSurrogate(input_scale=input_scale, pca_tol=pca_tol, **kwargs)
+    if kind == "mlp":
+        from ..surrogate.mlp import MLPSurrogate
+
+        return MLPSurrogate(input_scale=input_scale, pca_tol=pca_tol, **kwargs)
+    raise ValueError(f"unknown surrogate kind {kind!r}; use 'gp' or 'mlp'")
+
+
+def _training_data(campaign: str, runs_dir: Path):
+    from ..campaign.loader import load_campaign
+    from ..surrogate.base import TrainingData
+
+    return TrainingData.from_campaign(load_campaign(campaign, runs_dir))
+
+
+def _errors_table(title: str, rows: dict[str, dict]) -> None:
+    table = Table(title=title)
+    for col in ("data", "points", "force RMS %", "force max %", "u RMS %", "u max %"):
+        table.add_column(col)
+    for name, e in rows.items():
+        table.add_row(
+            name,
+            str(e["points"]),
+            f"{e['force_rms_pct']:.3f}",
+            f"{e['force_max_pct']:.3f}",
+            f"{e['displacement_rms_pct']:.3f}",
+            f"{e['displacement_max_pct']:.3f}",
+        )
+    Console(width=120).print(table)
+
+
+@surrogate_app.command("train")
+def train(
+    campaign: CAMPAIGN,
+    kind: Annotated[Kind, typer.Option(help="gp (scikit-learn) or mlp (torch)")] = Kind.gp,
+    input_scale: Annotated[str, typer.Option(help="linear or log scaling of the parameters")] = "linear",
+    pca_tol: Annotated[float, typer.Option(help="PCA reconstruction tolerance (relative)")] = 1e-3,
+    test_campaign: Annotated[str | None, typer.Option(help="a campaign of points to test on")] = None,
+    kfold: Annotated[
+        int, typer.Option(help="k-fold cross-validation on the training campaign (0: none)")
+    ] = 0,
+    seed: Annotated[int, typer.Option(help="random seed")] = 0,
+    out: Annotated[
+        Path | None, typer.Option(help="model file (default runs/<campaign>/surrogate-<kind>.joblib)")
+    ] = None,
+    runs_dir: RUNS_DIR = Path("runs"),
+    as_json: JSON = False,
+) -> None:
+    """Train a surrogate on a campaign, validate it, and save it next to the campaign."""
+    from ..surrogate.persistence import save_surrogate
+    from ..surrogate.validation import k_fold_errors, prediction_errors
+
+    try:
+        data = _training_data(campaign, runs_dir)
+        err.print(f"training a {kind.value} surrogate on {data.n} points of {campaign!r} ...")
+        model = make_surrogate(kind.value, input_scale, pca_tol).fit(data, seed=seed)
+        validation = {"training": prediction_errors(model, data)}
+        if kfold:
+            err.print(f"{kfold}-fold cross-validation ...")
+            validation["kfold"] = k_fold_errors(
+                lambda: make_surrogate(kind.value, input_scale, pca_tol), data, kfold, seed
+            )
+        if test_campaign:
+            validation["test"] = prediction_errors(model, _training_data(test_campaign, runs_dir))
+        model.meta["validation"] = validation
+        path = out or Path(runs_dir) / data.source.get("name", campaign) / f"surrogate-{kind.value}.joblib"
+        save_surrogate(model, path)
+    except (ValueError, OSError) as exc:
+        fail(str(exc), as_json)
+    payload = {
+        "model_file": str(path),
+        "kind": kind.value,
+        "fit_s": model.meta["fit_s"],
+        "force_components": model.meta["force_components"],
+        "field_components": model.meta["field_components"],
+        **{f"{name}_errors": e for name, e in validation.items()},
+    }
+    if as_json:
+        print(json.dumps(payload))
+        return
+    _errors_table(f"{kind.value} surrogate of {campaign!r}: errors (percent)", validation)
+    Console().print(f"saved {path} (fit {model.meta['fit_s']:.1f} s)")
+
+
+@surrogate_app.command("evaluate")
+def evaluate(
+    model_file: Annotated[Path, typer.Option("--model", help="a trained surrogate file")],
+    campaign: Annotated[str | None, typer.Option(help="campaign to compare with")] = None,
+    timing: Annotated[int, typer.Option(help="also time a prediction of this many random points")] = 0,
+    runs_dir: RUNS_DIR = Path("runs"),
+    as_json: JSON = False,
+) -> None:
+    """Errors of a saved surrogate on a campaign, and the time to predict many points."""
+    import numpy as np
+
+    from ..surrogate.persistence import load_surrogate
+    from ..surrogate.validation import prediction_errors
+
+    payload: dict = {}
+    try:
+        model = load_surrogate(model_file)
+        payload["kind"] = model.kind
+        if campaign:
+            payload["errors"] = prediction_errors(model, _training_data(campaign, runs_dir))
+        if timing:
+            rng = np.random.default_rng(0)
+            theta = model.scaler.lo + rng.random((timing, len(model.parameters))) * (
+                model.scaler.hi - model.scaler.lo
+            )
+            t0 = time.perf_counter()
+            model.predict(theta)
+            payload["timing"] = {"points": timing, "wall_s": time.perf_counter() - t0}
+    except (ValueError, OSError) as exc:
+        fail(str(exc), as_json)
+    if as_json:
+        print(json.dumps(payload))
+        return
+    if "errors" in payload:
+        _errors_table(f"{model.kind} surrogate on {campaign!r} (percent)", {campaign: payload["errors"]})
+    if "timing" in payload:
+        t = payload["timing"]
+        Console().print(f"prediction of {t['points']} points: {t['wall_s']:.3f} s")

@@ -1,0 +1,191 @@
+"""What the Gaussian-process and the MLP emulators share: input scaling, the PCA reduction of the
+force curves and of the displacement field, the reconstruction, the chain rule for Jacobians, and
+the Predictor seam of ARCHITECTURE.md.
+
+Inputs: theta scaled to [0, 1] over the training box, linearly or in log (``input_scale``).
+Outputs: log(force) per step (relative force errors are what eq. 4a weighs) and the top-surface
+displacement field (steps x nodes x 3), each reduced with scikit-learn's PCA to the components
+that keep the training set's reconstruction error under ``pca_tol`` (force: relative; field:
+relative to max |u| of each direction); the regressors learn the standardised component scores.
+"""
+
+from __future__ import annotations
+
+import time
+from abc import ABC, abstractmethod
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from sklearn.decomposition import PCA
+
+from ..forward.predictor import Prediction
+
+INPUT_SCALES = ("linear", "log")
+
+
+@dataclass
+class TrainingData:
+    """Parameter points and their responses (a campaign, see campaign.loader.CampaignData)."""
+
+    theta: np.ndarray  # (n, p) kPa
+    force: np.ndarray  # (n, steps) mN
+    displacement: np.ndarray  # (n, steps, nodes, 3) mm
+    depth: np.ndarray  # (steps,) mm
+    top_xyz: np.ndarray  # (nodes, 3) mm
+    parameters: tuple[str, ...] = ("c1", "c5")
+    source: dict[str, Any] = field(default_factory=dict)
+
+    @classmethod
+    def from_campaign(cls, data) -> TrainingData:
+        return cls(
+            data.theta, data.force, data.displacement, data.depth, data.top_xyz, data.parameters, data.spec
+        )
+
+    def subset(self, rows: np.ndarray) -> TrainingData:
+        return TrainingData(
+            self.theta[rows],
+            self.force[rows],
+            self.displacement[rows],
+            self.depth,
+            self.top_xyz,
+            self.parameters,
+            self.source,
+        )
+
+    @property
+    def n(self) -> int:
+        return len(self.theta)
+
+
+class InputScaler:
+    """theta -> x in [0, 1]^p over the box [lo, hi], linearly or in log(theta)."""
+
+    def __init__(self, lo: np.ndarray, hi: np.ndarray, scale: str = "linear") -> None:
+        if scale not in INPUT_SCALES:
+            raise ValueError(f"input scale {scale!r}: use one of {', '.join(INPUT_SCALES)}")
+        self.lo, self.hi, self.scale = np.asarray(lo, float), np.asarray(hi, float), scale
+        if np.any(self.hi <= self.lo) or (scale == "log" and np.any(self.lo <= 0)):
+            raise ValueError(
+                f"training box {self.lo.tolist()} .. {self.hi.tolist()} cannot be scaled ({scale})"
+            )
+
+    def _t(self, theta: np.ndarray) -> np.ndarray:
+        return np.log(theta) if self.scale == "log" else theta
+
+    def __call__(self, theta: np.ndarray) -> np.ndarray:
+        a, b = self._t(self.lo), self._t(self.hi)
+        return (self._t(np.asarray(theta, float)) - a) / (b - a)
+
+    def derivative(self, theta: np.ndarray) -> np.ndarray:
+        """dx/dtheta (n, p), diagonal."""
+        a, b = self._t(self.lo), self._t(self.hi)
+        theta = np.asarray(theta, float)
+        d = 1.0 / theta if self.scale == "log" else np.ones_like(theta)
+        return d / (b - a)
+
+
+def _reduce(Y: np.ndarray, scale: np.ndarray, tol: float, max_components: int) -> PCA:
+    """The smallest PCA whose reconstruction error, divided by ``scale`` (per column), stays
+    under ``tol`` (max over the training rows of the RMS error)."""
+    n_max = int(min(max_components, Y.shape[0] - 1, Y.shape[1]))
+    full = PCA(n_components=n_max, svd_solver="full").fit(Y)
+    scores = full.transform(Y)
+    for k in range(1, n_max + 1):
+        recon = scores[:, :k] @ full.components_[:k] + full.mean_
+        err = np.sqrt(np.mean(((recon - Y) / scale) ** 2, axis=1)).max()
+        if err <= tol:
+            break
+    pca = PCA(n_components=k, svd_solver="full").fit(Y)
+    pca.reconstruction_error_ = float(err)
+    return pca
+
+
+class FieldSurrogate(ABC):
+    """An emulator of the forward model trained on a campaign; a Predictor (ARCHITECTURE.md)."""
+
+    kind = "abstract"
+
+    def __init__(self, input_scale: str = "linear", pca_tol: float = 1e-3, max_components: int = 40) -> None:
+        self.input_scale = input_scale
+        self.pca_tol = pca_tol
+        self.max_components = max_components
+        self.meta: dict[str, Any] = {}
+
+    # ------------------------------------------------------------------ training
+    def fit(self, data: TrainingData, seed: int = 0) -> FieldSurrogate:
+        theta = np.asarray(data.theta, float)
+        if not np.all(np.isfinite(theta)) or np.any(theta <= 0):
+            raise ValueError("training parameters must be positive and finite")
+        if np.any(~np.isfinite(data.force)) or np.any(data.force <= 0):
+            raise ValueError("training forces must be positive and finite (the force is learned in log)")
+        t0 = time.perf_counter()
+        self.parameters = tuple(data.parameters)
+        self.depth = np.asarray(data.depth, float)
+        self.top_xyz = np.asarray(data.top_xyz, float)
+        self.n_steps, self.n_nodes = data.displacement.shape[1], data.displacement.shape[2]
+        self.scaler = InputScaler(theta.min(axis=0), theta.max(axis=0), self.input_scale)
+        logf = np.log(data.force)
+        U = data.displacement.reshape(data.n, -1)
+        u_max = np.abs(data.displacement).max(axis=(0, 1, 2))  # per direction
+        u_scale = np.broadcast_to(np.maximum(u_max, 1e-12), data.displacement.shape[1:]).reshape(-1)
+        self.force_pca = _reduce(logf, np.ones(logf.shape[1]), self.pca_tol, self.max_components)
+        self.field_pca = _reduce(U, u_scale, self.pca_tol, self.max_components)
+        scores = np.hstack([self.force_pca.transform(logf), self.field_pca.transform(U)])
+        self.score_mean, self.score_std = scores.mean(axis=0), scores.std(axis=0) + 1e-300
+        self.k_force = self.force_pca.n_components_
+        X = self.scaler(theta)
+        self._fit_regressor(X, (scores - self.score_mean) / self.score_std, seed)
+        self.meta.update(
+            {
+                "kind": self.kind,
+                "input_scale": self.input_scale,
+                "training_points": int(data.n),
+                "force_components": int(self.k_force),
+                "field_components": int(self.field_pca.n_components_),
+                "pca_tol": self.pca_tol,
+                "force_pca_error": self.force_pca.reconstruction_error_,
+                "field_pca_error": self.field_pca.reconstruction_error_,
+                "box": [self.scaler.lo.tolist(), self.scaler.hi.tolist()],
+                "fit_s": time.perf_counter() - t0,
+                "campaign": data.source,
+            }
+        )
+        return self
+
+    @abstractmethod
+    def _fit_regressor(self, X: np.ndarray, T: np.ndarray, seed: int) -> None: ...
+
+    @abstractmethod
+    def _regress(self, X: np.ndarray, jacobian: bool) -> tuple[np.ndarray, np.ndarray | None]:
+        """Standardised scores (n, k) at scaled inputs X (n, p) and, if asked, d scores / dX (n, k, p)."""
+
+    # ------------------------------------------------------------------ prediction
+    def predict(self, theta, jacobian: bool = False) -> Prediction:
+        """Force curves and fields at ``theta`` (n, p) kPa; with ``jacobian`` also their derivatives."""
+        theta = np.atleast_2d(np.asarray(theta, float))
+        if theta.shape[1] != len(self.parameters):
+            raise ValueError(
+                f"theta must have {len(self.parameters)} columns {self.parameters}, got {theta.shape}"
+            )
+        if not np.all(np.isfinite(theta)) or np.any(theta <= 0):
+            raise ValueError("parameters must be positive and finite")
+        T, dT = self._regress(self.scaler(theta), jacobian)
+        S = T * self.score_std + self.score_mean
+        kf = self.k_force
+        logf = S[:, :kf] @ self.force_pca.components_ + self.force_pca.mean_
+        force = np.exp(logf)
+        U = S[:, kf:] @ self.field_pca.components_ + self.field_pca.mean_
+        disp = U.reshape(len(theta), self.n_steps, self.n_nodes, 3)
+        fj = dj = None
+        if jacobian:
+            dS = dT * self.score_std[None, :, None] * self.scaler.derivative(theta)[:, None, :]  # (n, k, p)
+            fj = force[..., None] * np.einsum("kt,nkp->ntp", self.force_pca.components_, dS[:, :kf])
+            dU = np.einsum("kt,nkp->ntp", self.field_pca.components_, dS[:, kf:])
+            dj = dU.reshape(len(theta), self.n_steps, self.n_nodes, 3, -1)
+        return Prediction(force, disp, self.depth, self.top_xyz, self.parameters, fj, dj)
+
+    def inside_box(self, theta) -> np.ndarray:
+        """Which points lie in the training box (the surrogate extrapolates outside it)."""
+        theta = np.atleast_2d(np.asarray(theta, float))
+        return np.all((theta >= self.scaler.lo - 1e-12) & (theta <= self.scaler.hi + 1e-12), axis=1)

@@ -1,0 +1,106 @@
+"""MLP emulator (torch, CPU): scaled parameters -> standardised PCA scores of log-force and field.
+
+Trained full-batch with Adam, then refined with L-BFGS, keeping the weights with the lowest
+error on a held-out validation split (early stopping); seeds fixed so a training is repeatable.
+Jacobians by autograd (torch.func.jacrev, vectorised over points)."""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+from torch import nn
+
+from .base import FieldSurrogate
+
+
+def _network(p: int, k: int, width: int, hidden_layers: int) -> nn.Sequential:
+    layers: list[nn.Module] = []
+    n_in = p
+    for _ in range(hidden_layers):
+        layers += [nn.Linear(n_in, width), nn.Tanh()]
+        n_in = width
+    layers.append(nn.Linear(n_in, k))
+    return nn.Sequential(*layers).double()
+
+
+class MLPSurrogate(FieldSurrogate):
+    kind = "mlp"
+
+    def __init__(
+        self,
+        width: int = 64,
+        hidden_layers: int = 3,
+        adam_epochs: int = 3000,
+        lbfgs_steps: int = 300,
+        validation_fraction: float = 0.15,
+        patience: int = 400,
+        **kwargs,
+    ) -> None:
+        super().__init__(**kwargs)
+        self.width, self.hidden_layers = width, hidden_layers
+        self.adam_epochs, self.lbfgs_steps = adam_epochs, lbfgs_steps
+        self.validation_fraction, self.patience = validation_fraction, patience
+
+    def _fit_regressor(self, X: np.ndarray, T: np.ndarray, seed: int) -> None:
+        torch.manual_seed(seed)
+        rng = np.random.default_rng(seed)
+        n = len(X)
+        order = rng.permutation(n)
+        n_val = round(self.validation_fraction * n) if n >= 10 else 0
+        val, train = order[:n_val], order[n_val:]
+        Xt, Tt = torch.from_numpy(X[train]), torch.from_numpy(T[train])
+        Xv, Tv = torch.from_numpy(X[val]), torch.from_numpy(T[val])
+        net = _network(X.shape[1], T.shape[1], self.width, self.hidden_layers)
+        loss_fn = nn.MSELoss()
+
+        def val_loss() -> float:
+            with torch.no_grad():
+                return float(loss_fn(net(Xv), Tv)) if n_val else float(loss_fn(net(Xt), Tt))
+
+        best = (np.inf, None)
+
+        def keep() -> None:
+            nonlocal best
+            v = val_loss()
+            if v < best[0]:
+                best = (v, {k: t.clone() for k, t in net.state_dict().items()})
+
+        opt = torch.optim.Adam(net.parameters(), lr=3e-3)
+        sched = torch.optim.lr_scheduler.ReduceLROnPlateau(opt, factor=0.5, patience=150)
+        since = 0
+        for _ in range(self.adam_epochs):
+            opt.zero_grad()
+            loss = loss_fn(net(Xt), Tt)
+            loss.backward()
+            opt.step()
+            sched.step(float(loss))
+            previous = best[0]
+            keep()
+            since = 0 if best[0] < previous else since + 1
+            if since > self.patience:
+                break
+        net.load_state_dict(best[1])
+        lbfgs = torch.optim.LBFGS(net.parameters(), lr=1.0, max_iter=20, line_search_fn="strong_wolfe")
+
+        def closure():
+            lbfgs.zero_grad()
+            loss = loss_fn(net(Xt), Tt)
+            loss.backward()
+            return loss
+
+        for _ in range(max(self.lbfgs_steps // 20, 1)):
+            lbfgs.step(closure)
+            keep()
+        net.load_state_dict(best[1])
+        self.net = net.eval()
+        self.meta["validation_mse"] = best[0]
+        self.meta["architecture"] = f"{self.hidden_layers} x {self.width} tanh"
+
+    def _regress(self, X: np.ndarray, jacobian: bool):
+        x = torch.from_numpy(np.ascontiguousarray(X, dtype=np.float64))
+        with torch.no_grad():
+            T = self.net(x).numpy()
+        if not jacobian:
+            return T, None
+        jac = torch.func.vmap(torch.func.jacrev(self.net))(x)  # (n, k, p)
+        return T, jac.detach().numpy()

@@ -1,0 +1,47 @@
+"""How good a surrogate is, on points it was not trained on (issue: validation is part of the
+deliverable): force relative error and displacement error relative to max |u| of each direction,
+RMS and max; k-fold cross-validation on a campaign."""
+
+from __future__ import annotations
+
+import numpy as np
+from sklearn.model_selection import KFold
+
+from .base import FieldSurrogate, TrainingData
+
+
+def prediction_errors(surrogate: FieldSurrogate, data: TrainingData) -> dict[str, float]:
+    """Errors of ``surrogate`` on ``data`` (percent): force relative error over every point and
+    step; displacement error over every node and step divided by max |u| of that direction at
+    that point."""
+    pred = surrogate.predict(data.theta)
+    rel_f = pred.force / data.force - 1.0
+    u_max = np.abs(data.displacement).max(axis=(1, 2))  # (n, 3)
+    rel_u = (pred.displacement - data.displacement) / np.maximum(u_max, 1e-12)[:, None, None, :]
+    return {
+        "points": int(data.n),
+        "force_rms_pct": 100.0 * float(np.sqrt(np.mean(rel_f**2))),
+        "force_max_pct": 100.0 * float(np.abs(rel_f).max()),
+        "displacement_rms_pct": 100.0 * float(np.sqrt(np.mean(rel_u**2))),
+        "displacement_max_pct": 100.0 * float(np.abs(rel_u).max()),
+        **{f"u{'xyz'[j]}_rms_pct": 100.0 * float(np.sqrt(np.mean(rel_u[..., j] ** 2))) for j in range(3)},
+    }
+
+
+def k_fold_errors(make, data: TrainingData, folds: int = 5, seed: int = 0) -> dict[str, float]:
+    """k-fold cross-validation: ``make()`` returns an untrained surrogate; the held-out errors of
+    all folds pooled (RMS over all, max over all)."""
+    if folds < 2 or folds > data.n:
+        raise ValueError(f"k-fold needs 2 <= folds <= points ({data.n}), got {folds}")
+    parts = []
+    for train, test in KFold(folds, shuffle=True, random_state=seed).split(data.theta):
+        s = make().fit(data.subset(train), seed=seed)
+        parts.append((prediction_errors(s, data.subset(test)), len(test)))
+    n = sum(k for _, k in parts)
+    out = {"folds": folds, "points": n}
+    for key in parts[0][0]:
+        if key.endswith("rms_pct"):
+            out[key] = float(np.sqrt(sum(e[key] ** 2 * k for e, k in parts) / n))
+        elif key.endswith("max_pct"):
+            out[key] = float(max(e[key] for e, _ in parts))
+    return out

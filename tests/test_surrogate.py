@@ -1,0 +1,116 @@
+"""Surrogates trained on a small coarse campaign: held-out errors, derivatives, the Predictor seam,
+saving and loading, the CLI."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from indentation_studio.campaign.designs import design_from_option
+from indentation_studio.campaign.loader import load_campaign
+from indentation_studio.campaign.runner import run_campaign
+from indentation_studio.campaign.store import CampaignSpec, CampaignStore
+from indentation_studio.forward.predictor import Predictor
+from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
+from indentation_studio.studio.cli import app
+from indentation_studio.studio.surrogate_cli import make_surrogate
+from indentation_studio.surrogate.base import InputScaler, TrainingData
+from indentation_studio.surrogate.persistence import load_surrogate, save_surrogate
+from indentation_studio.surrogate.validation import k_fold_errors, prediction_errors
+
+MODEL = ModelSpec(protocol=Protocol(step_size=0.5, steps=4), mesh=MeshChoice("coarse"))
+FAST_MLP = {"adam_epochs": 2500, "lbfgs_steps": 200}
+
+
+@pytest.fixture(scope="module")
+def campaigns(tmp_path_factory):
+    root = tmp_path_factory.mktemp("runs")
+    for name, design in (("train", "c1=4:16:6,c5=150:500:6"), ("test", "lhs:8:11")):
+        spec = CampaignSpec(name, design_from_option(design), MODEL)
+        if name == "test":  # LHS over the paper box: keep the points inside the training box
+            pts = spec.design.points
+            spec.design.points[:] = np.column_stack(
+                [4 + (pts[:, 0] - 1) / 20 * 12, 150 + (pts[:, 1] - 82.5) / (578 - 82.5) * 350]
+            )
+        s = run_campaign(CampaignStore.create_or_open(root, spec), jobs=2)
+        assert s["failed"] == 0
+    return (
+        root,
+        TrainingData.from_campaign(load_campaign("train", root)),
+        TrainingData.from_campaign(load_campaign("test", root)),
+    )
+
+
+@pytest.fixture(scope="module", params=["gp", "mlp"])
+def trained(request, campaigns):
+    _, train, _ = campaigns
+    extra = FAST_MLP if request.param == "mlp" else {}
+    return make_surrogate(request.param, **extra).fit(train, seed=0)
+
+
+def test_input_scaler_linear_and_log():
+    s = InputScaler(np.array([1.0, 82.5]), np.array([21.0, 578.0]))
+    np.testing.assert_allclose(s(np.array([[1.0, 82.5], [21.0, 578.0]])), [[0, 0], [1, 1]])
+    g = InputScaler(np.array([1.0, 82.5]), np.array([21.0, 578.0]), "log")
+    np.testing.assert_allclose(g(np.array([[np.sqrt(21.0), np.sqrt(82.5 * 578)]])), [[0.5, 0.5]])
+    with pytest.raises(ValueError, match="scale"):
+        InputScaler(np.array([1.0]), np.array([2.0]), "cubic")
+
+
+def test_held_out_errors_are_small(trained, campaigns):
+    _, _, test = campaigns
+    e = prediction_errors(trained, test)
+    assert isinstance(trained, Predictor)
+    # 36 coarse training runs over c1 4..16, c5 150..500: measured GP 0.1 %, MLP 0.2 % force RMS
+    assert e["force_rms_pct"] < 1.0 and e["force_max_pct"] < 3.0
+    assert e["displacement_rms_pct"] < 1.0 and e["displacement_max_pct"] < 5.0
+
+
+def test_jacobian_is_the_derivative_of_the_prediction(trained):
+    theta = np.array([[9.0, 300.0], [13.0, 220.0]])
+    p = trained.predict(theta, jacobian=True)
+    for k, h in enumerate((1e-4 * 9.0, 1e-4 * 300.0)):
+        step = np.zeros(2)
+        step[k] = h
+        fp, fm = trained.predict(theta + step), trained.predict(theta - step)
+        df = (fp.force - fm.force) / (2 * h)
+        np.testing.assert_allclose(p.force_jacobian[..., k], df, rtol=1e-5, atol=1e-8 * np.abs(df).max())
+        du = (fp.displacement - fm.displacement) / (2 * h)
+        np.testing.assert_allclose(p.displacement_jacobian[..., k], du, atol=1e-6 * np.abs(du).max())
+
+
+def test_save_load_round_trip_and_bad_file(trained, tmp_path):
+    path = save_surrogate(trained, tmp_path / "m.joblib")
+    again = load_surrogate(path)
+    theta = np.array([[10.0, 350.0]])
+    np.testing.assert_array_equal(again.predict(theta).force, trained.predict(theta).force)
+    assert again.meta["versions"]["torch"] and again.meta["training_points"] == 36
+    (tmp_path / "bad.joblib").write_text("not a model")
+    with pytest.raises(ValueError, match="surrogate"):
+        load_surrogate(tmp_path / "bad.joblib")
+
+
+def test_kfold_and_cli(campaigns, tmp_path):
+    root, train, _ = campaigns
+    e = k_fold_errors(lambda: make_surrogate("gp"), train, folds=3)
+    assert e["points"] == 36 and e["force_rms_pct"] < 2.0
+    res = CliRunner().invoke(
+        app,
+        [
+            *("surrogate", "train", "--campaign", "train", "--kind", "gp", "--test-campaign", "test"),
+            *("--runs-dir", str(root), "--out", str(tmp_path / "gp.joblib"), "--json"),
+        ],
+    )
+    assert res.exit_code == 0, res.output
+    out = json.loads(res.stdout)
+    assert out["model_file"] == str(tmp_path / "gp.joblib") and out["test_errors"]["force_rms_pct"] < 1.0
+    res = CliRunner().invoke(
+        app, ["surrogate", "evaluate", "--model", out["model_file"], "--timing", "1000", "--json"]
+    )
+    assert res.exit_code == 0, res.output
+    assert json.loads(res.stdout)["timing"]["points"] == 1000
+    res = CliRunner().invoke(app, ["surrogate", "evaluate", "--model", str(tmp_path / "none"), "--json"])
+    assert res.exit_code == 1 and "no surrogate file" in json.loads(res.stdout)["error"]
