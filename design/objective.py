@@ -111,6 +111,13 @@ class Objective:
         n, p = ju.shape[0], ju.shape[-1]
         return [jf, *(ju[..., j, :].reshape(n, -1, p) for j in range(3))]
 
+    def data_points(self, eta) -> int:
+        """n of eq. 8: the residuals of the terms that have weight (force steps; measured nodes x
+        steps per displacement direction)."""
+        e = check_weights(eta)
+        sizes = [len(self.steps)] + [len(self.steps) * int(self.measured.sum())] * 3
+        return int(sum(k for k, w in zip(sizes, e, strict=True) if w > 0))
+
     def terms(self, prediction) -> np.ndarray:
         """F_k (n, 4): force, ux, uy, uz (eq. 4a, 4b)."""
         return np.stack(

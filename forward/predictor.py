@@ -61,7 +61,9 @@ class Predictor(Protocol):
 
     parameters: tuple[str, ...]
 
-    def predict(self, theta: np.ndarray) -> Prediction: ...
+    def predict(self, theta: np.ndarray, jacobian: bool = False) -> Prediction:
+        """Force curves and fields at ``theta`` (n, p); with ``jacobian`` their derivatives too."""
+        ...
 
 
 def as_theta(theta: np.ndarray | list, p: int) -> np.ndarray:
@@ -112,27 +114,33 @@ class FESolverPredictor:
         """The model spec at one parameter point (a bad value raises SpecError naming it)."""
         return self.spec.with_material(**{k: float(v) for k, v in zip(self.parameters, point, strict=True)})
 
-    def simulate(self, point: np.ndarray, index: int = 0) -> SimulationResult:
+    def simulate(self, point: np.ndarray, index: int = 0, sensitivities: bool = False) -> SimulationResult:
         spec = self.spec_at(point)
         if self.solver == "embedded":
             from .solver import simulate
 
-            return simulate(spec, sensitivities=self.sensitivities)
+            return simulate(spec, sensitivities=self.sensitivities or sensitivities)
         from .febio_runner import FebioSolver
 
         workdir = self.workdir / f"point-{index:05d}" if self.workdir else None
         return FebioSolver(spec, workdir=workdir).run()
 
-    def predict(self, theta: np.ndarray) -> Prediction:
+    def predict(self, theta: np.ndarray, jacobian: bool = False) -> Prediction:
+        """One simulation per point; ``jacobian`` asks the embedded solver for its exact
+        sensitivities (FEBio gives none)."""
         t = as_theta(theta, len(self.parameters))
+        if jacobian and self.solver != "embedded":
+            raise ValueError("exact sensitivities come from the embedded solver only")
         for point in t:
             self.spec_at(point)  # validate every point before any is solved
         if self.n_jobs == 1 or len(t) == 1:
-            results = [self.simulate(point, i) for i, point in enumerate(t)]
+            results = [self.simulate(point, i, jacobian) for i, point in enumerate(t)]
         else:
             from joblib import Parallel, delayed
 
-            results = Parallel(n_jobs=self.n_jobs)(delayed(self.simulate)(p, i) for i, p in enumerate(t))
+            results = Parallel(n_jobs=self.n_jobs)(
+                delayed(self.simulate)(p, i, jacobian) for i, p in enumerate(t)
+            )
         return Prediction.from_results(results, self.parameters)
 
     def with_spec(self, **changes) -> FESolverPredictor:

@@ -1,0 +1,48 @@
+"""The inverse fit (paper 2.8.2) on the FE solver with its exact sensitivities as the Jacobian."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from indentation_studio.design.inverse_fit import PAPER_F_STOP, fit_parameters
+from indentation_studio.design.objective import Objective
+from indentation_studio.forward.predictor import FESolverPredictor
+from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
+
+SPEC = ModelSpec(mesh=MeshChoice("coarse"), protocol=Protocol(step_size=0.5, steps=4))
+ETA = (0.45, 0.35, 0.2, 0.0)
+TRUE = np.array([12.0, 250.0])
+
+
+@pytest.fixture(scope="module")
+def target():
+    return FESolverPredictor(SPEC).predict(TRUE)
+
+
+def test_noise_free_fit_recovers_theta_from_the_paper_start(target):
+    objective = Objective.from_prediction(target, radius=4.77)
+    fit = fit_parameters(objective, FESolverPredictor(SPEC), ETA)
+    np.testing.assert_allclose(fit.theta, TRUE, rtol=1e-5)
+    assert fit.F < 1e-10 and fit.evaluations < 30
+    # the paper's rule stops earlier, as soon as F < 3e-2
+    early = fit_parameters(objective, FESolverPredictor(SPEC), ETA, f_stop=PAPER_F_STOP)
+    assert early.F < PAPER_F_STOP and early.evaluations <= fit.evaluations
+
+
+def test_noisy_fit_bounds_contain_the_truth(target):
+    rng = np.random.default_rng(1)
+    force = target.force[0] * (1 + 0.02 * rng.standard_normal(target.force.shape[1]))
+    u = target.displacement[0]
+    noisy_u = u + 0.02 * np.abs(u).max(axis=(0, 1)) * rng.standard_normal(u.shape)
+    objective = Objective(force, noisy_u, target.top_xyz, radius=4.77)
+    fit = fit_parameters(objective, FESolverPredictor(SPEC), ETA)
+    lo, hi = fit.interval().T
+    assert np.all(lo < TRUE) and np.all(TRUE < hi)
+    assert 0 < fit.s < 1 and fit.n_residuals == 4 + 2 * 4 * int(objective.measured.sum())  # uz has no weight
+
+
+def test_bad_start_is_refused(target):
+    objective = Objective.from_prediction(target, radius=4.77)
+    with pytest.raises(ValueError, match="positive"):
+        fit_parameters(objective, FESolverPredictor(SPEC), ETA, theta0=(-1.0, 300.0))
