@@ -1,0 +1,214 @@
+"""The experiment data format and its validation (paper 2.7, 2.8.1).
+
+An experiment is a folder:
+
+``experiment.json``
+    ``{"radius_mm": 4.77, "step_size_mm": 0.5, "steps": 28, "fiber_angle_deg": 90.0 | null,
+    "description": "..."}``. ``fiber_angle_deg`` is the fiber direction in the DIC frame,
+    counter-clockwise from x (null: estimate it from the strain field).
+``force.csv``
+    The indenter force readings during each step's hold: columns ``step`` (1..N), ``time_s``
+    (from the start of that step's hold), ``force_mN``.
+``dic.npz`` (or ``dic/step_NN.csv``)
+    The DIC point cloud of each step: reference position ``x, y, z`` (mm) and displacement
+    ``ux, uy, uz`` (mm). In ``dic.npz``: ``xyz`` (points, 3) and ``u`` (steps, points, 3) with
+    NaN where a point was not correlated; as CSVs one file per step with columns
+    ``x, y, z, ux, uy, uz``.
+``indenter.csv``
+    Points tracked on the indenter's sphere in the reference state: ``x, y, z`` (mm).
+
+Loading checks everything a fit relies on and names the file, row and column of the first
+problem: missing files or columns, NaN or infinite values, an empty step, a step that is not
+in the protocol, and units that cannot be right (forces whose Hertz-implied shear modulus,
+F / (16/3 sqrt(R) d^1.5), lies outside 0.1 kPa .. 100 MPa: newtons or micronewtons; displacements larger than the specimen read as microns).
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+
+class ExperimentDataError(ValueError):
+    """Malformed experiment data; the message names the file, row and column."""
+
+
+@dataclass
+class ExperimentData:
+    """A loaded, validated experiment (coordinates in the DIC frame, mm; forces mN; times s)."""
+
+    root: Path
+    radius: float
+    step_size: float
+    steps: int
+    fiber_angle_deg: float | None
+    force: pd.DataFrame  # step, time_s, force_mN
+    dic_xyz: np.ndarray  # (points, 3) reference positions
+    dic_u: np.ndarray  # (steps, points, 3), NaN where not correlated
+    indenter_xyz: np.ndarray  # (points, 3)
+    description: str = ""
+
+    @property
+    def depths(self) -> np.ndarray:
+        return self.step_size * np.arange(1, self.steps + 1)
+
+
+def _require_columns(table: pd.DataFrame, columns: tuple[str, ...], path: Path) -> None:
+    missing = [c for c in columns if c not in table.columns]
+    if missing:
+        raise ExperimentDataError(
+            f"{path}: missing column(s) {', '.join(missing)} (has {', '.join(table.columns)})"
+        )
+
+
+def _require_finite(table: pd.DataFrame, columns: tuple[str, ...], path: Path) -> None:
+    values = table[list(columns)].to_numpy(dtype=float)
+    bad = ~np.isfinite(values)
+    if bad.any():
+        row, col = np.argwhere(bad)[0]
+        # +2: one for the header line, one because rows count from 1 in an editor
+        raise ExperimentDataError(f"{path}: row {row + 2}, column '{columns[col]}': not a finite number")
+
+
+def _read_csv(path: Path, columns: tuple[str, ...]) -> pd.DataFrame:
+    if not path.is_file():
+        raise ExperimentDataError(f"{path}: missing file")
+    try:
+        table = pd.read_csv(path)
+    except Exception as exc:  # pandas raises several types for unreadable text
+        raise ExperimentDataError(f"{path}: not a readable CSV ({exc})") from exc
+    table.columns = [str(c).strip() for c in table.columns]
+    _require_columns(table, columns, path)
+    for c in columns:
+        converted = pd.to_numeric(table[c], errors="coerce")
+        bad = converted.isna() & table[c].notna()
+        if bad.any():
+            row = int(np.flatnonzero(bad.to_numpy())[0])
+            raise ExperimentDataError(
+                f"{path}: row {row + 2}, column '{c}': {table[c].iloc[row]!r} is not a number"
+            )
+        table[c] = converted
+    _require_finite(table, columns, path)
+    return table
+
+
+def _read_meta(root: Path) -> dict:
+    path = root / "experiment.json"
+    if not path.is_file():
+        raise ExperimentDataError(f"{path}: missing file")
+    try:
+        meta = json.loads(path.read_text())
+    except json.JSONDecodeError as exc:
+        raise ExperimentDataError(f"{path}: not valid JSON ({exc})") from exc
+    for key in ("radius_mm", "step_size_mm", "steps"):
+        if key not in meta:
+            raise ExperimentDataError(f"{path}: missing key '{key}'")
+        value = meta[key]
+        if not isinstance(value, int | float) or not np.isfinite(value) or value <= 0:
+            raise ExperimentDataError(f"{path}: '{key}' must be a positive number, got {value!r}")
+    if int(meta["steps"]) != meta["steps"]:
+        raise ExperimentDataError(f"{path}: 'steps' must be a whole number, got {meta['steps']!r}")
+    angle = meta.get("fiber_angle_deg")
+    if angle is not None and (not isinstance(angle, int | float) or not np.isfinite(angle)):
+        raise ExperimentDataError(f"{path}: 'fiber_angle_deg' must be a number or null, got {angle!r}")
+    return meta
+
+
+def _read_dic(root: Path, steps: int) -> tuple[np.ndarray, np.ndarray]:
+    npz = root / "dic.npz"
+    if npz.is_file():
+        with np.load(npz) as z:
+            for key in ("xyz", "u"):
+                if key not in z:
+                    raise ExperimentDataError(f"{npz}: missing array '{key}'")
+            xyz, u = np.asarray(z["xyz"], float), np.asarray(z["u"], float)
+        if xyz.ndim != 2 or xyz.shape[1] != 3:
+            raise ExperimentDataError(f"{npz}: 'xyz' must be (points, 3), got {xyz.shape}")
+        if u.shape != (steps, xyz.shape[0], 3):
+            raise ExperimentDataError(
+                f"{npz}: 'u' must be (steps={steps}, points={xyz.shape[0]}, 3), got {u.shape}"
+            )
+        bad = ~np.isfinite(xyz)
+        if bad.any():
+            row, col = np.argwhere(bad)[0]
+            raise ExperimentDataError(f"{npz}: xyz row {row}, column '{'xyz'[col]}': not a finite number")
+        return xyz, u
+    folder = root / "dic"
+    if not folder.is_dir():
+        raise ExperimentDataError(f"{root}: missing DIC data (dic.npz or dic/step_NN.csv)")
+    tables = []
+    for k in range(1, steps + 1):
+        path = folder / f"step_{k:02d}.csv"
+        tables.append(_read_csv(path, ("x", "y", "z", "ux", "uy", "uz")))
+    xyz = tables[0][["x", "y", "z"]].to_numpy(float)
+    u = np.full((steps, len(xyz), 3), np.nan)
+    for k, t in enumerate(tables):
+        if len(t) != len(xyz) or not np.allclose(t[["x", "y", "z"]].to_numpy(float), xyz):
+            raise ExperimentDataError(
+                f"{folder / f'step_{k + 1:02d}.csv'}: the reference points differ from step_01.csv "
+                "(every step must list the same points in the same order)"
+            )
+        u[k] = t[["ux", "uy", "uz"]].to_numpy(float)
+    return xyz, u
+
+
+def load_experiment(root: str | Path) -> ExperimentData:
+    """Read and validate an experiment folder (module docstring)."""
+    root = Path(root)
+    if not root.is_dir():
+        raise ExperimentDataError(f"{root}: no such experiment folder")
+    meta = _read_meta(root)
+    steps = int(meta["steps"])
+    force_path = root / "force.csv"
+    force = _read_csv(force_path, ("step", "time_s", "force_mN"))
+    unknown = sorted(set(force["step"].astype(int)) - set(range(1, steps + 1)))
+    if unknown:
+        row = int(np.flatnonzero(force["step"].astype(int).to_numpy() == unknown[0])[0])
+        raise ExperimentDataError(
+            f"{force_path}: row {row + 2}, column 'step': step {unknown[0]} is not in 1..{steps}"
+        )
+    for k in range(1, steps + 1):
+        rows = force[force["step"] == k]
+        if len(rows) < 4:
+            raise ExperimentDataError(
+                f"{force_path}: step {k} has {len(rows)} force readings; the relaxation fit (eq. 9) needs at least 4"
+            )
+    peak = force.groupby("step")["force_mN"].median().abs().to_numpy()
+    depth = float(meta["step_size_mm"]) * np.arange(1, steps + 1)
+    mu = float(np.max(peak / (16.0 / 3.0 * np.sqrt(float(meta["radius_mm"])) * depth**1.5)))
+    if not 0.1 <= mu <= 1e5:
+        raise ExperimentDataError(
+            f"{force_path}: column 'force_mN': these forces imply a shear modulus of {mu:.3g} kPa (Hertz), "
+            "outside 0.1 kPa .. 100 MPa; they cannot be millinewtons (newtons, or micronewtons?)"
+        )
+    xyz, u = _read_dic(root, steps)
+    for k in range(steps):
+        if not np.isfinite(u[k]).all(axis=1).any():
+            raise ExperimentDataError(f"{root}: DIC step {k + 1} has no correlated point")
+    span = float(np.ptp(xyz[:, :2], axis=0).max())
+    u_max = float(np.nanmax(np.abs(u)))
+    if u_max > max(span, 1.0):
+        raise ExperimentDataError(
+            f"{root}: DIC displacements up to {u_max:g} exceed the field's {span:g} mm extent (microns, not mm?)"
+        )
+    indenter = _read_csv(root / "indenter.csv", ("x", "y", "z"))[["x", "y", "z"]].to_numpy(float)
+    if len(indenter) < 4:
+        raise ExperimentDataError(
+            f"{root / 'indenter.csv'}: a sphere fit needs at least 4 points, got {len(indenter)}"
+        )
+    return ExperimentData(
+        root=root,
+        radius=float(meta["radius_mm"]),
+        step_size=float(meta["step_size_mm"]),
+        steps=steps,
+        fiber_angle_deg=None if meta.get("fiber_angle_deg") is None else float(meta["fiber_angle_deg"]),
+        force=force,
+        dic_xyz=xyz,
+        dic_u=u,
+        indenter_xyz=indenter,
+        description=str(meta.get("description", "")),
+    )

@@ -1,0 +1,192 @@
+"""From raw experiment data to what the objective compares with the model (paper 2.7, 2.8.1).
+
+* :func:`relaxation_fit`: eq. 9, f(t) = A exp(-b t) + f_inf, per step (scipy curve_fit), giving
+  the static force f_inf with its standard error.
+* :func:`fit_sphere`: the indenter's sphere from its tracked points (linear least squares); its
+  lowest point is the indentation point and the origin of the model frame.
+* :func:`fiber_angle_from_strain`: the fiber direction from the principal directions of the
+  measured in-plane strain around the indenter (the stiff fibers stretch least).
+* :func:`to_model_frame`: translate to the indentation point and rotate about z so that +y runs
+  along the fibers.
+* :func:`dic_to_nodes`: the DIC displacements at the FE top-surface nodes by proximity-weighted
+  averaging of neighbouring DIC points in the reference configuration (scipy cKDTree); the full
+  field is folded onto the quarter model by the symmetry planes (x -> |x| with ux -> sign(x) ux,
+  the same for y); nodes with too few DIC points near them are obscured (weight 0).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.optimize import curve_fit
+from scipy.spatial import cKDTree
+
+from .experiment_data import ExperimentData, ExperimentDataError
+
+
+@dataclass(frozen=True)
+class RelaxationFit:
+    f_inf: float
+    f_inf_std: float
+    amplitude: float
+    rate: float
+
+
+def relaxation_fit(t: np.ndarray, f: np.ndarray) -> RelaxationFit:
+    """Eq. 9 fitted to one step's hold: f(t) = A exp(-b t) + f_inf."""
+    t, f = np.asarray(t, float), np.asarray(f, float)
+    span = float(np.ptp(t))
+    if span <= 0:
+        raise ExperimentDataError("a relaxation fit needs readings at different times")
+    p0 = (f[0] - f[-1], 3.0 / span, f[-1])
+    try:
+        popt, pcov = curve_fit(
+            lambda t, a, b, c: a * np.exp(-b * t) + c,
+            t - t.min(),
+            f,
+            p0=p0,
+            bounds=([-np.inf, 1e-6 / span, -np.inf], [np.inf, 1e3 / span, np.inf]),
+            maxfev=10000,
+        )
+    except RuntimeError as exc:
+        raise ExperimentDataError(f"the relaxation fit (eq. 9) did not converge: {exc}") from exc
+    err = np.sqrt(np.diag(pcov)) if np.all(np.isfinite(pcov)) else np.full(3, np.inf)
+    return RelaxationFit(float(popt[2]), float(err[2]), float(popt[0]), float(popt[1]))
+
+
+def static_forces(exp: ExperimentData) -> tuple[np.ndarray, np.ndarray]:
+    """f_inf and its standard error per step (eq. 9)."""
+    fits = [
+        relaxation_fit(g["time_s"].to_numpy(), g["force_mN"].to_numpy()) for _, g in exp.force.groupby("step")
+    ]
+    return np.array([r.f_inf for r in fits]), np.array([r.f_inf_std for r in fits])
+
+
+def fit_sphere(points: np.ndarray) -> tuple[np.ndarray, float]:
+    """Centre (3,) and radius of the sphere through ``points`` (n, 3) in the least-squares sense of
+    |x|^2 = 2 c.x + (R^2 - |c|^2)."""
+    x = np.asarray(points, float)
+    A = np.column_stack([2.0 * x, np.ones(len(x))])
+    sol, *_ = np.linalg.lstsq(A, np.sum(x**2, axis=1), rcond=None)
+    centre = sol[:3]
+    r2 = sol[3] + centre @ centre
+    if not r2 > 0:
+        raise ExperimentDataError("the indenter points do not lie on a sphere")
+    return centre, float(np.sqrt(r2))
+
+
+def in_plane_strain(xy: np.ndarray, u: np.ndarray, neighbours: int = 12) -> np.ndarray:
+    """Green-Lagrange in-plane strain (n, 2, 2) at each point from a local least-squares fit of the
+    displacement gradient over its nearest ``neighbours``."""
+    ok = np.all(np.isfinite(u), axis=1)
+    xy_ok, u_ok = xy[ok], u[ok][:, :2]
+    _, idx = cKDTree(xy_ok).query(xy, k=min(neighbours, len(xy_ok)))
+    dX = xy_ok[idx] - xy[:, None, :]  # (n, k, 2)
+    dU = u_ok[idx] - u_ok[idx].mean(axis=1, keepdims=True)
+    dX = dX - dX.mean(axis=1, keepdims=True)
+    G = np.linalg.solve(
+        np.einsum("nki,nkj->nij", dX, dX) + 1e-12 * np.eye(2), np.einsum("nki,nkj->nij", dX, dU)
+    )
+    H = np.transpose(G, (0, 2, 1))  # du_i / dX_j
+    F = np.eye(2) + H
+    return 0.5 * (np.einsum("nki,nkj->nij", F, F) - np.eye(2))
+
+
+def fiber_angle_from_strain(xy: np.ndarray, u: np.ndarray, inner: float, outer: float) -> float:
+    """Fiber direction (degrees from x, in [0, 180)) from the strain at the deepest step: the mean
+    in-plane strain tensor over the ring ``inner`` < r < ``outer`` around the indentation point is
+    isotropic for an isotropic material; fibers resist stretch, so its least principal direction
+    is the fiber direction."""
+    r = np.hypot(xy[:, 0], xy[:, 1])
+    E = in_plane_strain(xy, u)
+    ring = (r > inner) & (r < outer) & np.all(np.isfinite(u), axis=1)
+    if ring.sum() < 10:
+        raise ExperimentDataError("too few DIC points around the indenter to estimate the fiber direction")
+    _, V = np.linalg.eigh(E[ring].mean(axis=0))
+    v = V[:, 0]
+    return float(np.degrees(np.arctan2(v[1], v[0])) % 180.0)
+
+
+def rotation_to_fibers(angle_deg: float) -> np.ndarray:
+    """The rotation about z (3, 3) that takes the fiber direction (angle from x) onto +y."""
+    a = np.radians(90.0 - angle_deg)
+    c, s = np.cos(a), np.sin(a)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+@dataclass
+class RegisteredDIC:
+    xyz: np.ndarray  # (points, 3) in the model frame: origin at the indentation point, y along the fibers
+    u: np.ndarray  # (steps, points, 3) in the model frame
+    origin: np.ndarray  # the indentation point in the DIC frame
+    fiber_angle_deg: float
+    fiber_angle_estimated: bool
+    sphere_radius: float
+
+
+def to_model_frame(exp: ExperimentData) -> RegisteredDIC:
+    """Origin at the lowest point of the fitted indenter sphere; y along the fibers (given, or
+    estimated from the strain field when the experiment does not say)."""
+    centre, radius = fit_sphere(exp.indenter_xyz)
+    origin = centre - np.array([0.0, 0.0, radius])
+    xyz = exp.dic_xyz - origin
+    estimated = exp.fiber_angle_deg is None
+    angle = (
+        fiber_angle_from_strain(xyz[:, :2], exp.dic_u[-1], 1.5 * exp.radius, 4.0 * exp.radius)
+        if estimated
+        else exp.fiber_angle_deg
+    )
+    Q = rotation_to_fibers(angle)
+    return RegisteredDIC(xyz @ Q.T, exp.dic_u @ Q.T, origin, float(angle), estimated, radius)
+
+
+def dic_to_nodes(
+    dic: RegisteredDIC, node_xy: np.ndarray, radius: float | None = None, min_points: int = 3
+) -> tuple[np.ndarray, np.ndarray]:
+    """Displacements (steps, nodes, 3) at the FE top nodes ``node_xy`` (nodes, 2) and the mask of
+    nodes with data. Each node averages the DIC points within ``radius`` of it (default 1.5 x
+    the DIC points' median spacing) in the folded reference configuration, weighted by
+    (1 - d / radius)^2; a node with fewer than ``min_points`` correlated points is obscured."""
+    xy = dic.xyz[:, :2]
+    ok = np.all(np.isfinite(dic.u), axis=(0, 2))  # points correlated at every step
+    sx, sy = np.where(xy[ok, 0] < 0, -1.0, 1.0), np.where(xy[ok, 1] < 0, -1.0, 1.0)
+    folded = np.abs(xy[ok])
+    u = dic.u[:, ok].copy()
+    u[..., 0] *= sx
+    u[..., 1] *= sy
+    if len(folded) == 0:
+        raise ExperimentDataError("no DIC point is correlated at every step")
+    tree = cKDTree(folded)
+    if radius is None:
+        d, _ = tree.query(folded, k=2)
+        radius = 1.5 * float(np.median(d[:, 1])) * np.sqrt(2.0)  # folding doubles the density
+    lists = tree.query_ball_point(np.asarray(node_xy, float), r=radius)
+    rows = np.repeat(np.arange(len(lists)), [len(nb) for nb in lists])
+    cols = np.concatenate([np.asarray(nb, int) for nb in lists]) if rows.size else np.zeros(0, int)
+    w = (1.0 - np.linalg.norm(folded[cols] - node_xy[rows], axis=1) / radius) ** 2
+    W = sp.csr_matrix((w, (rows, cols)), shape=(len(lists), len(folded)))
+    count = np.bincount(rows, minlength=len(lists))
+    total = np.asarray(W.sum(axis=1)).ravel()
+    measured = (count >= min_points) & (total > 0)
+    out = np.zeros((u.shape[0], len(lists), 3))
+    for j in range(3):  # (nodes, points) @ (points, steps): every step at once
+        out[..., j] = (W @ u[..., j].T).T / np.where(measured, total, 1.0)
+    out[:, ~measured] = 0.0
+    return out, measured
+
+
+def experiment_objective(
+    exp: ExperimentData, top_xyz: np.ndarray, reading: str = "paper", radius: float | None = None
+):
+    """The objective (eq. 4, 5) of a measured experiment against a model with top nodes
+    ``top_xyz``: static forces from eq. 9, DIC registered and interpolated at the nodes, nodes
+    without data obscured. Returns the objective and the registration."""
+    from .objective import Objective
+
+    f_inf, _ = static_forces(exp)
+    dic = to_model_frame(exp)
+    u_nodes, measured = dic_to_nodes(dic, np.asarray(top_xyz)[:, :2], radius=radius)
+    objective = Objective(f_inf, u_nodes, top_xyz, radius=exp.radius, reading=reading, mask=measured)
+    return objective, dic

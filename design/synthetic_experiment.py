@@ -1,0 +1,113 @@
+"""Synthetic experiments in the data format of :mod:`design.experiment_data`, from any Predictor.
+
+Made on a finer mesh than the fit uses (no inverse crime): the model's top-surface field is
+interpolated at random DIC-like points over a field of view, the indenter's shadow removed, the
+full field unfolded from the quarter model by symmetry, displacement noise added (a fraction of
+max |u| of each direction), the whole expressed in a DIC frame that is shifted and rotated from
+the model frame (fibers at ``fiber_angle_deg`` from the DIC x axis); each step's force becomes
+a relaxation curve (eq. 9) with noise; points on the indenter's upper cap are written for the
+sphere fit.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from scipy.interpolate import RegularGridInterpolator
+
+from .experiment_processing import rotation_to_fibers
+
+
+def _top_field_interpolator(top_xyz: np.ndarray, field: np.ndarray) -> RegularGridInterpolator:
+    """Bilinear interpolation of a (steps, nodes, 3) field over the quarter's structured top grid."""
+    x = np.unique(np.round(top_xyz[:, 0], 9))
+    y = np.unique(np.round(top_xyz[:, 1], 9))
+    if x.size * y.size != top_xyz.shape[0]:
+        raise ValueError("the model's top surface is not a structured grid")
+    ix = np.searchsorted(x, np.round(top_xyz[:, 0], 9))
+    iy = np.searchsorted(y, np.round(top_xyz[:, 1], 9))
+    grid = np.empty((x.size, y.size, *field.shape[:1], 3))
+    grid[ix, iy] = np.moveaxis(field, 0, 1)
+    return RegularGridInterpolator((x, y), grid, method="linear")
+
+
+def write_synthetic_experiment(
+    predictor,
+    theta,
+    out_dir: str | Path,
+    radius: float,
+    step_size: float,
+    u_noise: float = 0.02,
+    f_noise: float = 0.02,
+    points: int = 6000,
+    fov: float = 25.0,
+    fiber_angle_deg: float | None = 60.0,
+    write_fiber_angle: bool = True,
+    frame_offset=(3.0, -2.0, 12.0),
+    hold_s: float = 30.0,
+    seed: int = 0,
+) -> Path:
+    """Simulate ``theta`` with ``predictor`` and write an experiment folder; returns its path."""
+    rng = np.random.default_rng(seed)
+    out = Path(out_dir)
+    pred = predictor.predict(np.asarray(theta, float)[None, :])
+    force, field, top = pred.force[0], pred.displacement[0], pred.top_xyz
+    steps = len(force)
+    # DIC points over the field of view in the model frame, the indenter's shadow removed
+    r = fov * np.sqrt(rng.random(points))
+    phi = 2 * np.pi * rng.random(points)
+    xy = np.column_stack([r * np.cos(phi), r * np.sin(phi)])
+    xy = xy[r > radius]
+    interp = _top_field_interpolator(top, field)
+    half = top[:, :2].max(axis=0)
+    u = interp(np.minimum(np.abs(xy), half))  # (points, steps, 3)
+    u = np.moveaxis(u, 0, 1)
+    u[..., 0] *= np.sign(xy[:, 0])
+    u[..., 1] *= np.sign(xy[:, 1])
+    scale = np.abs(u).max(axis=(0, 1))
+    u = u + u_noise * scale * rng.standard_normal(u.shape)
+    xyz_model = np.column_stack([xy, np.zeros(len(xy))])
+    # the DIC frame: fibers (model +y) at fiber_angle_deg from its x axis, origin shifted
+    Q = rotation_to_fibers(fiber_angle_deg if fiber_angle_deg is not None else 90.0).T
+    offset = np.asarray(frame_offset, float)
+    xyz_dic = xyz_model @ Q.T + offset
+    u_dic = u @ Q.T
+    # the indenter's upper cap in the reference state (sphere touching the surface at the origin)
+    k = 400
+    a, b = 2 * np.pi * rng.random(k), np.arccos(rng.uniform(0.2, 1.0, k))
+    cap = radius * np.column_stack([np.sin(b) * np.cos(a), np.sin(b) * np.sin(a), 1.0 + np.cos(b)])
+    cap = cap + 0.002 * rng.standard_normal(cap.shape)
+    # relaxation during each hold (eq. 9): f(t) = f_inf (1 + 0.3 exp(-t / 8 s)), readings every second
+    t = np.arange(0.0, hold_s + 1e-9, 1.0)
+    rows = []
+    for s in range(steps):
+        f = force[s] * (1.0 + 0.3 * np.exp(-t / 8.0))
+        f = f + f_noise * force[s] * rng.standard_normal(t.size)
+        rows.append(pd.DataFrame({"step": s + 1, "time_s": t, "force_mN": f}))
+    out.mkdir(parents=True, exist_ok=True)
+    pd.concat(rows).to_csv(out / "force.csv", index=False)
+    np.savez_compressed(out / "dic.npz", xyz=xyz_dic, u=u_dic)
+    pd.DataFrame(cap @ Q.T + offset, columns=["x", "y", "z"]).to_csv(out / "indenter.csv", index=False)
+    meta = {
+        "radius_mm": radius,
+        "step_size_mm": step_size,
+        "steps": steps,
+        "fiber_angle_deg": fiber_angle_deg if write_fiber_angle else None,
+        "description": "synthetic",
+        "synthetic": {
+            "theta": [float(v) for v in np.ravel(theta)],
+            "u_noise": u_noise,
+            "f_noise": f_noise,
+            "points": len(xy),
+            "fov_mm": fov,
+            "true_fiber_angle_deg": fiber_angle_deg,
+            "frame_offset": offset.tolist(),
+            "seed": seed,
+            "model": getattr(predictor, "spec", None).to_dict() if hasattr(predictor, "spec") else None,
+        },
+    }
+    (out / "experiment.json").write_text(json.dumps(meta, indent=1))
+    return out

@@ -1,0 +1,146 @@
+"""Experiment data: the format's validation (file, row and column named), the processing steps
+(eq. 9 relaxation fit, sphere fit, registration, DIC to nodes), and a synthetic experiment made
+on a finer mesh fitted back on a coarser one."""
+
+from __future__ import annotations
+
+import json
+import shutil
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from indentation_studio.design.experiment_data import ExperimentDataError, load_experiment
+from indentation_studio.design.experiment_processing import (
+    experiment_objective,
+    fit_sphere,
+    relaxation_fit,
+    static_forces,
+    to_model_frame,
+)
+from indentation_studio.design.inverse_fit import fit_parameters
+from indentation_studio.design.synthetic_experiment import write_synthetic_experiment
+from indentation_studio.forward.predictor import FESolverPredictor
+from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
+
+PROTOCOL = Protocol(step_size=0.5, steps=4)
+FINE = ModelSpec(mesh=MeshChoice("fine"), protocol=PROTOCOL)  # makes the data
+FIT = ModelSpec(mesh=MeshChoice("default"), protocol=PROTOCOL)  # fits it (no inverse crime)
+TRUE = np.array([12.0, 250.0])
+ETA = (0.45, 0.35, 0.2, 0.0)
+
+
+@pytest.fixture(scope="module")
+def experiment(tmp_path_factory):
+    root = tmp_path_factory.mktemp("exp") / "synthetic"
+    return write_synthetic_experiment(FESolverPredictor(FINE), TRUE, root, radius=4.77, step_size=0.5, seed=3)
+
+
+def _copy(experiment, tmp_path):
+    dst = tmp_path / "e"
+    shutil.copytree(experiment, dst)
+    return dst
+
+
+def test_relaxation_fit_recovers_f_inf():
+    t = np.arange(0, 31.0)
+    f = 100.0 + 40.0 * np.exp(-t / 6.0)
+    fit = relaxation_fit(t, f + 0.1 * np.random.default_rng(0).standard_normal(t.size))
+    assert fit.f_inf == pytest.approx(100.0, abs=0.3) and fit.rate == pytest.approx(1 / 6.0, rel=0.05)
+    assert 0 < fit.f_inf_std < 0.3
+
+
+def test_sphere_fit_and_registration(experiment):
+    exp = load_experiment(experiment)
+    _, r = fit_sphere(exp.indenter_xyz)
+    assert r == pytest.approx(4.77, abs=0.01)
+    dic = to_model_frame(exp)
+    meta = json.loads((experiment / "experiment.json").read_text())
+    np.testing.assert_allclose(dic.origin, meta["synthetic"]["frame_offset"], atol=0.01)
+    np.testing.assert_allclose(np.abs(dic.xyz[:, 2]).max(), 0.0, atol=0.01)
+    f_inf, f_std = static_forces(exp)
+    assert np.all(f_std > 0)
+    truth = FESolverPredictor(FINE).predict(TRUE).force[0]
+    np.testing.assert_allclose(f_inf, truth, rtol=0.03)
+
+
+def test_fiber_direction_estimated_from_strain(experiment, tmp_path):
+    dst = _copy(experiment, tmp_path)
+    meta = json.loads((dst / "experiment.json").read_text())
+    meta["fiber_angle_deg"] = None
+    (dst / "experiment.json").write_text(json.dumps(meta))
+    dic = to_model_frame(load_experiment(dst))
+    assert dic.fiber_angle_estimated
+    err = (dic.fiber_angle_deg - meta["synthetic"]["true_fiber_angle_deg"] + 90) % 180 - 90
+    assert abs(err) < 10.0
+
+
+def test_synthetic_experiment_fit_on_a_coarser_mesh(experiment):
+    exp = load_experiment(experiment)
+    fit_model = FESolverPredictor(FIT)
+    top = fit_model.predict(TRUE).top_xyz
+    objective, _ = experiment_objective(exp, top)
+    assert objective.measured.sum() >= 6
+    fit = fit_parameters(objective, fit_model, ETA)
+    lo, hi = fit.interval().T
+    # measured: theta_hat (11.93, 247.6) kPa, bounds 0.66 % and 3.0 % (2 % noise, 4 steps)
+    assert np.all(lo < TRUE) and np.all(TRUE < hi), (fit.theta, fit.bounds_pct)
+    assert np.all(fit.bounds_pct < [3.0, 15.0])
+
+
+@pytest.mark.parametrize(
+    ("mutate", "message"),
+    [
+        (
+            lambda d: (d / "force.csv").write_text("step,time_s\n1,0\n"),
+            r"force.csv: missing column\(s\) force_mN",
+        ),
+        (
+            lambda d: (
+                pd.read_csv(d / "force.csv")
+                .assign(force_mN=lambda t: t.force_mN.where(t.index != 5))
+                .to_csv(d / "force.csv", index=False)
+            ),
+            r"force.csv: row 7, column 'force_mN': not a finite number",
+        ),
+        (
+            lambda d: (
+                pd.read_csv(d / "force.csv")
+                .assign(force_mN=lambda t: t.force_mN / 1e3)
+                .to_csv(d / "force.csv", index=False)
+            ),
+            r"cannot be millinewtons",
+        ),
+        (
+            lambda d: pd.read_csv(d / "force.csv").query("step != 2").to_csv(d / "force.csv", index=False),
+            r"step 2 has 0 force readings",
+        ),
+        (lambda d: (d / "indenter.csv").unlink(), r"indenter.csv: missing file"),
+        (
+            lambda d: (d / "experiment.json").write_text(
+                json.dumps({"radius_mm": -1, "step_size_mm": 0.5, "steps": 4})
+            ),
+            r"'radius_mm' must be a positive number",
+        ),
+    ],
+)
+def test_malformed_input_is_named(experiment, tmp_path, mutate, message):
+    dst = _copy(experiment, tmp_path)
+    mutate(dst)
+    with pytest.raises(ExperimentDataError, match=message):
+        load_experiment(dst)
+
+
+def test_dic_problems_are_named(experiment, tmp_path):
+    dst = _copy(experiment, tmp_path)
+    with np.load(dst / "dic.npz") as z:
+        xyz, u = z["xyz"], z["u"]
+    bad = u.copy()
+    bad[1] = np.nan
+    np.savez(dst / "dic.npz", xyz=xyz, u=bad)
+    with pytest.raises(ExperimentDataError, match="DIC step 2 has no correlated point"):
+        load_experiment(dst)
+    np.savez(dst / "dic.npz", xyz=xyz, u=u * 1000.0)
+    with pytest.raises(ExperimentDataError, match="microns"):
+        load_experiment(dst)
