@@ -86,3 +86,32 @@ def design_comparison_figure(table: pd.DataFrame, path: str | Path) -> Path:
     fig.savefig(path, dpi=130)
     plt.close(fig)
     return path
+
+
+def corner_figure(
+    posterior, path: str | Path, fit_theta=None, fit_hessian=None, s: float | None = None
+) -> Path:
+    """Corner plot (corner package) of posterior samples, with the fit and its eq. 6 certainty
+    ellipse (H in theta_bar = theta / theta_hat) overlaid."""
+    import corner
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    labels = [f"{name} (kPa)" for name in posterior.parameters]
+    fig = corner.corner(
+        posterior.samples,
+        labels=labels,
+        quantiles=[0.025, 0.5, 0.975],
+        show_titles=True,
+        title_fmt=".3g",
+        truths=None if fit_theta is None else list(fit_theta),
+        truth_color="tab:red",
+    )
+    if fit_theta is not None and fit_hessian is not None and s is not None:
+        e = certainty_ellipse(fit_hessian, s) * np.asarray(fit_theta)  # back to kPa
+        ax = fig.axes[len(labels)]  # lower-left panel: c5 against c1
+        ax.plot(e[:, 0], e[:, 1], color="tab:red", lw=1.5, label="Hessian ellipse (eq. 6)")
+        ax.legend(fontsize=7, loc="upper right")
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path

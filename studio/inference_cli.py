@@ -1,0 +1,211 @@
+"""``indent-studio fit | posterior | confirm``: from a measured experiment to (c1, c5) with bounds,
+a posterior and an FE confirmation (paper 2.7, 2.8, 3.4)."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+import typer
+from rich.console import Console
+
+from .options import JSON, err, fail
+
+EXPERIMENT = Annotated[Path, typer.Option(help="experiment folder (README: experiment data format)")]
+SURROGATE = Annotated[Path, typer.Option(help="a trained surrogate file (indent-studio surrogate train)")]
+WEIGHTS = Annotated[str, typer.Option(help="eta = force,ux,uy,uz on the simplex")]
+OUT = Annotated[Path | None, typer.Option(help="folder for the result files (default: <experiment>/results)")]
+
+
+@dataclass
+class _Setup:
+    model: object  # the surrogate
+    spec: object  # the FE model it emulates
+    objective: object
+    dic: object  # the registered DIC data
+    eta: np.ndarray
+
+
+def _setup(experiment: Path, surrogate: Path, weights: str) -> _Setup:
+    """The experiment, the surrogate, the FE model it emulates and the objective."""
+    from ..design.experiment_data import load_experiment
+    from ..design.experiment_processing import experiment_objective
+    from ..design.objective import check_weights
+    from ..forward.spec import ModelSpec
+    from ..surrogate.persistence import load_surrogate
+
+    eta = check_weights([float(v) for v in weights.split(",")])
+    exp = load_experiment(experiment)
+    model = load_surrogate(surrogate)
+    campaign = model.meta.get("campaign") or {}
+    if "model" not in campaign:
+        raise ValueError(f"{surrogate}: the surrogate does not record the model it was trained on")
+    spec = ModelSpec.from_dict(campaign["model"])
+    if (
+        abs(spec.indenter.radius - exp.radius) > 1e-6
+        or len(model.depth) != exp.steps
+        or not np.allclose(model.depth, exp.depths)
+    ):
+        raise ValueError(
+            f"the experiment (R = {exp.radius:g} mm, {exp.steps} x {exp.step_size:g} mm) does not match the "
+            f"surrogate's model (R = {spec.indenter.radius:g} mm, {len(model.depth)} steps to {model.depth[-1]:g} mm)"
+        )
+    objective, dic = experiment_objective(exp, model.top_xyz)
+    return _Setup(model, spec, objective, dic, eta)
+
+
+def register(app: typer.Typer) -> None:
+    """Add the inference commands to the studio's CLI."""
+
+    @app.command("fit")
+    def fit(
+        experiment: EXPERIMENT,
+        surrogate: SURROGATE,
+        weights: WEIGHTS = "0.45,0.35,0.2,0",
+        refine: Annotated[bool, typer.Option(help="refine on the FE solver with exact sensitivities")] = True,
+        paper_stop: Annotated[bool, typer.Option(help="stop as soon as F < 3e-2 (the paper's rule)")] = False,
+        out: OUT = None,
+        as_json: JSON = False,
+    ) -> None:
+        """Inverse fit (2.8.2): Levenberg-Marquardt from {6, 300} kPa on the surrogate, then on the FE
+        solver with its exact sensitivities; bounds from eq. 6 to 8 with s from the data."""
+        from ..design.inverse_fit import PAPER_F_STOP, fit_parameters
+        from ..forward.predictor import FESolverPredictor
+
+        f_stop = PAPER_F_STOP if paper_stop else None
+        try:
+            st = _setup(experiment, surrogate, weights)
+            model, spec, objective, dic, eta = st.model, st.spec, st.objective, st.dic, st.eta
+            err.print(f"fitting on the {model.kind} surrogate ...")
+            first = fit_parameters(objective, model, eta, f_stop=f_stop)
+            final = first
+            if refine:
+                err.print(f"refining on the FE solver from {np.round(first.theta, 3).tolist()} kPa ...")
+                final = fit_parameters(
+                    objective, FESolverPredictor(spec), eta, theta0=first.theta, f_stop=f_stop
+                )
+        except (ValueError, OSError, RuntimeError) as exc:
+            fail(str(exc), as_json)
+        payload = {
+            "c1": float(final.theta[0]),
+            "c5": float(final.theta[1]),
+            "c1_pct": float(final.bounds_pct[0]),
+            "c5_pct": float(final.bounds_pct[1]),
+            "F": final.F,
+            "s": final.s,
+            "n": final.n_residuals,
+            "hessian": final.hessian.tolist(),
+            "surrogate_fit": {"theta": first.theta.tolist(), "F": first.F, "wall_s": first.wall_s},
+            "fe_fit": {"evaluations": final.evaluations, "wall_s": final.wall_s} if refine else None,
+            "fiber_angle_deg": dic.fiber_angle_deg,
+            "fiber_angle_estimated": dic.fiber_angle_estimated,
+            "measured_nodes": int(objective.measured.sum()),
+            "weights": eta.tolist(),
+        }
+        folder = out or Path(experiment) / "results"
+        folder.mkdir(parents=True, exist_ok=True)
+        (folder / "fit.json").write_text(json.dumps(payload, indent=1))
+        payload["result_file"] = str(folder / "fit.json")
+        if as_json:
+            print(json.dumps(payload))
+            return
+        Console().print(
+            f"c1 = {payload['c1']:.3f} kPa +- {payload['c1_pct']:.1f} %, c5 = {payload['c5']:.1f} kPa +- "
+            f"{payload['c5_pct']:.1f} %  (F = {final.F:.3g}, s = {final.s:.3g}, n = {final.n_residuals})"
+        )
+
+    @app.command("posterior")
+    def posterior(
+        experiment: EXPERIMENT,
+        surrogate: SURROGATE,
+        weights: WEIGHTS = "0.45,0.35,0.2,0",
+        walkers: Annotated[int, typer.Option(help="emcee walkers")] = 32,
+        steps: Annotated[int, typer.Option(help="emcee steps per walker")] = 4000,
+        seed: Annotated[int, typer.Option(help="random seed")] = 0,
+        out: OUT = None,
+        as_json: JSON = False,
+    ) -> None:
+        """Posterior of (c1, c5) with emcee on the surrogate: log L = -F / (2 s^2) with s from the
+        surrogate fit (eq. 8), uniform prior on the surrogate's training box; corner plot."""
+        from ..design.certainty import bounds_pct
+        from ..design.inverse_fit import fit_parameters
+        from ..design.posterior import sample_posterior
+        from .figures import corner_figure
+
+        try:
+            st = _setup(experiment, surrogate, weights)
+            model, objective, eta = st.model, st.objective, st.eta
+            fit = fit_parameters(objective, model, eta)
+            box = (model.scaler.lo, model.scaler.hi)
+            err.print(f"sampling with {walkers} walkers x {steps} steps (s = {fit.s:.3g}) ...")
+            post = sample_posterior(objective, model, eta, fit.s, box, fit.theta, walkers, steps, seed)
+            folder = out or Path(experiment) / "results"
+            png = corner_figure(post, folder / "corner.png", fit.theta, fit.hessian, fit.s)
+        except (ValueError, OSError, RuntimeError) as exc:
+            fail(str(exc), as_json)
+        summary = post.summary()
+        hessian_sd = fit.theta * bounds_pct(fit.hessian, fit.s) / 100.0 / np.sqrt(2.0)
+        payload = {
+            **summary,
+            "corner_png": str(png),
+            "fit": fit.theta.tolist(),
+            "hessian_sd": hessian_sd.tolist(),
+            "hessian_bounds_pct": bounds_pct(fit.hessian, fit.s).tolist(),
+        }
+        (folder / "posterior.json").write_text(json.dumps(payload, indent=1))
+        if as_json:
+            print(json.dumps(payload))
+            return
+        for k, name in enumerate(post.parameters):
+            lo, hi = summary["ci95"][k]
+            Console().print(
+                f"{name}: median {summary['median'][k]:.4g}, 95 % [{lo:.4g}, {hi:.4g}], sd {summary['std'][k]:.3g} "
+                f"(Hessian sd {hessian_sd[k]:.3g})"
+            )
+        Console().print(
+            f"acceptance {post.acceptance_fraction:.2f}, autocorrelation {np.round(post.autocorrelation_steps, 1).tolist()} "
+            f"steps, converged {post.converged}; {png}"
+        )
+
+    @app.command("confirm")
+    def confirm(
+        experiment: EXPERIMENT,
+        surrogate: SURROGATE,
+        c1: Annotated[float, typer.Option(help="fitted c1, kPa")],
+        c5: Annotated[float, typer.Option(help="fitted c5, kPa")],
+        weights: WEIGHTS = "0.45,0.35,0.2,0",
+        solver: Annotated[str, typer.Option(help="embedded or febio")] = "embedded",
+        as_json: JSON = False,
+    ) -> None:
+        """FE confirmation of a fit: F(theta_hat) from an FE run, and how far the surrogate's
+        prediction is from that run."""
+        from ..forward.predictor import FESolverPredictor
+
+        try:
+            st = _setup(experiment, surrogate, weights)
+            model, spec, objective, eta = st.model, st.spec, st.objective, st.eta
+            theta = np.array([[c1, c5]])
+            fe = FESolverPredictor(spec, solver=solver).predict(theta)
+            sur = model.predict(theta)
+        except (ValueError, OSError, RuntimeError) as exc:
+            fail(str(exc), as_json)
+        u_max = np.abs(fe.displacement[0]).max(axis=(0, 1))
+        payload = {
+            "F_fe": float(objective.value(fe, eta)[0]),
+            "F_surrogate": float(objective.value(sur, eta)[0]),
+            "force_diff_max_pct": float(100 * np.abs(sur.force[0] / fe.force[0] - 1).max()),
+            "displacement_diff_max_pct": float(
+                100 * (np.abs(sur.displacement[0] - fe.displacement[0]) / u_max).max()
+            ),
+            "solver": solver,
+        }
+        if as_json:
+            print(json.dumps(payload))
+            return
+        Console().print(
+            f"F(theta_hat) on {solver}: {payload['F_fe']:.4g} (surrogate {payload['F_surrogate']:.4g}); surrogate vs FE: "
+            f"force {payload['force_diff_max_pct']:.2f} %, field {payload['displacement_diff_max_pct']:.2f} % of max |u|"
+        )
