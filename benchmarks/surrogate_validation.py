@@ -45,7 +45,7 @@ def main() -> None:
     ap.add_argument("--train", default="bench-paper")
     ap.add_argument("--test", default="lhs100")
     ap.add_argument("--kinds", default="gp,mlp")
-    ap.add_argument("--input-scale", default="linear")
+    ap.add_argument("--input-scale", default="log")
     args = ap.parse_args()
     train_data = load_campaign(args.train)
     train = TrainingData.from_campaign(train_data)

@@ -27,7 +27,7 @@ class Kind(StrEnum):
     mlp = "mlp"
 
 
-def make_surrogate(kind: str, input_scale: str = "linear", pca_tol: float = 1e-3, **kwargs):
+def make_surrogate(kind: str, input_scale: str = "log", pca_tol: float = 1e-3, **kwargs):
     """An untrained surrogate of ``kind`` ('gp' or 'mlp')."""
     if kind == "gp":
         from ..surrogate.gaussian_process import GaussianProcessSurrogate
@@ -67,7 +67,7 @@ def _errors_table(title: str, rows: dict[str, dict]) -> None:
 def train(
     campaign: CAMPAIGN,
     kind: Annotated[Kind, typer.Option(help="gp (scikit-learn) or mlp (torch)")] = Kind.gp,
-    input_scale: Annotated[str, typer.Option(help="linear or log scaling of the parameters")] = "linear",
+    input_scale: Annotated[str, typer.Option(help="linear or log scaling of the parameters")] = "log",
     pca_tol: Annotated[float, typer.Option(help="PCA reconstruction tolerance (relative)")] = 1e-3,
     test_campaign: Annotated[str | None, typer.Option(help="a campaign of points to test on")] = None,
     kfold: Annotated[

@@ -51,7 +51,16 @@ class MLPSurrogate(FieldSurrogate):
         Xt, Tt = torch.from_numpy(X[train]), torch.from_numpy(T[train])
         Xv, Tv = torch.from_numpy(X[val]), torch.from_numpy(T[val])
         net = _network(X.shape[1], T.shape[1], self.width, self.hidden_layers)
-        loss_fn = nn.MSELoss()
+        # the loss is the squared error of log-force and of the field in output units (each block
+        # normalised to weight 1): a standardised minor component must not count as much as the first
+        var = self.score_std**2
+        w = np.concatenate(
+            [var[: self.k_force] / var[: self.k_force].sum(), var[self.k_force :] / var[self.k_force :].sum()]
+        )
+        weight = torch.from_numpy(w * len(w) / w.sum())
+
+        def loss_fn(pred: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
+            return torch.mean((pred - target) ** 2 * weight)
 
         def val_loss() -> float:
             with torch.no_grad():
@@ -73,7 +82,7 @@ class MLPSurrogate(FieldSurrogate):
             loss = loss_fn(net(Xt), Tt)
             loss.backward()
             opt.step()
-            sched.step(float(loss))
+            sched.step(loss.item())
             previous = best[0]
             keep()
             since = 0 if best[0] < previous else since + 1

@@ -64,9 +64,10 @@ def test_held_out_errors_are_small(trained, campaigns):
     _, _, test = campaigns
     e = prediction_errors(trained, test)
     assert isinstance(trained, Predictor)
-    # 36 coarse training runs over c1 4..16, c5 150..500: measured GP 0.1 %, MLP 0.2 % force RMS
-    assert e["force_rms_pct"] < 1.0 and e["force_max_pct"] < 3.0
-    assert e["displacement_rms_pct"] < 1.0 and e["displacement_max_pct"] < 5.0
+    # 36 coarse training runs over c1 4..16, c5 150..500, 8 LHS points held out; measured:
+    # GP force RMS 0.05 %, max 0.14 %, field RMS 0.08 %, max 0.94 %; MLP 0.15 %, 0.39 %, 0.04 %, 0.75 %
+    assert e["force_rms_pct"] < 0.3 and e["force_max_pct"] < 0.8
+    assert e["displacement_rms_pct"] < 0.2 and e["displacement_max_pct"] < 2.0
 
 
 def test_jacobian_is_the_derivative_of_the_prediction(trained):
