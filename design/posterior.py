@@ -1,7 +1,8 @@
 """The posterior of theta given a measurement (issue: inference), sampled with emcee.
 
-log L(theta) = -F(theta) / (2 s^2) with F of eq. 5 (the residuals already normalised, so s is the
-relative noise of eq. 6 to 8), a uniform prior on a box (the surrogate's training box), and an
+log L(theta) = -F(theta) / (2 s^2) with F of eq. 5 and s the standard deviation of one normalised
+residual (for measured data, sqrt(F(theta_hat) / (n - p)); not eq. 8's s, which carries the 95 %
+quantile of the F distribution on top), a uniform prior on a box (the surrogate's training box), and an
 affine-invariant ensemble sampler whose walkers start in a small ball around the fit. The
 predictor is called with all walkers at once (emcee's vectorize), so a surrogate evaluates a
 whole ensemble in one batch. The chain is checked: integrated autocorrelation time (the chain

@@ -103,7 +103,7 @@ def corner_figure(
         labels=labels,
         quantiles=[0.025, 0.5, 0.975],
         show_titles=True,
-        title_fmt=".3g",
+        title_fmt=".4g",
         truths=None if fit_theta is None else list(fit_theta),
         truth_color="tab:red",
     )
