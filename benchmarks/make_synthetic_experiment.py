@@ -29,6 +29,7 @@ def main() -> None:
     ap.add_argument("--fiber-angle", type=float, default=60.0)
     ap.add_argument("--unknown-fibers", action="store_true", help="write fiber_angle_deg = null")
     ap.add_argument("--seed", type=int, default=7)
+    ap.add_argument("--points", type=int, default=6000, help="DIC points over the field of view")
     ap.add_argument("--out", default="runs/exp-12-250")
     args = ap.parse_args()
     spec = ModelSpec(indenter=Indenter(args.radius), mesh=MeshChoice(args.mesh))
@@ -44,6 +45,7 @@ def main() -> None:
         fiber_angle_deg=args.fiber_angle,
         write_fiber_angle=not args.unknown_fibers,
         seed=args.seed,
+        points=args.points,
     )
     print(f"wrote {path} ({args.mesh} mesh, {time.perf_counter() - t0:.0f} s)")
 

@@ -144,3 +144,16 @@ def test_dic_problems_are_named(experiment, tmp_path):
     np.savez(dst / "dic.npz", xyz=xyz, u=u * 1000.0)
     with pytest.raises(ExperimentDataError, match="microns"):
         load_experiment(dst)
+
+
+def test_shipped_example_experiment_loads_and_registers():
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1] / "examples" / "synthetic-12-250"
+    exp = load_experiment(root)
+    assert exp.steps == 28 and exp.radius == 4.77 and exp.dic_u.shape == (28, len(exp.dic_xyz), 3)
+    dic = to_model_frame(exp)
+    np.testing.assert_allclose(dic.origin, [3.0, -2.0, 12.0], atol=0.01)
+    assert dic.sphere_radius == pytest.approx(4.77, abs=0.01)
+    f_inf, _ = static_forces(exp)
+    assert np.all(np.diff(f_inf) > 0)  # the force grows with depth
