@@ -36,6 +36,7 @@ class SimulationResult:
     force_sensitivity: np.ndarray | None = None  # (s, p) mN per kPa: d force / d theta
     displacement_sensitivity: np.ndarray | None = None  # (s, nt, 3, p) mm per kPa
     parameters: tuple[str, ...] = ("c1", "c5")
+    full_displacement: np.ndarray | None = None  # (s, n, 3) mm: every node, when asked for (VTU export)
 
     @property
     def force_quarter(self) -> np.ndarray:
@@ -64,6 +65,8 @@ class SimulationResult:
             "displacement": self.displacement,
         }
         arrays.update({f"conv_{k}": np.asarray(v) for k, v in self.convergence.items()})
+        if self.full_displacement is not None:
+            arrays["full_displacement"] = self.full_displacement
         if self.force_sensitivity is not None:
             arrays["force_sensitivity"] = self.force_sensitivity
             arrays["displacement_sensitivity"] = self.displacement_sensitivity
@@ -107,6 +110,7 @@ class SimulationResult:
                     force_sensitivity=z["force_sensitivity"] if sens else None,
                     displacement_sensitivity=z["displacement_sensitivity"] if sens else None,
                     parameters=tuple(meta.get("parameters", ("c1", "c5"))),
+                    full_displacement=z["full_displacement"] if "full_displacement" in z.files else None,
                 )
         except (OSError, KeyError, ValueError) as exc:
             raise ValueError(f"{path}: not a readable simulation result ({exc})") from exc

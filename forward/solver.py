@@ -298,17 +298,25 @@ class EmbeddedSolver:
 
     # ------------------------------------------------------------------ driver
     def run(
-        self, sensitivities: bool = False, progress: Callable[[int, int, float], None] | None = None
+        self,
+        sensitivities: bool = False,
+        progress: Callable[[int, int, float], None] | None = None,
+        full_field: bool = False,
     ) -> SimulationResult:
-        """Run the protocol; ``progress(step, steps, force)`` is called after each step. The
-        linear solver's memory (PARDISO keeps its factors outside Python) is freed at the end."""
+        """Run the protocol; ``progress(step, steps, force)`` is called after each step;
+        ``full_field`` keeps every node's displacement per step (for VTU export). The linear
+        solver's memory (PARDISO keeps its factors outside Python) is freed at the end."""
         try:
-            return self._run(sensitivities, progress)
+            result = self._run(sensitivities, progress, full_field)
         finally:
             self.linear.release()
+        return result
 
     def _run(
-        self, sensitivities: bool, progress: Callable[[int, int, float], None] | None
+        self,
+        sensitivities: bool,
+        progress: Callable[[int, int, float], None] | None,
+        full_field: bool = False,
     ) -> SimulationResult:
         t_start = time.perf_counter()
         self._sensitivities = sensitivities
@@ -321,6 +329,7 @@ class EmbeddedSolver:
         depths = [0.0]
         forces = [0.0]
         disp = [np.zeros((nt, 3))]
+        self._full = [np.zeros((n, 3))] if full_field else None
         conv = {
             k: [0]
             for k in (
@@ -385,6 +394,8 @@ class EmbeddedSolver:
             depths.append(d_target)
             forces.append(SYMMETRY_FACTOR * F_quarter)
             disp.append(u[self.top].copy())
+            if self._full is not None:
+                self._full.append(u.copy())
             if sensitivities:
                 dRc = eq.dR + eq.K @ du_dtheta.reshape(-1, 2)
                 att = self.top[contact.attached]
@@ -406,6 +417,7 @@ class EmbeddedSolver:
             top_node_ids=mesh.node_ids[self.top],
             top_xyz=mesh.nodes[self.top],
             displacement=np.asarray(disp),
+            full_displacement=np.asarray(self._full) if getattr(self, "_full", None) is not None else None,
             spec=self.spec.to_dict(),
             solver={
                 "name": self.name,

@@ -66,6 +66,10 @@ def simulate(
     out: Annotated[
         Path | None, typer.Option(help="result file (.npz); default under runs/simulations/")
     ] = None,
+    vtu: Annotated[
+        Path | None,
+        typer.Option(help="also write the whole block per step as VTU (+ .pvd) for ParaView here"),
+    ] = None,
     as_json: JSON = False,
 ) -> None:
     """One indentation simulation (default: the paper's baseline, R = 4.77 mm, 28 x 0.5 mm).
@@ -99,13 +103,20 @@ def simulate(
             if solver == SolverName.febio:
                 result = engine.run(progress=lambda k, n, d: bar.update(k, f"{d:.2f} mm"))
             else:
-                result = engine.run(sensitivities=sensitivities, progress=report)
+                result = engine.run(sensitivities=sensitivities, progress=report, full_field=vtu is not None)
         except SimulationError as exc:
             if exc.partial is not None and len(exc.partial.depth) > 1:
                 partial = exc.partial.save(out.with_name(out.stem + ".partial.npz"))
                 err.print(f"steps completed before the failure are kept in {partial}")
             fail(str(exc), as_json)
     path = result.save(out)
+    pvd = None
+    if vtu is not None:
+        if solver == SolverName.febio:
+            fail("--vtu needs the embedded solver (FEBio writes its own .xplt for FEBio Studio)", as_json)
+        from ..forward.vtu_export import write_vtu_series
+
+        pvd = write_vtu_series(result, engine.mesh, vtu)
     payload: dict[str, Any] = {
         "depth_mm": result.depth.tolist(),
         "force_mN": result.force.tolist(),
@@ -115,6 +126,7 @@ def simulate(
         "result_file": str(path),
         "solver": result.solver["name"],
         "mesh": result.solver.get("mesh", {"source": str(mesh_from or mesh)}),
+        "vtu_series": str(pvd) if pvd else None,
     }
     if as_json:
         print(json.dumps(payload))
@@ -239,6 +251,32 @@ def mesh_study(
             f"{r['wall_s']:.1f}",
         )
     Console().print(table)
+
+
+@app.command("demo")
+def demo(
+    name: Annotated[str, typer.Option(help="campaign and report name under runs/")] = "demo",
+    full: Annotated[bool, typer.Option(help="the paper's 775-point grid instead of a 9 x 9 one")] = False,
+    jobs: Annotated[int, typer.Option(help="parallel simulations (0: all cores)")] = 0,
+    posterior_steps: Annotated[int, typer.Option(help="emcee steps per walker")] = 1500,
+    as_json: JSON = False,
+) -> None:
+    """The paper's results from nothing, on the embedded solver: campaign, surrogates, Table 1,
+    Fig. 8, indenter comparison, the fit of the shipped example with posterior and confirmation,
+    and an HTML report in runs/<name>/report/."""
+    from .demo import run_demo
+
+    t0 = time.perf_counter()
+    try:
+        report = run_demo(
+            name, full, jobs, posterior_steps=posterior_steps, say=lambda m: err.print(m, highlight=False)
+        )
+    except (ValueError, OSError, RuntimeError) as exc:
+        fail(str(exc), as_json)
+    if as_json:
+        print(json.dumps({"report": str(report), "wall_s": time.perf_counter() - t0}))
+        return
+    Console().print(f"report: {report} ({time.perf_counter() - t0:.0f} s)")
 
 
 def main() -> None:  # pragma: no cover

@@ -115,3 +115,138 @@ def corner_figure(
     fig.savefig(path, dpi=120)
     plt.close(fig)
     return path
+
+
+def force_depth_figure(depth, curves: dict, path: str | Path, errors=None, title: str = "") -> Path:
+    """Force against depth: ``curves`` maps a label to forces (mN) at ``depth`` (mm); the first
+    is drawn as measured points (with ``errors`` as error bars), the rest as lines."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig, ax = plt.subplots(figsize=(5.6, 4.2), constrained_layout=True)
+    for k, (label, f) in enumerate(curves.items()):
+        if k == 0:
+            ax.errorbar(depth, f, yerr=errors, fmt="o", ms=4, color="k", label=label)
+        else:
+            ax.plot(depth, f, "-", lw=1.8, label=label)
+    ax.set_xlabel("indentation depth (mm)")
+    ax.set_ylabel("indenter force, whole specimen (mN)")
+    ax.set_title(title or "force against depth")
+    ax.grid(alpha=0.3)
+    ax.legend()
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+    return path
+
+
+def displacement_maps_figure(top_xyz: np.ndarray, u: np.ndarray, path: str | Path, title: str = "") -> Path:
+    """Top-surface displacement maps (ux, uy, uz) of one step over the full field (the quarter
+    model mirrored by its symmetry planes), with the fiber direction (+y) marked."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    x, y = top_xyz[:, 0], top_xyz[:, 1]
+    X = np.concatenate([x, -x, x, -x])
+    Y = np.concatenate([y, y, -y, -y])
+    sx = np.concatenate([np.ones_like(x), -np.ones_like(x), np.ones_like(x), -np.ones_like(x)])
+    sy = np.concatenate([np.ones_like(y), np.ones_like(y), -np.ones_like(y), -np.ones_like(y)])
+    U = np.tile(u, (4, 1))
+    U[:, 0] *= sx
+    U[:, 1] *= sy
+    fig, axes = plt.subplots(1, 3, figsize=(13, 4.2), constrained_layout=True)
+    lim = min(float(np.abs(x).max()), 25.0)
+    for j, ax in enumerate(axes):
+        v = np.abs(U[:, j]).max() or 1.0
+        cs = ax.tricontourf(
+            X,
+            Y,
+            U[:, j],
+            levels=21,
+            cmap="RdBu_r" if j < 2 else "viridis",
+            vmin=-v if j < 2 else None,
+            vmax=v if j < 2 else None,
+        )
+        fig.colorbar(cs, ax=ax, label=f"u{'xyz'[j]} (mm)")
+        ax.annotate(
+            "",
+            xy=(0, 0.8 * lim),
+            xytext=(0, 0.45 * lim),
+            arrowprops={"arrowstyle": "->", "lw": 2, "color": "k"},
+        )
+        ax.text(0.03 * lim, 0.62 * lim, "fibers", fontsize=9)
+        ax.set_xlim(-lim, lim)
+        ax.set_ylim(-lim, lim)
+        ax.set_aspect("equal")
+        ax.set_xlabel("x (mm)")
+        ax.set_ylabel("y (mm)")
+    fig.suptitle(title or "top-surface displacement")
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def parity_figure(pairs: dict, path: str | Path, title: str = "") -> Path:
+    """Surrogate against FE (held-out points): one panel per entry of ``pairs`` = {label: (fe, surrogate)}."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig, axes = plt.subplots(
+        1, len(pairs), figsize=(4.4 * len(pairs), 4.2), constrained_layout=True, squeeze=False
+    )
+    for ax, (label, (fe, sur)) in zip(axes[0], pairs.items(), strict=True):
+        fe, sur = np.ravel(fe), np.ravel(sur)
+        ax.plot(fe, sur, ".", ms=2, alpha=0.4)
+        lo, hi = float(min(fe.min(), sur.min())), float(max(fe.max(), sur.max()))
+        ax.plot([lo, hi], [lo, hi], "k-", lw=0.8)
+        ax.set_xlabel(f"FE {label}")
+        ax.set_ylabel(f"surrogate {label}")
+        ax.grid(alpha=0.3)
+    fig.suptitle(title or "surrogate against FE on held-out points")
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def mesh_figure(nodes: np.ndarray, elements: np.ndarray, path: str | Path, title: str = "") -> Path:
+    """The block mesh: the edges of the element faces on the top and the two symmetry planes, in 3D."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    edges = np.concatenate(
+        [
+            elements[:, [a, b]]
+            for a, b in (
+                (0, 1),
+                (1, 2),
+                (2, 3),
+                (3, 0),
+                (4, 5),
+                (5, 6),
+                (6, 7),
+                (7, 4),
+                (0, 4),
+                (1, 5),
+                (2, 6),
+                (3, 7),
+            )
+        ]
+    )
+    edges = np.unique(np.sort(edges, axis=1), axis=0)
+    p0, p1 = nodes[edges[:, 0]], nodes[edges[:, 1]]
+    top, z_max = nodes[:, 2].max(), nodes[:, 2].max()
+    on_face = (
+        ((p0[:, 2] == top) & (p1[:, 2] == top))
+        | ((p0[:, 0] == 0) & (p1[:, 0] == 0))
+        | ((p0[:, 1] == 0) & (p1[:, 1] == 0))
+    )
+    fig = plt.figure(figsize=(6, 5.4), constrained_layout=True)
+    ax = fig.add_subplot(projection="3d")
+    for a, b in zip(p0[on_face], p1[on_face], strict=True):
+        ax.plot(*np.stack([a, b]).T, color="k", lw=0.3)
+    ax.set_xlabel("x (mm)")
+    ax.set_ylabel("y (mm)")
+    ax.set_zlabel("z (mm)")
+    ax.set_box_aspect(np.ptp(nodes, axis=0))
+    ax.view_init(elev=25, azim=225)
+    ax.set_title(
+        title or f"quarter block: {len(nodes)} nodes, {len(elements)} hex8 (indentation at (0, 0, {z_max:g}))"
+    )
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path

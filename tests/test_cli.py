@@ -3,6 +3,7 @@
 import json
 
 import numpy as np
+import pytest
 from typer.testing import CliRunner
 
 from indentation_studio.forward.result import SimulationResult
@@ -47,3 +48,22 @@ def test_mesh_study_json_rows():
     assert rows[0]["nodes"] == 576
     assert 0.0 < rows[0]["E_u_pct"] < 50.0
     assert rows[0]["E_f_rel_pct"] == rows[0]["E_f_pct"] * 2  # eq. 1a divides by N_s = 2
+
+
+def test_simulate_vtu_series_for_paraview(tmp_path):
+    import meshio
+
+    res = CliRunner().invoke(
+        app,
+        [
+            *("simulate", "--mesh", "coarse", "--steps", "2", "--out", str(tmp_path / "r.npz")),
+            *("--vtu", str(tmp_path / "vtu"), "--json"),
+        ],
+    )
+    assert res.exit_code == 0, res.output
+    out = json.loads(res.stdout)
+    pvd = (tmp_path / "vtu" / "step.pvd").read_text()
+    assert out["vtu_series"].endswith("step.pvd") and pvd.count("<DataSet") == 3
+    m = meshio.read(tmp_path / "vtu" / "step_002.vtu")
+    u = m.point_data["displacement"]
+    assert m.cells_dict["hexahedron"].shape[1] == 8 and u[:, 2].min() == pytest.approx(-1.0, abs=1e-6)

@@ -1,0 +1,102 @@
+"""The demo's report: one self-contained HTML page (tables and the PNGs beside it)."""
+
+from __future__ import annotations
+
+import html
+from pathlib import Path
+
+import pandas as pd
+
+from .. import __version__
+
+STYLE = """
+body { font-family: system-ui, sans-serif; max-width: 1100px; margin: 2em auto; color: #222; }
+table { border-collapse: collapse; margin: 1em 0; } td, th { border: 1px solid #ccc; padding: 4px 8px; }
+th { background: #f2f2f2; } img { max-width: 100%; border: 1px solid #ddd; } figcaption { color: #555; }
+"""
+
+
+def _table(rows: list[dict], columns: dict[str, str]) -> str:
+    head = "".join(f"<th>{html.escape(label)}</th>" for label in columns.values())
+    body = "".join(
+        "<tr>" + "".join(f"<td>{html.escape(_fmt(r[key]))}</td>" for key in columns) + "</tr>" for r in rows
+    )
+    return f"<table><tr>{head}</tr>{body}</table>"
+
+
+def _fmt(v) -> str:
+    if isinstance(v, float):
+        return f"{v:.3g}"
+    if isinstance(v, (list, tuple)):
+        return "(" + ", ".join(_fmt(x) for x in v) + ")"
+    return str(v)
+
+
+def write_report(out: Path, results: dict, sections: list[tuple[str, str]]) -> Path:
+    """Write ``out/index.html`` from the demo's ``results`` and its figures."""
+    parts = [
+        f"<h1>Indentation Studio demo</h1><p>version {__version__}; wall time {results['wall_s']:.0f} s</p>"
+    ]
+    parts.append("<h2>Table 1 at theta* = {10, 350} kPa, s = 0.05 (exact Hessian, eq. 4 as printed)</h2>")
+    parts.append(
+        _table(
+            results["table1"],
+            {
+                "name": "test design",
+                "paper_c1_pct": "paper c1 %",
+                "paper_c5_pct": "paper c5 %",
+                "paper_weights": "paper weights",
+                "c1_pct_at_paper_weights": "ours c1 % (paper weights)",
+                "c5_pct_at_paper_weights": "ours c5 % (paper weights)",
+                "weights": "our optimal weights",
+                "c1_pct": "ours c1 % (optimal)",
+                "c5_pct": "ours c5 % (optimal)",
+            },
+        )
+    )
+    H, P = results["hessian_at_paper_weights"], results["paper_hessian"]
+    parts.append(
+        f"<p>H(theta*) at the paper's combined weights: {_fmt(H)}; the paper's eq. 14: {_fmt(P)}.</p>"
+    )
+    parts.append("<h2>Surrogates: errors at held-out points (percent)</h2>")
+    rows = [{"kind": k, **v} for k, v in results["surrogate_test_errors"].items()]
+    parts.append(
+        _table(
+            rows,
+            {
+                "kind": "surrogate",
+                "points": "points",
+                "force_rms_pct": "force RMS",
+                "force_max_pct": "force max",
+                "displacement_rms_pct": "field RMS (of max |u|)",
+                "displacement_max_pct": "field max",
+            },
+        )
+    )
+    csv = out / "design-comparison.csv"
+    if csv.is_file():
+        parts.append("<h2>Which experiment to run</h2>")
+        parts.append(pd.read_csv(csv).to_html(index=False, float_format=lambda v: f"{v:.3g}"))
+    fit, post = results["fit"], results["posterior"]
+    parts.append("<h2>The example experiment</h2>")
+    parts.append(
+        f"<p>Fit (surrogate, then FE with exact sensitivities): c1 = {fit['theta'][0]:.3f} kPa +- "
+        f"{fit['bounds_pct'][0]:.2f} %, c5 = {fit['theta'][1]:.1f} kPa +- {fit['bounds_pct'][1]:.2f} % (eq. 6 with s "
+        f"= {fit['s']:.3g} from eq. 8); F = {fit['F']:.3g}. Synthetic truth: {_fmt(fit['truth'])}. Posterior median "
+        f"{_fmt(post['median'])}, 95 % intervals {_fmt(post['ci95'])}, acceptance {post['acceptance_fraction']:.2f}, "
+        f"autocorrelation {_fmt(post['autocorrelation_steps'])} steps. FE confirmation: F(theta_hat) = "
+        f"{results['confirmation']['F_fe']:.3g}.</p>"
+    )
+    parts.append("<h2>Figures</h2>")
+    for name, caption in sections:
+        if name.endswith(".png"):
+            parts.append(
+                f'<figure><img src="{html.escape(name)}" alt="{html.escape(name)}"><figcaption>{html.escape(caption)}'
+                "</figcaption></figure>"
+            )
+        else:
+            parts.append(f"<p><b>{html.escape(name)}</b>: {html.escape(caption)}</p>")
+    page = f"<!doctype html><html><head><meta charset='utf-8'><title>Indentation Studio demo</title><style>{STYLE}</style></head><body>{''.join(parts)}</body></html>"
+    path = out / "index.html"
+    path.write_text(page)
+    return path
