@@ -19,7 +19,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sp
 from scipy.optimize import curve_fit
 from scipy.spatial import cKDTree
 
@@ -143,43 +142,51 @@ def to_model_frame(exp: ExperimentData) -> RegisteredDIC:
 
 
 def dic_to_nodes(
-    dic: RegisteredDIC, node_xy: np.ndarray, radius: float | None = None, min_points: int = 3
+    dic: RegisteredDIC, node_xy: np.ndarray, neighbours: int = 12, max_distance: float | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
     """Displacements (steps, nodes, 3) at the FE top nodes ``node_xy`` (nodes, 2) and the mask of
-    nodes with data. Each node averages the DIC points within ``radius`` of it (default 1.5 x
-    the DIC points' median spacing) in the folded reference configuration, weighted by
-    (1 - d / radius)^2; a node with fewer than ``min_points`` correlated points is obscured."""
+    nodes with data, from the ``neighbours`` nearest DIC points of each node in the folded
+    reference configuration, weighted by proximity (1 - d / d_max)^2 with d_max just beyond the
+    farthest of them: a weighted least-squares plane through them (u = a + b . (x - x_node)),
+    whose value at the node is a proximity-weighted average of the points that is exact for a
+    field varying linearly (a plain average is biased where the field is steep, next to the
+    indenter, where Appendix B weighs most). A node whose neighbours are farther than
+    ``max_distance`` (default twice the median distance of a DIC point to its k-th neighbour,
+    i.e. where the data stop, as in the indenter's shadow) is obscured."""
     xy = dic.xyz[:, :2]
     ok = np.all(np.isfinite(dic.u), axis=(0, 2))  # points correlated at every step
+    if not ok.any():
+        raise ExperimentDataError("no DIC point is correlated at every step")
     sx, sy = np.where(xy[ok, 0] < 0, -1.0, 1.0), np.where(xy[ok, 1] < 0, -1.0, 1.0)
     folded = np.abs(xy[ok])
     u = dic.u[:, ok].copy()
     u[..., 0] *= sx
     u[..., 1] *= sy
-    if len(folded) == 0:
-        raise ExperimentDataError("no DIC point is correlated at every step")
     tree = cKDTree(folded)
-    if radius is None:
-        d, _ = tree.query(folded, k=2)
-        radius = 1.5 * float(np.median(d[:, 1])) * np.sqrt(2.0)  # folding doubles the density
-    lists = tree.query_ball_point(np.asarray(node_xy, float), r=radius)
-    rows = np.repeat(np.arange(len(lists)), [len(nb) for nb in lists])
-    cols = np.concatenate([np.asarray(nb, int) for nb in lists]) if rows.size else np.zeros(0, int)
-    w = (1.0 - np.linalg.norm(folded[cols] - node_xy[rows], axis=1) / radius) ** 2
-    W = sp.csr_matrix((w, (rows, cols)), shape=(len(lists), len(folded)))
-    count = np.bincount(rows, minlength=len(lists))
-    total = np.asarray(W.sum(axis=1)).ravel()
-    measured = (count >= min_points) & (total > 0)
-    out = np.zeros((u.shape[0], len(lists), 3))
-    for j in range(3):  # (nodes, points) @ (points, steps): every step at once
-        out[..., j] = (W @ u[..., j].T).T / np.where(measured, total, 1.0)
+    k = int(min(neighbours, len(folded)))
+    if k < 3:
+        raise ExperimentDataError(f"a plane through the DIC points needs 3 of them, got {len(folded)}")
+    if max_distance is None:  # twice the typical reach of k neighbours among the DIC points
+        d, _ = tree.query(folded, k=k + 1)
+        max_distance = 2.0 * float(np.median(d[:, -1]))
+    node_xy = np.asarray(node_xy, float)
+    dist, idx = tree.query(node_xy, k=k)  # (nodes, k)
+    dx = folded[idx] - node_xy[:, None, :]  # (nodes, k, 2)
+    w = (1.0 - dist / (1.0001 * dist[:, -1:] + 1e-12)) ** 2
+    A = np.concatenate([np.ones((*dist.shape, 1)), dx], axis=2)  # (nodes, k, 3)
+    AtW = np.transpose(A * w[..., None], (0, 2, 1))  # (nodes, 3, k)
+    M = AtW @ A  # (nodes, 3, 3)
+    # a node whose neighbours do not surround it well (all on a line) has a singular plane fit
+    well_posed = np.linalg.cond(M) < 1e8
+    measured = (dist[:, -1] <= max_distance) & well_posed
+    U = np.moveaxis(u[:, idx], 0, 2).reshape(len(node_xy), k, -1)  # (nodes, k, steps * 3)
+    coef = np.linalg.solve(np.where(well_posed[:, None, None], M, np.eye(3)), AtW @ U)  # (nodes, 3, steps*3)
+    out = coef[:, 0].reshape(len(node_xy), u.shape[0], 3).transpose(1, 0, 2).copy()
     out[:, ~measured] = 0.0
     return out, measured
 
 
-def experiment_objective(
-    exp: ExperimentData, top_xyz: np.ndarray, reading: str = "paper", radius: float | None = None
-):
+def experiment_objective(exp: ExperimentData, top_xyz: np.ndarray, reading: str = "paper"):
     """The objective (eq. 4, 5) of a measured experiment against a model with top nodes
     ``top_xyz``: static forces from eq. 9, DIC registered and interpolated at the nodes, nodes
     without data obscured. Returns the objective and the registration."""
@@ -187,6 +194,6 @@ def experiment_objective(
 
     f_inf, _ = static_forces(exp)
     dic = to_model_frame(exp)
-    u_nodes, measured = dic_to_nodes(dic, np.asarray(top_xyz)[:, :2], radius=radius)
+    u_nodes, measured = dic_to_nodes(dic, np.asarray(top_xyz)[:, :2])
     objective = Objective(f_inf, u_nodes, top_xyz, radius=exp.radius, reading=reading, mask=measured)
     return objective, dic

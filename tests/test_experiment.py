@@ -83,10 +83,13 @@ def test_synthetic_experiment_fit_on_a_coarser_mesh(experiment):
     objective, _ = experiment_objective(exp, top)
     assert objective.measured.sum() >= 6
     fit = fit_parameters(objective, fit_model, ETA)
-    lo, hi = fit.interval().T
-    # measured: theta_hat (11.93, 247.6) kPa, bounds 0.66 % and 3.0 % (2 % noise, 4 steps)
-    assert np.all(lo < TRUE) and np.all(TRUE < hi), (fit.theta, fit.bounds_pct)
-    assert np.all(fit.bounds_pct < [3.0, 15.0])
+    # measured: theta_hat (11.89, 256.9) kPa with 95 % bounds 0.47 % and 2.1 % (2 % noise, 4 steps, 54
+    # nodes with data): the bounds are statistical and do not cover the discretisation difference
+    # between the fine mesh that made the data and the default mesh that fits it
+    err = np.abs(fit.theta / TRUE - 1)
+    assert err[0] < 0.02 and err[1] < 0.06, fit.theta
+    assert np.all(fit.bounds_pct > 0) and np.all(fit.bounds_pct < [3.0, 15.0])
+    assert 0 < fit.s < 0.05
 
 
 @pytest.mark.parametrize(
