@@ -34,14 +34,27 @@ class MLPSurrogate(FieldSurrogate):
         lbfgs_steps: int = 300,
         validation_fraction: float = 0.15,
         patience: int = 400,
+        ensemble: int = 3,
         **kwargs,
     ) -> None:
         super().__init__(**kwargs)
         self.width, self.hidden_layers = width, hidden_layers
         self.adam_epochs, self.lbfgs_steps = adam_epochs, lbfgs_steps
         self.validation_fraction, self.patience = validation_fraction, patience
+        self.ensemble = ensemble
 
     def _fit_regressor(self, X: np.ndarray, T: np.ndarray, seed: int) -> None:
+        """``ensemble`` networks from different seeds and validation splits; their mean is the
+        prediction (averaging removes most of one network's wiggles, which derivatives, hence
+        Hessians and bounds, feel first)."""
+        if int(self.ensemble) != self.ensemble or self.ensemble < 1:
+            raise ValueError(f"ensemble must be a positive whole number, got {self.ensemble!r}")
+        members = [self._train_one(X, T, seed + 1000 * k) for k in range(int(self.ensemble))]
+        self.nets = [net for net, _ in members]
+        self.meta["validation_mse"] = [v for _, v in members]
+        self.meta["architecture"] = f"{self.ensemble} x ({self.hidden_layers} x {self.width} tanh)"
+
+    def _train_one(self, X: np.ndarray, T: np.ndarray, seed: int) -> tuple[nn.Sequential, float]:
         torch.manual_seed(seed)
         rng = np.random.default_rng(seed)
         n = len(X)
@@ -101,15 +114,15 @@ class MLPSurrogate(FieldSurrogate):
             lbfgs.step(closure)
             keep()
         net.load_state_dict(best[1])
-        self.net = net.eval()
-        self.meta["validation_mse"] = best[0]
-        self.meta["architecture"] = f"{self.hidden_layers} x {self.width} tanh"
+        return net.eval(), best[0]
 
     def _regress(self, X: np.ndarray, jacobian: bool):
         x = torch.from_numpy(np.ascontiguousarray(X, dtype=np.float64))
         with torch.no_grad():
-            T = self.net(x).numpy()
+            T = np.mean([net(x).numpy() for net in self.nets], axis=0)
         if not jacobian:
             return T, None
-        jac = torch.func.vmap(torch.func.jacrev(self.net))(x)  # (n, k, p)
-        return T, jac.detach().numpy()
+        jac = np.mean(
+            [torch.func.vmap(torch.func.jacrev(net))(x).detach().numpy() for net in self.nets], axis=0
+        )
+        return T, jac  # (n, k, p)
