@@ -68,21 +68,16 @@ def fit_parameters(
         raise ValueError(f"the start point must be positive moduli, got {theta0.tolist()}")
     t0 = time.perf_counter()
     history: list[tuple[list[float], float]] = []
-    cache: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+    last: dict[str, np.ndarray] = {}  # the last evaluated point: LM asks for r and J there in turn
 
     def evaluate(z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        key = z.tobytes()
-        if key not in cache:
-            theta = np.exp(z)
-            pred = predictor.predict(theta[None, :], jacobian=True)
-            r = objective.residuals(pred, eta)[0]
-            J = objective.jacobian(pred, eta)[0] * theta  # d r / d log(theta)
-            cache.clear()
-            cache[key] = (r, J)
-            history.append((theta.tolist(), float(r @ r)))
+        if "z" not in last or not np.array_equal(last["z"], z):
+            r, J = _residuals_at(objective, predictor, eta, np.exp(z))
+            last.update(z=z.copy(), r=r, J=J)
+            history.append((np.exp(z).tolist(), float(r @ r)))
             if f_stop is not None and r @ r < f_stop:
                 raise _EarlyStop
-        return cache[key]
+        return last["r"], last["J"]
 
     z = np.log(theta0)
     message = ""
@@ -97,10 +92,10 @@ def fit_parameters(
         )
         z, message = sol.x, sol.message
     except _EarlyStop:
-        z = np.log(np.asarray(history[-1][0]))
+        z = last["z"]
         message = f"F < {f_stop:g} (the paper's stopping rule)"
     theta = np.exp(z)
-    r, J = evaluate(z) if z.tobytes() in cache else _residuals_at(objective, predictor, eta, theta)
+    r, J = evaluate(z)
     F = float(r @ r)
     H = 2.0 * J.T @ J  # Gauss-Newton in log(theta), which is theta_bar - 1 to first order
     n, p = objective.data_points(eta), theta.size
@@ -120,5 +115,6 @@ def fit_parameters(
 
 
 def _residuals_at(objective: Objective, predictor, eta, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Residuals (m,) at ``theta`` and their Jacobian with respect to log(theta) (m, p)."""
     pred = predictor.predict(theta[None, :], jacobian=True)
     return objective.residuals(pred, eta)[0], objective.jacobian(pred, eta)[0] * theta

@@ -102,6 +102,7 @@ class EmbeddedSolver:
         h = np.sort(np.unique(np.round(top_xy[:, 0], 9)))
         self._force_scale = m.c1 * float(h[1] - h[0]) ** 2 if h.size > 1 else m.c1
         self._sensitivities = False
+        self._full: list[np.ndarray] | None = None  # every node's displacement per step, when asked for
         self.stats = {
             "assemblies": 0,
             "tangent_assemblies": 0,
@@ -417,7 +418,7 @@ class EmbeddedSolver:
             top_node_ids=mesh.node_ids[self.top],
             top_xyz=mesh.nodes[self.top],
             displacement=np.asarray(disp),
-            full_displacement=np.asarray(self._full) if getattr(self, "_full", None) is not None else None,
+            full_displacement=np.asarray(self._full) if self._full is not None else None,
             spec=self.spec.to_dict(),
             solver={
                 "name": self.name,
