@@ -117,7 +117,7 @@ def _elements(
             hf = 0.0
             dh = 0.0
             d2h = 0.0
-            if lam > 1.0:
+            if lam >= 1.0:
                 hf = lam - 1.0 - math.log(lam)
                 dh = (lam - 1.0) / (2.0 * lam * lam)
                 d2h = (2.0 - lam) / (4.0 * lam**4)

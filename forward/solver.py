@@ -16,6 +16,7 @@ with right-hand side -dR/dtheta (the internal force is linear in c1 and c5).
 
 from __future__ import annotations
 
+import logging
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -32,6 +33,8 @@ from .result import SYMMETRY_FACTOR, SimulationResult
 from .sparse_assembly import SparsePattern
 from .spec import ModelSpec
 from .stick_contact import RigidSphere, StickContactState
+
+log = logging.getLogger(__name__)
 
 
 class SimulationError(RuntimeError):
@@ -183,7 +186,7 @@ class EmbeddedSolver:
             stale_steps = 0  # corrections in a row with the same factorisation
             for it in range(1, opts.max_newton + 1):
                 try:
-                    R, _, dR = self.assemble(u.reshape(-1, 3), tangent=False, parameter_derivatives=want_dR)
+                    R, _, _ = self.assemble(u.reshape(-1, 3), tangent=False)
                 except FloatingPointError:
                     if du is None or halvings >= MAX_HALVINGS:
                         raise
@@ -191,11 +194,15 @@ class EmbeddedSolver:
                     du *= 0.5
                     u = u_prev - du
                     continue
-                norm = np.linalg.norm(np.where(cmask, 0.0, R))
+                r_free = np.where(cmask, 0.0, R)
+                norm = np.linalg.norm(r_free)
                 ref = max(np.linalg.norm(R[cmask]), self._force_scale)
+                log.debug("newton %d: residual %.3e of %.3e (stale %s)", it, norm, ref, stale)
                 at_round_off = fresh_step and norm > 0.5 * last and norm <= 1e-6 * ref
                 if norm <= opts.residual_tol * ref or at_round_off:
-                    K = self.assemble(u.reshape(-1, 3))[1] if want_dR else None
+                    K = dR = None
+                    if want_dR:
+                        _, K, dR = self.assemble(u.reshape(-1, 3), parameter_derivatives=True)
                     return _Equilibrium(u.reshape(-1, 3), R, K, it, dR)
                 if norm > last and not fresh_step:  # a step with an old factorisation made it worse: undo it
                     u, norm = u_prev, last
@@ -365,6 +372,7 @@ class EmbeddedSolver:
                         u, u_pred, d, d + dd, contact, du_dtheta, du_pred
                     )
                 except _IncrementFailed as exc:
+                    log.debug("increment %.4g -> %.4g mm failed: %s", d, d + dd, exc)
                     rec["cutbacks"] += 1
                     if rec["cutbacks"] > opts.max_cutbacks:
                         partial = self._result(
