@@ -38,16 +38,22 @@ def test_simulate_missing_feb_is_named(tmp_path):
     assert "none.feb" in json.loads(res.stdout)["error"]
 
 
-def test_mesh_study_json_rows():
-    res = runner.invoke(
-        app, ["mesh-study", "--presets", "coarse", "--reference", "default", "--steps", "2", "--json"]
-    )
+def test_mesh_study_json_rows_and_reuse_of_saved_results(tmp_path):
+    args = ["mesh-study", "--presets", "coarse", "--reference", "default", "--steps", "2"]
+    res = runner.invoke(app, [*args, "--out-dir", str(tmp_path), "--json"])
     assert res.exit_code == 0, res.output
     rows = json.loads(res.stdout)["rows"]
     assert [r["preset"] for r in rows] == ["coarse"]
     assert rows[0]["nodes"] == 576
     assert 0.0 < rows[0]["E_u_pct"] < 50.0
     assert rows[0]["E_f_rel_pct"] == rows[0]["E_f_pct"] * 2  # eq. 1a divides by N_s = 2
+    # the same study again reads both meshes back and prints the same figures
+    again = runner.invoke(app, [*args, "--out-dir", str(tmp_path), "--json"])
+    assert again.exit_code == 0 and json.loads(again.stdout)["rows"] == rows
+    assert "read" in again.stderr and str(tmp_path / "default.npz") in again.stderr.replace("\n", "")
+    # another material is another spec: solved, not read
+    other = runner.invoke(app, [*args, "--c1", "5", "--out-dir", str(tmp_path), "--json"])
+    assert other.exit_code == 0 and "read" not in other.stderr
 
 
 def test_simulate_vtu_series_for_paraview(tmp_path):
