@@ -23,6 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 
 from .. import __version__
 from .feb_mesh import read_feb_block_mesh
@@ -56,6 +57,10 @@ REFACTOR_RATIO = 0.3
 MAX_STALE_STEPS = 6
 #: A Newton step that inverts an element is halved at most this many times.
 MAX_HALVINGS = 6
+#: Newton steps are solved by CG preconditioned with the factorisation in hand to this relative
+#: residual, in at most this many iterations, before a new factorisation is made.
+KRYLOV_RTOL = 1e-2
+KRYLOV_MAXITER = 8
 
 
 def build_mesh(spec: ModelSpec) -> BlockMesh:
@@ -113,7 +118,10 @@ class EmbeddedSolver:
             "factorizations": 0,
             "solves": 0,
             "solve_s": 0.0,
+            "krylov_steps": 0,
+            "krylov_iterations": 0,
         }
+        self._factor_mask: np.ndarray | None = None  # the constraints of the factorisation in hand
 
     # ------------------------------------------------------------------ numerics
     def assemble(self, u: np.ndarray, tangent: bool = True, parameter_derivatives: bool = False):
@@ -135,9 +143,42 @@ class EmbeddedSolver:
 
     def _factorize(self, K: sp.csr_matrix, constrained: np.ndarray) -> None:
         t = time.perf_counter()
+        self._factor_mask = None
         self.linear.factorize(K, constrained)
+        self._factor_mask = constrained.copy()
         self.stats["factorizations"] += 1
         self.stats["solve_s"] += time.perf_counter() - t
+
+    def _newton_step(self, K: sp.csr_matrix, cmask: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+        """Solve K x = rhs with the dofs in ``cmask`` eliminated: by conjugate gradients
+        preconditioned with the factorisation in hand when it was made for the same constraints
+        (``KRYLOV_RTOL`` in at most ``KRYLOV_MAXITER`` iterations: a tangent assembly and a few
+        back-substitutions instead of a factorisation), else, or when CG does not get there, by
+        factorising K."""
+        if self._factor_mask is not None and np.array_equal(self._factor_mask, cmask):
+            t = time.perf_counter()
+
+            def matvec(x: np.ndarray) -> np.ndarray:
+                y = K @ np.where(cmask, 0.0, x)
+                y[cmask] = x[cmask]
+                return y
+
+            n = self.n_dofs
+            A = spla.LinearOperator((n, n), matvec=matvec, dtype=float)
+            M = spla.LinearOperator((n, n), matvec=self.linear.solve, dtype=float)
+            its = [0]
+
+            def count(_x: np.ndarray) -> None:
+                its[0] += 1
+
+            x, info = spla.cg(A, rhs, rtol=KRYLOV_RTOL, maxiter=KRYLOV_MAXITER, M=M, callback=count)
+            self.stats["krylov_iterations"] += its[0]
+            self.stats["solve_s"] += time.perf_counter() - t
+            if info == 0 and np.all(np.isfinite(x)):
+                self.stats["krylov_steps"] += 1
+                return np.where(cmask, 0.0, x)
+        self._factorize(K, cmask)
+        return self._solve(rhs)
 
     def _solve(self, rhs: np.ndarray) -> np.ndarray:
         t = time.perf_counter()
@@ -174,10 +215,9 @@ class EmbeddedSolver:
         want_dR = self._sensitivities
         try:
             R, K, _ = self.assemble(u.reshape(-1, 3))
-            self._factorize(K, cmask)
             rhs = -(R + K @ jump)
             rhs[cmask] = 0.0
-            u += self._solve(rhs) + jump
+            u += self._newton_step(K, cmask, rhs) + jump
             last = np.inf  # residual norm before the last step
             stale = True  # the factorisation was made at another state than the current one
             fresh_step = False  # the last step was taken with a factorisation made at its start
@@ -208,12 +248,14 @@ class EmbeddedSolver:
                     u, norm = u_prev, last
                     R, _, _ = self.assemble(u.reshape(-1, 3), tangent=False)
                 worn = norm > REFACTOR_RATIO * last or stale_steps >= MAX_STALE_STEPS
-                if (stale and worn) or norm == last:
-                    self._factorize(self.assemble(u.reshape(-1, 3))[1], cmask)
-                    stale, stale_steps = False, 0
-                fresh_step = not stale
+                r_free = np.where(cmask, 0.0, R)
+                fresh_step = (stale and worn) or norm == last
+                if fresh_step:  # a Newton step with the tangent here
+                    du = self._newton_step(self.assemble(u.reshape(-1, 3))[1], cmask, r_free)
+                    stale_steps = 0
+                else:  # a correction with the factorisation made elsewhere
+                    du = self._solve(r_free)
                 last, u_prev = norm, u.copy()
-                du = self._solve(np.where(cmask, 0.0, R))
                 u = u - du
                 stale = True
                 stale_steps += 1
