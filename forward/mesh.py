@@ -63,7 +63,7 @@ MESH_PRESETS: dict[str, MeshPreset] = {
     "coarse": MeshPreset(GradedAxis(1.0, 3, 4), GradedAxis(1.0, 3, 5)),
     "default": MeshPreset(GradedAxis(0.6, 0, 10), GradedAxis(0.6, 0, 11)),
     "fine": MeshPreset(GradedAxis(0.4, 10, 10), GradedAxis(0.4, 10, 12)),
-    "reference": MeshPreset(GradedAxis(0.25, 20, 9), GradedAxis(0.25, 20, 12)),
+    "reference": MeshPreset(GradedAxis(0.35, 12, 20), GradedAxis(0.35, 8, 18)),
 }
 
 

@@ -241,6 +241,8 @@ def mesh_study(
                 "E_f_pct": e.E_f_pct,
                 "E_f_rel_pct": e.E_f_rel_pct,
                 "E_u_pct": e.E_u_pct,
+                "E_u_contact_pct": e.E_u_contact_pct,
+                "contact_nodes": e.contact_nodes,
                 "wall_s": r.wall_s,
             }
         )
@@ -256,7 +258,16 @@ def mesh_study(
         )
         return
     table = Table(title=f"mesh convergence against '{reference}' (eq. 1a, 1b)")
-    for col in ("preset", "nodes", "E_f (eq. 1a) %", "||dF||/||F|| %", "E_u (eq. 1b) %", "wall s"):
+    columns = (
+        "preset",
+        "nodes",
+        "E_f (eq. 1a) %",
+        "||dF||/||F|| %",
+        "E_u contact nodes %",
+        "E_u whole top %",
+        "wall s",
+    )
+    for col in columns:
         table.add_column(col, justify="right")
     for r in rows:
         table.add_row(
@@ -264,6 +275,7 @@ def mesh_study(
             str(r["nodes"]),
             f"{r['E_f_pct']:.3f}",
             f"{r['E_f_rel_pct']:.2f}",
+            f"{r['E_u_contact_pct']:.2f} ({r['contact_nodes']})",
             f"{r['E_u_pct']:.2f}",
             f"{r['wall_s']:.1f}",
         )

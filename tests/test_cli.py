@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
+from indentation_studio.forward.mesh_study import nodes_on_sphere
 from indentation_studio.forward.result import SimulationResult
 from indentation_studio.studio.cli import app
 
@@ -47,6 +48,15 @@ def test_mesh_study_json_rows_and_reuse_of_saved_results(tmp_path):
     assert rows[0]["nodes"] == 576
     assert 0.0 < rows[0]["E_u_pct"] < 50.0
     assert rows[0]["E_f_rel_pct"] == rows[0]["E_f_pct"] * 2  # eq. 1a divides by N_s = 2
+    # eq. 1b's contact-surface reading: the nodes on the sphere are the ones the solver attached
+    coarse = SimulationResult.load(tmp_path / "coarse.npz")
+    assert (
+        rows[0]["contact_nodes"]
+        == nodes_on_sphere(coarse).sum()
+        == coarse.convergence["attached_nodes"][-1]
+        > 0
+    )
+    assert 0.0 <= rows[0]["E_u_contact_pct"] < rows[0]["E_u_pct"]
     # the same study again reads both meshes back and prints the same figures
     again = runner.invoke(app, [*args, "--out-dir", str(tmp_path), "--json"])
     assert again.exit_code == 0 and json.loads(again.stdout)["rows"] == rows
