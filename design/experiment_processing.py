@@ -141,44 +141,67 @@ def to_model_frame(exp: ExperimentData) -> RegisteredDIC:
     return RegisteredDIC(xyz @ Q.T, exp.dic_u @ Q.T, origin, float(angle), estimated, radius)
 
 
+#: A node counts as measured only when its DIC neighbours surround it: the widest angle between
+#: the directions to them must stay below this (a node at the edge of the data, e.g. in the
+#: indenter's shadow, sees them all on one side, and a plane through them would extrapolate).
+MAX_NEIGHBOUR_GAP_DEG = 120.0
+
+
+def unfold_by_symmetry(xy: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """DIC points (points, 2) and displacements (steps, points, 3) of the whole surface folded
+    into the quarter x, y >= 0 and mirrored back across both symmetry planes (ux odd in x, uy
+    odd in y), so that every quarter-model node, also on a symmetry line, has data on all sides."""
+    sx, sy = np.where(xy[:, 0] < 0, -1.0, 1.0), np.where(xy[:, 1] < 0, -1.0, 1.0)
+    folded = np.abs(xy)
+    uf = u.copy()
+    uf[..., 0] *= sx
+    uf[..., 1] *= sy
+    points, values = [], []
+    for mx, my in ((1.0, 1.0), (-1.0, 1.0), (1.0, -1.0), (-1.0, -1.0)):
+        points.append(folded * [mx, my])
+        values.append(uf * [mx, my, 1.0])
+    return np.concatenate(points), np.concatenate(values, axis=1)
+
+
 def dic_to_nodes(
     dic: RegisteredDIC, node_xy: np.ndarray, neighbours: int = 12, max_distance: float | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
     """Displacements (steps, nodes, 3) at the FE top nodes ``node_xy`` (nodes, 2) and the mask of
-    nodes with data, from the ``neighbours`` nearest DIC points of each node in the folded
-    reference configuration, weighted by proximity (1 - d / d_max)^2 with d_max just beyond the
-    farthest of them: a weighted least-squares plane through them (u = a + b . (x - x_node)),
-    whose value at the node is a proximity-weighted average of the points that is exact for a
-    field varying linearly (a plain average is biased where the field is steep, next to the
-    indenter, where Appendix B weighs most). A node whose neighbours are farther than
-    ``max_distance`` (default twice the median distance of a DIC point to its k-th neighbour,
-    i.e. where the data stop, as in the indenter's shadow) is obscured."""
+    nodes with data, from the ``neighbours`` nearest DIC points of each node in the reference
+    configuration (folded into the quarter model and mirrored across its symmetry planes),
+    weighted by proximity (1 - d / d_max)^2 with d_max just beyond the farthest of them: a
+    weighted least-squares plane through them (u = a + b . (x - x_node)), whose value at the node
+    is a proximity-weighted average of the points that is exact for a field varying linearly (a
+    plain average is biased where the field is steep, next to the indenter, where Appendix B
+    weighs most). A node is obscured (no data, weight 0) where its neighbours do not surround it
+    (``MAX_NEIGHBOUR_GAP_DEG``: the edge of the field of view, the indenter's shadow) or lie
+    farther than ``max_distance`` (default twice the median distance of a DIC point to its k-th
+    neighbour)."""
     xy = dic.xyz[:, :2]
     ok = np.all(np.isfinite(dic.u), axis=(0, 2))  # points correlated at every step
     if not ok.any():
         raise ExperimentDataError("no DIC point is correlated at every step")
-    sx, sy = np.where(xy[ok, 0] < 0, -1.0, 1.0), np.where(xy[ok, 1] < 0, -1.0, 1.0)
-    folded = np.abs(xy[ok])
-    u = dic.u[:, ok].copy()
-    u[..., 0] *= sx
-    u[..., 1] *= sy
-    tree = cKDTree(folded)
-    k = int(min(neighbours, len(folded)))
+    k = int(min(neighbours, 4 * int(ok.sum())))
     if k < 3:
-        raise ExperimentDataError(f"a plane through the DIC points needs 3 of them, got {len(folded)}")
+        raise ExperimentDataError(f"a plane through the DIC points needs 3 of them, got {int(ok.sum())}")
+    pts, u = unfold_by_symmetry(xy[ok], dic.u[:, ok])
+    tree = cKDTree(pts)
     if max_distance is None:  # twice the typical reach of k neighbours among the DIC points
-        d, _ = tree.query(folded, k=k + 1)
+        d, _ = tree.query(pts, k=k + 1)
         max_distance = 2.0 * float(np.median(d[:, -1]))
     node_xy = np.asarray(node_xy, float)
     dist, idx = tree.query(node_xy, k=k)  # (nodes, k)
-    dx = folded[idx] - node_xy[:, None, :]  # (nodes, k, 2)
+    dx = pts[idx] - node_xy[:, None, :]  # (nodes, k, 2)
+    angle = np.sort(np.arctan2(dx[..., 1], dx[..., 0]), axis=1)
+    gaps = np.diff(np.concatenate([angle, angle[:, :1] + 2.0 * np.pi], axis=1), axis=1)
+    surrounded = gaps.max(axis=1) < np.deg2rad(MAX_NEIGHBOUR_GAP_DEG)
     w = (1.0 - dist / (1.0001 * dist[:, -1:] + 1e-12)) ** 2
     A = np.concatenate([np.ones((*dist.shape, 1)), dx], axis=2)  # (nodes, k, 3)
     AtW = np.transpose(A * w[..., None], (0, 2, 1))  # (nodes, 3, k)
     M = AtW @ A  # (nodes, 3, 3)
     # a node whose neighbours do not surround it well (all on a line) has a singular plane fit
     well_posed = np.linalg.cond(M) < 1e8
-    measured = (dist[:, -1] <= max_distance) & well_posed
+    measured = (dist[:, -1] <= max_distance) & well_posed & surrounded
     U = np.moveaxis(u[:, idx], 0, 2).reshape(len(node_xy), k, -1)  # (nodes, k, steps * 3)
     coef = np.linalg.solve(np.where(well_posed[:, None, None], M, np.eye(3)), AtW @ U)  # (nodes, 3, steps*3)
     out = coef[:, 0].reshape(len(node_xy), u.shape[0], 3).transpose(1, 0, 2).copy()

@@ -4,7 +4,7 @@ a posterior and an FE confirmation (paper 2.7, 2.8, 3.4)."""
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Annotated
 
@@ -55,6 +55,42 @@ def _setup(experiment: Path, surrogate: Path, weights: str) -> _Setup:
         )
     objective, dic = experiment_objective(exp, model.top_xyz)
     return _Setup(model, spec, objective, dic, eta)
+
+
+def _mesh_check(spec, objective, eta, theta: np.ndarray, preset: str) -> dict:
+    """FE runs at theta on the fit's mesh (with sensitivities) and on the finer ``preset``; the
+    mesh check (design/mesh_check.py) and the statistical bounds at theta (eq. 6 to 8)."""
+    from ..design.certainty import bounds_pct, s_from_data
+    from ..design.mesh_check import mesh_check
+    from ..forward.predictor import Prediction
+    from ..forward.solver import simulate
+    from ..forward.spec import MeshChoice
+
+    at = spec.with_material(c1=float(theta[0]), c5=float(theta[1]))
+    err.print(f"solving at {np.round(theta, 3).tolist()} kPa on the fit's mesh and on '{preset}' ...")
+    coarse = simulate(at, sensitivities=True)
+    finer = simulate(replace(at, mesh=MeshChoice(preset)))
+    check = mesh_check(objective, eta, coarse, finer)
+    prediction = Prediction.from_results([coarse], ("c1", "c5"))
+    r = objective.residuals(prediction, eta)[0]
+    J = objective.jacobian(prediction, eta)[0] * theta
+    F = float(r @ r)
+    s = s_from_data(F, objective.data_points(eta), 2)
+    statistical = bounds_pct(2.0 * J.T @ J, s)
+    report = {
+        "check_mesh": preset,
+        "nodes": list(check.nodes),
+        "refinement_ratio": check.refinement_ratio,
+        "order": check.order,
+        "safety_factor": check.safety,
+        "shift_pct": check.shift_pct.tolist(),
+        "theta_on_finer_mesh": (theta * (1.0 + check.shift_pct / 100.0)).tolist(),
+        "uncertainty_pct": check.uncertainty_pct.tolist(),
+        "statistical_pct": statistical.tolist(),
+        "combined_pct": check.combined_pct(statistical).tolist(),
+        "s": s,
+    }
+    return {"prediction": prediction, "report": report}
 
 
 def register(app: typer.Typer) -> None:
@@ -183,20 +219,36 @@ def register(app: typer.Typer) -> None:
         c5: Annotated[float, typer.Option(help="fitted c5, kPa")],
         weights: WEIGHTS = "0.45,0.35,0.2,0",
         solver: Annotated[str, typer.Option(help="embedded or febio")] = "embedded",
+        check_mesh: Annotated[
+            str | None,
+            typer.Option(
+                help="also solve on this finer mesh preset (e.g. fine): how far the mesh moves the fit, "
+                "and its discretisation uncertainty (design/mesh_check.py)"
+            ),
+        ] = None,
         as_json: JSON = False,
     ) -> None:
         """FE confirmation of a fit: F(theta_hat) from an FE run, and how far the surrogate's
-        prediction is from that run."""
-        from ..forward.predictor import FESolverPredictor
+        prediction is from that run. With --check-mesh, the parameter shift the finer mesh would
+        give and the fit's bounds with the mesh's uncertainty added (embedded solver)."""
+        from ..forward.predictor import FESolverPredictor, Prediction
 
+        check = None
         try:
             st = _setup(experiment, surrogate, weights)
             model, spec, objective, eta = st.model, st.spec, st.objective, st.eta
             theta = np.array([[c1, c5]])
-            fe = FESolverPredictor(spec, solver=solver).predict(theta)
+            if check_mesh is None:
+                fe = FESolverPredictor(spec, solver=solver).predict(theta)
+            else:
+                if solver != "embedded":
+                    raise ValueError("--check-mesh needs the embedded solver (exact sensitivities)")
+                check = _mesh_check(spec, objective, eta, theta[0], check_mesh)
+                fe = check["prediction"]
             sur = model.predict(theta)
         except (ValueError, OSError, RuntimeError) as exc:
             fail(str(exc), as_json)
+        assert isinstance(fe, Prediction)
         u_max = np.abs(fe.displacement[0]).max(axis=(0, 1))
         payload = {
             "F_fe": float(objective.value(fe, eta)[0]),
@@ -207,6 +259,8 @@ def register(app: typer.Typer) -> None:
             ),
             "solver": solver,
         }
+        if check is not None:
+            payload["mesh_check"] = check["report"]
         if as_json:
             print(json.dumps(payload))
             return
@@ -214,3 +268,11 @@ def register(app: typer.Typer) -> None:
             f"F(theta_hat) on {solver}: {payload['F_fe']:.4g} (surrogate {payload['F_surrogate']:.4g}); surrogate vs FE: "
             f"force {payload['force_diff_max_pct']:.2f} %, field {payload['displacement_diff_max_pct']:.2f} % of max |u|"
         )
+        if check is not None:
+            m = check["report"]
+            Console().print(
+                f"mesh check ({m['nodes'][0]} -> {m['nodes'][1]} nodes): the finer mesh moves c1 by "
+                f"{m['shift_pct'][0]:+.2f} % and c5 by {m['shift_pct'][1]:+.2f} %; 95 % bounds c1 +-"
+                f"{m['statistical_pct'][0]:.2f} % (statistical, eq. 6-8) -> +-{m['combined_pct'][0]:.2f} % with the "
+                f"mesh's uncertainty, c5 +-{m['statistical_pct'][1]:.2f} % -> +-{m['combined_pct'][1]:.2f} %"
+            )

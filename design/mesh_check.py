@@ -1,0 +1,99 @@
+"""How much the FE mesh moves a fit: the parameter shift between the fit's mesh and a finer one at
+theta_hat, and the discretisation uncertainty of the fit that follows from it.
+
+The bounds of eq. 6 to 8 are statistical: they shrink with the number of DIC points, while the
+error the mesh makes in the model does not. At theta_hat, with the residual vector r of eq. 4 and
+5 and its Jacobian J on the fit's mesh, the finer mesh's response (interpolated at the same top
+nodes) gives residuals r_fine, and the fit would move, to first order (one Gauss-Newton step), by
+
+    delta = -(J^T J)^-1 J^T (r_fine - r).
+
+Roache's grid convergence index turns that two-mesh difference into an uncertainty of the coarser
+(fitted) mesh's result: U = Fs |delta| r_h^p / (r_h^p - 1), with r_h = (N_fine / N)^(1/3) the
+refinement ratio from the node counts, p the order of convergence (1 by default: node-wise stick
+contact converges at first order where the contact edge passes) and Fs = 3, Roache's safety factor
+for a two-mesh estimate (P. J. Roache, J. Fluids Eng. 116 (1994) 405; ASME V&V 20-2009). It is
+combined with the statistical 95 % half-width by root sum of squares, as V&V 20 combines
+uncertainties.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..forward.mesh_study import interpolate_top_displacement
+from ..forward.predictor import Prediction
+from ..forward.result import SimulationResult
+from .objective import Objective, check_weights
+
+
+@dataclass(frozen=True)
+class MeshCheck:
+    """The fit's sensitivity to its mesh at ``theta`` (kPa); percentages are of theta."""
+
+    theta: np.ndarray
+    shift_pct: np.ndarray  # first-order change of the fit on the finer mesh
+    uncertainty_pct: np.ndarray  # GCI of the fit's mesh: Fs |shift| r^p / (r^p - 1)
+    refinement_ratio: float
+    order: float
+    safety: float
+    nodes: tuple[int, int]  # (fit's mesh, finer mesh)
+
+    def combined_pct(self, statistical_pct: np.ndarray) -> np.ndarray:
+        """Root sum of squares of the statistical half-width (eq. 6, %) and this uncertainty."""
+        return np.hypot(np.asarray(statistical_pct, float), self.uncertainty_pct)
+
+
+def prediction_at_nodes(result: SimulationResult, top_xyz: np.ndarray) -> Prediction:
+    """A simulation's response (steps without depth 0) at other top nodes ``top_xyz`` of the same
+    block: the force as it is, the top displacement interpolated bilinearly on its top grid."""
+    steps = len(result.depth) - 1
+    u = np.stack([interpolate_top_displacement(result, top_xyz[:, :2], k) for k in range(1, steps + 1)])
+    return Prediction(result.force[None, 1:], u[None], result.depth[1:], np.asarray(top_xyz))
+
+
+def mesh_check(
+    objective: Objective,
+    eta,
+    model: SimulationResult,
+    finer: SimulationResult,
+    order: float = 1.0,
+    safety: float = 3.0,
+) -> MeshCheck:
+    """The parameter shift and discretisation uncertainty of a fit whose objective is built on
+    ``model``'s top nodes, from ``model`` (solved at theta_hat with sensitivities) and ``finer``
+    (the same spec on a finer mesh)."""
+    if model.force_sensitivity is None:
+        raise ValueError("the fit's mesh must be solved with sensitivities (the Jacobian of eq. 4, 5)")
+    if model.depth.shape != finer.depth.shape or not np.allclose(model.depth, finer.depth):
+        raise ValueError("the two meshes must be solved for the same protocol (depths)")
+    theta = np.array([model.spec["material"]["c1"], model.spec["material"]["c5"]], float)
+    other = np.array([finer.spec["material"]["c1"], finer.spec["material"]["c5"]], float)
+    if not np.allclose(theta, other):
+        raise ValueError(f"the two meshes must be solved at the same parameters, got {theta} and {other}")
+    n_model, n_fine = int(model.solver["mesh"]["nodes"]), int(finer.solver["mesh"]["nodes"])
+    if n_fine <= n_model:
+        raise ValueError(f"the check mesh ({n_fine} nodes) must be finer than the fit's ({n_model} nodes)")
+    if not (order > 0 and safety >= 1):
+        raise ValueError(f"order must be > 0 and the safety factor >= 1, got {order}, {safety}")
+    e = check_weights(eta)
+    coarse = Prediction.from_results([model], ("c1", "c5"))
+    fine = prediction_at_nodes(finer, coarse.top_xyz)
+    r = objective.residuals(coarse, e)[0]
+    r_fine = objective.residuals(fine, e)[0]
+    J = objective.jacobian(coarse, e)[0] * theta  # in theta_bar = theta / theta_hat
+    delta, *_ = np.linalg.lstsq(J, -(r_fine - r), rcond=None)
+    ratio = (n_fine / n_model) ** (1.0 / 3.0)
+    rp = ratio**order
+    shift = 100.0 * delta
+    return MeshCheck(
+        theta=theta,
+        shift_pct=shift,
+        uncertainty_pct=safety * np.abs(shift) * rp / (rp - 1.0),
+        refinement_ratio=float(ratio),
+        order=float(order),
+        safety=float(safety),
+        nodes=(n_model, n_fine),
+    )
