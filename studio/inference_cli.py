@@ -231,7 +231,7 @@ def register(app: typer.Typer) -> None:
         """FE confirmation of a fit: F(theta_hat) from an FE run, and how far the surrogate's
         prediction is from that run. With --check-mesh, the parameter shift the finer mesh would
         give and the fit's bounds with the mesh's uncertainty added (embedded solver)."""
-        from ..forward.predictor import FESolverPredictor, Prediction
+        from ..forward.predictor import FESolverPredictor
 
         check = None
         try:
@@ -248,7 +248,6 @@ def register(app: typer.Typer) -> None:
             sur = model.predict(theta)
         except (ValueError, OSError, RuntimeError) as exc:
             fail(str(exc), as_json)
-        assert isinstance(fe, Prediction)
         u_max = np.abs(fe.displacement[0]).max(axis=(0, 1))
         payload = {
             "F_fe": float(objective.value(fe, eta)[0]),

@@ -115,3 +115,45 @@ def test_kfold_and_cli(campaigns, tmp_path):
     assert json.loads(res.stdout)["timing"]["points"] == 1000
     res = CliRunner().invoke(app, ["surrogate", "evaluate", "--model", str(tmp_path / "none"), "--json"])
     assert res.exit_code == 1 and "no surrogate file" in json.loads(res.stdout)["error"]
+
+
+def test_confirm_with_mesh_check_cli(campaigns, tmp_path):
+    """`confirm --check-mesh`: an experiment made on `default`, the fit's model on `coarse` (the
+    campaign's mesh): the check solves both meshes and reports the shift and the widened bounds."""
+    from indentation_studio.design.synthetic_experiment import write_synthetic_experiment
+    from indentation_studio.forward.predictor import FESolverPredictor
+
+    root, _, _ = campaigns
+    model_file = tmp_path / "gp.joblib"
+    res = CliRunner().invoke(
+        app,
+        [
+            *("surrogate", "train", "--campaign", "train", "--kind", "gp", "--runs-dir", str(root)),
+            *("--out", str(model_file), "--json"),
+        ],
+    )
+    assert res.exit_code == 0, res.output
+    made_on = ModelSpec(protocol=MODEL.protocol)  # the default mesh, finer than the campaign's
+    exp = write_synthetic_experiment(
+        FESolverPredictor(made_on),
+        np.array([10.0, 300.0]),
+        tmp_path / "exp",
+        radius=4.77,
+        step_size=0.5,
+        seed=5,
+    )
+    args = ["confirm", "--experiment", str(exp), "--surrogate", str(model_file), "--c1", "10", "--c5", "300"]
+    res = CliRunner().invoke(app, [*args, "--check-mesh", "default", "--json"])
+    assert res.exit_code == 0, res.output
+    check = json.loads(res.stdout)["mesh_check"]
+    assert check["nodes"] == [576, 1452] and check["refinement_ratio"] == pytest.approx(
+        (1452 / 576) ** (1 / 3)
+    )
+    shift, unc = np.array(check["shift_pct"]), np.array(check["uncertainty_pct"])
+    r = check["refinement_ratio"]
+    np.testing.assert_allclose(unc, 3.0 * np.abs(shift) * r / (r - 1.0))  # two-mesh GCI, p = 1, Fs = 3
+    stat, combined = np.array(check["statistical_pct"]), np.array(check["combined_pct"])
+    np.testing.assert_allclose(combined, np.hypot(stat, unc))
+    assert np.all(np.abs(shift) > 0.1)  # coarse and default differ
+    res = CliRunner().invoke(app, [*args, "--check-mesh", "coarse", "--json"])
+    assert res.exit_code == 1 and "finer" in json.loads(res.stdout)["error"]
