@@ -5,7 +5,8 @@ of ``indent-studio mesh-study --out-dir``), interpolated at each model mesh's to
 candidate meshes solved at the same theta with exact sensitivities. The Gauss-Newton step of the
 objective (eq. 4, 5 with weights eta, paper reading) from theta is then the parameter bias that
 discretisation error alone causes in a fit (to first order), printed beside the eq. 6 half-width
-for a given s, i.e. what a fit on that mesh can resolve before its own mesh misleads it.
+for a given s, i.e. what a fit on that mesh can resolve before its own mesh misleads it. The step
+is ``design.mesh_check.mesh_check`` with the data mesh as the finer one.
 
     .venv/bin/python benchmarks/mesh_bias.py DATA.npz [--meshes default,fine] [--eta 0.45,0.35,0.2,0]
 """
@@ -19,10 +20,9 @@ from pathlib import Path
 import numpy as np
 
 from indentation_studio.design.certainty import bounds_pct
+from indentation_studio.design.mesh_check import mesh_check, prediction_at_nodes
 from indentation_studio.design.objective import Objective
 from indentation_studio.forward.mesh import MESH_PRESETS, GradedAxis, MeshPreset, structured_block
-from indentation_studio.forward.mesh_study import interpolate_top_displacement
-from indentation_studio.forward.predictor import Prediction
 from indentation_studio.forward.result import SimulationResult
 from indentation_studio.forward.solver import EmbeddedSolver
 from indentation_studio.forward.spec import ModelSpec
@@ -57,19 +57,16 @@ def main() -> None:
     for name in args.meshes.split(","):
         mesh = structured_block(spec.geometry, mesh_preset(name), name)
         r = EmbeddedSolver(spec, mesh=mesh).run(sensitivities=True)
-        model = Prediction.from_results([r], ("c1", "c5"))
-        u_data = np.stack(
-            [interpolate_top_displacement(data, r.top_xyz[:, :2], k) for k in range(1, len(data.depth))]
+        # the objective's target is the data at this mesh's nodes: the mesh check's shift toward
+        # the data mesh is minus the bias a fit on this mesh has
+        objective = Objective.from_prediction(
+            prediction_at_nodes(data, r.top_xyz), radius=spec.indenter.radius
         )
-        objective = Objective(data.force[1:], u_data, r.top_xyz, spec.indenter.radius)
-        res = objective.residuals(model, eta)[0]
-        jac = objective.jacobian(model, eta)[0] * theta  # d r / d theta_bar, theta_bar = theta / theta*
-        step, *_ = np.linalg.lstsq(jac, -res, rcond=None)
-        H = 2.0 * jac.T @ jac
-        half = bounds_pct(H, args.s)
+        check = mesh_check(objective, eta, r, data)
+        bias = -check.shift_pct
+        half = bounds_pct(check.hessian, args.s)
         print(
-            f"{name:16s} nodes {mesh.n_nodes:6d}  F(theta) {float(res @ res):.3e}  "
-            f"bias c1 {100 * step[0]:+.2f} %  c5 {100 * step[1]:+.2f} %  "
+            f"{name:16s} nodes {mesh.n_nodes:6d}  bias c1 {bias[0]:+.2f} %  c5 {bias[1]:+.2f} %  "
             f"(eq. 6 half-width at s = {args.s}: c1 {half[0]:.2f} %, c5 {half[1]:.2f} %)  wall {r.wall_s:.1f} s",
             flush=True,
         )

@@ -8,10 +8,11 @@
   measured in-plane strain around the indenter (the stiff fibers stretch least).
 * :func:`to_model_frame`: translate to the indentation point and rotate about z so that +y runs
   along the fibers.
-* :func:`dic_to_nodes`: the DIC displacements at the FE top-surface nodes by proximity-weighted
-  averaging of neighbouring DIC points in the reference configuration (scipy cKDTree); the full
-  field is folded onto the quarter model by the symmetry planes (x -> |x| with ux -> sign(x) ux,
-  the same for y); nodes with too few DIC points near them are obscured (weight 0).
+* :func:`dic_to_nodes`: the DIC displacements at the FE top-surface nodes by a proximity-weighted
+  least-squares plane through neighbouring DIC points in the reference configuration (scipy
+  cKDTree); the full field is folded onto the quarter model by the symmetry planes (x -> |x| with
+  ux -> sign(x) ux, the same for y) and mirrored back across them; nodes whose neighbours do not
+  surround them, or lie too far, are obscured (weight 0).
 """
 
 from __future__ import annotations

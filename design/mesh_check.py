@@ -26,6 +26,7 @@ import numpy as np
 from ..forward.mesh_study import interpolate_top_displacement
 from ..forward.predictor import Prediction
 from ..forward.result import SimulationResult
+from .certainty import bounds_pct, s_from_data
 from .objective import Objective, check_weights
 
 
@@ -40,10 +41,14 @@ class MeshCheck:
     order: float
     safety: float
     nodes: tuple[int, int]  # (fit's mesh, finer mesh)
+    hessian: np.ndarray  # Gauss-Newton 2 J^T J on the fit's mesh, in theta_bar = theta / theta_hat
+    s: float  # eq. 8 from F(theta) on the fit's mesh
+    statistical_pct: np.ndarray  # eq. 6 half-width with that s
 
-    def combined_pct(self, statistical_pct: np.ndarray) -> np.ndarray:
-        """Root sum of squares of the statistical half-width (eq. 6, %) and this uncertainty."""
-        return np.hypot(np.asarray(statistical_pct, float), self.uncertainty_pct)
+    @property
+    def combined_pct(self) -> np.ndarray:
+        """Root sum of squares of the statistical half-width and the mesh's uncertainty."""
+        return np.hypot(self.statistical_pct, self.uncertainty_pct)
 
 
 def prediction_at_nodes(result: SimulationResult, top_xyz: np.ndarray) -> Prediction:
@@ -88,6 +93,8 @@ def mesh_check(
     ratio = (n_fine / n_model) ** (1.0 / 3.0)
     rp = ratio**order
     shift = 100.0 * delta
+    H = 2.0 * J.T @ J
+    s = s_from_data(float(r @ r), objective.data_points(e), theta.size)
     return MeshCheck(
         theta=theta,
         shift_pct=shift,
@@ -96,4 +103,7 @@ def mesh_check(
         order=float(order),
         safety=float(safety),
         nodes=(n_model, n_fine),
+        hessian=H,
+        s=s,
+        statistical_pct=bounds_pct(H, s),
     )

@@ -8,6 +8,7 @@ import numpy as np
 from scipy.interpolate import RegularGridInterpolator
 
 from .result import SimulationResult
+from .stick_contact import RigidSphere
 
 
 def interpolate_top_displacement(reference: SimulationResult, xy: np.ndarray, step: int = -1) -> np.ndarray:
@@ -46,11 +47,10 @@ class MeshErrors:
 def nodes_on_sphere(result: SimulationResult, step: int = -1, rtol: float = 1e-6) -> np.ndarray:
     """Mask of the top nodes lying on the indenter's surface at ``step`` (in contact): the
     sphere of the spec's radius whose lowest point is at the top minus the depth."""
-    radius = float(result.spec["indenter"]["radius"])
-    top_z = float(np.max(result.top_xyz[:, 2]))
-    centre = np.array([0.0, 0.0, top_z + radius - float(result.depth[step])])
-    gap = np.linalg.norm(result.top_xyz + result.displacement[step] - centre, axis=1) - radius
-    return gap <= rtol * radius
+    sphere = RigidSphere(float(result.spec["indenter"]["radius"]), float(np.max(result.top_xyz[:, 2])))
+    centre = sphere.centre(float(result.depth[step]))
+    gap = np.linalg.norm(result.top_xyz + result.displacement[step] - centre, axis=1) - sphere.radius
+    return gap <= rtol * sphere.radius
 
 
 def mesh_errors(result: SimulationResult, reference: SimulationResult) -> MeshErrors:

@@ -223,8 +223,8 @@ class EmbeddedSolver:
         The first iteration carries the prescribed increments into the body through the exact
         tangent (consistent predictor). The corrections reuse that factorisation while the
         residual contracts by at least ``REFACTOR_RATIO`` per iteration (``MAX_STALE_STEPS`` in
-        a row at most) and refactorise at the current state otherwise, so most corrections cost
-        a residual and a back-substitution. A correction with an old factorisation that makes
+        a row at most) and take a Newton step with the tangent at the current state otherwise
+        (:meth:`_newton_step`), so most corrections cost a residual and a back-substitution. A correction with an old factorisation that makes
         the residual worse is undone and redone as a full Newton step; a step that inverts an
         element is halved. The residual is checked on the free dofs against the reactions."""
         opts = self.spec.solver
@@ -238,7 +238,6 @@ class EmbeddedSolver:
             rhs[cmask] = 0.0
             u += self._newton_step(K, cmask, rhs) + jump
             last = np.inf  # residual norm before the last step
-            stale = True  # the factorisation was made at another state than the current one
             fresh_step = False  # the last step was taken with a factorisation made at its start
             u_prev, du = u.copy(), None
             halvings = 0
@@ -253,10 +252,9 @@ class EmbeddedSolver:
                     du *= 0.5
                     u = u_prev - du
                     continue
-                r_free = np.where(cmask, 0.0, R)
-                norm = np.linalg.norm(r_free)
+                norm = np.linalg.norm(np.where(cmask, 0.0, R))
                 ref = max(np.linalg.norm(R[cmask]), self._force_scale)
-                log.debug("newton %d: residual %.3e of %.3e (stale %s)", it, norm, ref, stale)
+                log.debug("newton %d: residual %.3e of %.3e", it, norm, ref)
                 at_round_off = fresh_step and norm > 0.5 * last and norm <= 1e-6 * ref
                 if norm <= opts.residual_tol * ref or at_round_off:
                     K = dR = None
@@ -268,7 +266,7 @@ class EmbeddedSolver:
                     R, _, _ = self.assemble(u.reshape(-1, 3), tangent=False)
                 worn = norm > REFACTOR_RATIO * last or stale_steps >= MAX_STALE_STEPS
                 r_free = np.where(cmask, 0.0, R)
-                fresh_step = (stale and worn) or norm == last
+                fresh_step = worn or norm == last
                 if fresh_step:  # a Newton step with the tangent here
                     du = self._newton_step(self.assemble(u.reshape(-1, 3))[1], cmask, r_free)
                     stale_steps = 0
@@ -276,7 +274,6 @@ class EmbeddedSolver:
                     du = self._solve(r_free)
                 last, u_prev = norm, u.copy()
                 u = u - du
-                stale = True
                 stale_steps += 1
         except (FloatingPointError, LinearSolveError) as exc:
             raise _IncrementFailed(str(exc)) from exc

@@ -149,9 +149,8 @@ class SolverOptions:
     """Numerical controls of the embedded solver (forward.solver)."""
 
     substeps: int = 1
-    residual_tol: float = (
-        1e-6  # relative to the reactions; forces move by ~4e-7 from 1e-8, FEBio uses 1e-2 on energy
-    )
+    #: relative to the reactions; forces move by about 4e-7 from 1e-8 (FEBio uses 1e-2 on energy)
+    residual_tol: float = 1e-6
     max_newton: int = 25
     max_cutbacks: int = 6
     max_contact_passes: int = 12

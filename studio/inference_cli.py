@@ -59,8 +59,7 @@ def _setup(experiment: Path, surrogate: Path, weights: str) -> _Setup:
 
 def _mesh_check(spec, objective, eta, theta: np.ndarray, preset: str) -> dict:
     """FE runs at theta on the fit's mesh (with sensitivities) and on the finer ``preset``; the
-    mesh check (design/mesh_check.py) and the statistical bounds at theta (eq. 6 to 8)."""
-    from ..design.certainty import bounds_pct, s_from_data
+    mesh check (design/mesh_check.py) with the statistical bounds at theta (eq. 6 to 8)."""
     from ..design.mesh_check import mesh_check
     from ..forward.predictor import Prediction
     from ..forward.solver import simulate
@@ -69,14 +68,7 @@ def _mesh_check(spec, objective, eta, theta: np.ndarray, preset: str) -> dict:
     at = spec.with_material(c1=float(theta[0]), c5=float(theta[1]))
     err.print(f"solving at {np.round(theta, 3).tolist()} kPa on the fit's mesh and on '{preset}' ...")
     coarse = simulate(at, sensitivities=True)
-    finer = simulate(replace(at, mesh=MeshChoice(preset)))
-    check = mesh_check(objective, eta, coarse, finer)
-    prediction = Prediction.from_results([coarse], ("c1", "c5"))
-    r = objective.residuals(prediction, eta)[0]
-    J = objective.jacobian(prediction, eta)[0] * theta
-    F = float(r @ r)
-    s = s_from_data(F, objective.data_points(eta), 2)
-    statistical = bounds_pct(2.0 * J.T @ J, s)
+    check = mesh_check(objective, eta, coarse, simulate(replace(at, mesh=MeshChoice(preset))))
     report = {
         "check_mesh": preset,
         "nodes": list(check.nodes),
@@ -86,11 +78,11 @@ def _mesh_check(spec, objective, eta, theta: np.ndarray, preset: str) -> dict:
         "shift_pct": check.shift_pct.tolist(),
         "theta_on_finer_mesh": (theta * (1.0 + check.shift_pct / 100.0)).tolist(),
         "uncertainty_pct": check.uncertainty_pct.tolist(),
-        "statistical_pct": statistical.tolist(),
-        "combined_pct": check.combined_pct(statistical).tolist(),
-        "s": s,
+        "statistical_pct": check.statistical_pct.tolist(),
+        "combined_pct": check.combined_pct.tolist(),
+        "s": check.s,
     }
-    return {"prediction": prediction, "report": report}
+    return {"prediction": Prediction.from_results([coarse], ("c1", "c5")), "report": report}
 
 
 def register(app: typer.Typer) -> None:
