@@ -16,22 +16,9 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from scipy.interpolate import RegularGridInterpolator
 
+from ..forward.mesh_study import top_field_interpolator
 from .experiment_processing import rotation_to_fibers
-
-
-def _top_field_interpolator(top_xyz: np.ndarray, field: np.ndarray) -> RegularGridInterpolator:
-    """Bilinear interpolation of a (steps, nodes, 3) field over the quarter's structured top grid."""
-    x = np.unique(np.round(top_xyz[:, 0], 9))
-    y = np.unique(np.round(top_xyz[:, 1], 9))
-    if x.size * y.size != top_xyz.shape[0]:
-        raise ValueError("the model's top surface is not a structured grid")
-    ix = np.searchsorted(x, np.round(top_xyz[:, 0], 9))
-    iy = np.searchsorted(y, np.round(top_xyz[:, 1], 9))
-    grid = np.empty((x.size, y.size, *field.shape[:1], 3))
-    grid[ix, iy] = np.moveaxis(field, 0, 1)
-    return RegularGridInterpolator((x, y), grid, method="linear")
 
 
 def write_synthetic_experiment(
@@ -61,7 +48,7 @@ def write_synthetic_experiment(
     phi = 2 * np.pi * rng.random(points)
     xy = np.column_stack([r * np.cos(phi), r * np.sin(phi)])
     xy = xy[r > radius]
-    interp = _top_field_interpolator(top, field)
+    interp = top_field_interpolator(top, np.moveaxis(field, 0, 1))
     half = top[:, :2].max(axis=0)
     u = interp(np.minimum(np.abs(xy), half))  # (points, steps, 3)
     u = np.moveaxis(u, 0, 1)

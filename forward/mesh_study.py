@@ -5,26 +5,42 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.interpolate import RegularGridInterpolator
+from scipy.interpolate import LinearNDInterpolator, RegularGridInterpolator
 
 from .result import SimulationResult
 from .stick_contact import RigidSphere
 
 
+def top_field_interpolator(top_xyz: np.ndarray, field: np.ndarray):
+    """Interpolator of a top-surface field ``field`` (n, ...) given at the top nodes ``top_xyz``,
+    called with points (m, 2) clipped to the block. A structured top (a tensor grid) is
+    interpolated bilinearly, as its own shape functions do; any other top (the ring meshes)
+    linearly on the Delaunay triangles of its nodes."""
+    xy = np.asarray(top_xyz, float)[:, :2]
+    field = np.asarray(field, float)
+    x = np.unique(np.round(xy[:, 0], 9))
+    y = np.unique(np.round(xy[:, 1], 9))
+    lo, hi = xy.min(axis=0), xy.max(axis=0)
+    if x.size * y.size == xy.shape[0]:
+        ix = np.searchsorted(x, np.round(xy[:, 0], 9))
+        iy = np.searchsorted(y, np.round(xy[:, 1], 9))
+        grid = np.empty((x.size, y.size, *field.shape[1:]))
+        grid[ix, iy] = field
+        interp = RegularGridInterpolator((x, y), grid, method="linear")
+    else:
+        interp = LinearNDInterpolator(xy, field.reshape(field.shape[0], -1))
+
+    def at(points: np.ndarray) -> np.ndarray:
+        p = np.clip(np.asarray(points, float)[:, :2], lo, hi)
+        return np.asarray(interp(p)).reshape((p.shape[0], *field.shape[1:]))
+
+    return at
+
+
 def interpolate_top_displacement(reference: SimulationResult, xy: np.ndarray, step: int = -1) -> np.ndarray:
     """The reference's top-surface displacement at step ``step`` interpolated at points ``xy``
-    (n, 2). The top surface of a structured block is a tensor grid, so the interpolation is
-    bilinear on it, as the mesh's own shape functions are."""
-    x = np.unique(np.round(reference.top_xyz[:, 0], 9))
-    y = np.unique(np.round(reference.top_xyz[:, 1], 9))
-    if x.size * y.size != reference.top_xyz.shape[0]:
-        raise ValueError("the reference's top surface is not a structured grid")
-    ix = np.searchsorted(x, np.round(reference.top_xyz[:, 0], 9))
-    iy = np.searchsorted(y, np.round(reference.top_xyz[:, 1], 9))
-    grid = np.empty((x.size, y.size, 3))
-    grid[ix, iy] = reference.displacement[step]
-    interp = RegularGridInterpolator((x, y), grid, method="linear")
-    return interp(np.clip(xy, [x[0], y[0]], [x[-1], y[-1]]))
+    (n, 2), by :func:`top_field_interpolator`."""
+    return top_field_interpolator(reference.top_xyz, reference.displacement[step])(xy)
 
 
 @dataclass(frozen=True)

@@ -236,19 +236,23 @@ class EmbeddedSolver:
             R, K, _ = self.assemble(u.reshape(-1, 3))
             rhs = -(R + K @ jump)
             rhs[cmask] = 0.0
-            u += self._newton_step(K, cmask, rhs) + jump
+            # the first step: the constrained dofs jump to their targets, the free ones follow by
+            # a Newton step; if that inverts an element, it is halved like any other (below)
+            u_prev = u + jump
+            du = -self._newton_step(K, cmask, rhs)
+            u = u_prev - du
             last = np.inf  # residual norm before the last step
             fresh_step = False  # the last step was taken with a factorisation made at its start
-            u_prev, du = u.copy(), None
             halvings = 0
             stale_steps = 0  # corrections in a row with the same factorisation
             for it in range(1, opts.max_newton + 1):
                 try:
                     R, _, _ = self.assemble(u.reshape(-1, 3), tangent=False)
                 except FloatingPointError:
-                    if du is None or halvings >= MAX_HALVINGS:
+                    if halvings >= MAX_HALVINGS:
                         raise
                     halvings += 1  # the step inverted an element: halve it
+                    log.debug("newton %d: an element inverted, step halved (%d)", it, halvings)
                     du *= 0.5
                     u = u_prev - du
                     continue

@@ -81,3 +81,37 @@ def test_malformed_feb_is_named(tmp_path):
         read_feb_block_mesh(bad)
     with pytest.raises(FebMeshError, match="no such file"):
         read_feb_block_mesh(tmp_path / "missing.feb")
+
+
+@pytest.mark.parametrize("structured", [True, False])
+def test_top_field_interpolator_reproduces_linear_fields(structured: bool) -> None:
+    """The reference field at other nodes (eq. 1b's interpolation): exact for a linear field on
+    a tensor-grid top (bilinear) and on a scattered one (a Cubit-like mesh read from a .feb)."""
+    from indentation_studio.forward.mesh_study import top_field_interpolator
+
+    rng = np.random.default_rng(3)
+    if structured:
+        g = np.concatenate([[0.0], np.cumsum(rng.uniform(0.5, 3.0, 12))])
+        g *= 50.0 / g[-1]
+        xy = np.stack(np.meshgrid(g, g, indexing="ij"), axis=-1).reshape(-1, 2)
+    else:
+        edge = np.linspace(0.0, 50.0, 9)
+        border = np.concatenate(
+            [
+                np.stack([edge, 0 * edge], 1),
+                np.stack([edge, 0 * edge + 50], 1),
+                np.stack([0 * edge, edge], 1),
+                np.stack([0 * edge + 50, edge], 1),
+            ]
+        )
+        xy = np.concatenate([border, rng.uniform(0.0, 50.0, (200, 2))])
+    field = np.stack(
+        [1.0 + 0.2 * xy[:, 0] - 0.1 * xy[:, 1], 0.05 * xy[:, 1], -3.0 + 0.01 * xy.sum(1)], axis=1
+    )
+    at = top_field_interpolator(np.column_stack([xy, np.full(len(xy), 60.0)]), field[:, None, :])
+    q = rng.uniform(0.0, 50.0, (300, 2))
+    expect = np.stack([1.0 + 0.2 * q[:, 0] - 0.1 * q[:, 1], 0.05 * q[:, 1], -3.0 + 0.01 * q.sum(1)], axis=1)
+    got = at(np.concatenate([q, [[60.0, -5.0]]]))  # a point off the block is clipped onto it
+    assert got.shape == (301, 1, 3)
+    np.testing.assert_allclose(got[:-1, 0], expect, atol=1e-10)
+    np.testing.assert_allclose(got[-1, 0], [1.0 + 10.0, 0.0, -3.0 + 0.5], atol=1e-10)
