@@ -76,13 +76,48 @@ def _mesh_check(spec, objective, eta, theta: np.ndarray, preset: str) -> dict:
         "order": check.order,
         "safety_factor": check.safety,
         "shift_pct": check.shift_pct.tolist(),
-        "theta_on_finer_mesh": (theta * (1.0 + check.shift_pct / 100.0)).tolist(),
+        "theta": theta.tolist(),
+        "theta_on_finer_mesh": check.corrected_theta.tolist(),
         "uncertainty_pct": check.uncertainty_pct.tolist(),
         "statistical_pct": check.statistical_pct.tolist(),
         "combined_pct": check.combined_pct.tolist(),
+        "corrected_uncertainty_pct": check.corrected_uncertainty_pct.tolist(),
+        "corrected_combined_pct": check.corrected_combined_pct.tolist(),
         "s": check.s,
     }
     return {"prediction": Prediction.from_results([coarse], ("c1", "c5")), "report": report}
+
+
+def _mesh_check_report(path: Path, experiment: Path, theta_fit: np.ndarray) -> dict:
+    """The mesh check of a confirm.json, refused if it belongs to another experiment or lies far
+    from this fit (its shift is a first-order result at its own theta)."""
+    try:
+        payload = json.loads(Path(path).read_text())
+    except (OSError, json.JSONDecodeError) as exc:
+        raise ValueError(f"{path}: not a readable confirm.json ({exc})") from exc
+    check = payload.get("mesh_check")
+    if not isinstance(check, dict) or "corrected_uncertainty_pct" not in check or "theta" not in check:
+        raise ValueError(
+            f"{path}: no mesh check in it; run 'indent-studio confirm --check-mesh PRESET' first"
+        )
+    where = (payload.get("inputs") or {}).get("experiment")
+    if where is not None and Path(where).resolve() != Path(experiment).resolve():
+        raise ValueError(f"{path}: the mesh check was made for experiment {where}, not {experiment}")
+    theta = np.asarray(check["theta"], float)
+    far = np.abs(theta / np.asarray(theta_fit, float) - 1.0)
+    if np.any(far > 0.1):
+        raise ValueError(
+            f"{path}: the mesh check was made at {theta.round(4).tolist()} kPa, more than 10 % from this fit "
+            f"{np.round(theta_fit, 4).tolist()}; confirm at the fit first"
+        )
+    return {
+        "file": str(path),
+        "check_mesh": check["check_mesh"],
+        "nodes": check["nodes"],
+        "theta": theta.tolist(),
+        "shift_pct": check["shift_pct"],
+        "corrected_uncertainty_pct": check["corrected_uncertainty_pct"],
+    }
 
 
 def register(app: typer.Typer) -> None:
@@ -153,6 +188,13 @@ def register(app: typer.Typer) -> None:
         walkers: Annotated[int, typer.Option(help="emcee walkers")] = 32,
         steps: Annotated[int, typer.Option(help="emcee steps per walker")] = 4000,
         seed: Annotated[int, typer.Option(help="random seed")] = 0,
+        mesh_check: Annotated[
+            Path | None,
+            typer.Option(
+                help="a confirm.json of 'indent-studio confirm --check-mesh': carry the posterior to the "
+                "finer mesh (shifted by the check's shift, spread by that mesh's GCI)"
+            ),
+        ] = None,
         out: OUT = None,
         as_json: JSON = False,
     ) -> None:
@@ -162,7 +204,7 @@ def register(app: typer.Typer) -> None:
         uniform prior on the surrogate's training box; corner plot with the eq. 6 ellipse."""
         from ..design.certainty import bounds_pct
         from ..design.inverse_fit import fit_parameters
-        from ..design.posterior import sample_posterior
+        from ..design.posterior import carried_to_finer_mesh, sample_posterior
         from .figures import corner_figure
 
         try:
@@ -173,8 +215,15 @@ def register(app: typer.Typer) -> None:
             box = (model.scaler.lo, model.scaler.hi)
             err.print(f"sampling with {walkers} walkers x {steps} steps (sigma = {sigma:.3g}) ...")
             post = sample_posterior(objective, model, eta, sigma, box, fit.theta, walkers, steps, seed)
+            carried = None
+            if mesh_check is not None:
+                carried = _mesh_check_report(mesh_check, experiment, fit.theta)
+                post = carried_to_finer_mesh(
+                    post, carried["theta"], carried["shift_pct"], carried["corrected_uncertainty_pct"], seed
+                )
             folder = out or Path(experiment) / "results"
-            png = corner_figure(post, folder / "corner.png", fit.theta, fit.hessian, fit.s)
+            mark = fit.theta if carried is None else fit.theta * (1.0 + np.asarray(carried["shift_pct"]) / 100.0)
+            png = corner_figure(post, folder / "corner.png", mark, fit.hessian, fit.s)
         except (ValueError, OSError, RuntimeError) as exc:
             fail(str(exc), as_json)
         summary = post.summary()
@@ -187,6 +236,7 @@ def register(app: typer.Typer) -> None:
             "hessian_sd": hessian_sd.tolist(),
             "hessian_bounds_pct": bounds_pct(fit.hessian, fit.s).tolist(),
             "sigma": sigma,
+            "carried_to_finer_mesh": carried,
         }
         (folder / "posterior.json").write_text(json.dumps(payload, indent=1))
         if as_json:
@@ -202,6 +252,12 @@ def register(app: typer.Typer) -> None:
             f"acceptance {post.acceptance_fraction:.2f}, autocorrelation {np.round(post.autocorrelation_steps, 1).tolist()} "
             f"steps, converged {post.converged}; {png}"
         )
+        if carried is not None:
+            Console().print(
+                f"carried to the '{carried['check_mesh']}' mesh ({carried['nodes'][1]} nodes): shifted by "
+                f"{np.round(carried['shift_pct'], 2).tolist()} %, spread by its GCI "
+                f"{np.round(carried['corrected_uncertainty_pct'], 2).tolist()} % (95 %)"
+            )
 
     @app.command("confirm")
     def confirm(
@@ -218,11 +274,14 @@ def register(app: typer.Typer) -> None:
                 "and its discretisation uncertainty (design/mesh_check.py)"
             ),
         ] = None,
+        out: OUT = None,
         as_json: JSON = False,
     ) -> None:
         """FE confirmation of a fit: F(theta_hat) from an FE run, and how far the surrogate's
         prediction is from that run. With --check-mesh, the parameter shift the finer mesh would
-        give and the fit's bounds with the mesh's uncertainty added (embedded solver)."""
+        give, the fit's bounds with the mesh's uncertainty added, and the fit carried to the
+        finer mesh with that mesh's uncertainty (embedded solver). Written to confirm.json
+        (``indent-studio posterior --mesh-check`` reads it)."""
         from ..forward.predictor import FESolverPredictor
 
         check = None
@@ -252,6 +311,17 @@ def register(app: typer.Typer) -> None:
         }
         if check is not None:
             payload["mesh_check"] = check["report"]
+        payload["inputs"] = {
+            "experiment": str(experiment),
+            "surrogate": str(surrogate),
+            "theta": [c1, c5],
+            "weights": eta.tolist(),
+            "model": spec.to_dict(),
+        }
+        folder = out or Path(experiment) / "results"
+        folder.mkdir(parents=True, exist_ok=True)
+        (folder / "confirm.json").write_text(json.dumps(payload, indent=1))
+        payload["result_file"] = str(folder / "confirm.json")
         if as_json:
             print(json.dumps(payload))
             return
@@ -266,4 +336,9 @@ def register(app: typer.Typer) -> None:
                 f"{m['shift_pct'][0]:+.2f} % and c5 by {m['shift_pct'][1]:+.2f} %; 95 % bounds c1 +-"
                 f"{m['statistical_pct'][0]:.2f} % (statistical, eq. 6-8) -> +-{m['combined_pct'][0]:.2f} % with the "
                 f"mesh's uncertainty, c5 +-{m['statistical_pct'][1]:.2f} % -> +-{m['combined_pct'][1]:.2f} %"
+            )
+            t, u = m["theta_on_finer_mesh"], m["corrected_combined_pct"]
+            Console().print(
+                f"carried to the finer mesh: c1 = {t[0]:.4g} kPa +- {u[0]:.2f} %, c5 = {t[1]:.4g} kPa +- {u[1]:.2f} % "
+                f"(95 %, statistical and the finer mesh's GCI)"
             )

@@ -142,7 +142,13 @@ def test_confirm_with_mesh_check_cli(campaigns, tmp_path):
         step_size=0.5,
         seed=5,
     )
-    args = ["confirm", "--experiment", str(exp), "--surrogate", str(model_file), "--c1", "10", "--c5", "300"]
+    res = CliRunner().invoke(
+        app, ["fit", "--experiment", str(exp), "--surrogate", str(model_file), "--no-refine", "--json"]
+    )
+    assert res.exit_code == 0, res.output
+    theta = np.array([json.loads(res.stdout)["c1"], json.loads(res.stdout)["c5"]])
+    args = ["confirm", "--experiment", str(exp), "--surrogate", str(model_file)]
+    args += ["--c1", str(float(theta[0])), "--c5", str(float(theta[1]))]
     res = CliRunner().invoke(app, [*args, "--check-mesh", "default", "--json"])
     assert res.exit_code == 0, res.output
     check = json.loads(res.stdout)["mesh_check"]
@@ -155,5 +161,27 @@ def test_confirm_with_mesh_check_cli(campaigns, tmp_path):
     stat, combined = np.array(check["statistical_pct"]), np.array(check["combined_pct"])
     np.testing.assert_allclose(combined, np.hypot(stat, unc))
     assert np.all(np.abs(shift) > 0.1)  # coarse and default differ
+    # carried to the finer mesh: theta (1 + shift), with the fine-grid GCI Fs |shift| / (r - 1)
+    np.testing.assert_allclose(check["theta_on_finer_mesh"], theta * (1 + shift / 100))
+    np.testing.assert_allclose(check["corrected_uncertainty_pct"], unc / r)
+    np.testing.assert_allclose(check["corrected_combined_pct"], np.hypot(stat, unc / r))
+    confirm_file = exp / "results" / "confirm.json"
+    assert json.loads(confirm_file.read_text())["mesh_check"] == check
+    # the posterior carried there: moved by the shift, spread by the GCI read as a 95 % half-width
+    post_args = ["posterior", "--experiment", str(exp), "--surrogate", str(model_file), "--steps", "600"]
+    plain = json.loads(CliRunner().invoke(app, [*post_args, "--json"]).stdout)
+    res = CliRunner().invoke(app, [*post_args, "--mesh-check", str(confirm_file), "--json"])
+    assert res.exit_code == 0, res.output
+    moved = json.loads(res.stdout)
+    sd_mesh = theta * (unc / r) / 100 / 1.96
+    moved_by = np.array(moved["median"]) - np.array(plain["median"])
+    assert np.all(np.abs(moved_by - theta * shift / 100) <= 0.1 * np.hypot(plain["std"], sd_mesh))
+    np.testing.assert_allclose(moved["std"], np.hypot(plain["std"], sd_mesh), rtol=0.1)
+    other = tmp_path / "other.json"
+    payload = json.loads(confirm_file.read_text())
+    payload["inputs"]["experiment"] = str(tmp_path / "elsewhere")
+    other.write_text(json.dumps(payload))
+    res = CliRunner().invoke(app, [*post_args, "--mesh-check", str(other), "--json"])
+    assert res.exit_code == 1 and "not" in json.loads(res.stdout)["error"]
     res = CliRunner().invoke(app, [*args, "--check-mesh", "coarse", "--json"])
     assert res.exit_code == 1 and "finer" in json.loads(res.stdout)["error"]
