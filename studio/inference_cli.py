@@ -94,7 +94,7 @@ def _mesh_check_report(path: Path, experiment: Path, theta_fit: np.ndarray) -> d
     try:
         payload = json.loads(Path(path).read_text())
     except (OSError, json.JSONDecodeError) as exc:
-        raise ValueError(f"{path}: not a readable confirm.json ({exc})") from exc
+        raise ValueError(f"{path}: not a readable fit.json or confirm.json ({exc})") from exc
     check = payload.get("mesh_check")
     if not isinstance(check, dict) or "corrected_uncertainty_pct" not in check or "theta" not in check:
         raise ValueError(
@@ -130,11 +130,20 @@ def register(app: typer.Typer) -> None:
         weights: WEIGHTS = "0.45,0.35,0.2,0",
         refine: Annotated[bool, typer.Option(help="refine on the FE solver with exact sensitivities")] = True,
         paper_stop: Annotated[bool, typer.Option(help="stop as soon as F < 3e-2 (the paper's rule)")] = False,
+        check_mesh: Annotated[
+            str | None,
+            typer.Option(
+                help="then solve at the fit on this finer mesh preset (e.g. reference): the fit carried "
+                "there, with bounds that add that mesh's discretisation uncertainty (design/mesh_check.py)"
+            ),
+        ] = None,
         out: OUT = None,
         as_json: JSON = False,
     ) -> None:
         """Inverse fit (2.8.2): Levenberg-Marquardt from {6, 300} kPa on the surrogate, then on the FE
-        solver with its exact sensitivities; bounds from eq. 6 to 8 with s from the data."""
+        solver with its exact sensitivities; bounds from eq. 6 to 8 with s from the data. With
+        --check-mesh, the mesh check of ``confirm --check-mesh`` at the fit, and the fit carried
+        to the finer mesh (``posterior --mesh-check`` reads fit.json then)."""
         from ..design.inverse_fit import PAPER_F_STOP, fit_parameters
         from ..forward.predictor import FESolverPredictor
 
@@ -150,6 +159,9 @@ def register(app: typer.Typer) -> None:
                 final = fit_parameters(
                     objective, FESolverPredictor(spec), eta, theta0=first.theta, f_stop=f_stop
                 )
+            check = None
+            if check_mesh is not None:
+                check = _mesh_check(spec, objective, eta, final.theta, check_mesh)["report"]
         except (ValueError, OSError, RuntimeError) as exc:
             fail(str(exc), as_json)
         payload = {
@@ -167,6 +179,12 @@ def register(app: typer.Typer) -> None:
             "fiber_angle_estimated": dic.fiber_angle_estimated,
             "measured_nodes": int(objective.measured.sum()),
             "weights": eta.tolist(),
+            "mesh_check": check,
+            "inputs": {
+                "experiment": str(experiment),
+                "surrogate": str(surrogate),
+                "model": spec.to_dict(),
+            },
         }
         folder = out or Path(experiment) / "results"
         folder.mkdir(parents=True, exist_ok=True)
@@ -179,6 +197,13 @@ def register(app: typer.Typer) -> None:
             f"c1 = {payload['c1']:.3f} kPa +- {payload['c1_pct']:.1f} %, c5 = {payload['c5']:.1f} kPa +- "
             f"{payload['c5_pct']:.1f} %  (F = {final.F:.3g}, s = {final.s:.3g}, n = {final.n_residuals})"
         )
+        if check is not None:
+            t, u = check["theta_on_finer_mesh"], check["corrected_combined_pct"]
+            Console().print(
+                f"carried to '{check_mesh}' ({check['nodes'][1]} nodes): c1 = {t[0]:.3f} kPa +- {u[0]:.1f} %, "
+                f"c5 = {t[1]:.1f} kPa +- {u[1]:.1f} % (95 %, statistical and that mesh's GCI); on the fit's mesh "
+                f"with its GCI: +- {check['combined_pct'][0]:.1f} %, +- {check['combined_pct'][1]:.1f} %"
+            )
 
     @app.command("posterior")
     def posterior(
@@ -191,7 +216,7 @@ def register(app: typer.Typer) -> None:
         mesh_check: Annotated[
             Path | None,
             typer.Option(
-                help="a confirm.json of 'indent-studio confirm --check-mesh': carry the posterior to the "
+                help="a fit.json or confirm.json made with --check-mesh: carry the posterior to the "
                 "finer mesh (shifted by the check's shift, spread by that mesh's GCI)"
             ),
         ] = None,
@@ -222,7 +247,9 @@ def register(app: typer.Typer) -> None:
                     post, carried["theta"], carried["shift_pct"], carried["corrected_uncertainty_pct"], seed
                 )
             folder = out or Path(experiment) / "results"
-            mark = fit.theta if carried is None else fit.theta * (1.0 + np.asarray(carried["shift_pct"]) / 100.0)
+            mark = (
+                fit.theta if carried is None else fit.theta * (1.0 + np.asarray(carried["shift_pct"]) / 100.0)
+            )
             png = corner_figure(post, folder / "corner.png", mark, fit.hessian, fit.s)
         except (ValueError, OSError, RuntimeError) as exc:
             fail(str(exc), as_json)

@@ -142,11 +142,11 @@ def test_confirm_with_mesh_check_cli(campaigns, tmp_path):
         step_size=0.5,
         seed=5,
     )
-    res = CliRunner().invoke(
-        app, ["fit", "--experiment", str(exp), "--surrogate", str(model_file), "--no-refine", "--json"]
-    )
+    fit_args = ["fit", "--experiment", str(exp), "--surrogate", str(model_file), "--no-refine"]
+    res = CliRunner().invoke(app, [*fit_args, "--check-mesh", "default", "--json"])
     assert res.exit_code == 0, res.output
-    theta = np.array([json.loads(res.stdout)["c1"], json.loads(res.stdout)["c5"]])
+    fitted = json.loads(res.stdout)
+    theta = np.array([fitted["c1"], fitted["c5"]])
     args = ["confirm", "--experiment", str(exp), "--surrogate", str(model_file)]
     args += ["--c1", str(float(theta[0])), "--c5", str(float(theta[1]))]
     res = CliRunner().invoke(app, [*args, "--check-mesh", "default", "--json"])
@@ -167,12 +167,16 @@ def test_confirm_with_mesh_check_cli(campaigns, tmp_path):
     np.testing.assert_allclose(check["corrected_combined_pct"], np.hypot(stat, unc / r))
     confirm_file = exp / "results" / "confirm.json"
     assert json.loads(confirm_file.read_text())["mesh_check"] == check
+    np.testing.assert_allclose(fitted["mesh_check"]["shift_pct"], shift)  # fit --check-mesh: the same check
     # the posterior carried there: moved by the shift, spread by the GCI read as a 95 % half-width
     post_args = ["posterior", "--experiment", str(exp), "--surrogate", str(model_file), "--steps", "600"]
     plain = json.loads(CliRunner().invoke(app, [*post_args, "--json"]).stdout)
     res = CliRunner().invoke(app, [*post_args, "--mesh-check", str(confirm_file), "--json"])
     assert res.exit_code == 0, res.output
     moved = json.loads(res.stdout)
+    res = CliRunner().invoke(app, [*post_args, "--mesh-check", str(exp / "results" / "fit.json"), "--json"])
+    assert res.exit_code == 0, res.output
+    np.testing.assert_allclose(json.loads(res.stdout)["median"], moved["median"])  # same check, same seed
     sd_mesh = theta * (unc / r) / 100 / 1.96
     moved_by = np.array(moved["median"]) - np.array(plain["median"])
     assert np.all(np.abs(moved_by - theta * shift / 100) <= 0.1 * np.hypot(plain["std"], sd_mesh))
