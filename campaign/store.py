@@ -76,12 +76,28 @@ class CampaignSpec:
     def differences(self, other: CampaignSpec) -> list[str]:
         """What makes ``other`` a different campaign (empty when it is the same)."""
         a, b = self.to_dict(), other.to_dict()
-        out = [k for k in ("model", "solver") if a[k] != b[k]]
+        out = (
+            ["model " + ", ".join(_changed_fields(a["model"], b["model"]))]
+            if a["model"] != b["model"]
+            else []
+        )
+        if a["solver"] != b["solver"]:
+            out.append(f"solver ({a['solver']} vs {b['solver']})")
         if a["design"]["parameters"] != b["design"]["parameters"] or not np.array_equal(
             self.design.points, other.design.points
         ):
             out.append(f"design ({a['design']['description']} vs {b['design']['description']})")
         return out
+
+
+def _changed_fields(a: Any, b: Any, prefix: str = "") -> list[str]:
+    """The leaves where two nested dicts differ, as 'path: old -> new'."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        out: list[str] = []
+        for key in sorted(set(a) | set(b)):
+            out += _changed_fields(a.get(key), b.get(key), f"{prefix}{key}.")
+        return out
+    return [] if a == b else [f"{prefix.rstrip('.')}: {a!r} -> {b!r}"]
 
 
 def _atomic_write(path: Path, write) -> None:

@@ -75,7 +75,7 @@ def test_store_refuses_a_different_spec(tmp_path):
     CampaignStore.create_or_open(tmp_path, _spec("a", "c1=2:4:2,c5=100:200:2"))  # same: fine
     with pytest.raises(CampaignError, match="different design"):
         CampaignStore.create_or_open(tmp_path, _spec("a", "c1=2:4:3,c5=100:200:2"))
-    with pytest.raises(CampaignError, match="different model"):
+    with pytest.raises(CampaignError, match=r"different model protocol\.steps: 2 -> 3"):
         other = ModelSpec(protocol=Protocol(step_size=0.5, steps=3), mesh=MeshChoice("coarse"))
         CampaignStore.create_or_open(tmp_path, _spec("a", "c1=2:4:2,c5=100:200:2", other))
 
