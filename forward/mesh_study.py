@@ -14,8 +14,8 @@ from .stick_contact import RigidSphere
 def top_field_interpolator(top_xyz: np.ndarray, field: np.ndarray):
     """Interpolator of a top-surface field ``field`` (n, ...) given at the top nodes ``top_xyz``,
     called with points (m, 2) clipped to the block. A structured top (a tensor grid) is
-    interpolated bilinearly, as its own shape functions do; any other top (the ring meshes)
-    linearly on the Delaunay triangles of its nodes."""
+    interpolated bilinearly, as its own shape functions do; any other top (a FEBio mesh that is
+    not a tensor grid) linearly on the Delaunay triangles of its nodes."""
     xy = np.asarray(top_xyz, float)[:, :2]
     field = np.asarray(field, float)
     x = np.unique(np.round(xy[:, 0], 9))

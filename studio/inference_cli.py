@@ -89,7 +89,7 @@ def _mesh_check(spec, objective, eta, theta: np.ndarray, preset: str) -> dict:
 
 
 def _mesh_check_report(path: Path, experiment: Path, theta_fit: np.ndarray) -> dict:
-    """The mesh check of a confirm.json, refused if it belongs to another experiment or lies far
+    """The mesh check of a fit.json or confirm.json, refused if it belongs to another experiment or lies far
     from this fit (its shift is a first-order result at its own theta)."""
     try:
         payload = json.loads(Path(path).read_text())
@@ -98,7 +98,7 @@ def _mesh_check_report(path: Path, experiment: Path, theta_fit: np.ndarray) -> d
     check = payload.get("mesh_check")
     if not isinstance(check, dict) or "corrected_uncertainty_pct" not in check or "theta" not in check:
         raise ValueError(
-            f"{path}: no mesh check in it; run 'indent-studio confirm --check-mesh PRESET' first"
+            f"{path}: no mesh check in it; run 'indent-studio fit' or 'confirm' with --check-mesh PRESET"
         )
     where = (payload.get("inputs") or {}).get("experiment")
     if where is not None and Path(where).resolve() != Path(experiment).resolve():
@@ -240,16 +240,15 @@ def register(app: typer.Typer) -> None:
             box = (model.scaler.lo, model.scaler.hi)
             err.print(f"sampling with {walkers} walkers x {steps} steps (sigma = {sigma:.3g}) ...")
             post = sample_posterior(objective, model, eta, sigma, box, fit.theta, walkers, steps, seed)
-            carried = None
+            carried, mark = None, fit.theta
             if mesh_check is not None:
                 carried = _mesh_check_report(mesh_check, experiment, fit.theta)
                 post = carried_to_finer_mesh(
                     post, carried["theta"], carried["shift_pct"], carried["corrected_uncertainty_pct"], seed
                 )
+                # the fit moved as the samples were
+                mark = fit.theta + np.asarray(carried["theta"]) * np.asarray(carried["shift_pct"]) / 100.0
             folder = out or Path(experiment) / "results"
-            mark = (
-                fit.theta if carried is None else fit.theta * (1.0 + np.asarray(carried["shift_pct"]) / 100.0)
-            )
             png = corner_figure(post, folder / "corner.png", mark, fit.hessian, fit.s)
         except (ValueError, OSError, RuntimeError) as exc:
             fail(str(exc), as_json)
