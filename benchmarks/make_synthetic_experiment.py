@@ -14,9 +14,9 @@ import time
 
 import numpy as np
 
-from indentation_studio.design.synthetic_experiment import write_synthetic_experiment
 from indentation_studio.forward.predictor import FESolverPredictor
 from indentation_studio.forward.spec import Indenter, MeshChoice, ModelSpec
+from indentation_studio.inference.synthetic_experiment import write_synthetic_experiment
 
 
 def main() -> None:

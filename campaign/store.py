@@ -9,8 +9,6 @@ killed between writing a result and updating the index loses nothing and repeats
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -20,6 +18,7 @@ import numpy as np
 import pandas as pd
 
 from .. import __version__
+from ..atomic_write import atomic_write
 from ..forward.result import SimulationResult
 from ..forward.spec import ModelSpec
 from .designs import Design
@@ -100,17 +99,6 @@ def _changed_fields(a: Any, b: Any, prefix: str = "") -> list[str]:
     return [] if a == b else [f"{prefix.rstrip('.')}: {a!r} -> {b!r}"]
 
 
-def _atomic_write(path: Path, write) -> None:
-    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    try:
-        write(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
 class CampaignStore:
     """One campaign folder. ``create_or_open`` refuses a spec that differs from the stored one."""
 
@@ -147,7 +135,7 @@ class CampaignStore:
         root.mkdir(parents=True, exist_ok=True)
         (root / "points").mkdir(exist_ok=True)
         record = spec.to_dict() | {"code_version": __version__, "created": time.strftime("%Y-%m-%dT%H:%M:%S")}
-        _atomic_write(meta, lambda tmp: Path(tmp).write_text(json.dumps(record, indent=1)))
+        atomic_write(meta, json.dumps(record, indent=1))
         store = cls(root, spec, cls._fresh_index(spec))
         store.write_index()
         return store
@@ -220,7 +208,7 @@ class CampaignStore:
             self.write_index()
 
     def write_index(self) -> None:
-        _atomic_write(self.root / "index.parquet", lambda tmp: self.index.to_parquet(tmp, index=False))
+        atomic_write(self.root / "index.parquet", lambda tmp: self.index.to_parquet(tmp, index=False))
 
     # ---------------------------------------------------------------- queries
     def counts(self) -> dict[str, int]:

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .mesh import BlockMesh
+from .block_mesh import BlockMesh
 
 
 class FebMeshError(ValueError):

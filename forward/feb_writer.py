@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from .. import __version__
+from ..atomic_write import atomic_write
 from .mesh import BlockMesh
 from .spec import ModelSpec
 
@@ -318,7 +319,7 @@ def write_feb(
 
     ``mesh`` defaults to the mesh the spec names (a preset or the hex8 block of a ``.feb``).
     """
-    from .solver import build_mesh
+    from .mesh import build_mesh
 
     path = Path(path)
     mesh = mesh if mesh is not None else build_mesh(spec)
@@ -329,8 +330,4 @@ def write_feb(
     )
     tree.getroot().insert(0, comment)
     ET.indent(tree, space="\t")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    tree.write(tmp, encoding="ISO-8859-1", xml_declaration=True)
-    tmp.replace(path)
-    return path
+    return atomic_write(path, lambda tmp: tree.write(tmp, encoding="ISO-8859-1", xml_declaration=True))

@@ -192,7 +192,7 @@ def febio_result(
 
 def _top_coordinates(spec: dict[str, Any], top_ids: np.ndarray, fallback: np.ndarray) -> np.ndarray:
     """Reference coordinates of the logged top nodes from the mesh the spec names."""
-    from .solver import build_mesh
+    from .mesh import build_mesh
     from .spec import ModelSpec
 
     mesh = build_mesh(ModelSpec.from_dict(spec))

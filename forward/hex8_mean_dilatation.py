@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .hex8_kernel_numba import hex8_three_field_kernel
-from .material import volumetric_energy
+from .material import InvertedElementError, volumetric_energy
 from .mesh import BlockMesh
 
 _G = 1.0 / np.sqrt(3.0)
@@ -122,7 +122,7 @@ def element_state(
         dforce,
     )
     if not np.isfinite(min_j) or min_j <= 0.0:
-        raise FloatingPointError("inverted or degenerate element: det F <= 0")
+        raise InvertedElementError()
     return ElementState(
         float(energy.sum()),
         force,
@@ -162,7 +162,7 @@ def element_state_numpy(
     J = np.linalg.det(F)
     min_j = float(J.min())
     if not np.isfinite(min_j) or min_j <= 0.0:
-        raise FloatingPointError("inverted or degenerate element: det F <= 0")
+        raise InvertedElementError()
     H = np.linalg.inv(F).swapaxes(-1, -2)
     m = J ** (-2.0 / 3.0)
     I1 = np.einsum("egiJ,egiJ->eg", F, F)

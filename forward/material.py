@@ -60,6 +60,14 @@ def _isochoric_invariant(
     return It, dIt, m[..., None, None, None, None] * d2
 
 
+class InvertedElementError(ArithmeticError):
+    """A deformation with det F <= 0 (or not finite) at a Gauss point or over an element: the
+    solver halves the increment that made it."""
+
+    def __init__(self, where: str = "element") -> None:
+        super().__init__(f"inverted or degenerate {where}: det F <= 0")
+
+
 def deviatoric_response(
     F: np.ndarray,
     c1: float,
@@ -73,7 +81,7 @@ def deviatoric_response(
     a0 = np.asarray(fiber, dtype=float)
     J = np.linalg.det(F)
     if np.any(~np.isfinite(J)) or np.any(J <= 0.0):
-        raise FloatingPointError("inverted or degenerate element: det F <= 0")
+        raise InvertedElementError()
     H = np.linalg.inv(F).swapaxes(-1, -2)
     m = J ** (-2.0 / 3.0)
     HH = HxH = None

@@ -8,13 +8,13 @@ top-surface nodes, per step, with the nodes' ids and reference coordinates.
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from ..atomic_write import atomic_write
 
 #: Whole specimen = this many quarter models (symmetry planes x = 0 and y = 0).
 SYMMETRY_FACTOR = 4
@@ -54,8 +54,6 @@ class SimulationResult:
 
     def save(self, path: str | Path) -> Path:
         """Write the result atomically (temporary file in the same folder, then rename)."""
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
         arrays: dict[str, np.ndarray] = {
             "depth": self.depth,
             "force": self.force,
@@ -79,15 +77,12 @@ class SimulationResult:
             "units": {"length": "mm", "stress": "kPa", "force": "mN"},
             "force": "whole specimen = 4 x quarter model",
         }
-        fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
-        try:
-            with os.fdopen(fd, "wb") as fh:
+
+        def write(tmp: Path) -> None:
+            with open(tmp, "wb") as fh:
                 np.savez_compressed(fh, meta=np.array(json.dumps(meta)), **arrays)
-            os.replace(tmp, path)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
-        return path
+
+        return atomic_write(path, write)
 
     @classmethod
     def load(cls, path: str | Path) -> SimulationResult:

@@ -27,10 +27,10 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from .. import __version__
-from .feb_mesh import read_feb_block_mesh
 from .hex8_mean_dilatation import ReferenceGeometry, element_state
 from .linear_solver import ConstrainedSymmetricSolver, LinearSolveError
-from .mesh import BlockMesh, preset_mesh
+from .material import InvertedElementError
+from .mesh import BlockMesh, build_mesh
 from .result import SYMMETRY_FACTOR, SimulationResult
 from .sparse_assembly import SparsePattern
 from .spec import ModelSpec
@@ -62,13 +62,6 @@ MAX_HALVINGS = 6
 #: residual, in at most this many iterations, before a new factorisation is made.
 KRYLOV_RTOL = 1e-2
 KRYLOV_MAXITER = 8
-
-
-def build_mesh(spec: ModelSpec) -> BlockMesh:
-    """The block mesh a spec asks for: a preset, or the hex8 block of a FEBio file."""
-    if spec.mesh.feb_file:
-        return read_feb_block_mesh(spec.mesh.feb_file)
-    return preset_mesh(spec.mesh.preset, spec.geometry)
 
 
 _STRUCTURES: dict[bytes, tuple[ReferenceGeometry, SparsePattern]] = {}
@@ -248,7 +241,7 @@ class EmbeddedSolver:
             for it in range(1, opts.max_newton + 1):
                 try:
                     R, _, _ = self.assemble(u.reshape(-1, 3), tangent=False)
-                except FloatingPointError:
+                except InvertedElementError:
                     if halvings >= MAX_HALVINGS:
                         raise
                     halvings += 1  # the step inverted an element: halve it
@@ -279,7 +272,7 @@ class EmbeddedSolver:
                 last, u_prev = norm, u.copy()
                 u = u - du
                 stale_steps += 1
-        except (FloatingPointError, LinearSolveError) as exc:
+        except (InvertedElementError, LinearSolveError) as exc:
             raise _IncrementFailed(str(exc)) from exc
         raise _IncrementFailed(f"Newton did not converge in {opts.max_newton} iterations")
 

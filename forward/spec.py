@@ -13,6 +13,8 @@ import math
 from dataclasses import asdict, dataclass, field, fields, replace
 from typing import Any
 
+from .mesh_presets import MESH_PRESETS
+
 #: Indenter radii of the paper's two spheres (9.5 mm and 16 mm diameter), mm.
 INDENTER_PRESETS: dict[str, float] = {"small": 4.77, "large": 8.0}
 
@@ -138,8 +140,6 @@ class MeshChoice:
     feb_file: str | None = None
 
     def __post_init__(self) -> None:
-        from .mesh import MESH_PRESETS  # local import: mesh imports nothing from here
-
         if self.feb_file is None and self.preset not in MESH_PRESETS:
             raise SpecError("mesh.preset", f"unknown preset {self.preset!r}; use {sorted(MESH_PRESETS)}")
 

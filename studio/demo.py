@@ -58,16 +58,16 @@ def run_demo(
     ``grid``, ``test_grid``, ``experiment`` and ``design_depths`` default to the paper's setting
     (smaller ones serve the tests)."""
     from ..design.experiment_choice import candidate_grid, compare_designs
-    from ..design.experiment_data import load_experiment
-    from ..design.experiment_processing import experiment_objective, static_forces
-    from ..design.inverse_fit import fit_parameters
     from ..design.objective import Objective
-    from ..design.posterior import sample_posterior
     from ..design.study import fe_design_study
     from ..design.weights import PAPER_HESSIAN, compare_with_paper
     from ..forward.mesh import preset_mesh
     from ..forward.predictor import FESolverPredictor
     from ..forward.spec import ModelSpec
+    from ..inference.experiment_data import load_experiment
+    from ..inference.experiment_processing import experiment_objective, static_forces
+    from ..inference.inverse_fit import fit_parameters
+    from ..inference.posterior import sample_posterior
     from ..surrogate.base import TrainingData
     from ..surrogate.persistence import save_surrogate
     from ..surrogate.validation import prediction_errors

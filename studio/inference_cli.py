@@ -31,10 +31,10 @@ class _Setup:
 
 def _setup(experiment: Path, surrogate: Path, weights: str) -> _Setup:
     """The experiment, the surrogate, the FE model it emulates and the objective."""
-    from ..design.experiment_data import load_experiment
-    from ..design.experiment_processing import experiment_objective
     from ..design.objective import check_weights
     from ..forward.spec import ModelSpec
+    from ..inference.experiment_data import load_experiment
+    from ..inference.experiment_processing import experiment_objective
     from ..surrogate.persistence import load_surrogate
 
     eta = check_weights([float(v) for v in weights.split(",")])
@@ -59,11 +59,11 @@ def _setup(experiment: Path, surrogate: Path, weights: str) -> _Setup:
 
 def _mesh_check(spec, objective, eta, theta: np.ndarray, preset: str) -> dict:
     """FE runs at theta on the fit's mesh (with sensitivities) and on the finer ``preset``; the
-    mesh check (design/mesh_check.py) with the statistical bounds at theta (eq. 6 to 8)."""
-    from ..design.mesh_check import mesh_check
+    mesh check (inference/mesh_check.py) with the statistical bounds at theta (eq. 6 to 8)."""
     from ..forward.predictor import Prediction
     from ..forward.solver import simulate
     from ..forward.spec import MeshChoice
+    from ..inference.mesh_check import mesh_check
 
     at = spec.with_material(c1=float(theta[0]), c5=float(theta[1]))
     err.print(f"solving at {np.round(theta, 3).tolist()} kPa on the fit's mesh and on '{preset}' ...")
@@ -134,7 +134,7 @@ def register(app: typer.Typer) -> None:
             str | None,
             typer.Option(
                 help="then solve at the fit on this finer mesh preset (e.g. reference): the fit carried "
-                "there, with bounds that add that mesh's discretisation uncertainty (design/mesh_check.py)"
+                "there, with bounds that add that mesh's discretisation uncertainty (inference/mesh_check.py)"
             ),
         ] = None,
         out: OUT = None,
@@ -144,8 +144,8 @@ def register(app: typer.Typer) -> None:
         solver with its exact sensitivities; bounds from eq. 6 to 8 with s from the data. With
         --check-mesh, the mesh check of ``confirm --check-mesh`` at the fit, and the fit carried
         to the finer mesh (``posterior --mesh-check`` reads fit.json then)."""
-        from ..design.inverse_fit import PAPER_F_STOP, fit_parameters
         from ..forward.predictor import FESolverPredictor
+        from ..inference.inverse_fit import PAPER_F_STOP, fit_parameters
 
         f_stop = PAPER_F_STOP if paper_stop else None
         try:
@@ -228,8 +228,8 @@ def register(app: typer.Typer) -> None:
         sqrt(p F_{p,n-p}^0.95), the 95 % factor, so it would widen the posterior by ~2.4x);
         uniform prior on the surrogate's training box; corner plot with the eq. 6 ellipse."""
         from ..design.certainty import bounds_pct
-        from ..design.inverse_fit import fit_parameters
-        from ..design.posterior import carried_to_finer_mesh, sample_posterior
+        from ..inference.inverse_fit import fit_parameters
+        from ..inference.posterior import carried_to_finer_mesh, sample_posterior
         from .figures import corner_figure
 
         try:
@@ -297,7 +297,7 @@ def register(app: typer.Typer) -> None:
             str | None,
             typer.Option(
                 help="also solve on this finer mesh preset (e.g. fine): how far the mesh moves the fit, "
-                "and its discretisation uncertainty (design/mesh_check.py)"
+                "and its discretisation uncertainty (inference/mesh_check.py)"
             ),
         ] = None,
         out: OUT = None,

@@ -3,9 +3,7 @@ versions and the validation scores (one joblib file, written atomically)."""
 
 from __future__ import annotations
 
-import os
 import platform
-import tempfile
 from pathlib import Path
 
 import joblib
@@ -14,6 +12,7 @@ import sklearn
 import torch
 
 from .. import __version__
+from ..atomic_write import atomic_write
 from .base import FieldSurrogate
 
 
@@ -29,18 +28,9 @@ def versions() -> dict[str, str]:
 
 def save_surrogate(surrogate: FieldSurrogate, path: str | Path) -> Path:
     """Write ``surrogate`` (with ``meta`` holding its provenance) to ``path``."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     surrogate.meta["versions"] = versions()
-    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
-    os.close(fd)
-    try:
-        joblib.dump({"format": "indentation-studio-surrogate/1", "model": surrogate}, tmp)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
-    return path
+    payload = {"format": "indentation-studio-surrogate/1", "model": surrogate}
+    return atomic_write(path, lambda tmp: joblib.dump(payload, tmp))
 
 
 def load_surrogate(path: str | Path) -> FieldSurrogate:

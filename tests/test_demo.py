@@ -6,9 +6,9 @@ import json
 
 import numpy as np
 
-from indentation_studio.design.synthetic_experiment import write_synthetic_experiment
 from indentation_studio.forward.predictor import FESolverPredictor
 from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
+from indentation_studio.inference.synthetic_experiment import write_synthetic_experiment
 from indentation_studio.studio.demo import run_demo
 
 

@@ -9,6 +9,7 @@ from indentation_studio.forward.hex8_mean_dilatation import (
     element_state,
     element_state_numpy,
 )
+from indentation_studio.forward.material import InvertedElementError
 from indentation_studio.forward.mesh import preset_mesh
 from indentation_studio.forward.sparse_assembly import SparsePattern
 
@@ -69,7 +70,7 @@ def test_inverted_element_is_refused(setup):
     mesh, geo, *_ = setup
     u = np.zeros((mesh.n_nodes, 3))
     u[mesh.top, 2] = -70.0  # pushes the top below the bottom
-    with pytest.raises(FloatingPointError, match="det F"):
+    with pytest.raises(InvertedElementError, match="det F"):
         element_state(geo, u[mesh.elements], 10.0, 350.0, 1000.0, FIBER)
 
 

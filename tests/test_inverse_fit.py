@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from indentation_studio.design.inverse_fit import PAPER_F_STOP, fit_parameters
 from indentation_studio.design.objective import Objective
 from indentation_studio.forward.predictor import FESolverPredictor
 from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
+from indentation_studio.inference.inverse_fit import PAPER_F_STOP, fit_parameters
 
 SPEC = ModelSpec(mesh=MeshChoice("coarse"), protocol=Protocol(step_size=0.5, steps=4))
 ETA = (0.45, 0.35, 0.2, 0.0)
@@ -52,8 +52,8 @@ def test_mesh_check_predicts_where_the_finer_mesh_puts_the_fit():
     """Data from the finer mesh (`default`) at TRUE, fitted on `coarse`: the fit misses TRUE by
     the coarse mesh's error, and the mesh check at the coarse fit (one Gauss-Newton step with the
     finer mesh's response) puts it back on TRUE to first order."""
-    from indentation_studio.design.mesh_check import mesh_check, prediction_at_nodes
     from indentation_studio.forward.solver import simulate
+    from indentation_studio.inference.mesh_check import mesh_check, prediction_at_nodes
 
     finer_spec = ModelSpec(protocol=SPEC.protocol)  # the default mesh
     data = simulate(finer_spec.with_material(c1=TRUE[0], c5=TRUE[1]))

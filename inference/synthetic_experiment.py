@@ -1,4 +1,4 @@
-"""Synthetic experiments in the data format of :mod:`design.experiment_data`, from any Predictor.
+"""Synthetic experiments in the data format of :mod:`inference.experiment_data`, from any Predictor.
 
 Made on a finer mesh than the fit uses (no inverse crime): the model's top-surface field is
 interpolated at random DIC-like points over a field of view, the indenter's shadow removed, the

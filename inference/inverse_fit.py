@@ -17,8 +17,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import least_squares
 
-from .certainty import bounds_pct, s_from_data
-from .objective import Objective, check_weights
+from ..design.certainty import bounds_pct, s_from_data
+from ..design.objective import Objective, check_weights
 
 PAPER_START = (6.0, 300.0)
 PAPER_F_STOP = 3e-2

@@ -214,7 +214,7 @@ def experiment_objective(exp: ExperimentData, top_xyz: np.ndarray, reading: str 
     """The objective (eq. 4, 5) of a measured experiment against a model with top nodes
     ``top_xyz``: static forces from eq. 9, DIC registered and interpolated at the nodes, nodes
     without data obscured. Returns the objective and the registration."""
-    from .objective import Objective
+    from ..design.objective import Objective
 
     f_inf, _ = static_forces(exp)
     dic = to_model_frame(exp)
