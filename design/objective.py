@@ -24,6 +24,9 @@ from .nodal_weights import default_selection, nodal_weights
 
 TERMS = ("force", "ux", "uy", "uz")
 
+#: The paper's combined weights (eq. 13, Table 1's last row): force, ux, uy, uz.
+PAPER_WEIGHTS = (0.45, 0.35, 0.2, 0.0)
+
 
 def check_weights(eta) -> np.ndarray:
     """``eta`` (4,) as an array; refused unless on the simplex (eq. 5: eta_i in [0, 1], sum 1)."""

@@ -35,6 +35,7 @@ from .options import (
     err,
     fail,
     model_spec,
+    say,
 )
 from .progress import step_progress
 from .surrogate_cli import surrogate_app
@@ -44,6 +45,17 @@ app = typer.Typer(
     no_args_is_help=True,
     add_completion=False,
 )
+
+
+@app.callback()
+def _headless() -> None:
+    """Figures are written to files from the command line: matplotlib's Agg backend, set here
+    (the entry point) and nowhere else, so notebooks keep their inline backend."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+
+
 app.add_typer(campaign_app, name="campaign")
 app.add_typer(design_app, name="design")
 app.add_typer(surrogate_app, name="surrogate")
@@ -196,62 +208,30 @@ def mesh_study(
 ) -> None:
     """Mesh convergence (eq. 1a, 1b) of presets against a reference mesh (paper: c1 = 9.4, c5 = 321).
     With --out-dir, a mesh already solved there for the same model spec is read back instead of
-    solved again (the reference takes about half an hour)."""
-    from ..forward.mesh import MESH_PRESETS
-    from ..forward.mesh_study import mesh_errors
-    from ..forward.result import SimulationResult
-    from ..forward.solver import EmbeddedSolver, SimulationError
+    solved again (the reference takes many minutes)."""
+    from ..forward.mesh_presets import MESH_PRESETS
+    from ..forward.mesh_study import convergence_study
+    from ..forward.solver import SimulationError
 
     names = [p.strip() for p in presets.split(",") if p.strip()]
-    results = {}
-    try:
-        specs = {
-            n: model_spec(c1, c5, kappa, radius, steps, step_size, n, None, substeps)
-            for n in [*names, reference]
-        }
-    except (SpecError, ValueError) as exc:
-        fail(str(exc), as_json)
-    for name, spec in specs.items():
-        saved = Path(out_dir) / f"{name}.npz" if out_dir is not None else None
-        if saved is not None and saved.exists():
-            previous = SimulationResult.load(saved)
-            same_mesh = previous.solver.get("mesh", {}).get("nodes") == MESH_PRESETS[name].node_count()
-            if previous.spec == spec.to_dict() and same_mesh:
-                err.print(f"mesh {name}: read {saved} (same spec)")
-                results[name] = previous
-                continue
-        with step_progress(err, f"mesh {name}", steps) as bar:
-            try:
-                results[name] = EmbeddedSolver(spec).run(
-                    progress=lambda k, n, f, b=bar: b.update(k, f"{f:.1f} mN")
-                )
-                if saved is not None:
-                    results[name].save(saved)
-            except SimulationError as exc:
-                fail(f"mesh {name}: {exc}", as_json)
-    rows = []
-    for name in names:
-        e = mesh_errors(results[name], results[reference])
-        r = results[name]
-        rows.append(
-            {
-                "preset": name,
-                "nodes": r.solver["mesh"]["nodes"],
-                "elements": r.solver["mesh"]["elements"],
-                "E_f_pct": e.E_f_pct,
-                "E_f_rel_pct": e.E_f_rel_pct,
-                "E_u_pct": e.E_u_pct,
-                "E_u_contact_pct": e.E_u_contact_pct,
-                "contact_nodes": e.contact_nodes,
-                "wall_s": r.wall_s,
-            }
-        )
+    with step_progress(err, "mesh study", steps * (len(names) + 1)) as bar:
+        done = {name: 0 for name in [*names, reference]}
+
+        def report(mesh: str, k: int, n: int, f: float) -> None:
+            done[mesh] = k
+            bar.update(sum(done.values()), f"{mesh}: {f:.1f} mN")
+
+        try:
+            spec = model_spec(c1, c5, kappa, radius, steps, step_size, reference, None, substeps)
+            rows = convergence_study(spec, names, reference, out_dir, report, say)
+        except (SpecError, ValueError, SimulationError) as exc:
+            fail(str(exc), as_json)
     if as_json:
         print(
             json.dumps(
                 {
                     "reference": reference,
-                    "reference_nodes": results[reference].solver["mesh"]["nodes"],
+                    "reference_nodes": MESH_PRESETS[reference].node_count(),
                     "rows": rows,
                 }
             )
