@@ -136,3 +136,22 @@ def off_equilibrium_message(result: SimulationResult) -> str | None:
         f"FEBio accepted {len(depths)} step(s) off equilibrium (indenter reaction != bottom "
         f"reaction) at depth {listed} mm{worst}: their forces are left out (NaN)"
     )
+
+
+def equilibrium_notes(result: SimulationResult) -> list[str]:
+    """Lines for the user about a FEBio result's equilibrium: the flagged depths, the rerun and
+    what it kept, or that the check could not be made. Empty for a clean or embedded result."""
+    notes = []
+    rerun = result.solver.get("rerun")
+    if rerun:
+        notes.append(
+            f"FEBio steps off equilibrium ({rerun['reason']}): reran with tightened settings "
+            f"({', '.join(rerun['settings_changed'])}); {rerun['outcome']}; kept the {rerun['kept']} run"
+        )
+    flagged = off_equilibrium_message(result)
+    if flagged:
+        notes.append(flagged)
+    check = result.solver.get("equilibrium")
+    if check is not None and not check.get("checked", False):
+        notes.append(f"FEBio equilibrium not checked: {check.get('reason', 'unknown')}")
+    return notes

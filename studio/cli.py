@@ -85,7 +85,7 @@ def simulate(
     ``--solver febio`` runs the same model on FEBio 4 (FEBIO_PATH or PATH); its .feb, log and
     plot file stay in a folder beside the result file. Steps FEBio accepted off equilibrium are
     named on stderr and their forces are NaN (null in --json)."""
-    from ..forward.febio_equilibrium import off_equilibrium_message
+    from ..forward.febio_equilibrium import equilibrium_notes
     from ..forward.febio_log import FebioLogError
     from ..forward.solver import EmbeddedSolver, SimulationError
 
@@ -140,9 +140,8 @@ def simulate(
         except (FebioLogError, OSError) as exc:  # a log that cannot be read back names itself
             fail(str(exc), as_json)
     path = result.save(out)
-    warning = off_equilibrium_message(result)
-    if warning is not None:
-        err.print(f"[bold yellow]warning:[/] {warning}", soft_wrap=True, highlight=False)
+    for note in equilibrium_notes(result):
+        err.print(f"[bold yellow]warning:[/] {note}", soft_wrap=True, highlight=False)
     pvd = None
     if vtu is not None:
         if solver == SolverName.febio:

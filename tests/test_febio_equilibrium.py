@@ -26,6 +26,7 @@ from indentation_studio.forward.feb_writer import FebSettings
 from indentation_studio.forward.febio_equilibrium import (
     EquilibriumTolerance,
     check_equilibrium,
+    equilibrium_notes,
     off_equilibrium_steps,
 )
 from indentation_studio.forward.febio_log import febio_result, read_febio_log
@@ -184,6 +185,9 @@ def test_rerun_with_tightened_settings_keeps_the_better_run(tmp_path):
     assert r.solver["settings"] == FebSettings().tightened().__dict__
     np.testing.assert_array_equal(r.force, read_febio_run(LOG, baseline_spec()).force)
     feb = (tmp_path / "run" / "rerun" / "model.feb").read_text()
+    notes = equilibrium_notes(r)
+    assert "reran with tightened settings" in notes[0] and notes[0].endswith("kept the rerun run")
+    assert notes[1].startswith("FEBio accepted 1 step(s) off equilibrium") and "at depth 12.5 mm" in notes[1]
     assert "<pt>0,0.5</pt>" in feb and "<pt>28,0.25</pt>" in feb and "<dtol>0.0001</dtol>" in feb
 
 
