@@ -83,6 +83,13 @@ def load_campaign(name_or_path: str | Path, runs_dir: str | Path = "runs") -> Ca
     )
 
 
+def _equilibrium_checked(result: SimulationResult) -> SimulationResult:
+    """A FEBio result from before the equilibrium check (no flag array) checked now."""
+    if result.solver.get("name") == "febio" and result.off_equilibrium is None:
+        return check_equilibrium(result)
+    return result
+
+
 def _complete_force_curves(
     points: np.ndarray, results: list[SimulationResult]
 ) -> tuple[np.ndarray, list[SimulationResult], dict[int, str]]:
@@ -93,8 +100,7 @@ def _complete_force_curves(
     """
     keep, kept, left_out = [], [], {}
     for i, r in zip(points, results, strict=True):
-        if r.solver.get("name") == "febio" and r.off_equilibrium is None:
-            r = check_equilibrium(r)
+        r = _equilibrium_checked(r)
         bad = ~np.isfinite(np.asarray(r.force, float))
         if bad.any():
             depths = ", ".join(f"{d:g}" for d in np.asarray(r.depth)[bad])
@@ -108,11 +114,11 @@ def _complete_force_curves(
 
 def force_table(store: CampaignStore) -> pd.DataFrame:
     """Tidy table of the done points: one row per point and step (point, parameters, step,
-    depth_mm, force_mN)."""
+    depth_mm, force_mN; NaN where a FEBio step was off equilibrium)."""
     rows = []
     names = store.spec.design.parameters
     for i in store.points_with("done"):
-        r = SimulationResult.load(store.result_path(i))
+        r = _equilibrium_checked(SimulationResult.load(store.result_path(i)))
         k = np.arange(len(r.depth))
         block = pd.DataFrame({"point": i, "step": k, "depth_mm": r.depth, "force_mN": r.force})
         for j, name in enumerate(names):

@@ -55,6 +55,11 @@ def require_equilibrium(result: SimulationResult) -> SimulationResult:
     message = off_equilibrium_message(result)
     if message is None:
         return result
+    rerun = result.solver.get("rerun")
+    if rerun:
+        message += (
+            f" (after a rerun with tightened settings: {rerun['outcome']}, kept the {rerun['kept']} run)"
+        )
     raise OffEquilibriumError(message, float(result.depth[-1]), result)
 
 
@@ -99,7 +104,10 @@ def febio_version(executable: Path) -> str | None:
 
 
 class FebioSolver:
-    """Solves one :class:`ModelSpec` with FEBio 4: write, run, parse."""
+    """Solves one :class:`ModelSpec` with FEBio 4: write, run, parse, check equilibrium.
+
+    ``timeout_s`` bounds the whole solve, the rerun included (it gets the time left over).
+    """
 
     def __init__(
         self,
@@ -126,10 +134,11 @@ class FebioSolver:
 
         Steps off equilibrium make one rerun with tightened settings (module docstring)."""
         workdir = self.workdir or Path(tempfile.mkdtemp(prefix="febio-"))
-        first = self._run_once(self.settings, workdir, progress)
+        first = self._run_once(self.settings, workdir, progress, self.timeout_s)
         flagged = first.off_equilibrium_depths
         if not flagged or not self.rerun_off_equilibrium:
             return first
+        remaining = None if self.timeout_s is None else self.timeout_s - first.wall_s
         tighter = self.settings.tightened()
         old, new = asdict(self.settings), asdict(tighter)
         record: dict = {
@@ -138,8 +147,12 @@ class FebioSolver:
             "first_off_equilibrium_depths_mm": flagged,
             "first_log_file": first.solver["log_file"],
         }
+        if remaining is not None and remaining <= 0:
+            record |= {"outcome": f"not rerun: the {self.timeout_s:g} s timeout is used up", "kept": "first"}
+            first.solver["rerun"] = record
+            return first
         try:
-            second = self._run_once(tighter, workdir / "rerun", progress)
+            second = self._run_once(tighter, workdir / "rerun", progress, remaining)
         except FebioError as exc:
             record |= {"outcome": f"rerun failed: {str(exc).splitlines()[0]}", "kept": "first"}
             first.solver["rerun"] = record
@@ -162,8 +175,10 @@ class FebioSolver:
         settings: FebSettings,
         workdir: Path,
         progress: Callable[[int, int, float], None] | None,
+        timeout_s: float | None,
     ) -> SimulationResult:
-        """Write the .feb with ``settings`` into ``workdir``, run FEBio there, read the log."""
+        """Write the .feb with ``settings`` into ``workdir``, run FEBio there (killed after
+        ``timeout_s``), read the log."""
         workdir.mkdir(parents=True, exist_ok=True)
         feb = write_feb(self.spec, workdir / "model.feb", mesh=self.mesh, settings=settings)
         log_path = feb.with_suffix(".log")
@@ -176,7 +191,7 @@ class FebioSolver:
             timed_out = False
             done = 0
             while proc.poll() is None:
-                if self.timeout_s is not None and time.perf_counter() - t0 > self.timeout_s:
+                if timeout_s is not None and time.perf_counter() - t0 > timeout_s:
                     proc.kill()
                     proc.wait()
                     timed_out = True
@@ -193,7 +208,7 @@ class FebioSolver:
             )
         log = read_febio_log(log_path)
         if timed_out or log.terminated != "normal":
-            self._fail(log, feb, wall, f"timed out after {self.timeout_s:.0f} s" if timed_out else None)
+            self._fail(log, feb, wall, f"timed out after {timeout_s:.0f} s" if timed_out else None)
         result = febio_result(
             log, self.spec.to_dict(), feb_file=feb, steps=steps, wall_s=wall, tolerance=self.tolerance
         )

@@ -19,7 +19,7 @@ import pytest
 from typer.testing import CliRunner
 
 from indentation_studio.campaign.designs import Design
-from indentation_studio.campaign.loader import load_campaign
+from indentation_studio.campaign.loader import force_table, load_campaign
 from indentation_studio.campaign.runner import run_campaign
 from indentation_studio.campaign.store import CampaignError, CampaignSpec, CampaignStore
 from indentation_studio.forward.feb_writer import FebSettings
@@ -210,6 +210,7 @@ def test_campaign_point_off_equilibrium_fails_with_the_depths(tmp_path, monkeypa
     assert summary["failed"] == 1 and summary["done"] == 0
     error = summary["failures"][0]["error"]
     assert error.startswith("OffEquilibriumError") and "at depth 5, 7.5, 12.5 mm" in error
+    assert "after a rerun with tightened settings: rerun failed" in error
     partial = SimulationResult.load(store.partial_path(0))
     assert partial.off_equilibrium_depths == [5.0, 7.5, 12.5]
     with pytest.raises(CampaignError, match="no finished points"):
@@ -231,3 +232,6 @@ def test_loader_leaves_out_points_with_nan_forces_and_rechecks_old_febio_files(t
         data = load_campaign(store.root)
     assert data.points.tolist() == [0] and sorted(data.left_out) == [1, 2]
     assert np.all(np.isfinite(data.force)) and data.force.shape == (1, 28)
+    table = force_table(store)  # the export shows the old file's 12.5 mm as NaN too
+    assert table.loc[(table.point == 2) & (table.step == 25), "force_mN"].isna().all()
+    assert table.loc[(table.point == 0) & (table.step == 25), "force_mN"].notna().all()
