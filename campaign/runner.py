@@ -5,7 +5,8 @@ Each worker solves one point single-threaded (BLAS/MKL and numba threads pinned 
 ``jobs`` processes use ``jobs`` cores) and returns its index row with the result; the parent
 writes each result file atomically as it arrives and records the row, so cluster workers need no
 access to the store. A point that fails (spec error, no convergence,
-solver error, timeout) is recorded with its reason and the campaign goes on.
+solver error, timeout, FEBio steps off equilibrium) is recorded with its reason and the campaign
+goes on; the steps it did solve are kept in ``points/<n>.partial.npz``.
 """
 
 from __future__ import annotations
@@ -57,9 +58,11 @@ def solve_point(
         with threadpool_limits(1):
             spec = ModelSpec.from_dict(model).with_material(**dict(zip(parameters, values, strict=True)))
             if solver == "febio":
-                from ..forward.febio_runner import FebioSolver
+                from ..forward.febio_runner import FebioSolver, require_equilibrium
 
-                result = FebioSolver(spec, workdir=workdir, timeout_s=timeout_s).run()
+                # steps FEBio accepted off equilibrium (after its one rerun) fail the point:
+                # a force curve with holes is no training sample (forward.febio_equilibrium)
+                result = require_equilibrium(FebioSolver(spec, workdir=workdir, timeout_s=timeout_s).run())
             else:
                 from ..forward.solver import EmbeddedSolver
 

@@ -7,6 +7,7 @@ on stdout; progress and logs go to stderr.
 from __future__ import annotations
 
 import json
+import math
 import sys
 import time
 from pathlib import Path
@@ -82,14 +83,33 @@ def simulate(
         Path | None,
         typer.Option(help="also write the whole block per step as VTU (+ .pvd) for ParaView here"),
     ] = None,
+    from_log: Annotated[
+        Path | None,
+        typer.Option(
+            help="read back this FEBio log instead of running FEBio (implies --solver febio; the model "
+            "options must be the run's; --mesh-from defaults to the .feb beside the log)"
+        ),
+    ] = None,
     as_json: JSON = False,
 ) -> None:
     """One indentation simulation (default: the paper's baseline, R = 4.77 mm, 28 x 0.5 mm).
 
     ``--solver febio`` runs the same model on FEBio 4 (FEBIO_PATH or PATH); its .feb, log and
-    plot file stay in a folder beside the result file."""
+    plot file stay in a folder beside the result file. Steps FEBio accepted off equilibrium are
+    named on stderr and their forces are NaN (null in --json)."""
+    from ..forward.febio_equilibrium import equilibrium_notes
+    from ..forward.febio_log import FebioLogError
     from ..forward.solver import EmbeddedSolver, SimulationError
 
+    if from_log is not None:
+        solver = SolverName.febio
+        if mesh_from is None and from_log.with_suffix(".feb").is_file():
+            mesh_from = from_log.with_suffix(".feb")
+        if mesh_from is None:
+            fail(
+                f"--from-log {from_log}: no {from_log.with_suffix('.feb').name} beside it; give --mesh-from",
+                as_json,
+            )
     try:
         spec = model_spec(c1, c5, kappa, radius, steps, step_size, mesh, mesh_from, substeps)
     except (SpecError, ValueError) as exc:
@@ -98,7 +118,11 @@ def simulate(
         tag = Path(mesh_from).stem if mesh_from else mesh
         out = Path("runs/simulations") / f"c1={c1:g}_c5={c5:g}_R={radius:g}_{tag}_{solver.value}.npz"
     try:
-        if solver == SolverName.febio:
+        if from_log is not None:
+            if sensitivities:
+                raise ValueError("--sensitivities needs the embedded solver")
+            engine = None  # nothing runs: the log is read back
+        elif solver == SolverName.febio:
             from ..forward.febio_runner import FebioSolver
 
             if sensitivities:
@@ -112,7 +136,11 @@ def simulate(
     with step_progress(err, f"simulate ({solver.value})", spec.protocol.steps) as bar:
         report = lambda k, n, f: bar.update(k, f"{k * step_size:.1f} mm  {f:.1f} mN")  # noqa: E731
         try:
-            if solver == SolverName.febio:
+            if from_log is not None:
+                from ..forward.febio_readback import read_febio_run
+
+                result = read_febio_run(from_log, spec)
+            elif solver == SolverName.febio:
                 result = engine.run(progress=lambda k, n, d: bar.update(k, f"{d:.2f} mm"))
             else:
                 result = engine.run(sensitivities=sensitivities, progress=report, full_field=vtu is not None)
@@ -121,7 +149,11 @@ def simulate(
                 partial = exc.partial.save(out.with_name(out.stem + ".partial.npz"))
                 err.print(f"steps completed before the failure are kept in {partial}")
             fail(str(exc), as_json)
+        except (FebioLogError, OSError) as exc:  # a log that cannot be read back names itself
+            fail(str(exc), as_json)
     path = result.save(out)
+    for note in equilibrium_notes(result):
+        err.print(f"[bold yellow]warning:[/] {note}", soft_wrap=True, highlight=False)
     pvd = None
     if vtu is not None:
         if solver == SolverName.febio:
@@ -131,7 +163,7 @@ def simulate(
         pvd = write_vtu_series(result, engine.mesh, vtu)
     payload: dict[str, Any] = {
         "depth_mm": result.depth.tolist(),
-        "force_mN": result.force.tolist(),
+        "force_mN": [float(f) if math.isfinite(f) else None for f in result.force],
         "force_is": "whole specimen (4 x quarter model)",
         "wall_s": time.perf_counter() - t0,
         "newton_iterations": result.newton_iterations,
@@ -139,6 +171,8 @@ def simulate(
         "solver": result.solver["name"],
         "mesh": result.solver.get("mesh", {"source": str(mesh_from or mesh)}),
         "vtu_series": str(pvd) if pvd else None,
+        "off_equilibrium_depths_mm": result.off_equilibrium_depths,
+        "febio_rerun": result.solver.get("rerun"),
     }
     if as_json:
         print(json.dumps(payload))
