@@ -19,6 +19,7 @@
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field
+from itertools import pairwise
 from pathlib import Path
 
 import numpy as np
@@ -109,8 +110,15 @@ def check_holds(exp: ExperimentData) -> list[HoldCheck]:
         left = abs(fit.amplitude) * np.exp(-fit.rate * span)
         out.append(
             HoldCheck(
-                int(k), len(t), span, fit.f_inf, fit.f_inf_std, fit.amplitude, 1.0 / fit.rate,
-                100.0 * left / abs(fit.f_inf), float(np.sqrt(np.mean((f - model) ** 2))),
+                int(k),
+                len(t),
+                span,
+                fit.f_inf,
+                fit.f_inf_std,
+                fit.amplitude,
+                1.0 / fit.rate,
+                100.0 * left / abs(fit.f_inf),
+                float(np.sqrt(np.mean((f - model) ** 2))),
             )
         )
     return out
@@ -146,7 +154,10 @@ def _coverage(exp: ExperimentData, dic: RegisteredDIC) -> list[StepCoverage]:
         d = exp.step_size * k
         out.append(
             StepCoverage(
-                k, d, int(ok.sum()), float(ok.sum() / max(counts.max(), 1)),
+                k,
+                d,
+                int(ok.sum()),
+                float(ok.sum() / max(counts.max(), 1)),
                 float(np.sqrt(max(2 * exp.radius * d - d * d, 0.0))),
                 float(r[ok].min()) if ok.any() else float("nan"),
                 float(r[ok].max()) if ok.any() else float("nan"),
@@ -182,7 +193,7 @@ def check_experiment(exp: ExperimentData | str | Path, mesh: str = "default") ->
                 f"step {h.step}: the hold has not relaxed: the force still carries {h.unrelaxed_pct:.2g} % of f_inf "
                 f"in its transient after {h.hold_s:.3g} s (tau = {h.tau_s:.3g} s); eq. 9 extrapolates f_inf"
             )
-    for a, b in zip(holds[:-1], holds[1:], strict=True):
+    for a, b in pairwise(holds):
         if b.f_inf_mN <= a.f_inf_mN:
             warnings.append(
                 f"step {b.step}: f_inf = {b.f_inf_mN:.4g} mN is not above step {a.step}'s {a.f_inf_mN:.4g} mN "

@@ -45,7 +45,7 @@ class ForceSource:
     holds are found: :func:`.load_frame.find_holds`) or a ``force_csv`` in the format's hold form."""
 
     load_frame: Path | None = None
-    columns: LoadFrameColumns = LoadFrameColumns()
+    columns: LoadFrameColumns = field(default_factory=LoadFrameColumns)
     contact_position_mm: float | None = None
     position_sign: float | None = None
     force_sign: float | None = None
@@ -129,7 +129,8 @@ def read_indenter_points(source: IndenterSource) -> np.ndarray:
     for name in source.columns:
         header = find_column(table, name, path)
         cols.append(
-            numeric_column(table, header, path, False) * resolve_unit(header, source.length_unit, "length", str(path))
+            numeric_column(table, header, path, False)
+            * resolve_unit(header, source.length_unit, "length", str(path))
         )
     return np.column_stack(cols)
 
@@ -154,11 +155,15 @@ def _frame_times(dic: DICSeries, choice: FrameChoice) -> np.ndarray | None:
     return np.array([lookup[int(f)] for f in dic.frame_ids])
 
 
-def _forces(protocol: ProtocolInfo, source: ForceSource) -> tuple[pd.DataFrame, np.ndarray | None, list, float]:
+def _forces(
+    protocol: ProtocolInfo, source: ForceSource
+) -> tuple[pd.DataFrame, np.ndarray | None, list, float]:
     """The hold readings (step, time_s, force_mN), the hold windows on the record's clock (or None)
     the holds as dicts and the tare."""
     if (source.load_frame is None) == (source.force_csv is None):
-        raise ExperimentDataError("give the force as either a load-frame record or a force.csv, not both or neither")
+        raise ExperimentDataError(
+            "give the force as either a load-frame record or a force.csv, not both or neither"
+        )
     if source.force_csv is not None:
         return read_table(Path(source.force_csv)), None, [], 0.0
     record = read_load_frame(source.load_frame, source.columns)
@@ -204,7 +209,9 @@ def write_experiment_folder(
     try:
         atomic_write(tmp / "force.csv", force[["step", "time_s", "force_mN"]].to_csv(index=False))
         atomic_write(tmp / "dic.npz", lambda p: _save_npz(p, xyz=xyz, u=u))
-        atomic_write(tmp / "indenter.csv", pd.DataFrame(indenter_xyz, columns=["x", "y", "z"]).to_csv(index=False))
+        atomic_write(
+            tmp / "indenter.csv", pd.DataFrame(indenter_xyz, columns=["x", "y", "z"]).to_csv(index=False)
+        )
         atomic_write_json(tmp / "experiment.json", meta)
         try:
             load_experiment(tmp)
@@ -268,8 +275,15 @@ def import_experiment(
     }
     out = write_experiment_folder(Path(out_dir), meta, table, xyz, u, indenter_xyz, overwrite)
     return ImportResult(
-        out, dic.source, len(xyz), frame_ids, np.isfinite(u).all(axis=2).sum(axis=1).tolist(),
-        len(indenter_xyz), holds, tare, list(dic.notes),
+        out,
+        dic.source,
+        len(xyz),
+        frame_ids,
+        np.isfinite(u).all(axis=2).sum(axis=1).tolist(),
+        len(indenter_xyz),
+        holds,
+        tare,
+        list(dic.notes),
     )
 
 

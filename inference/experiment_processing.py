@@ -227,9 +227,7 @@ def dic_to_nodes(
     return out, measured
 
 
-def experiment_objective(
-    exp: ExperimentData, top_xyz: np.ndarray, reading: str = "paper", excluded_steps=()
-):
+def experiment_objective(exp: ExperimentData, top_xyz: np.ndarray, reading: str = "paper", excluded_steps=()):
     """The objective (eq. 4, 5) of a measured experiment against a model with top nodes
     ``top_xyz``: static forces from eq. 9, DIC registered and interpolated at the nodes, nodes
     without data obscured; the steps of ``exp.excluded_steps`` and ``excluded_steps`` (1..N) left

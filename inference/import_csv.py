@@ -50,7 +50,9 @@ class CSVMapping:
         if missing:
             raise ExperimentDataError(f"column mapping: no column given for {', '.join(missing)}")
         if self.positions not in ("reference", "current"):
-            raise ExperimentDataError(f"column mapping: positions must be reference or current, got {self.positions!r}")
+            raise ExperimentDataError(
+                f"column mapping: positions must be reference or current, got {self.positions!r}"
+            )
 
     @classmethod
     def parse(cls, text: str, **kwargs) -> CSVMapping:
@@ -85,7 +87,10 @@ def _frame_table(table: pd.DataFrame, path: Path, mapping: CSVMapping, max_sigma
     ids = None
     if "id" in cols:
         ids = pd.MultiIndex.from_arrays(
-            [numeric_column(table, find_column(table, c.strip(), path, "id"), path, False) for c in cols["id"].split(",")]
+            [
+                numeric_column(table, find_column(table, c.strip(), path, "id"), path, False)
+                for c in cols["id"].split(",")
+            ]
         )
         dup = ids.duplicated()
         if dup.any():
@@ -118,7 +123,9 @@ def read_dic_csv(
         names = [p.name for p in files]
     else:
         if "frame" not in mapping.columns:
-            raise ExperimentDataError(f"{source}: one file holds every frame only with a 'frame' column mapped")
+            raise ExperimentDataError(
+                f"{source}: one file holds every frame only with a 'frame' column mapped"
+            )
         table = read_table(source)
         fcol = find_column(table, mapping.columns["frame"], source, "frame")
         fvals = numeric_column(table, fcol, source, False)

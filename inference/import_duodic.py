@@ -33,8 +33,9 @@ def _cells(value, name: str, path: Path) -> list[np.ndarray]:
     if isinstance(value, np.ndarray) and value.dtype != object:
         return [np.asarray(value, float)]
     if isinstance(value, np.ndarray | list | tuple):
+        items = list(value) if isinstance(value, list | tuple) else list(value.ravel())
         out = []
-        for i, v in enumerate(np.ravel(np.asarray(value, dtype=object))):
+        for i, v in enumerate(items):
             try:
                 out.append(np.asarray(v, float))
             except (TypeError, ValueError) as exc:
@@ -72,6 +73,7 @@ def read_duodic(
         content = read_mat(str(path))
     except Exception as exc:  # scipy and h5py raise several types for files that are not .mat
         raise ExperimentDataError(f"{path}: not a readable MATLAB file ({exc})") from exc
+    content = {k: v for k, v in content.items() if not k.startswith("__")}  # scipy's header entries
     names = [variable] if variable else [v for v in VARIABLES if v in content]
     if variable and variable not in content:
         raise ExperimentDataError(f"{path}: no variable '{variable}' (has {', '.join(sorted(content))})")
@@ -118,6 +120,11 @@ def read_duodic(
     dropped = int((~seen).sum())
     notes = [f"{dropped} points not reconstructed in the reference frame dropped"] if dropped else []
     return DICSeries(
-        str(path), xyz[seen], u[:, seen], np.arange(len(points)), [f"{name}.Points3D{{{i + 1}}}" for i in range(len(points))],
-        None, notes,
+        str(path),
+        xyz[seen],
+        u[:, seen],
+        np.arange(len(points)),
+        [f"{name}.Points3D{{{i + 1}}}" for i in range(len(points))],
+        None,
+        notes,
     )

@@ -48,12 +48,17 @@ class MatchIDColumns:
 def _read_frame(path: Path, cols: MatchIDColumns, length_unit: str | None, max_sigma: float | None):
     table = read_table(path)
     ids = np.column_stack(
-        [numeric_column(table, find_column(table, c, path, "point id"), path, False) for c in (cols.image_x, cols.image_y)]
+        [
+            numeric_column(table, find_column(table, c, path, "point id"), path, False)
+            for c in (cols.image_x, cols.image_y)
+        ]
     )
     values = []
     for name in (cols.x, cols.y, cols.z, cols.ux, cols.uy, cols.uz):
         header = find_column(table, name, path)
-        values.append(numeric_column(table, header, path) * resolve_unit(header, length_unit, "length", str(path)))
+        values.append(
+            numeric_column(table, header, path) * resolve_unit(header, length_unit, "length", str(path))
+        )
     coor, disp = np.column_stack(values[:3]), np.column_stack(values[3:])
     ok = np.isfinite(coor).all(axis=1) & np.isfinite(disp).all(axis=1)
     if max_sigma is not None:
@@ -111,9 +116,11 @@ def read_matchid(
     if not allow_gaps:
         require_consecutive_frames(str(folder), ids, [p.name for p in files])
     # every point correlated in some image, keyed by its reference subset position
-    all_keys = pd.MultiIndex.from_arrays(
-        np.concatenate([f[1] for f in frames]).T, names=["image_x", "image_y"]
-    ).unique().sort_values()
+    all_keys = (
+        pd.MultiIndex.from_arrays(np.concatenate([f[1] for f in frames]).T, names=["image_x", "image_y"])
+        .unique()
+        .sort_values()
+    )
     n = len(all_keys)
     xyz = np.full((n, 3), np.nan)
     u = np.full((len(frames), n, 3), np.nan)

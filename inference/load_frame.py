@@ -4,7 +4,8 @@ protocol, each assigned its step and fitted with eq. 9 (paper 2.7).
 The stage moves by one step, stops, and holds while the force relaxes; the balance or load cell
 reads all along. A reading belongs to a hold when the depth (position from the contact position,
 signed so that it grows into the specimen) sits within ``level_tol`` step sizes of a whole number
-k of steps; a run of such readings at one k lasting at least ``min_hold_s`` is step k's hold.
+k of steps; a run of such readings at one k lasting at least ``min_hold_s`` and standing still
+(its depth spanning at most half that tolerance) is step k's hold.
 A run that stands still elsewhere (off every level) is a slipped step and an error naming its
 rows; so are a hold beyond the protocol, a step held twice, and a count of holds that differs from
 the protocol's steps (both counts named). The readings before step 1 (depth 0) tare the force
@@ -25,6 +26,7 @@ from .hold_checks import check_hold_forces
 from .table_columns import find_column, numeric_column, read_table
 from .units import resolve_unit
 
+_OFF = -(10**9)  # the label of a reading off every level
 _TIME_NAMES = ("time", "t", "elapsed")
 _POSITION_NAMES = ("position", "pos", "displacement", "disp", "depth", "extension", "z", "stage")
 _FORCE_NAMES = ("force", "load", "f", "weight", "mass", "reading")
@@ -99,7 +101,9 @@ def read_load_frame(path: str | Path, columns: LoadFrameColumns = LoadFrameColum
     p = numeric_column(table, p_col, path, False) * resolve_unit(
         p_col, columns.position_unit, "length", str(path)
     )
-    f = numeric_column(table, f_col, path, False) * resolve_unit(f_col, columns.force_unit, "force", str(path))
+    f = numeric_column(table, f_col, path, False) * resolve_unit(
+        f_col, columns.force_unit, "force", str(path)
+    )
     back = np.flatnonzero(np.diff(t) <= 0)
     if back.size:
         raise ExperimentDataError(
@@ -148,24 +152,35 @@ def find_holds(
     where = str(record.path)
     p0 = float(record.position_mm[0] if contact_position_mm is None else contact_position_mm)
     excursion = record.position_mm - p0
-    sign = float(position_sign if position_sign is not None else np.sign(excursion[np.argmax(np.abs(excursion))]))
+    sign = float(
+        position_sign if position_sign is not None else np.sign(excursion[np.argmax(np.abs(excursion))])
+    )
     if sign == 0:
         raise ExperimentDataError(f"{where}: the position never changes: no hold found")
     depth = sign * excursion
     level = np.rint(depth / step_size)
     on_level = np.abs(depth - level * step_size) <= level_tol * step_size
-    labels = np.where(on_level, level, -1).astype(int)
+    labels = np.where(on_level, level, _OFF).astype(np.int64)
     t = record.time_s
+    still = 0.5 * level_tol * step_size  # a hold stands still: its depth spans no more than this
     runs = [
-        (k, a, b) for k, a, b in _runs(labels) if t[b] - t[a] >= min_hold_s and (b - a + 1) >= 4
+        (k, a, b)
+        for k, a, b in _runs(labels)
+        if t[b] - t[a] >= min_hold_s and (b - a + 1) >= 4 and (k == _OFF or np.ptp(depth[a : b + 1]) <= still)
     ]
     # a stretch that stands still off every level: a step that slipped or stopped short
-    for k, a, b in runs:
-        if k == -1 and np.ptp(depth[a : b + 1]) <= level_tol * step_size:
+    for k, a0, b0 in _runs(labels):
+        if k != _OFF:
+            continue
+        moving = (np.abs(np.diff(depth[a0 : b0 + 1])) > still).astype(int)
+        pieces = [(a0 + i, a0 + j + 1) for m, i, j in _runs(moving) if m == 0] if moving.size else []
+        for a, b in pieces:
             d = float(np.median(depth[a : b + 1]))
+            if t[b] - t[a] < min_hold_s or np.ptp(depth[a : b + 1]) > still or not 0 < d < steps * step_size:
+                continue
             raise ExperimentDataError(
-                f"{where}: rows {a + 2}..{b + 2} (t = {t[a]:g} .. {t[b]:g} s) hold at depth {d:.4g} mm, between steps "
-                f"{int(d // step_size)} and {int(d // step_size) + 1} of {step_size:g} mm: a slipped step?"
+                f"{where}: rows {a + 2}..{b + 2} (t = {t[a]:g} .. {t[b]:g} s) hold at depth {d:.4g} mm, between "
+                f"steps {int(d // step_size)} and {int(d // step_size) + 1} of {step_size:g} mm: a slipped step?"
             )
     level_runs = [(k, a, b) for k, a, b in runs if k >= 1]
     if not level_runs:
@@ -191,7 +206,9 @@ def find_holds(
             f"{', '.join(map(str, missing[:10]))})"
         )
     before = [(a, b) for k, a, b in runs if k == 0 and b < level_runs[0][1]]
-    tare_mN = float(np.median(record.force_mN[before[-1][0] : before[-1][1] + 1])) if (tare and before) else 0.0
+    tare_mN = (
+        float(np.median(record.force_mN[before[-1][0] : before[-1][1] + 1])) if (tare and before) else 0.0
+    )
     f_all = record.force_mN - tare_mN
     _, a, b = level_runs[-1]
     fsign = float(force_sign if force_sign is not None else np.sign(np.median(f_all[a : b + 1])) or 1.0)
@@ -205,12 +222,27 @@ def find_holds(
                 raise ExperimentDataError(f"{where}: step {k} (rows {a + 2}..{b + 2}): {exc}") from None
             fit = RelaxationFit(np.nan, np.nan, np.nan, np.nan)
         holds.append(
-            Hold(k, a + 2, b + 2, float(t[a]), float(t[b]), float(np.median(depth[a : b + 1])), b - a + 1,
-                 fit.f_inf, fit.f_inf_std, fit.amplitude, fit.rate)
+            Hold(
+                k,
+                a + 2,
+                b + 2,
+                float(t[a]),
+                float(t[b]),
+                float(np.median(depth[a : b + 1])),
+                b - a + 1,
+                fit.f_inf,
+                fit.f_inf_std,
+                fit.amplitude,
+                fit.rate,
+            )
         )
     table = hold_force_table(record, HoldSearch(holds, tare_mN, sign, fsign, p0))
     check_hold_forces(
-        table, radius, step_size, where, rows=np.concatenate([np.arange(h.first_row, h.last_row + 1) for h in holds]),
+        table,
+        radius,
+        step_size,
+        where,
+        rows=np.concatenate([np.arange(h.first_row, h.last_row + 1) for h in holds]),
         force_column=record.columns["force"],
         excluded_steps=excluded_steps,
     )

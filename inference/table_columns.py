@@ -61,7 +61,9 @@ def numeric_column(table: pd.DataFrame, column: str, path: Path, allow_missing: 
     bad = values.isna() & ~blank
     if bad.any():
         row = int(np.flatnonzero(bad.to_numpy())[0])
-        raise ExperimentDataError(f"{path}: row {row + 2}, column '{column}': {raw.iloc[row]!r} is not a number")
+        raise ExperimentDataError(
+            f"{path}: row {row + 2}, column '{column}': {raw.iloc[row]!r} is not a number"
+        )
     if not allow_missing and blank.any():
         row = int(np.flatnonzero(blank.to_numpy())[0])
         raise ExperimentDataError(f"{path}: row {row + 2}, column '{column}': empty")

@@ -18,14 +18,18 @@ from ..inference.experiment_processing import RegisteredDIC, fit_sphere
 def hold_fits_figure(exp: ExperimentData, check: DataCheck) -> Figure:
     """Every hold's readings against time (holds placed one after another), its eq. 9 fit and
     f_inf (top), and the fit's residual (bottom)."""
-    fig, (top, bottom) = plt.subplots(2, 1, figsize=(11, 6), sharex=True, height_ratios=(3, 1.3),
-                                      constrained_layout=True)
+    fig, (top, bottom) = plt.subplots(
+        2, 1, figsize=(11, 6), sharex=True, height_ratios=(3, 1.3), constrained_layout=True
+    )
     offset = 0.0
     for h in check.holds:
         g = exp.force[exp.force["step"] == h.step]
         t, f = g["time_s"].to_numpy(float), g["force_mN"].to_numpy(float)
         tt = np.linspace(t.min(), t.max(), 60)
-        model = lambda x, h=h, t0=t.min(): h.amplitude_mN * np.exp(-(x - t0) / h.tau_s) + h.f_inf_mN  # noqa: E731
+
+        def model(x: np.ndarray, h=h, t0: float = float(t.min())) -> np.ndarray:
+            return h.amplitude_mN * np.exp(-(x - t0) / h.tau_s) + h.f_inf_mN
+
         colour = "C0" if h.step % 2 else "C1"
         top.plot(offset + t, f, ".", ms=2.5, color=colour)
         top.plot(offset + tt, model(tt), "-", lw=1, color="k")
@@ -33,8 +37,14 @@ def hold_fits_figure(exp: ExperimentData, check: DataCheck) -> Figure:
         bottom.plot(offset + t, f - model(t), ".", ms=2.5, color=colour)
         offset += t.max() - t.min() + 0.15 * max(t.max() - t.min(), 1.0)
     for k in check.excluded_steps:
-        top.annotate(f"step {k} excluded", xy=(0.01, 0.95 - 0.05 * check.excluded_steps.index(k)),
-                     xycoords="axes fraction", color="C3", fontsize=8, va="top")
+        top.annotate(
+            f"step {k} excluded",
+            xy=(0.01, 0.95 - 0.05 * check.excluded_steps.index(k)),
+            xycoords="axes fraction",
+            color="C3",
+            fontsize=8,
+            va="top",
+        )
     top.plot([], [], "k-", label="eq. 9 fit")
     top.plot([], [], "--", color="C3", label=r"$f_\infty$")
     top.set_ylabel("force (mN)")
@@ -58,13 +68,30 @@ def dic_coverage_figure(exp: ExperimentData, check: DataCheck, dic: RegisteredDI
     for j, k in enumerate(steps):
         ax = fig.add_subplot(grid[0, j])
         ok = np.isfinite(dic.u[k - 1]).all(axis=1)
-        sc = ax.scatter(dic.xyz[ok, 0], dic.xyz[ok, 1], c=dic.u[k - 1, ok, 2], s=1.5, cmap="viridis",
-                        vmin=-vmax, vmax=0.2 * vmax)
+        sc = ax.scatter(
+            dic.xyz[ok, 0],
+            dic.xyz[ok, 1],
+            c=dic.u[k - 1, ok, 2],
+            s=1.5,
+            cmap="viridis",
+            vmin=-vmax,
+            vmax=0.2 * vmax,
+        )
         c = check.coverage[k - 1]
-        ax.plot(c.shadow_radius_mm * np.cos(phi), c.shadow_radius_mm * np.sin(phi), "r-", lw=1,
-                label=f"contact radius {c.shadow_radius_mm:.2f} mm")
-        ax.plot(check.field_of_view_mm * np.cos(phi), check.field_of_view_mm * np.sin(phi), "k--", lw=0.8,
-                label=f"field of view {check.field_of_view_mm:.1f} mm")
+        ax.plot(
+            c.shadow_radius_mm * np.cos(phi),
+            c.shadow_radius_mm * np.sin(phi),
+            "r-",
+            lw=1,
+            label=f"contact radius {c.shadow_radius_mm:.2f} mm",
+        )
+        ax.plot(
+            check.field_of_view_mm * np.cos(phi),
+            check.field_of_view_mm * np.sin(phi),
+            "k--",
+            lw=0.8,
+            label=f"field of view {check.field_of_view_mm:.1f} mm",
+        )
         ax.set_aspect("equal")
         ax.set_title(f"step {k} ({c.depth_mm:g} mm): {c.points} points", fontsize=9)
         ax.set_xlabel("x (mm)")
@@ -74,7 +101,9 @@ def dic_coverage_figure(exp: ExperimentData, check: DataCheck, dic: RegisteredDI
     fig.colorbar(sc, ax=fig.axes, shrink=0.6, label="uz (mm)", location="right")
     ax = fig.add_subplot(grid[1, :])
     k = [c.step for c in check.coverage]
-    ax.bar(k, [c.points for c in check.coverage], color=["C3" if s in check.excluded_steps else "C0" for s in k])
+    ax.bar(
+        k, [c.points for c in check.coverage], color=["C3" if s in check.excluded_steps else "C0" for s in k]
+    )
     ax.set_xlabel("step")
     ax.set_ylabel("correlated points")
     ax2 = ax.twinx()
@@ -108,7 +137,9 @@ def sphere_fit_figure(exp: ExperimentData, check: DataCheck) -> Figure:
         b.axvline(v, color="C3", ls="--", lw=1)
     b.set_xlabel("|x - c| - R (mm)")
     b.set_ylabel("points")
-    b.set_title(f"residual RMS {check.sphere_residual_rms_mm:.3g} mm; red: +- DIC noise {noise:.3g} mm", fontsize=9)
+    b.set_title(
+        f"residual RMS {check.sphere_residual_rms_mm:.3g} mm; red: +- DIC noise {noise:.3g} mm", fontsize=9
+    )
     return fig
 
 
@@ -122,9 +153,18 @@ def registration_figure(exp: ExperimentData, check: DataCheck, dic: RegisteredDI
     a.plot(o[0], o[1], "r+", ms=14, mew=2, label="indentation point")
     span = 0.5 * float(np.ptp(exp.dic_xyz[:, :2], axis=0).max())
     for angle, style, label in (
-        (check.fiber_angle_deg, "C3-", "fibers (" + ("estimated" if check.fiber_angle_estimated else "declared")
-         + f") {check.fiber_angle_deg:.1f} deg"),
-        (check.fiber_angle_from_strain_deg, "C2--", f"strain field {check.fiber_angle_from_strain_deg or 0:.1f} deg"),
+        (
+            check.fiber_angle_deg,
+            "C3-",
+            "fibers ("
+            + ("estimated" if check.fiber_angle_estimated else "declared")
+            + f") {check.fiber_angle_deg:.1f} deg",
+        ),
+        (
+            check.fiber_angle_from_strain_deg,
+            "C2--",
+            f"strain field {check.fiber_angle_from_strain_deg or 0:.1f} deg",
+        ),
     ):
         if angle is None:
             continue

@@ -18,9 +18,15 @@ from .check_figures import dic_coverage_figure, hold_fits_figure, registration_f
 
 FIGURES = (
     ("holds.png", "Force during each hold with its eq. 9 fit and f_inf, and the fit's residual."),
-    ("coverage.png", "DIC points per step in the model frame, the indenter's contact radius and the field of view."),
+    (
+        "coverage.png",
+        "DIC points per step in the model frame, the indenter's contact radius and the field of view.",
+    ),
     ("sphere.png", "The indenter points against the fitted sphere, and the residual beside the DIC noise."),
-    ("registration.png", "The indentation point and fiber direction in the DIC frame; FE top nodes with data and obscured."),
+    (
+        "registration.png",
+        "The indentation point and fiber direction in the DIC frame; FE top nodes with data and obscured.",
+    ),
 )
 
 
@@ -43,7 +49,9 @@ def _fmt(v) -> str:
     return html.escape(f"{v:.4g}" if isinstance(v, float) else str(v))
 
 
-def write_check_report(experiment: str | Path, out_dir: str | Path | None = None, mesh: str = "default") -> dict:
+def write_check_report(
+    experiment: str | Path, out_dir: str | Path | None = None, mesh: str = "default"
+) -> dict:
     """Check an experiment folder and write ``check.json``, the figures and ``index.html`` to
     ``out_dir`` (default ``<experiment>/check``); returns the check's numbers with the paths."""
     exp = load_experiment(experiment)
@@ -80,16 +88,29 @@ def write_check_report(experiment: str | Path, out_dir: str | Path | None = None
         "<h2>Holds (eq. 9)</h2>",
         _rows(
             result["holds"],
-            [("step", "step"), ("readings", "readings"), ("hold_s", "hold s"), ("f_inf_mN", "f_inf mN"),
-             ("f_inf_std_mN", "sd mN"), ("tau_s", "tau s"), ("unrelaxed_pct", "unrelaxed %"),
-             ("residual_rms_mN", "residual RMS mN")],
+            [
+                ("step", "step"),
+                ("readings", "readings"),
+                ("hold_s", "hold s"),
+                ("f_inf_mN", "f_inf mN"),
+                ("f_inf_std_mN", "sd mN"),
+                ("tau_s", "tau s"),
+                ("unrelaxed_pct", "unrelaxed %"),
+                ("residual_rms_mN", "residual RMS mN"),
+            ],
         ),
         "<h2>DIC coverage</h2>",
         _rows(
             result["coverage"],
-            [("step", "step"), ("depth_mm", "depth mm"), ("points", "points"), ("fraction", "fraction"),
-             ("shadow_radius_mm", "contact radius mm"), ("innermost_point_mm", "innermost point mm"),
-             ("outermost_point_mm", "outermost point mm")],
+            [
+                ("step", "step"),
+                ("depth_mm", "depth mm"),
+                ("points", "points"),
+                ("fraction", "fraction"),
+                ("shadow_radius_mm", "contact radius mm"),
+                ("innermost_point_mm", "innermost point mm"),
+                ("outermost_point_mm", "outermost point mm"),
+            ],
         ),
         "<h2>Figures</h2>",
     ]
@@ -101,9 +122,13 @@ def write_check_report(experiment: str | Path, out_dir: str | Path | None = None
     page = (
         "<!doctype html><html><head><meta charset='utf-8'><title>Data check</title><style>"
         "body{font-family:system-ui,sans-serif;max-width:1150px;margin:2em auto}table{border-collapse:collapse}"
-        "td,th{border:1px solid #ccc;padding:2px 6px}</style></head><body>" + "".join(parts) + "</body></html>"
+        "td,th{border:1px solid #ccc;padding:2px 6px}</style></head><body>"
+        + "".join(parts)
+        + "</body></html>"
     )
     report = atomic_write(out / "index.html", page)
     atomic_write_json(out / "check.json", result)
-    result.update(report=str(report), check_json=str(out / "check.json"), figures=[str(out / n) for n, _ in FIGURES])
+    result.update(
+        report=str(report), check_json=str(out / "check.json"), figures=[str(out / n) for n, _ in FIGURES]
+    )
     return result

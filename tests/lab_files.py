@@ -33,7 +33,9 @@ def frames_with_reference(u_steps: np.ndarray, extra: int = 0) -> np.ndarray:
     return np.concatenate([zero, u_steps, np.repeat(zero, extra, axis=0)])
 
 
-def write_matchid(folder: Path, xyz: np.ndarray, frames_u: np.ndarray, frame_ids=None, scale: float = 1.0) -> Path:
+def write_matchid(
+    folder: Path, xyz: np.ndarray, frames_u: np.ndarray, frame_ids=None, scale: float = 1.0
+) -> Path:
     """One MatchID CSV per frame (``Image_NNNN_0.tiff.csv``); rows whose displacement is NaN are
     left out (the point was not correlated in that image); coordinates are current positions."""
     folder.mkdir(parents=True, exist_ok=True)
@@ -84,8 +86,13 @@ def write_duodic_v7(path: Path, xyz: np.ndarray, frames_u: np.ndarray, name: str
     s = duodic_struct(xyz, frames_u)
     scipy.io.savemat(
         path,
-        {name: {"Points3D": _cell(s["Points3D"]), "Disp": {"DispVec": _cell(s["Disp"]["DispVec"])},
-                "corrComb": _cell(s["corrComb"])}},
+        {
+            name: {
+                "Points3D": _cell(s["Points3D"]),
+                "Disp": {"DispVec": _cell(s["Disp"]["DispVec"])},
+                "corrComb": _cell(s["corrComb"]),
+            }
+        },
     )
     return path
 
@@ -117,7 +124,9 @@ def write_mat73(path: Path, variables: dict) -> Path:
         refs = f.create_group("#refs#")
         for name, value in variables.items():
             _h5_write(f, name, value, refs)
-    header = b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: Mon Nov 23 12:00:00 2026 HDF5 schema 1.00 ."
+    header = (
+        b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: Mon Nov 23 12:00:00 2026 HDF5 schema 1.00 ."
+    )
     with open(path, "r+b") as fh:
         fh.write(header.ljust(116, b" ") + b"\x00" * 8 + b"\x00\x02" + b"IM")
     return path
@@ -134,16 +143,31 @@ def write_vic_csv(folder: Path, xyz: np.ndarray, frames_u: np.ndarray) -> Path:
     for k, u in enumerate(frames_u):
         ok = np.isfinite(u).all(axis=1)
         table = pd.DataFrame(
-            {"X": xyz[:, 0], "Y": xyz[:, 1], "Z": xyz[:, 2], "U": np.where(ok, u[:, 0], 0.0),
-             "V": np.where(ok, u[:, 1], 0.0), "W": np.where(ok, u[:, 2], 0.0), "sigma": np.where(ok, 0.004, -1.0)}
+            {
+                "X": xyz[:, 0],
+                "Y": xyz[:, 1],
+                "Z": xyz[:, 2],
+                "U": np.where(ok, u[:, 0], 0.0),
+                "V": np.where(ok, u[:, 1], 0.0),
+                "W": np.where(ok, u[:, 2], 0.0),
+                "sigma": np.where(ok, 0.004, -1.0),
+            }
         )
         table.to_csv(folder / f"spec_{k:04d}.csv", index=False, float_format="%.10E", quoting=2)
     return folder
 
 
-def load_frame_record(force: pd.DataFrame, step_size: float, dt: float = 1.0, pre_s: float = 20.0,
-                      move_s: float = 2.0, position0: float = 37.5, newtons: bool = True,
-                      noise: float = 0.0, seed: int = 0) -> tuple[pd.DataFrame, np.ndarray]:
+def load_frame_record(
+    force: pd.DataFrame,
+    step_size: float,
+    dt: float = 1.0,
+    pre_s: float = 20.0,
+    move_s: float = 2.0,
+    position0: float = 37.5,
+    newtons: bool = True,
+    noise: float = 0.0,
+    seed: int = 0,
+) -> tuple[pd.DataFrame, np.ndarray]:
     """A continuous record (``Time [s]``, ``Position [mm]`` falling into the specimen, ``Force [N]``
     negative in compression) whose holds carry exactly the hold readings of ``force`` (step,
     time_s, force_mN); between holds the stage moves for ``move_s``. Returns the record and the
@@ -168,5 +192,11 @@ def load_frame_record(force: pd.DataFrame, step_size: float, dt: float = 1.0, pr
         now += float(g["time_s"].max()) + dt
         depth_prev = depth
     scale = 1e-3 if newtons else 1.0
-    record = pd.DataFrame({"Time [s]": t, "Position [mm]": p, ("Force [N]" if newtons else "Force [mN]"): -np.asarray(f) * scale})
+    record = pd.DataFrame(
+        {
+            "Time [s]": t,
+            "Position [mm]": p,
+            ("Force [N]" if newtons else "Force [mN]"): -np.asarray(f) * scale,
+        }
+    )
     return record, np.array(windows)
