@@ -9,7 +9,8 @@
 * the registration: the indentation point in the DIC frame and the fiber direction (given, and
   as the strain field says);
 * the FE top nodes of a mesh preset that get data and those obscured;
-* the DIC noise per direction: the robust spread of each point's displacement about a
+* the DIC noise per direction of the model frame (x, y along the fibers, z) at the deepest step
+  used: the robust spread of each point's displacement about a
   least-squares plane through its neighbours (themselves noisy, hence the leverage correction);
 * warnings with numbers: a hold that has not relaxed, a sphere-fit residual larger than the DIC
   noise, a missing or excluded step, a fitted sphere radius that is not the declared one, a
@@ -35,8 +36,9 @@ from .experiment_processing import (
     to_model_frame,
 )
 
-#: a hold whose remaining transient at its end exceeds this fraction of f_inf has not relaxed
-UNRELAXED_FRACTION = 0.01
+#: a hold whose remaining transient at its end exceeds this fraction of f_inf, and twice the
+#: standard error of f_inf, has not relaxed
+UNRELAXED_FRACTION = 0.02
 #: a fitted sphere radius this far (relative) from the declared one is warned about
 RADIUS_TOLERANCE = 0.02
 #: a step with fewer correlated points than this fraction of the best step is warned about
@@ -88,7 +90,7 @@ class DataCheck:
     nodes_obscured: int
     node_xy: list[list[float]] = field(repr=False, default_factory=list)
     node_measured: list[bool] = field(repr=False, default_factory=list)
-    dic_noise_mm: list[float] = field(default_factory=list)  # ux, uy, uz
+    dic_noise_mm: list[float] = field(default_factory=list)  # ux, uy (along the fibers), uz
     warnings: list[str] = field(default_factory=list)
 
     def to_dict(self) -> dict:
@@ -117,7 +119,7 @@ def check_holds(exp: ExperimentData) -> list[HoldCheck]:
                 fit.f_inf_std,
                 fit.amplitude,
                 1.0 / fit.rate,
-                100.0 * left / abs(fit.f_inf),
+                float(100.0 * left / abs(fit.f_inf)),
                 float(np.sqrt(np.mean((f - model) ** 2))),
             )
         )
@@ -158,12 +160,18 @@ def _coverage(exp: ExperimentData, dic: RegisteredDIC) -> list[StepCoverage]:
                 d,
                 int(ok.sum()),
                 float(ok.sum() / max(counts.max(), 1)),
-                float(np.sqrt(max(2 * exp.radius * d - d * d, 0.0))),
+                contact_radius(exp.radius, d),
                 float(r[ok].min()) if ok.any() else float("nan"),
                 float(r[ok].max()) if ok.any() else float("nan"),
             )
         )
     return out
+
+
+def contact_radius(radius: float, depth: float) -> float:
+    """The radius of the circle where a sphere pressed ``depth`` into a plane meets it:
+    sqrt(2 R d - d^2), and R once the sphere is in past its equator."""
+    return float(radius if depth >= radius else np.sqrt(2.0 * radius * depth - depth * depth))
 
 
 def _top_nodes(mesh: str) -> np.ndarray:
@@ -188,7 +196,7 @@ def check_experiment(exp: ExperimentData | str | Path, mesh: str = "default") ->
         )
     holds = check_holds(exp)
     for h in holds:
-        if h.unrelaxed_pct > 100 * UNRELAXED_FRACTION:
+        if h.unrelaxed_pct > 100 * max(UNRELAXED_FRACTION, 2 * h.f_inf_std_mN / abs(h.f_inf_mN)):
             warnings.append(
                 f"step {h.step}: the hold has not relaxed: the force still carries {h.unrelaxed_pct:.2g} % of f_inf "
                 f"in its transient after {h.hold_s:.3g} s (tau = {h.tau_s:.3g} s); eq. 9 extrapolates f_inf"
@@ -223,7 +231,7 @@ def check_experiment(exp: ExperimentData | str | Path, mesh: str = "default") ->
                 f"{strain_angle:.3g} deg by {diff:+.3g} deg"
             )
     deepest = exp.used_steps[-1] - 1
-    noise = dic_noise((exp.dic_xyz - dic.origin)[:, :2], exp.dic_u[deepest])
+    noise = dic_noise(dic.xyz[:, :2], dic.u[deepest])
     if sphere_rms > float(np.mean(noise)):
         warnings.append(
             f"the sphere fit's residual ({sphere_rms:.3g} mm RMS) is larger than the DIC noise "

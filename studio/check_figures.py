@@ -17,7 +17,7 @@ from ..inference.experiment_processing import RegisteredDIC, fit_sphere
 
 def hold_fits_figure(exp: ExperimentData, check: DataCheck) -> Figure:
     """Every hold's readings against time (holds placed one after another), its eq. 9 fit and
-    f_inf (top), and the fit's residual (bottom)."""
+    f_inf (top), and the fit's residual in percent of f_inf (bottom)."""
     fig, (top, bottom) = plt.subplots(
         2, 1, figsize=(11, 6), sharex=True, height_ratios=(3, 1.3), constrained_layout=True
     )
@@ -34,7 +34,7 @@ def hold_fits_figure(exp: ExperimentData, check: DataCheck) -> Figure:
         top.plot(offset + t, f, ".", ms=2.5, color=colour)
         top.plot(offset + tt, model(tt), "-", lw=1, color="k")
         top.plot([offset + t.min(), offset + t.max()], [h.f_inf_mN] * 2, "--", lw=0.8, color="C3")
-        bottom.plot(offset + t, f - model(t), ".", ms=2.5, color=colour)
+        bottom.plot(offset + t, 100.0 * (f - model(t)) / abs(h.f_inf_mN), ".", ms=2.5, color=colour)
         offset += t.max() - t.min() + 0.15 * max(t.max() - t.min(), 1.0)
     for k in check.excluded_steps:
         top.annotate(
@@ -51,7 +51,7 @@ def hold_fits_figure(exp: ExperimentData, check: DataCheck) -> Figure:
     top.set_title("force during each hold (holds placed end to end), eq. 9 fit and static force")
     top.legend(fontsize=8, loc="upper left")
     bottom.axhline(0.0, color="k", lw=0.6)
-    bottom.set_ylabel("residual (mN)")
+    bottom.set_ylabel(r"residual (% of $f_\infty$)")
     bottom.set_xlabel("time within the holds, placed end to end (s)")
     return fig
 
@@ -65,8 +65,10 @@ def dic_coverage_figure(exp: ExperimentData, check: DataCheck, dic: RegisteredDI
     finite = np.isfinite(dic.u[..., 2])
     vmax = float(np.nanmax(np.abs(dic.u[..., 2]))) if finite.any() else 1.0
     phi = np.linspace(0, 2 * np.pi, 200)
+    maps = []
     for j, k in enumerate(steps):
         ax = fig.add_subplot(grid[0, j])
+        maps.append(ax)
         ok = np.isfinite(dic.u[k - 1]).all(axis=1)
         sc = ax.scatter(
             dic.xyz[ok, 0],
@@ -98,7 +100,7 @@ def dic_coverage_figure(exp: ExperimentData, check: DataCheck, dic: RegisteredDI
         if j == 0:
             ax.set_ylabel("y, along the fibers (mm)")
         ax.legend(fontsize=6, loc="lower left")
-    fig.colorbar(sc, ax=fig.axes, shrink=0.6, label="uz (mm)", location="right")
+    fig.colorbar(sc, ax=maps, shrink=0.8, label="uz (mm)", location="right")
     ax = fig.add_subplot(grid[1, :])
     k = [c.step for c in check.coverage]
     ax.bar(

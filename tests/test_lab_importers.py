@@ -336,3 +336,100 @@ def test_one_bad_hold_in_force_csv_is_named_and_can_be_excluded(lab, tmp_path):
     pred = lab["model"].predict(TRUE)
     np.testing.assert_allclose(objective.residuals(pred, ETA), by_argument.residuals(pred, ETA), rtol=1e-12)
     assert by_argument.residuals(pred, ETA).shape[1] == 3 * (1 + 3 * int(by_argument.measured.sum()))
+
+
+# ------------------------------------------------------------------ the CLI and the data check
+
+
+def _cli(args: list[str]) -> dict:
+    from typer.testing import CliRunner
+
+    from indentation_studio.studio.cli import app
+
+    res = CliRunner().invoke(app, [*args, "--json"])
+    return json.loads(res.stdout.strip().splitlines()[-1]) | {"exit_code": res.exit_code}
+
+
+def test_cli_import_and_check_of_an_imported_experiment(lab, tmp_path):
+    root = lab["root"]
+    common = ["--radius", "4.77", "--step-size", "0.5", "--steps", "4", "--fiber-angle", "60"]
+    common += ["--indenter", str(lab["studio"] / "indenter.csv"), "--indenter-unit", "mm"]
+    out = _cli(
+        [
+            "import",
+            "matchid",
+            "--dic",
+            str(root / "matchid"),
+            "--out",
+            str(tmp_path / "e"),
+            *common,
+            "--load-frame",
+            str(root / "record.csv"),
+            "--frame-times",
+            str(root / "frame_times.csv"),
+        ]
+    )
+    assert out["exit_code"] == 0 and out["frames"] == [2, 4, 6, 8] and len(out["holds"]) == 4
+    again = _cli(
+        [
+            "import",
+            "matchid",
+            "--dic",
+            str(root / "matchid"),
+            "--out",
+            str(tmp_path / "e"),
+            *common,
+            "--load-frame",
+            str(root / "record.csv"),
+            "--frames",
+            "2:8:2",
+        ]
+    )
+    assert again["exit_code"] == 1 and "exists and is not empty" in again["error"]
+    check = _cli(["check", "--experiment", str(tmp_path / "e")])
+    assert check["exit_code"] == 0 and check["warnings"] == []
+    meta = json.loads((lab["studio"] / "experiment.json").read_text())["synthetic"]
+    np.testing.assert_allclose(check["indentation_point_mm"], meta["frame_offset"], atol=0.01)
+    assert (
+        check["sphere_radius_mm"] == pytest.approx(4.77, abs=0.01) and check["sphere_residual_rms_mm"] < 0.003
+    )
+    # the noise the synthetic experiment added: 2 % of max |u| per direction of the model frame
+    from indentation_studio.inference.experiment_processing import to_model_frame
+
+    truth = 0.02 * np.nanmax(np.abs(to_model_frame(lab["exp"]).u), axis=(0, 1))
+    np.testing.assert_allclose(check["dic_noise_mm"], truth, rtol=0.2)
+    assert [c["points"] for c in check["coverage"]] == out["points_per_step"]
+    assert 0 < check["nodes_with_data"] < check["nodes"] == 121
+    for png in check["figures"]:
+        assert Path(png).stat().st_size > 10_000
+    assert "Data check" in Path(check["report"]).read_text()
+
+
+def test_data_check_warns_with_numbers(lab, tmp_path):
+    from indentation_studio.inference.data_check import check_experiment
+
+    exp_dir = tmp_path / "e"
+    shutil.copytree(lab["studio"], exp_dir)
+    force = pd.read_csv(exp_dir / "force.csv")
+    slow = force.step == 2  # a hold that has not relaxed: tau 60 s over a 30 s hold
+    f_inf = force.loc[slow, "force_mN"].iloc[-1]
+    force.loc[slow, "force_mN"] = f_inf * (1.0 + 0.4 * np.exp(-force.loc[slow, "time_s"] / 60.0))
+    force.to_csv(exp_dir / "force.csv", index=False)
+    indenter = pd.read_csv(exp_dir / "indenter.csv")
+    indenter += 0.3 * np.random.default_rng(2).standard_normal(indenter.shape)  # not on the sphere
+    indenter.to_csv(exp_dir / "indenter.csv", index=False)
+    with np.load(exp_dir / "dic.npz") as z:
+        xyz, u = z["xyz"], z["u"].copy()
+    u[3] = np.nan  # the last step's DIC frame lost ...
+    np.savez(exp_dir / "dic.npz", xyz=xyz, u=u)
+    meta = json.loads((exp_dir / "experiment.json").read_text())
+    meta["excluded_steps"] = [4]  # ... and the step left out
+    (exp_dir / "experiment.json").write_text(json.dumps(meta))
+    check = check_experiment(exp_dir)
+    text = "\n".join(check.warnings)
+    assert "step 4 is excluded from the fit (has force readings, no DIC points)" in text
+    hold2 = check.holds[1]
+    assert hold2.tau_s == pytest.approx(60.0, rel=0.05) and hold2.unrelaxed_pct > 10
+    assert f"step 2: the hold has not relaxed: the force still carries {hold2.unrelaxed_pct:.2g} %" in text
+    assert check.sphere_residual_rms_mm > 0.2 and "sphere fit's residual" in text
+    assert [h.step for h in check.holds] == [1, 2, 3]
