@@ -14,7 +14,8 @@
   least-squares plane through its neighbours (themselves noisy, hence the leverage correction);
 * warnings with numbers: a hold that has not relaxed, a sphere-fit residual larger than the DIC
   noise, a missing or excluded step, a fitted sphere radius that is not the declared one, a
-  force that does not grow with depth, a DIC frame with few points.
+  force that does not grow with depth, a DIC frame with few points, fewer than half the points
+  correlated at every step (the only ones the DIC-to-node interpolation uses).
 """
 
 from __future__ import annotations
@@ -84,6 +85,8 @@ class DataCheck:
     fiber_angle_estimated: bool
     fiber_angle_from_strain_deg: float | None
     field_of_view_mm: float
+    points: int
+    points_every_step: int  # correlated at every step used: the only points the processing uses
     mesh: str
     nodes: int
     nodes_with_data: int
@@ -244,6 +247,12 @@ def check_experiment(exp: ExperimentData | str | Path, mesh: str = "default") ->
             warnings.append(
                 f"step {c.step}: only {c.points} DIC points ({100 * c.fraction:.3g} % of the best step's)"
             )
+    every = int(np.isfinite(exp.dic_u[exp.used_steps - 1]).all(axis=(0, 2)).sum())
+    if every < LOW_COVERAGE * len(exp.dic_xyz):
+        warnings.append(
+            f"only {every} of {len(exp.dic_xyz)} DIC points ({100 * every / len(exp.dic_xyz):.3g} %) are correlated at "
+            "every step used, and the DIC-to-node interpolation uses only those"
+        )
     node_xy = _top_nodes(mesh)
     _, measured = dic_to_nodes(dic, node_xy, used_steps=exp.used_steps)
     r = np.hypot(dic.xyz[:, 0], dic.xyz[:, 1])
@@ -261,6 +270,8 @@ def check_experiment(exp: ExperimentData | str | Path, mesh: str = "default") ->
         fiber_angle_estimated=dic.fiber_angle_estimated,
         fiber_angle_from_strain_deg=strain_angle,
         field_of_view_mm=float(r.max()),
+        points=len(exp.dic_xyz),
+        points_every_step=every,
         mesh=mesh,
         nodes=len(node_xy),
         nodes_with_data=int(measured.sum()),

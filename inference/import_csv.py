@@ -146,7 +146,7 @@ def read_dic_csv(
                 )
         keys = None
     else:
-        keys = frames[0]["ids"].append([f["ids"] for f in frames[1:]]).unique()
+        keys = frames[0]["ids"].append([f["ids"] for f in frames[1:]]).unique().sort_values()
         n = len(keys)
     xyz = np.full((n, 3), np.nan)
     u = np.full((len(frames), n, 3), np.nan)

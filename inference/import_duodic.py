@@ -25,6 +25,22 @@ from .experiment_data import ExperimentDataError
 from .units import unit_factor
 
 VARIABLES = ("DIC3DPPresults", "DIC3D")
+#: fields DuoDIC saves beside the points that the import does not need: skipped when reading a
+#: v7.3 file (calibration objects pymatreader cannot read, the 2D results, per-face measures)
+SKIPPED_FIELDS = (
+    "stereoParams",
+    "DIC2Dinfo",
+    "FaceColors",
+    "FaceCentroids",
+    "FaceCentroids_ARBM",
+    "FaceCorrComb",
+    "FacereprojectionErrors",
+    "FaceIsoInd",
+    "reprojectionErrors",
+    "Deform",
+    "Deform_ARBM",
+    "RBM",
+)
 
 
 def _cells(value, name: str, path: Path) -> list[np.ndarray]:
@@ -70,7 +86,7 @@ def read_duodic(
         raise ExperimentDataError(f"{path}: missing file")
     scale = unit_factor(length_unit, "length", str(path))
     try:
-        content = read_mat(str(path))
+        content = read_mat(str(path), ignore_fields=list(SKIPPED_FIELDS))
     except Exception as exc:  # scipy and h5py raise several types for files that are not .mat
         raise ExperimentDataError(f"{path}: not a readable MATLAB file ({exc})") from exc
     content = {k: v for k, v in content.items() if not k.startswith("__")}  # scipy's header entries

@@ -193,8 +193,8 @@ def find_holds(
         if k > steps:
             _, a, b = level_runs[i]
             raise ExperimentDataError(
-                f"{where}: rows {a + 2}..{b + 2} hold at step {k} ({k * step_size:g} mm), beyond the protocol's "
-                f"{steps} steps"
+                f"{where}: found {len(set(held))} holds but the protocol has {steps} steps: rows {a + 2}..{b + 2} "
+                f"hold at step {k} ({k * step_size:g} mm)"
             )
         if held.count(k) > 1:
             rows = [f"{a + 2}..{b + 2}" for kk, a, b in level_runs if kk == k]

@@ -433,3 +433,40 @@ def test_data_check_warns_with_numbers(lab, tmp_path):
     assert f"step 2: the hold has not relaxed: the force still carries {hold2.unrelaxed_pct:.2g} %" in text
     assert check.sphere_residual_rms_mm > 0.2 and "sphere fit's residual" in text
     assert [h.step for h in check.holds] == [1, 2, 3]
+
+
+def test_long_csv_with_ids_current_positions_and_units_in_the_header(lab, tmp_path):
+    """One long file (GOM-like: a frame column, a point id, current positions, units in the
+    headers, rows in any order, points missing from some frames) reads as the VIC-like folder."""
+    from indentation_studio.inference.import_csv import read_dic_csv
+
+    exp = lab["exp"]
+    rows = []
+    for k, u in enumerate(frames_with_reference(exp.dic_u)):
+        ok = np.isfinite(u).all(axis=1)
+        cur = exp.dic_xyz[ok] + u[ok]
+        rows.append(
+            pd.DataFrame(
+                {
+                    "Stage": k,
+                    "Point ID": np.flatnonzero(ok),
+                    "x [m]": cur[:, 0] / 1e3,
+                    "y [m]": cur[:, 1] / 1e3,
+                    "z [m]": cur[:, 2] / 1e3,
+                    "dX [m]": u[ok, 0] / 1e3,
+                    "dY [m]": u[ok, 1] / 1e3,
+                    "dZ [m]": u[ok, 2] / 1e3,
+                }
+            )
+        )
+    table = pd.concat(rows).sample(frac=1.0, random_state=3)
+    table.to_csv(tmp_path / "gom.csv", index=False, float_format="%.12e")
+    mapping = CSVMapping.parse("x=x,y=y,z=z,ux=dX,uy=dY,uz=dZ,id=Point ID,frame=Stage", positions="current")
+    dic = read_dic_csv(tmp_path / "gom.csv", mapping)
+    assert dic.frame_ids.tolist() == [0, 1, 2, 3, 4]
+    np.testing.assert_allclose(dic.xyz, exp.dic_xyz, atol=1e-9)
+    np.testing.assert_allclose(dic.u[1:], exp.dic_u, atol=1e-9)
+    with pytest.raises(
+        ExperimentDataError, match=r"gom.csv: column 'x \[m\]' states 'm' but 'mm' was declared"
+    ):
+        read_dic_csv(tmp_path / "gom.csv", CSVMapping(mapping.columns, positions="current", length_unit="mm"))
