@@ -165,7 +165,10 @@ def _forces(
             "give the force as either a load-frame record or a force.csv, not both or neither"
         )
     if source.force_csv is not None:
-        return read_table(Path(source.force_csv)), None, [], 0.0
+        path = Path(source.force_csv)
+        table = read_table(path)
+        columns = {c: find_column(table, c, path) for c in ("step", "time_s", "force_mN")}
+        return table.rename(columns={v: k for k, v in columns.items()}), None, [], 0.0
     record = read_load_frame(source.load_frame, source.columns)
     search = find_holds(
         record,

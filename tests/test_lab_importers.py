@@ -470,3 +470,24 @@ def test_long_csv_with_ids_current_positions_and_units_in_the_header(lab, tmp_pa
         ExperimentDataError, match=r"gom.csv: column 'x \[m\]' states 'm' but 'mm' was declared"
     ):
         read_dic_csv(tmp_path / "gom.csv", CSVMapping(mapping.columns, positions="current", length_unit="mm"))
+
+
+def test_force_csv_in_hold_form_needs_the_frames_named(lab, tmp_path):
+    root, studio = lab["root"], lab["studio"]
+    force = ForceSource(force_csv=studio / "force.csv")
+    indenter = IndenterSource(studio / "indenter.csv", "mm")
+    with pytest.raises(ExperimentDataError, match="name the DIC frame of every step"):
+        import_duodic(root / "duodic_v73.mat", tmp_path / "e", PROTOCOL, force, indenter, "mm")
+    _no_leftovers(tmp_path / "e")
+    import_duodic(
+        root / "duodic_v73.mat",
+        tmp_path / "e",
+        PROTOCOL,
+        force,
+        indenter,
+        "mm",
+        FrameChoice(frames=(1, 2, 3, 4)),
+    )
+    r, _ = _residuals(load_experiment(tmp_path / "e"), lab["model"], TRUE)
+    r_studio, _ = _residuals(lab["exp"], lab["model"], TRUE)
+    assert np.abs(r - r_studio).max() <= 1e-6 * np.abs(r_studio).max()
