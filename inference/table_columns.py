@@ -25,8 +25,11 @@ def read_table(path: Path) -> pd.DataFrame:
     headers stripped; an error naming the file when it cannot be read."""
     if not path.is_file():
         raise ExperimentDataError(f"{path}: missing file")
+    with open(path, encoding="utf-8", errors="replace") as fh:
+        header = fh.readline()
+    sep = max((",", ";", "\t"), key=header.count)  # the header's most frequent separator
     try:
-        table = pd.read_csv(path, sep=None, engine="python", skipinitialspace=True)
+        table = pd.read_csv(path, sep=sep, skipinitialspace=True)
     except Exception as exc:  # pandas raises several types for unreadable text
         raise ExperimentDataError(f"{path}: not a readable CSV ({exc})") from exc
     table.columns = [str(c).strip().strip('"').strip() for c in table.columns]
