@@ -75,6 +75,7 @@ class DataCheck:
     experiment: str
     steps: int
     excluded_steps: list[int]
+    missing_steps: list[int]
     holds: list[HoldCheck]
     coverage: list[StepCoverage]
     sphere_centre_mm: list[float]
@@ -186,11 +187,18 @@ def _top_nodes(mesh: str) -> np.ndarray:
 
 def check_experiment(exp: ExperimentData | str | Path, mesh: str = "default") -> DataCheck:
     """The data check of an experiment (module docstring); ``mesh`` is the preset whose top nodes
-    are matched to the DIC data."""
+    are matched to the DIC data. A folder is loaded with its missing steps left out and reported."""
     if not isinstance(exp, ExperimentData):
-        exp = load_experiment(exp)
+        exp = load_experiment(exp, exclude_missing=True)
     warnings: list[str] = []
-    for k in exp.excluded_steps:
+    for k in exp.missing_steps:
+        readings = int((exp.force["step"] == k).sum())
+        points = int(np.isfinite(exp.dic_u[k - 1]).all(axis=1).sum())
+        warnings.append(
+            f"step {k} is missing: {readings} force readings, {points} DIC points; a fit refuses the experiment "
+            "until the step is restored or listed in experiment.json's excluded_steps"
+        )
+    for k in sorted(set(exp.excluded_steps) - set(exp.missing_steps)):
         has_force = bool((exp.force["step"] == k).any())
         has_dic = bool(np.isfinite(exp.dic_u[k - 1]).all(axis=1).any())
         warnings.append(
@@ -260,6 +268,7 @@ def check_experiment(exp: ExperimentData | str | Path, mesh: str = "default") ->
         experiment=str(exp.root),
         steps=exp.steps,
         excluded_steps=list(exp.excluded_steps),
+        missing_steps=list(exp.missing_steps),
         holds=holds,
         coverage=coverage,
         sphere_centre_mm=centre.tolist(),

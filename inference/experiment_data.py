@@ -57,6 +57,7 @@ class ExperimentData:
     indenter_xyz: np.ndarray  # (points, 3)
     description: str = ""
     excluded_steps: tuple[int, ...] = ()  # steps (1..N) left out of the fit
+    missing_steps: tuple[int, ...] = ()  # of those, the ones left out for lack of data (exclude_missing)
 
     @property
     def used_steps(self) -> np.ndarray:
@@ -176,8 +177,10 @@ def _read_dic(root: Path, steps: int) -> tuple[np.ndarray, np.ndarray]:
     return xyz, u
 
 
-def load_experiment(root: str | Path) -> ExperimentData:
-    """Read and validate an experiment folder (module docstring)."""
+def load_experiment(root: str | Path, exclude_missing: bool = False) -> ExperimentData:
+    """Read and validate an experiment folder (module docstring). With ``exclude_missing`` a step
+    with fewer than 4 force readings or no correlated DIC point is left out (listed in
+    ``missing_steps``) instead of refused: the data check reports it."""
     from .hold_checks import check_hold_forces
 
     root = Path(root)
@@ -194,21 +197,33 @@ def load_experiment(root: str | Path) -> ExperimentData:
         raise ExperimentDataError(
             f"{force_path}: row {row + 2}, column 'step': step {unknown[0]} is not in 1..{steps}"
         )
+    missing: list[int] = []
     for k in range(1, steps + 1):
         if k in excluded:
             continue
         rows = force[force["step"] == k]
-        if len(rows) < 4:
+        if len(rows) < 4 and exclude_missing:
+            missing.append(k)
+        elif len(rows) < 4:
             raise ExperimentDataError(
                 f"{force_path}: step {k} has {len(rows)} force readings; the relaxation fit (eq. 9) needs at least 4"
             )
     check_hold_forces(
-        force, float(meta["radius_mm"]), float(meta["step_size_mm"]), str(force_path), excluded_steps=excluded
+        force,
+        float(meta["radius_mm"]),
+        float(meta["step_size_mm"]),
+        str(force_path),
+        excluded_steps=(*excluded, *missing),
     )
     xyz, u = _read_dic(root, steps)
     for k in range(steps):
         if k + 1 not in excluded and not np.isfinite(u[k]).all(axis=1).any():
-            raise ExperimentDataError(f"{root}: DIC step {k + 1} has no correlated point")
+            if not exclude_missing:
+                raise ExperimentDataError(f"{root}: DIC step {k + 1} has no correlated point")
+            missing.append(k + 1)
+    missing = sorted(set(missing))
+    if len(set(excluded) | set(missing)) >= steps:
+        raise ExperimentDataError(f"{root}: no step has both force readings and DIC points")
     span = float(np.ptp(xyz[:, :2], axis=0).max())
     u_max = float(np.nanmax(np.abs(u))) if np.isfinite(u).any() else 0.0
     if u_max > max(span, 1.0):
@@ -231,5 +246,6 @@ def load_experiment(root: str | Path) -> ExperimentData:
         dic_u=u,
         indenter_xyz=indenter,
         description=str(meta.get("description", "")),
-        excluded_steps=excluded,
+        excluded_steps=tuple(sorted(set(excluded) | set(missing))),
+        missing_steps=tuple(missing),
     )

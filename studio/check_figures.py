@@ -32,18 +32,26 @@ def hold_fits_figure(exp: ExperimentData, check: DataCheck) -> Figure:
 
         colour = "C0" if h.step % 2 else "C1"
         top.plot(offset + t, f, ".", ms=2.5, color=colour)
+        top.annotate(
+            str(h.step),
+            xy=(offset + t.min(), f.max()),
+            xytext=(0, 3),
+            textcoords="offset points",
+            fontsize=6,
+            color=colour,
+        )
         top.plot(offset + tt, model(tt), "-", lw=1, color="k")
         top.plot([offset + t.min(), offset + t.max()], [h.f_inf_mN] * 2, "--", lw=0.8, color="C3")
         bottom.plot(offset + t, 100.0 * (f - model(t)) / abs(h.f_inf_mN), ".", ms=2.5, color=colour)
         offset += t.max() - t.min() + 0.15 * max(t.max() - t.min(), 1.0)
-    for k in check.excluded_steps:
+    if check.excluded_steps:
         top.annotate(
-            f"step {k} excluded",
-            xy=(0.01, 0.95 - 0.05 * check.excluded_steps.index(k)),
+            "left out: step " + ", ".join(map(str, check.excluded_steps)),
+            xy=(0.99, 0.03),
             xycoords="axes fraction",
             color="C3",
-            fontsize=8,
-            va="top",
+            fontsize=9,
+            ha="right",
         )
     top.plot([], [], "k-", label="eq. 9 fit")
     top.plot([], [], "--", color="C3", label=r"$f_\infty$")

@@ -54,7 +54,7 @@ def write_check_report(
 ) -> dict:
     """Check an experiment folder and write ``check.json``, the figures and ``index.html`` to
     ``out_dir`` (default ``<experiment>/check``); returns the check's numbers with the paths."""
-    exp = load_experiment(experiment)
+    exp = load_experiment(experiment, exclude_missing=True)
     out = Path(out_dir) if out_dir is not None else exp.root / "check"
     check = check_experiment(exp, mesh)
     dic = to_model_frame(exp)

@@ -433,6 +433,14 @@ def test_data_check_warns_with_numbers(lab, tmp_path):
     assert f"step 2: the hold has not relaxed: the force still carries {hold2.unrelaxed_pct:.2g} %" in text
     assert check.sphere_residual_rms_mm > 0.2 and "sphere fit's residual" in text
     assert [h.step for h in check.holds] == [1, 2, 3]
+    # a step lost and not excluded: a fit refuses the folder, the check reports the step
+    force[force.step != 3].to_csv(exp_dir / "force.csv", index=False)
+    with pytest.raises(ExperimentDataError, match="step 3 has 0 force readings"):
+        load_experiment(exp_dir)
+    check = check_experiment(exp_dir)
+    assert check.missing_steps == [3] and [h.step for h in check.holds] == [1, 2]
+    points = int(np.isfinite(u[2]).all(axis=1).sum())
+    assert f"step 3 is missing: 0 force readings, {points} DIC points" in "\n".join(check.warnings)
 
 
 def test_long_csv_with_ids_current_positions_and_units_in_the_header(lab, tmp_path):
