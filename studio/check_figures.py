@@ -1,12 +1,9 @@
 """Figures of the data check (``indent-studio check``): each function returns a matplotlib Figure
-drawn from an experiment, its registration and its :class:`DataCheck`; the caller saves it."""
+drawn from an experiment, its registration and its :class:`DataCheck` (made without pyplot, so no
+backend or global figure state is touched); the caller saves it."""
 
 from __future__ import annotations
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.figure import Figure
 
@@ -18,9 +15,8 @@ from ..inference.experiment_processing import RegisteredDIC, fit_sphere
 def hold_fits_figure(exp: ExperimentData, check: DataCheck) -> Figure:
     """Every hold's readings against time (holds placed one after another), its eq. 9 fit and
     f_inf (top), and the fit's residual in percent of f_inf (bottom)."""
-    fig, (top, bottom) = plt.subplots(
-        2, 1, figsize=(11, 6), sharex=True, height_ratios=(3, 1.3), constrained_layout=True
-    )
+    fig = Figure(figsize=(11, 6), layout="constrained")
+    top, bottom = fig.subplots(2, 1, sharex=True, height_ratios=(3, 1.3))
     offset = 0.0
     for h in check.holds:
         g = exp.force[exp.force["step"] == h.step]
@@ -68,7 +64,7 @@ def dic_coverage_figure(exp: ExperimentData, check: DataCheck, dic: RegisteredDI
     """Correlated DIC points at four steps in the model frame, coloured by uz, with the indenter's
     shadow (contact radius) and the field of view; the points per step below."""
     steps = sorted({1, max(1, exp.steps // 3), max(1, 2 * exp.steps // 3), exp.steps})
-    fig = plt.figure(figsize=(12, 7), constrained_layout=True)
+    fig = Figure(figsize=(12, 7), layout="constrained")
     grid = fig.add_gridspec(2, len(steps), height_ratios=(2.2, 1))
     finite = np.isfinite(dic.u[..., 2])
     vmax = float(np.nanmax(np.abs(dic.u[..., 2]))) if finite.any() else 1.0
@@ -131,7 +127,8 @@ def sphere_fit_figure(exp: ExperimentData, check: DataCheck) -> Figure:
     centre, radius = fit_sphere(exp.indenter_xyz)
     rel = exp.indenter_xyz - centre
     resid = np.linalg.norm(rel, axis=1) - radius
-    fig, (a, b) = plt.subplots(1, 2, figsize=(11, 4.6), constrained_layout=True)
+    fig = Figure(figsize=(11, 4.6), layout="constrained")
+    a, b = fig.subplots(1, 2)
     lim = float(np.abs(resid).max()) or 1.0
     sc = a.scatter(rel[:, 0], rel[:, 1], c=resid, cmap="coolwarm", vmin=-lim, vmax=lim, s=8)
     phi = np.linspace(0, 2 * np.pi, 200)
@@ -157,7 +154,8 @@ def registration_figure(exp: ExperimentData, check: DataCheck, dic: RegisteredDI
     """Left: the DIC points in the DIC frame, the indentation point and the fiber direction
     (used, and from the strain field). Right: the FE top nodes of the quarter model with DIC data
     and those obscured, over the registered DIC points."""
-    fig, (a, b) = plt.subplots(1, 2, figsize=(12, 5.6), constrained_layout=True)
+    fig = Figure(figsize=(12, 5.6), layout="constrained")
+    a, b = fig.subplots(1, 2)
     a.scatter(exp.dic_xyz[:, 0], exp.dic_xyz[:, 1], s=0.5, color="0.6")
     o = dic.origin
     a.plot(o[0], o[1], "r+", ms=14, mew=2, label="indentation point")

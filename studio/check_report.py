@@ -8,8 +8,6 @@ import html
 import io
 from pathlib import Path
 
-import matplotlib.pyplot as plt
-
 from ..atomic_write import atomic_write, atomic_write_json
 from ..inference.data_check import check_experiment
 from ..inference.experiment_data import load_experiment
@@ -33,7 +31,6 @@ FIGURES = (
 def _png(fig) -> bytes:
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=110)
-    plt.close(fig)
     return buf.getvalue()
 
 
