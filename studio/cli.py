@@ -20,6 +20,7 @@ from rich.table import Table
 from ..forward.spec import SpecError
 from .campaign_cli import campaign_app
 from .design_cli import design_app
+from .import_cli import register as register_import
 from .inference_cli import register as register_inference
 from .options import (
     C1,
@@ -61,6 +62,7 @@ app.add_typer(campaign_app, name="campaign")
 app.add_typer(design_app, name="design")
 app.add_typer(surrogate_app, name="surrogate")
 register_inference(app)
+register_import(app)
 
 
 @app.command()
