@@ -17,5 +17,13 @@ __getattr__, __dir__, __all__ = lazy.attach(
         "experiment_posterior": ["ExperimentPosterior", "sample_posterior_for"],
         "confirmation": ["Confirmation", "confirm"],
         "mesh_check": ["MeshCheck", "check_mesh_at"],
+        "experiment_import": [
+            "import_dic_csv",
+            "import_duodic",
+            "import_experiment",
+            "import_load_frame",
+            "import_matchid",
+        ],
+        "data_check": ["check_experiment"],
     },
 )

@@ -67,11 +67,12 @@ def confirm(
     weights=PAPER_WEIGHTS,
     solver: str = "embedded",
     check_mesh: str | None = None,
+    exclude_steps=(),
     say: Callable[[str], None] | None = None,
 ) -> Confirmation:
     """Run the surrogate's FE model at ``theta`` (kPa) on ``solver`` (embedded or febio) and compare.
     With ``check_mesh`` (embedded only) also the finer mesh's shift of the fit and its uncertainty."""
-    inputs = prepare_fit(experiment, surrogate, weights)
+    inputs = prepare_fit(experiment, surrogate, weights, exclude_steps)
     theta = np.asarray(theta, float).reshape(-1)
     check = None
     if check_mesh is None:

@@ -48,6 +48,8 @@ class ExperimentFit:
             "fe_fit": {"evaluations": final.evaluations, "wall_s": final.wall_s} if self.refined else None,
             "fiber_angle_deg": inputs.dic.fiber_angle_deg,
             "fiber_angle_estimated": inputs.dic.fiber_angle_estimated,
+            "registration": inputs.dic.to_dict(),
+            "excluded_steps": list(inputs.objective.excluded_steps),
             "measured_nodes": int(inputs.objective.measured.sum()),
             "weights": inputs.eta.tolist(),
             "mesh_check": None if self.mesh_check is None else self.mesh_check.to_dict(self.check_mesh),
@@ -66,15 +68,17 @@ def fit_experiment(
     refine: bool = True,
     paper_stop: bool = False,
     check_mesh: str | None = None,
+    exclude_steps=(),
     say: Callable[[str], None] | None = None,
 ) -> ExperimentFit:
     """Fit (c1, c5) to a measured experiment: LM from {6, 300} kPa on the surrogate, then (``refine``)
     on the FE model the surrogate was trained on, with its exact sensitivities; eq. 6 to 8 bounds
     with s from the data. ``paper_stop`` stops as soon as F < 3e-2 (the paper's rule).
     ``check_mesh`` (a finer mesh preset) adds the mesh check at the fit: the fit carried to that
-    mesh with bounds that hold its discretisation uncertainty."""
+    mesh with bounds that hold its discretisation uncertainty. ``exclude_steps`` (1..N) are left
+    out of the fit beside those the experiment excludes; the result lists them all."""
     say = say or (lambda message: None)
-    inputs = prepare_fit(experiment, surrogate, weights)
+    inputs = prepare_fit(experiment, surrogate, weights, exclude_steps)
     f_stop = PAPER_F_STOP if paper_stop else None
     say(f"fitting on the {inputs.surrogate.kind} surrogate ...")
     first = fit_parameters(inputs.objective, inputs.surrogate, inputs.eta, f_stop=f_stop)

@@ -74,6 +74,7 @@ def sample_posterior_for(
     seed: int = 0,
     mesh_check: str | Path | None = None,
     fit: FitResult | None = None,
+    exclude_steps=(),
     say: Callable[[str], None] | None = None,
 ) -> ExperimentPosterior:
     """emcee posterior of (c1, c5) on the surrogate: log L = -F / (2 sigma^2) with sigma the fit's
@@ -81,7 +82,7 @@ def sample_posterior_for(
     walkers started at the surrogate fit (``fit``, computed when not given). ``mesh_check`` is a
     fit.json or confirm.json made with a mesh check: the samples are carried to that finer mesh."""
     say = say or (lambda message: None)
-    inputs = prepare_fit(experiment, surrogate, weights)
+    inputs = prepare_fit(experiment, surrogate, weights, exclude_steps)
     model = inputs.surrogate
     fit = fit if fit is not None else fit_parameters(inputs.objective, model, inputs.eta)
     sigma = fit.residual_sd

@@ -126,6 +126,19 @@ class RegisteredDIC:
     fiber_angle_deg: float
     fiber_angle_estimated: bool
     sphere_radius: float
+    sphere_rms: float = float("nan")  # RMS distance of the indenter points from the fitted sphere, mm
+    rotation: np.ndarray | None = None  # DIC frame -> model frame (rotation about z)
+
+    def to_dict(self) -> dict:
+        """The registration a fit used (what ``fit --json`` reports)."""
+        return {
+            "origin_mm": self.origin.tolist(),
+            "sphere_radius_mm": self.sphere_radius,
+            "sphere_fit_rms_mm": self.sphere_rms,
+            "rotation": None if self.rotation is None else self.rotation.tolist(),
+            "fiber_angle_deg": self.fiber_angle_deg,
+            "fiber_angle_estimated": self.fiber_angle_estimated,
+        }
 
 
 def to_model_frame(exp: ExperimentData) -> RegisteredDIC:
@@ -143,7 +156,8 @@ def to_model_frame(exp: ExperimentData) -> RegisteredDIC:
         else exp.fiber_angle_deg
     )
     Q = rotation_to_fibers(angle)
-    return RegisteredDIC(xyz @ Q.T, exp.dic_u @ Q.T, origin, float(angle), estimated, radius)
+    rms = float(np.sqrt(np.mean((np.linalg.norm(exp.indenter_xyz - centre, axis=1) - radius) ** 2)))
+    return RegisteredDIC(xyz @ Q.T, exp.dic_u @ Q.T, origin, float(angle), estimated, radius, rms, Q)
 
 
 def _step_mask(steps: int, used: np.ndarray) -> np.ndarray:

@@ -35,10 +35,12 @@ def prepare_fit(
     experiment: str | Path | ExperimentData,
     surrogate: str | Path | FieldSurrogate,
     weights=PAPER_WEIGHTS,
+    exclude_steps=(),
 ) -> FitInputs:
     """Load (or take) the experiment and the surrogate, check that they describe the same test
     (indenter radius, steps and depths), and build the objective (eq. 4, 5) on the surrogate's
-    top nodes. ``weights`` are eta = (force, ux, uy, uz) on the simplex."""
+    top nodes. ``weights`` are eta = (force, ux, uy, uz) on the simplex; ``exclude_steps`` (1..N)
+    are left out of the fit beside those experiment.json excludes."""
     eta = check_weights(weights)
     exp = experiment if isinstance(experiment, ExperimentData) else load_experiment(experiment)
     model = surrogate if isinstance(surrogate, FieldSurrogate) else load_surrogate(surrogate)
@@ -58,6 +60,6 @@ def prepare_fit(
             f"the experiment (R = {exp.radius:g} mm, {exp.steps} x {exp.step_size:g} mm) does not match the "
             f"surrogate's model (R = {spec.indenter.radius:g} mm, {len(model.depth)} steps to {model.depth[-1]:g} mm)"
         )
-    objective, dic = experiment_objective(exp, model.top_xyz)
+    objective, dic = experiment_objective(exp, model.top_xyz, excluded_steps=exclude_steps)
     sources = {"experiment": str(exp.root), "surrogate": label}
     return FitInputs(exp, model, spec, objective, dic, eta, sources)

@@ -17,6 +17,9 @@ EXPERIMENT = Annotated[Path, typer.Option(help="experiment folder (README: exper
 SURROGATE = Annotated[Path, typer.Option(help="a trained surrogate file (indent-studio surrogate train)")]
 WEIGHTS = Annotated[str, typer.Option(help="eta = force,ux,uy,uz on the simplex")]
 OUT = Annotated[Path | None, typer.Option(help="folder for the result files (default: <experiment>/results)")]
+EXCLUDE = Annotated[
+    str, typer.Option(help="steps (1..N, comma-separated) to leave out beside those experiment.json excludes")
+]
 CHECK_MESH = Annotated[
     str | None,
     typer.Option(
@@ -30,6 +33,10 @@ def _weights(text: str) -> list[float]:
     return [float(v) for v in text.split(",")]
 
 
+def _steps(text: str) -> list[int]:
+    return [int(v) for v in text.split(",") if v.strip()]
+
+
 def fit(
     experiment: EXPERIMENT,
     surrogate: SURROGATE,
@@ -37,6 +44,7 @@ def fit(
     refine: Annotated[bool, typer.Option(help="refine on the FE solver with exact sensitivities")] = True,
     paper_stop: Annotated[bool, typer.Option(help="stop as soon as F < 3e-2 (the paper's rule)")] = False,
     check_mesh: CHECK_MESH = None,
+    exclude_steps: EXCLUDE = "",
     out: OUT = None,
     as_json: JSON = False,
 ) -> None:
@@ -47,7 +55,14 @@ def fit(
 
     try:
         result = fit_experiment(
-            experiment, surrogate, _weights(weights), refine, paper_stop, check_mesh, say=say
+            experiment,
+            surrogate,
+            _weights(weights),
+            refine,
+            paper_stop,
+            check_mesh,
+            _steps(exclude_steps),
+            say,
         )
         path = result.save(out or Path(experiment) / "results")
     except (ValueError, OSError, RuntimeError) as exc:
@@ -56,6 +71,8 @@ def fit(
     if as_json:
         print(json.dumps(payload))
         return
+    if payload["excluded_steps"]:
+        Console().print(f"steps left out of the fit: {payload['excluded_steps']}")
     final = result.fit
     Console().print(
         f"c1 = {payload['c1']:.3f} kPa +- {payload['c1_pct']:.1f} %, c5 = {payload['c5']:.1f} kPa +- "
@@ -85,6 +102,7 @@ def posterior(
             "finer mesh (shifted by the check's shift, spread by that mesh's GCI)"
         ),
     ] = None,
+    exclude_steps: EXCLUDE = "",
     out: OUT = None,
     as_json: JSON = False,
 ) -> None:
@@ -97,7 +115,16 @@ def posterior(
     folder = out or Path(experiment) / "results"
     try:
         result = sample_posterior_for(
-            experiment, surrogate, _weights(weights), walkers, steps, seed, mesh_check, say=say
+            experiment,
+            surrogate,
+            _weights(weights),
+            walkers,
+            steps,
+            seed,
+            mesh_check,
+            None,
+            _steps(exclude_steps),
+            say,
         )
         fit_ = result.fit
         png = save_figure(
@@ -138,6 +165,7 @@ def confirm(
     weights: WEIGHTS = "0.45,0.35,0.2,0",
     solver: Annotated[str, typer.Option(help="embedded or febio")] = "embedded",
     check_mesh: CHECK_MESH = None,
+    exclude_steps: EXCLUDE = "",
     out: OUT = None,
     as_json: JSON = False,
 ) -> None:
@@ -148,7 +176,9 @@ def confirm(
     from ..inference.confirmation import confirm as confirm_fit
 
     try:
-        result = confirm_fit(experiment, surrogate, [c1, c5], _weights(weights), solver, check_mesh, say=say)
+        result = confirm_fit(
+            experiment, surrogate, [c1, c5], _weights(weights), solver, check_mesh, _steps(exclude_steps), say
+        )
         path = result.save(out or Path(experiment) / "results")
     except (ValueError, OSError, RuntimeError) as exc:
         fail(str(exc), as_json)
