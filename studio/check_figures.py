@@ -84,20 +84,11 @@ def dic_coverage_figure(exp: ExperimentData, check: DataCheck, dic: RegisteredDI
             vmax=0.2 * vmax,
         )
         c = check.coverage[k - 1]
-        ax.plot(
-            c.shadow_radius_mm * np.cos(phi),
-            c.shadow_radius_mm * np.sin(phi),
-            "r-",
-            lw=1,
-            label=f"contact radius {c.shadow_radius_mm:.2f} mm",
-        )
-        ax.plot(
-            check.field_of_view_mm * np.cos(phi),
-            check.field_of_view_mm * np.sin(phi),
-            "k--",
-            lw=0.8,
-            label=f"field of view {check.field_of_view_mm:.1f} mm",
-        )
+        for radius, style, width, label in (
+            (c.shadow_radius_mm, "r-", 1.0, f"contact radius {c.shadow_radius_mm:.2f} mm"),
+            (check.field_of_view_mm, "k--", 0.8, f"field of view {check.field_of_view_mm:.1f} mm"),
+        ):
+            ax.plot(radius * np.cos(phi), radius * np.sin(phi), style, lw=width, label=label)
         ax.set_aspect("equal")
         ax.set_title(f"step {k} ({c.depth_mm:g} mm): {c.points} points", fontsize=9)
         ax.set_xlabel("x (mm)")

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import FEBIO_BASELINE
 from typer.testing import CliRunner
 
 from indentation_studio.forward.feb_writer import indenter_surface, top_faces, write_feb
@@ -25,7 +26,7 @@ from indentation_studio.forward.mesh import preset_mesh
 from indentation_studio.forward.spec import MeshChoice, ModelSpec
 from indentation_studio.studio.cli import app
 
-BASE = Path(__file__).resolve().parents[2] / "shared" / "febio" / "baseline"
+BASE = FEBIO_BASELINE
 FEB, LOG, NPZ = BASE / "baseline.feb", BASE / "baseline.log", BASE / "baseline.npz"
 pytestmark = pytest.mark.skipif(not FEB.is_file(), reason="../shared/febio/baseline not beside the clone")
 

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import FEBIO_BASELINE
 from typer.testing import CliRunner
 
 from indentation_studio.campaign.designs import Design
@@ -36,7 +37,7 @@ from indentation_studio.forward.result import SimulationResult
 from indentation_studio.forward.spec import MeshChoice, ModelSpec
 from indentation_studio.studio.cli import app
 
-BASE = Path(__file__).resolve().parents[2] / "shared" / "febio" / "baseline"
+BASE = FEBIO_BASELINE
 FEB, LOG, NPZ = BASE / "baseline.feb", BASE / "baseline.log", BASE / "baseline.npz"
 needs_baseline = pytest.mark.skipif(
     not LOG.is_file(), reason="../shared/febio/baseline (FEBio's real run) is not beside the clone"
