@@ -43,11 +43,7 @@ class ReducedObjective:
             raise ValueError(
                 f"the objective's field is {objective.displacement.shape} but the predictor's basis is "
                 f"{field_shape} (steps, nodes, 3): they describe different models"
-            )
-        if len(objective.force) != basis.steps:
-            raise ValueError(
-                f"the objective has {len(objective.force)} force steps, the predictor's basis {basis.steps}"
-            )
+            )  # the Objective holds as many force steps as field steps
         # eq. 4a: only the steps the objective uses, in log force
         self.force_weight = float(self.eta[0])
         self.log_force_mean = np.asarray(basis.force_mean, float)[steps]
