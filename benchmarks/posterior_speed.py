@@ -13,7 +13,7 @@ seeded emcee run on both paths: wall and CPU time, the samples' largest differen
 95 % intervals; and the cost of one 16-walker evaluation of each piece. ``--paper-size-stand-in``
 adds a GP of the paper's 775 training points whose responses come from the campaign's GP (for
 its cost only, when the 775-point campaign cannot be afforded). Results go to
-runs/<campaign>/posterior-speed.json. BLAS, OpenMP and torch are held to one thread.
+runs/<campaign>/posterior-speed.json (``--out``). BLAS, OpenMP and torch are held to one thread.
 """
 
 from __future__ import annotations
@@ -50,12 +50,14 @@ TRUTH = np.array([11.0, 260.0])
 ETA = (0.45, 0.35, 0.2, 0.0)
 
 
-def surrogate_of(kind: str, campaign: str, runs_dir: Path):
-    path = runs_dir / campaign / f"surrogate-{kind}.joblib"
+def surrogate_of(kind: str, campaign: str, runs_dir: Path, pca_tol: float = 1e-3):
+    suffix = "" if pca_tol == 1e-3 else f"-pca{pca_tol:g}"
+    path = runs_dir / campaign / f"surrogate-{kind}{suffix}.joblib"
     if path.is_file():
         return load_surrogate(path), str(path), 0.0
     t0 = time.perf_counter()
-    model = make_surrogate(kind).fit(TrainingData.from_campaign(load_campaign(campaign, runs_dir)))
+    data = TrainingData.from_campaign(load_campaign(campaign, runs_dir))
+    model = make_surrogate(kind, pca_tol=pca_tol).fit(data)
     return model, str(save_surrogate(model, path)), time.perf_counter() - t0
 
 
@@ -148,6 +150,8 @@ def main() -> None:
     ap.add_argument("--walkers", type=int, default=32)
     ap.add_argument("--steps", type=int, default=5000)
     ap.add_argument("--before-steps", type=int, default=None, help="steps of the slow path (default --steps)")
+    ap.add_argument("--pca-tol", type=float, default=1e-3, help="PCA tolerance of the surrogates trained")
+    ap.add_argument("--out", default="posterior-speed.json", help="report file in the campaign's folder")
     ap.add_argument(
         "--paper-size-stand-in",
         action="store_true",
@@ -177,7 +181,7 @@ def main() -> None:
     }
     for kind in args.kinds.split(","):
         with threadpool_limits(1):
-            model, model_file, fit_s = surrogate_of(kind, args.campaign, args.runs_dir)
+            model, model_file, fit_s = surrogate_of(kind, args.campaign, args.runs_dir, args.pca_tol)
             runs = {kind: (model, model_file, fit_s)}
             if kind == "gp" and args.paper_size_stand_in:
                 runs["gp-775-stand-in"] = paper_size_stand_in(model, args.runs_dir, args.campaign)
@@ -185,7 +189,8 @@ def main() -> None:
                 entry = benchmark_model(m, f, s, args, experiment, before_steps)
                 report["kinds"][name] = entry
                 print(json.dumps({name: entry}, indent=1), flush=True)
-    out = atomic_write_json(args.runs_dir / args.campaign / "posterior-speed.json", report)
+    report["pca_tol"] = args.pca_tol
+    out = atomic_write_json(args.runs_dir / args.campaign / args.out, report)
     print(f"written {out}")
 
 
