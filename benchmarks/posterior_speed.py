@@ -42,9 +42,9 @@ from indentation_studio.inference.experiment_processing import experiment_object
 from indentation_studio.inference.inverse_fit import fit_parameters  # noqa: E402
 from indentation_studio.inference.posterior import sample_posterior  # noqa: E402
 from indentation_studio.inference.synthetic_experiment import write_synthetic_experiment  # noqa: E402
-from indentation_studio.studio.surrogate_cli import make_surrogate  # noqa: E402
 from indentation_studio.surrogate.base import TrainingData  # noqa: E402
 from indentation_studio.surrogate.persistence import load_surrogate, save_surrogate  # noqa: E402
+from indentation_studio.surrogate.training import make_surrogate  # noqa: E402
 
 TRUTH = np.array([11.0, 260.0])
 ETA = (0.45, 0.35, 0.2, 0.0)

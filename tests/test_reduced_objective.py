@@ -20,8 +20,8 @@ from indentation_studio.inference.experiment_data import load_experiment
 from indentation_studio.inference.experiment_processing import experiment_objective
 from indentation_studio.inference.posterior import sample_posterior
 from indentation_studio.inference.synthetic_experiment import write_synthetic_experiment
-from indentation_studio.studio.surrogate_cli import make_surrogate
 from indentation_studio.surrogate.base import TrainingData
+from indentation_studio.surrogate.training import make_surrogate
 
 MODEL = ModelSpec(protocol=Protocol(step_size=0.5, steps=4), mesh=MeshChoice("coarse"))
 TRUE = np.array([11.0, 260.0])
@@ -117,6 +117,23 @@ def test_reduced_F_with_the_authors_reading_and_one_step(surrogate):
             # at theta* both are rounding noise next to F elsewhere
             assert abs(F_reduced[-1]) < 1e-12 * F_full[:-1].max()
             assert abs(F_full[-1]) < 1e-12 * F_full[:-1].max()
+
+
+def test_reduced_F_with_excluded_steps(surrogate, measured):
+    """Steps left out of eq. 4a and 4b (experiment.json's excluded_steps) may hold NaN targets."""
+    force, field = measured.force.copy(), measured.displacement.copy()
+    force[1], field[1] = np.nan, np.nan
+    objective = Objective(
+        force, field, measured.top_xyz, radius=4.77, mask=measured.measured, excluded_steps=(2,)
+    )
+    assert objective.steps.tolist() == [0, 2, 3]
+    thetas = _random_thetas(surrogate, 20, seed=4)
+    prediction = surrogate.predict(thetas)
+    for eta in WEIGHTS:
+        F_full = objective.value(prediction, eta)
+        F_reduced = ReducedObjective(objective, surrogate.reduced_basis(), eta).value(thetas)
+        assert np.all(np.isfinite(F_full))
+        np.testing.assert_allclose(F_reduced, F_full, rtol=1e-10, atol=0)
 
 
 def test_posterior_is_the_same_chain_on_either_path(surrogate, measured):
