@@ -1,7 +1,7 @@
 """The objective of the paper (eq. 4a, 4b, 5): force and per-direction displacement errors against a
 measured (or baseline) response, their weighted sum, and the residual vector whose squared sum it is.
 
-Readings (../shared/reference/authors-code-notes.md), chosen with ``reading``:
+Readings (the paper as printed, or the authors' public code), chosen with ``reading``:
 
 * ``paper`` (default): eq. 4a sums over all steps the force error relative to that step's
   measured force; eq. 4b sums over all steps the displacement errors over max |u_j,exp| with the

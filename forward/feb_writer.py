@@ -4,7 +4,7 @@ The model is the paper's (2.4, 2.5): the quarter block of hex8 elements with FEB
 Mooney-Rivlin`` (eq. 3: c2 = 0, lam_max = 1), symmetry and bottom boundary conditions, the
 quarter-sphere indenter as rigid tri3 shells driven down by a load curve, and sliding-elastic
 contact with a very large friction coefficient (near-perfect stick). The settings that real
-FEBio 4 needed (../shared/febio/README.md) are the defaults of :class:`FebSettings`:
+FEBio 4 needed (README, "FEBio backend") are the defaults of :class:`FebSettings`:
 
 - ``c3`` must not be 0: with c3 = c4 = 0 this FEBio computes c3 = c5/c4 exp(...) and gives NaN;
   1e-9 with lam_max = 1 leaves the fiber stress c5 (lam~ - 1) of eq. 2.

@@ -10,7 +10,7 @@ neighbouring steps gave about 3,200 mN). Such a step is flagged and its force re
 so that no force the studio uses comes from it.
 
 The tolerance, :class:`EquilibriumTolerance` (defaults in :data:`DEFAULT_EQUILIBRIUM_TOLERANCE`),
-and why it is what it is, using FEBio's own baseline run (``../shared/febio/baseline``):
+and why it is what it is, using the FEBio baseline run the tests check against (README, "FEBio backend"):
 
 - ``relative = 3e-3`` (0.3 % of the bottom reaction). Clean steps of that run balance to under
   4e-5, 75 times less, so FEBio's ordinary convergence never trips it. A flagged step's force is

@@ -11,6 +11,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from ..atomic_write import atomic_write
 from ..campaign.designs import DesignError
 from ..campaign.store import CampaignError
 from ..forward.spec import SpecError
@@ -125,13 +126,12 @@ def export(
     try:
         store = open_campaign(name, runs_dir)
         table = force_table(store)
-        out.parent.mkdir(parents=True, exist_ok=True)
-        if out.suffix == ".csv":
-            table.to_csv(out, index=False)
-        elif out.suffix == ".parquet":
-            table.to_parquet(out, index=False)
-        else:
+        if out.suffix not in (".csv", ".parquet"):
             raise ValueError(f"{out}: use a .parquet or .csv file name")
+        csv = out.suffix == ".csv"
+        atomic_write(
+            out, table.to_csv(index=False) if csv else lambda tmp: table.to_parquet(tmp, index=False)
+        )
     except (CampaignError, ValueError, OSError) as exc:
         fail(str(exc), as_json)
     payload = {

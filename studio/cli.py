@@ -99,70 +99,42 @@ def simulate(
     ``--solver febio`` runs the same model on FEBio 4 (FEBIO_PATH or PATH); its .feb, log and
     plot file stay in a folder beside the result file. Steps FEBio accepted off equilibrium are
     named on stderr and their forces are NaN (null in --json)."""
-    from ..forward.febio_equilibrium import equilibrium_notes
     from ..forward.febio_log import FebioLogError
-    from ..forward.solver import EmbeddedSolver, SimulationError
+    from ..forward.simulation_run import run_simulation
+    from ..forward.solver import SimulationError
 
     if from_log is not None:
         solver = SolverName.febio
-        if mesh_from is None and from_log.with_suffix(".feb").is_file():
-            mesh_from = from_log.with_suffix(".feb")
+        mesh_from = mesh_from or (
+            from_log.with_suffix(".feb") if from_log.with_suffix(".feb").is_file() else None
+        )
         if mesh_from is None:
             fail(
                 f"--from-log {from_log}: no {from_log.with_suffix('.feb').name} beside it; give --mesh-from",
                 as_json,
             )
-    try:
-        spec = model_spec(c1, c5, kappa, radius, steps, step_size, mesh, mesh_from, substeps)
-    except (SpecError, ValueError) as exc:
-        fail(str(exc), as_json)
-    if out is None:
-        tag = Path(mesh_from).stem if mesh_from else mesh
-        out = Path("runs/simulations") / f"c1={c1:g}_c5={c5:g}_R={radius:g}_{tag}_{solver.value}.npz"
-    try:
-        if from_log is not None:
-            if sensitivities:
-                raise ValueError("--sensitivities needs the embedded solver")
-            engine = None  # nothing runs: the log is read back
-        elif solver == SolverName.febio:
-            from ..forward.febio_runner import FebioSolver
-
-            if sensitivities:
-                raise ValueError("--sensitivities needs the embedded solver")
-            engine = FebioSolver(spec, workdir=out.with_name(out.stem + ".febio"))
-        else:
-            engine = EmbeddedSolver(spec)
-    except (SpecError, ValueError, FileNotFoundError) as exc:
-        fail(str(exc), as_json)
+    tag = Path(mesh_from).stem if mesh_from else mesh
+    out = out or Path("runs/simulations") / f"c1={c1:g}_c5={c5:g}_R={radius:g}_{tag}_{solver.value}.npz"
     t0 = time.perf_counter()
-    with step_progress(err, f"simulate ({solver.value})", spec.protocol.steps) as bar:
-        report = lambda k, n, f: bar.update(k, f"{k * step_size:.1f} mm  {f:.1f} mN")  # noqa: E731
+    with step_progress(err, f"simulate ({solver.value})", steps) as bar:
+        unit = "mm" if solver == SolverName.febio else "mN"
         try:
-            if from_log is not None:
-                from ..forward.febio_readback import read_febio_run
-
-                result = read_febio_run(from_log, spec)
-            elif solver == SolverName.febio:
-                result = engine.run(progress=lambda k, n, d: bar.update(k, f"{d:.2f} mm"))
-            else:
-                result = engine.run(sensitivities=sensitivities, progress=report, full_field=vtu is not None)
-        except SimulationError as exc:
-            if exc.partial is not None and len(exc.partial.depth) > 1:
-                partial = exc.partial.save(out.with_name(out.stem + ".partial.npz"))
-                err.print(f"steps completed before the failure are kept in {partial}")
+            spec = model_spec(c1, c5, kappa, radius, steps, step_size, mesh, mesh_from, substeps)
+            run = run_simulation(
+                spec,
+                out,
+                solver.value,
+                sensitivities,
+                vtu,
+                from_log,
+                lambda k, n, v: bar.update(k, f"{v:.2f} {unit}"),
+                say,
+            )
+        except (SpecError, ValueError, FileNotFoundError, SimulationError, FebioLogError, OSError) as exc:
             fail(str(exc), as_json)
-        except (FebioLogError, OSError) as exc:  # a log that cannot be read back names itself
-            fail(str(exc), as_json)
-    path = result.save(out)
-    for note in equilibrium_notes(result):
+    result, path, pvd = run.result, run.result_file, run.vtu_series
+    for note in run.warnings:
         err.print(f"[bold yellow]warning:[/] {note}", soft_wrap=True, highlight=False)
-    pvd = None
-    if vtu is not None:
-        if solver == SolverName.febio:
-            fail("--vtu needs the embedded solver (FEBio writes its own .xplt for FEBio Studio)", as_json)
-        from ..forward.vtu_export import write_vtu_series
-
-        pvd = write_vtu_series(result, engine.mesh, vtu)
     payload: dict[str, Any] = {
         "depth_mm": result.depth.tolist(),
         "force_mN": [float(f) if math.isfinite(f) else None for f in result.force],

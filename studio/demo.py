@@ -59,6 +59,19 @@ SECTIONS = [
 ]
 
 
+class _Clock:
+    """Times the demo's steps and says when each is done."""
+
+    def __init__(self, say: Callable[[str], None]) -> None:
+        self.say, self.t_start, self.t0, self.timings = say, time.perf_counter(), time.perf_counter(), {}
+
+    def done(self, key: str) -> None:
+        now = time.perf_counter()
+        self.timings[key] = now - self.t0
+        self.say(f"[{now - self.t_start:6.0f} s] {key} done in {self.timings[key]:.0f} s")
+        self.t0 = now
+
+
 def run_demo(
     name: str = "demo",
     full: bool = False,
@@ -75,77 +88,37 @@ def run_demo(
     """Run every step and write ``runs/<name>/report/index.html``; returns its path. ``spec``,
     ``grid``, ``test_grid``, ``experiment`` and ``design_depths`` default to the paper's setting
     (smaller ones serve the tests)."""
-    t_start = time.perf_counter()
+    clock = _Clock(say)
     runs_dir = Path(runs_dir)
     out = runs_dir / name / "report"
     spec = spec or ModelSpec()  # the paper's baseline: R = 4.77 mm, 28 x 0.5 mm, default mesh
     grid = grid or ("paper" if full else "c1=1:21:9,c5=82.5:578:9")
-    timings: dict[str, float] = {}
-
-    def timed(key: str, t0: float) -> None:
-        timings[key] = time.perf_counter() - t0
-        say(f"[{time.perf_counter() - t_start:6.0f} s] {key} done in {timings[key]:.0f} s")
-
-    def progress(campaign: str) -> Callable[[int, int, dict], None]:
-        def report(done: int, todo: int, counts: dict) -> None:
-            if done == todo or done % max(todo // 10, 1) == 0:
-                say(f"campaign {campaign}: {counts['done']} done, {counts['failed']} failed")
-
-        return report
-
-    t0 = time.perf_counter()
-    summary = run_named_campaign(name, grid, spec, runs_dir, jobs=jobs, progress=progress(name))
+    summary = run_named_campaign(name, grid, spec, runs_dir, jobs=jobs, progress=_progress(name, say))
     run_named_campaign(
-        f"{name}-test", test_grid, spec, runs_dir, jobs=jobs, progress=progress(f"{name}-test")
+        f"{name}-test", test_grid, spec, runs_dir, jobs=jobs, progress=_progress(f"{name}-test", say)
     )
     if summary["failed"]:
         say(
             f"campaign {name}: {summary['failed']} points failed (see {summary['root']}/index.parquet); going on"
         )
     data, test = load_campaign(name, runs_dir), load_campaign(f"{name}-test", runs_dir)
-    timed("campaigns", t0)
-
-    t0 = time.perf_counter()
-    models = {}
-    for kind in SURROGATE_KINDS:
-        say(f"training the {kind} surrogate on {data.n} points ...")
-        models[kind] = train_surrogate(data, kind, test_campaign=test)
-        save_surrogate(models[kind], runs_dir / name / f"surrogate-{kind}.joblib")
-    pred = models["mlp"].predict(test.theta)
-    pairs = {
-        "force (mN)": (test.force, pred.force),
-        "displacement (mm)": (test.displacement, pred.displacement),
-    }
-    title = f"MLP surrogate against FE at {test.n} held-out points"
-    figures.save_figure(figures.parity_figure(pairs, title=title), out / "surrogate-parity.png", 120)
-    timed("surrogates", t0)
-
-    t0 = time.perf_counter()
+    clock.done("campaigns")
+    models = _surrogates(data, test, runs_dir / name, out, say)
+    clock.done("surrogates")
     study = fe_design_study(spec, THETA_STAR, method="exact")
     rows = compare_with_paper(study.term_hessians, 0.05)
     omap = campaign_objective_map(data, THETA_STAR, ETA, 0.05, study=study)
     title = f"F over {data.n} simulations (eq. 5, weights eq. 13)"
     figures.save_figure(figures.objective_map_figure(omap, title), out / "figure8.png")
-    timed("Table 1 and Fig. 8", t0)
-
-    t0 = time.perf_counter()
+    clock.done("Table 1 and Fig. 8")
     designs = compare_designs(spec, candidate_grid(radii=(4.77, 8.0), depths=design_depths), THETA_STAR)
     atomic_write(out / "design-comparison.csv", designs.to_csv(index=False))
     figures.save_figure(figures.design_comparison_figure(designs), out / "design-comparison.png")
-    timed("design comparison", t0)
-
-    t0 = time.perf_counter()
-    truth = json.loads((Path(experiment) / "experiment.json").read_text()).get("synthetic", {}).get("theta")
-    mlp = models["mlp"]
-    result = fit_experiment(experiment, mlp, ETA, say=say)
-    fit = result.fit
-    post = sample_posterior_for(experiment, mlp, ETA, 32, posterior_steps, fit=result.surrogate_fit, say=say)
-    check = confirm(experiment, mlp, fit.theta, ETA)
-    _example_figures(out, result, post, check, truth, spec)
-    timed("fit, posterior, confirmation", t0)
+    clock.done("design comparison")
+    example = _example(experiment, models["mlp"], posterior_steps, out, spec, say)
+    clock.done("fit, posterior, confirmation")
     mesh = build_mesh(spec)
     figures.save_figure(figures.mesh_figure(mesh.nodes, mesh.elements), out / "mesh.png", 120)
-
     results = {
         "campaign": {
             "grid": grid,
@@ -157,6 +130,49 @@ def run_demo(
         "table1": [r.__dict__ for r in rows],
         "hessian_at_paper_weights": omap.hessian.tolist(),
         "paper_hessian": [list(r) for r in PAPER_HESSIAN],
+        **example,
+        "timings_s": clock.timings,
+        "wall_s": time.perf_counter() - clock.t_start,
+    }
+    atomic_write_json(out / "results.json", results)
+    line = f"{data.n} simulations over c1 in [1, 21] kPa, c5 in [82.5, 578] kPa ({grid}); {summary['failed']} failed."
+    return write_report(out, results, [("campaign", line), *SECTIONS])
+
+
+def _progress(campaign: str, say: Callable[[str], None]) -> Callable[[int, int, dict], None]:
+    def report(done: int, todo: int, counts: dict) -> None:
+        if done == todo or done % max(todo // 10, 1) == 0:
+            say(f"campaign {campaign}: {counts['done']} done, {counts['failed']} failed")
+
+    return report
+
+
+def _surrogates(data, test, folder: Path, out: Path, say: Callable[[str], None]) -> dict:
+    """Both surrogates trained, tested on the held-out campaign and saved; the MLP's parity plot."""
+    models = {}
+    for kind in SURROGATE_KINDS:
+        say(f"training the {kind} surrogate on {data.n} points ...")
+        models[kind] = train_surrogate(data, kind, test_campaign=test)
+        save_surrogate(models[kind], folder / f"surrogate-{kind}.joblib")
+    pred = models["mlp"].predict(test.theta)
+    pairs = {
+        "force (mN)": (test.force, pred.force),
+        "displacement (mm)": (test.displacement, pred.displacement),
+    }
+    title = f"MLP surrogate against FE at {test.n} held-out points"
+    figures.save_figure(figures.parity_figure(pairs, title=title), out / "surrogate-parity.png", 120)
+    return models
+
+
+def _example(experiment, mlp, posterior_steps: int, out: Path, spec: ModelSpec, say) -> dict:
+    """The shipped example: fit (MLP, then FE), posterior, FE confirmation, their figures."""
+    truth = json.loads((Path(experiment) / "experiment.json").read_text()).get("synthetic", {}).get("theta")
+    result = fit_experiment(experiment, mlp, ETA, say=say)
+    fit = result.fit
+    post = sample_posterior_for(experiment, mlp, ETA, 32, posterior_steps, fit=result.surrogate_fit, say=say)
+    check = confirm(experiment, mlp, fit.theta, ETA)
+    _example_figures(out, result, post, check, truth, spec)
+    return {
         "fit": {
             "theta": fit.theta.tolist(),
             "bounds_pct": fit.bounds_pct.tolist(),
@@ -168,12 +184,7 @@ def run_demo(
         "posterior": post.posterior.summary(),
         "confirmation": {"F_fe": check.to_dict()["F_fe"], "F_fit": fit.F},
         "fiber_angle_deg": result.inputs.dic.fiber_angle_deg,
-        "timings_s": timings,
-        "wall_s": time.perf_counter() - t_start,
     }
-    atomic_write_json(out / "results.json", results)
-    campaign_line = f"{data.n} simulations over c1 in [1, 21] kPa, c5 in [82.5, 578] kPa ({grid}); {summary['failed']} failed."
-    return write_report(out, results, [("campaign", campaign_line), *SECTIONS])
 
 
 def _example_figures(out: Path, result, post, check, truth, spec: ModelSpec) -> None:

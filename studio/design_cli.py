@@ -10,6 +10,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from ..atomic_write import atomic_write, atomic_write_json
 from ..forward.spec import SpecError
 from .options import (
     JSON,
@@ -200,8 +201,7 @@ def weights_cmd(
         "spec": study.spec,
     }
     if out is not None:
-        out.parent.mkdir(parents=True, exist_ok=True)
-        out.write_text(json.dumps(payload, indent=1))
+        atomic_write_json(out, payload)
     if as_json:
         print(json.dumps(payload))
         return
@@ -369,7 +369,7 @@ def compare_cmd(
         fail(str(exc), as_json)
     out_dir.mkdir(parents=True, exist_ok=True)
     csv = out_dir / "design-comparison.csv"
-    table.to_csv(csv, index=False)
+    atomic_write(csv, table.to_csv(index=False))
     png = save_figure(design_comparison_figure(table), out_dir / "design-comparison.png")
     if as_json:
         rows = json.loads(table.to_json(orient="records"))

@@ -19,7 +19,7 @@ from ..design.objective_over_plane import ObjectiveMap
 
 def certainty_ellipse(H: np.ndarray, s: float, centre=(1.0, 1.0), n: int = 200) -> np.ndarray:
     """Points (n, 2) of the level set (theta_bar - centre)^T H (theta_bar - centre) = s^2
-    (the ellipse of Fig. 8, authors-code-notes.md); H in theta_bar, positive definite."""
+    (the ellipse of Fig. 8); H in theta_bar, positive definite."""
     w, V = np.linalg.eigh(np.asarray(H, float))
     if np.any(w <= 0):
         raise ValueError("the Hessian is not positive definite: the certainty region is unbounded")
