@@ -7,8 +7,9 @@ affine-invariant ensemble sampler whose walkers start in a small ball around the
 predictor is called with all walkers at once (emcee's vectorize), so a surrogate evaluates a
 whole ensemble in one batch. A Predictor with a reduced basis (the surrogates) is not asked for
 its fields at all: F is evaluated in its PCA space (design/reduced_objective.py), exactly up to
-rounding and without rebuilding steps x nodes x 3 values per walker. The chain is checked: integrated autocorrelation time (the chain
-must be longer than 50 of them for emcee's estimate to be trusted) and acceptance fraction.
+rounding and without rebuilding steps x nodes x 3 values per walker. The chain is checked:
+integrated autocorrelation time (the chain must be longer than 50 of them for emcee's estimate to
+be trusted) and acceptance fraction.
 """
 
 from __future__ import annotations

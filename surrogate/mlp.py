@@ -6,9 +6,8 @@ Jacobians by autograd (torch.func.jacrev, vectorised over points).
 
 Evaluating the ensemble at a small batch (a sampler's walkers, many thousand times) costs torch's
 per-operation dispatch more than arithmetic, and torch's intra-op threads make it erratic on a busy
-machine (16 points, 3 networks: 0.4 ms of CPU on one thread, 5 to 60 ms on two while other jobs
-ran): :class:`EnsembleForward` holds the networks' weights as stacked float64 numpy arrays and runs
-all members at once, a few array operations per layer (0.24 ms)."""
+machine (README, "Experiments"): :class:`EnsembleForward` holds the networks' weights as stacked
+float64 numpy arrays and runs all members at once, a few array operations per layer."""
 
 from __future__ import annotations
 
