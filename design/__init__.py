@@ -8,6 +8,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
     __name__,
     submod_attrs={
         "objective": ["PAPER_WEIGHTS", "Objective", "check_weights"],
+        "reduced_objective": ["FieldObjective", "ReducedObjective", "objective_function"],
         "certainty": ["bounds_pct", "combine", "s_from_data"],
         "study": ["DesignStudy", "fe_design_study"],
         "weights": ["PAPER_HESSIAN", "compare_with_paper", "optimise_weights", "table1"],

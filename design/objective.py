@@ -99,6 +99,11 @@ class Objective:
         return cls(target.force[index], target.displacement[index], target.top_xyz, **kwargs)
 
     # --------------------------------------------------------------- residuals
+    def displacement_residual_scale(self) -> np.ndarray:
+        """(nodes, 3): what eq. 4b multiplies a displacement error by at each node and direction,
+        sqrt(w_j^(i)) / max |u_j,exp| (0 where a node has no weight)."""
+        return self._sqrt_w / self.u_norm
+
     def term_residuals(self, force: np.ndarray, displacement: np.ndarray) -> list[np.ndarray]:
         """Residuals r_k per term for a batch: force (n, steps), displacement (n, steps, nodes, 3).
 
@@ -109,7 +114,7 @@ class Objective:
             np.asarray(displacement)[:, self.steps][:, :, self.measured]
             - self.displacement[self.steps][:, self.measured]
         )
-        du = du * (self._sqrt_w[self.measured] / self.u_norm)
+        du = du * self.displacement_residual_scale()[self.measured]
         n = du.shape[0]
         return [r_f, *(du[..., j].reshape(n, -1) for j in range(3))]
 

@@ -22,7 +22,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
         "solver": ["EmbeddedSolver", "SimulationError", "simulate"],
         "material": ["InvertedElementError"],
         "result": ["SimulationResult"],
-        "predictor": ["FESolverPredictor", "Prediction", "Predictor"],
+        "predictor": ["FESolverPredictor", "Prediction", "Predictor", "ReducedBasis", "ReducedPredictor"],
         "feb_writer": ["FebSettings", "write_feb"],
         "febio_runner": ["FebioSolver", "find_febio"],
         "mesh_study": ["MeshErrors", "convergence_study", "mesh_errors"],

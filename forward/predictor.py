@@ -11,6 +11,7 @@ or FEBio; the surrogates implement the same protocol.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Protocol, runtime_checkable
@@ -63,6 +64,35 @@ class Predictor(Protocol):
 
     def predict(self, theta: np.ndarray, jacobian: bool = False) -> Prediction:
         """Force curves and fields at ``theta`` (n, p); with ``jacobian`` their derivatives too."""
+        ...
+
+
+@dataclass(frozen=True)
+class ReducedBasis:
+    """A Predictor's outputs as affine maps of a few reduced coordinates (a surrogate's PCA scores):
+
+        log force (n, steps)              = force_mean + z_force @ force_basis
+        displacement (n, steps * nodes * 3) = field_mean + z_field @ field_basis
+
+    with ``(z_force, z_field) = coordinates(theta)`` for theta (n, p). Whatever is linear in the
+    field (the displacement residuals of eq. 4b) can then be evaluated in the reduced space
+    without rebuilding the field (design/reduced_objective.py)."""
+
+    force_mean: np.ndarray  # (steps,) log mN
+    force_basis: np.ndarray  # (k_force, steps)
+    field_mean: np.ndarray  # (steps * nodes * 3,) mm
+    field_basis: np.ndarray  # (k_field, steps * nodes * 3)
+    steps: int
+    nodes: int
+    coordinates: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
+
+
+@runtime_checkable
+class ReducedPredictor(Predictor, Protocol):
+    """A Predictor that can also give its outputs as a :class:`ReducedBasis` (the surrogates)."""
+
+    def reduced_basis(self) -> ReducedBasis:
+        """The affine reduced form of :meth:`predict` (without Jacobians)."""
         ...
 
 

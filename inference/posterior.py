@@ -5,8 +5,11 @@ residual (for measured data, sqrt(F(theta_hat) / (n - p)); not eq. 8's s, which 
 quantile of the F distribution on top), a uniform prior on a box (the surrogate's training box), and an
 affine-invariant ensemble sampler whose walkers start in a small ball around the fit. The
 predictor is called with all walkers at once (emcee's vectorize), so a surrogate evaluates a
-whole ensemble in one batch. The chain is checked: integrated autocorrelation time (the chain
-must be longer than 50 of them for emcee's estimate to be trusted) and acceptance fraction.
+whole ensemble in one batch. A Predictor with a reduced basis (the surrogates) is not asked for
+its fields at all: F is evaluated in its PCA space (design/reduced_objective.py), exactly up to
+rounding and without rebuilding steps x nodes x 3 values per walker. The chain is checked:
+integrated autocorrelation time (the chain must be longer than 50 of them for emcee's estimate to
+be trusted) and acceptance fraction.
 """
 
 from __future__ import annotations
@@ -18,6 +21,7 @@ import emcee
 import numpy as np
 
 from ..design.objective import Objective, check_weights
+from ..design.reduced_objective import ReducedObjective, objective_function
 
 
 @dataclass
@@ -31,6 +35,7 @@ class Posterior:
     converged: bool
     wall_s: float
     s: float
+    objective_path: str = "full"  # "reduced": F in the predictor's PCA space; "full": from its fields
 
     def median(self) -> np.ndarray:
         return np.median(self.samples, axis=0)
@@ -55,6 +60,7 @@ class Posterior:
             "samples": len(self.samples),
             "wall_s": self.wall_s,
             "s": self.s,
+            "objective_path": self.objective_path,
         }
 
 
@@ -69,8 +75,14 @@ def sample_posterior(
     steps: int = 3000,
     seed: int = 0,
     progress: bool = False,
+    *,
+    reduced: bool | None = None,
 ) -> Posterior:
-    """emcee posterior of theta for log L = -F / (2 s^2), uniform on ``box`` = (lo, hi)."""
+    """emcee posterior of theta for log L = -F / (2 s^2), uniform on ``box`` = (lo, hi).
+
+    ``reduced``: evaluate F in the predictor's reduced space (its ``reduced_basis()``); ``None``
+    (default) does so whenever the predictor offers one, ``False`` rebuilds the fields and calls
+    ``objective.value`` (the same F up to rounding, slower)."""
     eta = check_weights(eta)
     if not (np.isfinite(s) and s > 0):
         raise ValueError(f"s must be a positive number, got {s!r}")
@@ -84,18 +96,19 @@ def sample_posterior(
     if walkers < 2 * p:
         raise ValueError(f"emcee needs at least {2 * p} walkers for {p} parameters, got {walkers}")
 
+    t0 = time.perf_counter()
+    F_of_theta = objective_function(objective, predictor, eta, reduced)
+
     def log_prob(thetas: np.ndarray) -> np.ndarray:
         out = np.full(len(thetas), -np.inf)
         inside = np.all((thetas > lo) & (thetas < hi), axis=1)
         if inside.any():
-            F = objective.value(predictor.predict(thetas[inside]), eta)
-            out[inside] = -F / (2.0 * s**2)
+            out[inside] = -F_of_theta.value(thetas[inside]) / (2.0 * s**2)
         return out
 
     rng = np.random.default_rng(seed)
     p0 = start * (1.0 + 1e-3 * rng.standard_normal((walkers, p)))
     p0 = np.clip(p0, lo + 1e-9 * (hi - lo), hi - 1e-9 * (hi - lo))
-    t0 = time.perf_counter()
     sampler = emcee.EnsembleSampler(walkers, p, log_prob, vectorize=True)
     sampler.random_state = np.random.RandomState(seed).get_state()
     sampler.run_mcmc(p0, steps, progress=progress)
@@ -112,6 +125,7 @@ def sample_posterior(
         converged=converged,
         wall_s=time.perf_counter() - t0,
         s=float(s),
+        objective_path="reduced" if isinstance(F_of_theta, ReducedObjective) else "full",
     )
 
 

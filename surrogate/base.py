@@ -14,13 +14,14 @@ from __future__ import annotations
 
 import time
 from abc import ABC, abstractmethod
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 from sklearn.decomposition import PCA
 
-from ..forward.predictor import Prediction
+from ..forward.predictor import Prediction, ReducedBasis
 
 INPUT_SCALES = ("linear", "log")
 
@@ -161,9 +162,13 @@ class FieldSurrogate(ABC):
     def _regress(self, X: np.ndarray, jacobian: bool) -> tuple[np.ndarray, np.ndarray | None]:
         """Standardised scores (n, k) at scaled inputs X (n, p) and, if asked, d scores / dX (n, k, p)."""
 
+    def _score_function(self) -> Callable[[np.ndarray], np.ndarray]:
+        """Standardised scores (n, k) at scaled inputs X (n, p), without derivatives, as a function
+        prepared once and called many times (by a sampler); the same numbers as ``_regress``."""
+        return lambda X: self._regress(X, False)[0]
+
     # ------------------------------------------------------------------ prediction
-    def predict(self, theta, jacobian: bool = False) -> Prediction:
-        """Force curves and fields at ``theta`` (n, p) kPa; with ``jacobian`` also their derivatives."""
+    def _checked_theta(self, theta) -> np.ndarray:
         theta = np.atleast_2d(np.asarray(theta, float))
         if theta.shape[1] != len(self.parameters):
             raise ValueError(
@@ -171,6 +176,11 @@ class FieldSurrogate(ABC):
             )
         if not np.all(np.isfinite(theta)) or np.any(theta <= 0):
             raise ValueError("parameters must be positive and finite")
+        return theta
+
+    def predict(self, theta, jacobian: bool = False) -> Prediction:
+        """Force curves and fields at ``theta`` (n, p) kPa; with ``jacobian`` also their derivatives."""
+        theta = self._checked_theta(theta)
         T, dT = self._regress(self.scaler(theta), jacobian)
         S = T * self.score_std + self.score_mean
         kf = self.k_force
@@ -185,6 +195,27 @@ class FieldSurrogate(ABC):
             dU = np.einsum("kt,nkp->ntp", self.field_pca.components_, dS[:, kf:])
             dj = dU.reshape(len(theta), self.n_steps, self.n_nodes, 3, -1)
         return Prediction(force, disp, self.depth, self.top_xyz, self.parameters, fj, dj)
+
+    def reduced_basis(self) -> ReducedBasis:
+        """The prediction as affine maps of the PCA scores (log force and field), with the scores
+        as a function of theta: what lets an objective skip rebuilding the fields
+        (design/reduced_objective.py). The regressor is prepared once for repeated calls."""
+        regress, scaler = self._score_function(), self.scaler
+        mean, std, kf = self.score_mean, self.score_std, self.k_force
+
+        def coordinates(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            S = regress(scaler(self._checked_theta(theta))) * std + mean
+            return S[:, :kf], S[:, kf:]
+
+        return ReducedBasis(
+            force_mean=self.force_pca.mean_,
+            force_basis=self.force_pca.components_,
+            field_mean=self.field_pca.mean_,
+            field_basis=self.field_pca.components_,
+            steps=self.n_steps,
+            nodes=self.n_nodes,
+            coordinates=coordinates,
+        )
 
     def inside_box(self, theta) -> np.ndarray:
         """Which points lie in the training box (the surrogate extrapolates outside it)."""

@@ -1,13 +1,19 @@
 """Gaussian-process emulator (scikit-learn): one GaussianProcessRegressor for the force scores and
 one for the field scores, each with an anisotropic Matern 5/2 kernel times a constant plus a white
 noise term, hyperparameters by maximum marginal likelihood with restarts. The mean's derivative
-with respect to the scaled inputs is analytic for this kernel: d k(x, x_i) / dx times alpha."""
+with respect to the scaled inputs is analytic for this kernel: d k(x, x_i) / dx times alpha.
+
+The mean at new points, k(x, X_train) alpha, is evaluated by :class:`GaussianProcessMeans` from
+arrays prepared once (the training inputs divided by the length scales): the white-noise term is
+zero between distinct points, so only the constant x Matern part enters, and a sampler's many
+small batches skip scikit-learn's per-call validation and kernel-object dispatch."""
 
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial.distance import cdist
 from sklearn.gaussian_process import GaussianProcessRegressor
-from sklearn.gaussian_process.kernels import ConstantKernel, Matern, WhiteKernel
+from sklearn.gaussian_process.kernels import ConstantKernel, Matern, Product, Sum, WhiteKernel
 
 from .base import FieldSurrogate
 
@@ -21,6 +27,42 @@ def _matern52_gradient(X: np.ndarray, Xt: np.ndarray, length: np.ndarray, amplit
     # dr/dx = D / (r length): dk/dx = -a (5 / 3)(1 + s5 r) exp(-s5 r) D / length
     g = -amplitude * (5.0 / 3.0) * (1.0 + s5 * r) * np.exp(-s5 * r)
     return g[..., None] * D / length
+
+
+class GaussianProcessMeans:
+    """The posterior means of fitted GaussianProcessRegressors with the kernel this module builds
+    (constant x Matern 5/2 + white), side by side: X (n, p) -> (n, sum of their outputs). The same
+    numbers as ``gp.predict`` (k(x, X_train) alpha, scaled back), without per-call overhead."""
+
+    def __init__(self, gps: list[GaussianProcessRegressor]) -> None:
+        self.blocks = []
+        for gp in gps:
+            kernel = gp.kernel_
+            ok = (
+                isinstance(kernel, Sum)
+                and isinstance(kernel.k1, Product)
+                and isinstance(kernel.k1.k1, ConstantKernel)
+                and isinstance(kernel.k1.k2, Matern)
+                and kernel.k1.k2.nu == 2.5
+                and isinstance(kernel.k2, WhiteKernel)
+            )
+            if not ok:
+                raise ValueError(f"GaussianProcessMeans needs constant x Matern 5/2 + white, got {kernel}")
+            length = np.broadcast_to(np.asarray(kernel.k1.k2.length_scale, float), (gp.X_train_.shape[1],))
+            alpha = gp.alpha_.reshape(len(gp.X_train_), -1)
+            # scikit-learn's normalize_y (False here: std 1, mean 0) undone as gp.predict does
+            y_std = np.broadcast_to(np.asarray(getattr(gp, "_y_train_std", 1.0), float), alpha.shape[1:])
+            y_mean = np.broadcast_to(np.asarray(getattr(gp, "_y_train_mean", 0.0), float), alpha.shape[1:])
+            amplitude = float(kernel.k1.k1.constant_value)
+            self.blocks.append((gp.X_train_ / length, length.copy(), amplitude, alpha, y_std, y_mean))
+
+    def __call__(self, X: np.ndarray) -> np.ndarray:
+        out = []
+        for X_train, length, amplitude, alpha, y_std, y_mean in self.blocks:
+            K = cdist(X / length, X_train) * np.sqrt(5.0)
+            K = amplitude * ((1.0 + K + K**2 / 3.0) * np.exp(-K))
+            out.append(y_std * (K @ alpha) + y_mean)
+        return np.hstack(out)
 
 
 class GaussianProcessSurrogate(FieldSurrogate):
@@ -44,19 +86,21 @@ class GaussianProcessSurrogate(FieldSurrogate):
             self.gps.append(gp)
         self.meta["kernels"] = [str(gp.kernel_) for gp in self.gps]
 
+    def _score_function(self):
+        return GaussianProcessMeans(self.gps)
+
     def _regress(self, X: np.ndarray, jacobian: bool):
-        means, grads = [], []
+        T = GaussianProcessMeans(self.gps)(X)
+        if not jacobian:
+            return T, None
+        grads = []
         for gp in self.gps:
-            mean = gp.predict(X)
-            means.append(mean.reshape(len(X), -1))
-            if jacobian:
-                kern = gp.kernel_.k1  # Constant * Matern (the white term has no gradient)
-                amp, length = kern.k1.constant_value, np.broadcast_to(kern.k2.length_scale, (X.shape[1],))
-                dk = _matern52_gradient(X, gp.X_train_, np.asarray(length, float), amp)  # (n, m, p)
-                alpha = gp.alpha_.reshape(len(gp.X_train_), -1)  # (m, k)
-                grads.append(np.einsum("nmp,mk->nkp", dk, alpha))
-        T = np.hstack(means)
-        return T, (np.concatenate(grads, axis=1) if jacobian else None)
+            kern = gp.kernel_.k1  # Constant * Matern (the white term has no gradient)
+            amp, length = kern.k1.constant_value, np.broadcast_to(kern.k2.length_scale, (X.shape[1],))
+            dk = _matern52_gradient(X, gp.X_train_, np.asarray(length, float), amp)  # (n, m, p)
+            alpha = gp.alpha_.reshape(len(gp.X_train_), -1)  # (m, k)
+            grads.append(np.einsum("nmp,mk->nkp", dk, alpha))
+        return T, np.concatenate(grads, axis=1)
 
     def predict_std(self, theta) -> np.ndarray:
         """The GP's standard deviation of the standardised scores (n, k): how far from its data a

@@ -2,7 +2,12 @@
 
 Trained full-batch with Adam, then refined with L-BFGS, keeping the weights with the lowest
 error on a held-out validation split (early stopping); seeds fixed so a training is repeatable.
-Jacobians by autograd (torch.func.jacrev, vectorised over points)."""
+Jacobians by autograd (torch.func.jacrev, vectorised over points).
+
+Evaluating the ensemble at a small batch (a sampler's walkers, many thousand times) costs torch's
+per-operation dispatch more than arithmetic, and torch's intra-op threads make it erratic on a busy
+machine (README, "Experiments"): :class:`EnsembleForward` holds the networks' weights as stacked
+float64 numpy arrays and runs all members at once, a few array operations per layer."""
 
 from __future__ import annotations
 
@@ -21,6 +26,37 @@ def _network(p: int, k: int, width: int, hidden_layers: int) -> nn.Sequential:
         n_in = width
     layers.append(nn.Linear(n_in, k))
     return nn.Sequential(*layers).double()
+
+
+class EnsembleForward:
+    """The mean of an ensemble of ``_network`` MLPs (Linear, Tanh, ..., Linear) as numpy: X (n, p)
+    -> (n, k), float64, the same numbers as the torch networks up to rounding."""
+
+    def __init__(self, nets: list[nn.Sequential]) -> None:
+        linears = [[m for m in net if isinstance(m, nn.Linear)] for net in nets]
+        for net, layers in zip(nets, linears, strict=True):
+            kinds = [type(m) for m in net]
+            expected = [t for _ in layers[:-1] for t in (nn.Linear, nn.Tanh)] + [nn.Linear]
+            if kinds != expected:
+                raise ValueError(f"EnsembleForward needs Linear/Tanh layers ending in Linear, got {net}")
+        with torch.no_grad():
+            # y = x W^T + b in torch; stacked over members: (members, in, out), (members, 1, out)
+            self.weights = [
+                np.stack([m[i].weight.double().numpy().T for m in linears]) for i in range(len(linears[0]))
+            ]
+            self.biases = [
+                np.stack([m[i].bias.double().numpy()[None, :] for m in linears])
+                for i in range(len(linears[0]))
+            ]
+
+    def __call__(self, X: np.ndarray) -> np.ndarray:
+        h = np.asarray(X, np.float64)[None]  # (1, n, p), broadcast over the members
+        last = len(self.weights) - 1
+        for i, (W, b) in enumerate(zip(self.weights, self.biases, strict=True)):
+            h = h @ W + b
+            if i < last:
+                h = np.tanh(h)
+        return h.mean(axis=0)
 
 
 class MLPSurrogate(FieldSurrogate):
@@ -120,6 +156,9 @@ class MLPSurrogate(FieldSurrogate):
             keep()
         net.load_state_dict(best[1])
         return net.eval(), best[0]
+
+    def _score_function(self):
+        return EnsembleForward(self.nets)
 
     def _regress(self, X: np.ndarray, jacobian: bool):
         x = torch.from_numpy(np.ascontiguousarray(X, dtype=np.float64))
