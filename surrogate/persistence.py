@@ -30,6 +30,10 @@ from .safe_file import FORMAT, SurrogateFileError, json_header_field, read_conta
 __all__ = ["DEFAULT_SUFFIX", "SurrogateFileError", "load_surrogate", "save_surrogate", "versions"]
 
 DEFAULT_SUFFIX = ".safetensors"
+SELF_CHECK_ARRAYS = frozenset(
+    f"self_check.{name}"
+    for name in ("theta", "force", "displacement", "force_jacobian", "displacement_jacobian")
+)
 SELF_CHECK_TOLERANCE = 1e-9  # relative to the largest |value|: exact on one machine, BLAS builds differ
 
 
@@ -118,12 +122,15 @@ def save_surrogate(surrogate: FieldSurrogate, path: str | Path) -> Path:
 
 def _verify(path: Path, model: FieldSurrogate, arrays: dict[str, np.ndarray], names: list[str]) -> None:
     """The rebuilt model predicts what the saved one did at the self-check points."""
-    missing = [n for n in names if n not in arrays]
-    if missing or "self_check.theta" not in names:
-        raise SurrogateFileError(f"{path}: self-check arrays {missing or ['self_check.theta']} missing")
-    with np.errstate(all="ignore"):  # a damaged model may overflow: that is what is checked
-        again = _self_check_arrays(model, arrays["self_check.theta"])
-    for name in names:
+    missing = sorted(SELF_CHECK_ARRAYS - set(arrays))
+    if missing or set(names) != SELF_CHECK_ARRAYS:
+        raise SurrogateFileError(f"{path}: self-check arrays {missing or names} missing or unexpected")
+    try:
+        with np.errstate(all="ignore"):  # a damaged model may overflow: that is what is checked
+            again = _self_check_arrays(model, arrays["self_check.theta"])
+    except (ValueError, TypeError, RuntimeError, IndexError, AttributeError) as exc:
+        raise SurrogateFileError(f"{path}: the loaded surrogate cannot predict ({exc})") from exc
+    for name in sorted(SELF_CHECK_ARRAYS):
         saved, now = arrays[name], again[name]
         tolerance = SELF_CHECK_TOLERANCE * float(np.abs(saved).max(initial=0.0))
         if saved.shape != now.shape or not np.all(np.abs(now - saved) <= tolerance):  # NaN fails too

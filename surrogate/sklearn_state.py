@@ -127,6 +127,9 @@ def estimator_from_state(config: dict[str, Any], arrays: dict[str, np.ndarray], 
         raise TypeError(f"{prefix}: class {config['class']!r} is not one of {', '.join(ESTIMATORS)}")
     params = {k: decode_value(v, f"{prefix}.{k}") for k, v in config["params"].items()}
     estimator = cls(**params)
+    for attr in [*config["attributes"], *config["arrays"]]:
+        if not attr.isidentifier() or attr.startswith("__") or callable(getattr(cls, attr, None)):
+            raise TypeError(f"{prefix}: {attr!r} is not a fitted attribute of {cls.__name__}")
     for attr, value in config["attributes"].items():
         setattr(estimator, attr, decode_value(value, f"{prefix}.{attr}"))
     for attr in config["arrays"]:

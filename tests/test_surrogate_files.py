@@ -26,10 +26,22 @@ from indentation_studio.studio.surrogate_cli import make_surrogate
 from indentation_studio.surrogate.base import TrainingData
 from indentation_studio.surrogate.persistence import load_surrogate, save_surrogate
 from indentation_studio.surrogate.pickle_conversion import convert_pickled_surrogate
-from indentation_studio.surrogate.safe_file import FORMAT, SurrogateFileError, file_kind, read_container
+from indentation_studio.surrogate.safe_file import (
+    FORMAT,
+    SurrogateFileError,
+    file_kind,
+    read_container,
+    write_container,
+)
 
 MODEL = ModelSpec(protocol=Protocol(step_size=0.5, steps=3), mesh=MeshChoice("coarse"))
-SMALL_MLP = {"adam_epochs": 300, "lbfgs_steps": 20, "ensemble": 2}
+SMALL_MLP = {
+    "adam_epochs": 200,
+    "lbfgs_steps": 20,
+    "ensemble": 2,
+    "width": 16,
+    "hidden_layers": 2,
+}  # not the defaults
 # inside the 4..16 x 150..500 box, off the grid, and one outside it (the surrogate extrapolates)
 THETA = np.array([[9.3, 310.0], [4.6, 480.0], [15.2, 160.0], [18.0, 120.0]])
 
@@ -164,6 +176,19 @@ def test_other_files_are_refused_by_name(small_gp, tmp_path):
     (tmp_path / "changed.safetensors").write_bytes(bytes(body))
     with pytest.raises(SurrogateFileError, match="does not reproduce its saved predictions"):
         load_surrogate(tmp_path / "changed.safetensors")
+    # a header that names a class outside the fixed lists, or sets a method: refused, nothing built
+    header, arrays = read_container(tmp_path / "good.safetensors")
+    for change, message in (
+        (lambda c: c["regressor"]["gps"][0].update({"class": "Pipeline"}), "'Pipeline' is not one of"),
+        (lambda c: c["regressor"]["gps"][0]["params"]["kernel"].update({"__kernel__": "system"}), "'system'"),
+        (lambda c: c["force_pca"]["attributes"].update({"transform": "x"}), "'transform' is not a fitted"),
+        (lambda c: c.update({"kind": "nn"}), "unknown surrogate kind 'nn'"),
+    ):
+        config = json.loads(header["surrogate"])
+        change(config)
+        write_container(tmp_path / "edited.safetensors", {**header, "surrogate": json.dumps(config)}, arrays)
+        with pytest.raises(SurrogateFileError, match=message):
+            load_surrogate(tmp_path / "edited.safetensors")
     with pytest.raises(FileNotFoundError, match="no surrogate file"):
         load_surrogate(tmp_path / "none.safetensors")
 
