@@ -79,15 +79,22 @@ def main() -> None:
         model.meta["versions"] = versions()
         joblib.dump({"format": "indentation-studio-surrogate/1", "model": model}, old)  # as format 1 did
         theta = (model.scaler.lo + model.scaler.hi)[None] / 2
-        same = np.array_equal(joblib.load(old).predict(theta).force, load_surrogate(new).predict(theta).force)
+        same = np.array_equal(
+            joblib.load(old)["model"].predict(theta).force, load_surrogate(new).predict(theta).force
+        )
         row = {"kind": kind, "training_points": model.meta["training_points"], "fit_s": train_s, "same": same}
-        for fmt, path, load in (("joblib", old, joblib.load), ("safetensors", new, load_surrogate)):
-            cold, warm = cold_load_s(fmt, path, args.repeats), warm_load_s(load, path, args.repeats)
+        formats = (("joblib", old, joblib.load), ("safetensors", new, load_surrogate))
+        cold = {fmt: [] for fmt, _, _ in formats}
+        for _ in range(args.repeats):  # interleaved, so that a change in the machine's load hits both
+            for fmt, path, _ in formats:
+                cold[fmt] += cold_load_s(fmt, path, 1)
+        for fmt, path, load in formats:
+            warm = warm_load_s(load, path, args.repeats)
             row[fmt] = {
                 "file": str(path),
                 "bytes": path.stat().st_size,
-                "cold_load_s_median": statistics.median(cold),
-                "cold_load_s": cold,
+                "cold_load_s_median": statistics.median(cold[fmt]),
+                "cold_load_s": cold[fmt],
                 "warm_load_s_median": statistics.median(warm),
                 "warm_load_s": warm,
             }
