@@ -6,8 +6,8 @@ safetensors container (see ``safe_file``): every array of the model (PCA compone
 the GPs' training inputs, alpha_ and Cholesky factors, the networks' weights, the input box) and,
 in its header, JSON text: ``surrogate`` (the class hyperparameters and the fitted scalars and
 kernels: see ``sklearn_state``), ``meta`` (the provenance) and ``self_check`` (names of the
-arrays holding predictions made when saving: forces and their Jacobians at three points of the
-box, the field and its Jacobian at its centre). Loading rebuilds
+arrays holding predictions made when saving: forces at three points of the box, the field at
+its centre). Loading rebuilds
 the model from scikit-learn and torch classes named in fixed lists, predicts at those points and
 refuses the file if the predictions differ from the saved ones (a damaged file, or libraries
 whose internals changed). Pickles and joblib files are refused by name; ``pickle_conversion``
@@ -31,10 +31,7 @@ from .safe_file import FORMAT, SurrogateFileError, json_header_field, read_conta
 __all__ = ["DEFAULT_SUFFIX", "SurrogateFileError", "load_surrogate", "save_surrogate", "versions"]
 
 DEFAULT_SUFFIX = ".safetensors"
-SELF_CHECK_ARRAYS = frozenset(
-    f"self_check.{name}"
-    for name in ("theta", "force", "displacement", "force_jacobian", "displacement_jacobian")
-)
+SELF_CHECK_ARRAYS = frozenset(f"self_check.{name}" for name in ("theta", "force", "displacement"))
 SELF_CHECK_TOLERANCE = 1e-9  # relative to the largest |value|: exact on one machine, BLAS builds differ
 
 
@@ -91,15 +88,14 @@ def _self_check_points(model: FieldSurrogate) -> np.ndarray:
 
 
 def _self_check_arrays(model: FieldSurrogate, theta: np.ndarray) -> dict[str, np.ndarray]:
-    """Forces and their Jacobians at every point of ``theta``, the field and its Jacobian at the
-    first (the field is most of a file's size: one point of it is enough to catch damage)."""
-    p = model.predict(theta, jacobian=True)
+    """Forces at every point of ``theta`` and the field at the first (the field is most of a
+    file's size: one point of it is enough to catch damage). No Jacobians: they come from the
+    same arrays, and the MLP's (torch.func) would add about 2 s to a fresh process's load."""
+    p = model.predict(theta)
     return {
         "self_check.theta": theta,
         "self_check.force": p.force,
         "self_check.displacement": p.displacement[:1],
-        "self_check.force_jacobian": p.force_jacobian,
-        "self_check.displacement_jacobian": p.displacement_jacobian[:1],
     }
 
 
