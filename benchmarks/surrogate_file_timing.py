@@ -24,9 +24,9 @@ import numpy as np
 
 from indentation_studio.atomic_write import atomic_write_json
 from indentation_studio.campaign.loader import load_campaign
-from indentation_studio.studio.surrogate_cli import make_surrogate
 from indentation_studio.surrogate.base import TrainingData
 from indentation_studio.surrogate.persistence import load_surrogate, save_surrogate, versions
+from indentation_studio.surrogate.training import make_surrogate
 
 COLD_LOAD = {
     "joblib": "import joblib; joblib.load({path!r})",

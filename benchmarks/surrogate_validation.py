@@ -24,9 +24,9 @@ from indentation_studio.design.objective import Objective
 from indentation_studio.design.weights import PAPER_TABLE1
 from indentation_studio.forward.predictor import FESolverPredictor
 from indentation_studio.forward.spec import ModelSpec
-from indentation_studio.studio.surrogate_cli import make_surrogate
 from indentation_studio.surrogate.base import TrainingData
 from indentation_studio.surrogate.persistence import save_surrogate
+from indentation_studio.surrogate.training import make_surrogate
 from indentation_studio.surrogate.validation import prediction_errors
 
 THETA_STAR = np.array([10.0, 350.0])

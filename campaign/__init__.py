@@ -1,2 +1,14 @@
 """Campaigns: many forward simulations over a parameter design, run in parallel into a resumable
 store under ``runs/<name>/`` (ARCHITECTURE.md, "Results on disk")."""
+
+import lazy_loader as lazy
+
+__getattr__, __dir__, __all__ = lazy.attach(
+    __name__,
+    submod_attrs={
+        "designs": ["Design", "DesignError", "design_from_option", "paper_grid", "space_filling"],
+        "store": ["CampaignError", "CampaignSpec", "CampaignStore"],
+        "loader": ["CampaignData", "force_table", "load_campaign", "open_campaign"],
+        "runner": ["run_campaign", "run_named_campaign"],
+    },
+)

@@ -5,11 +5,13 @@ Each worker solves one point single-threaded (BLAS/MKL and numba threads pinned 
 ``jobs`` processes use ``jobs`` cores) and returns its index row with the result; the parent
 writes each result file atomically as it arrives and records the row, so cluster workers need no
 access to the store. A point that fails (spec error, no convergence,
-solver error, timeout) is recorded with its reason and the campaign goes on.
+solver error, timeout, FEBio steps off equilibrium) is recorded with its reason and the campaign
+goes on; the steps it did solve are kept in ``points/<n>.partial.npz``.
 """
 
 from __future__ import annotations
 
+import os
 import time
 import traceback
 from collections.abc import Callable
@@ -19,8 +21,10 @@ from typing import Any
 
 import numpy as np
 
+from ..forward.febio_runner import find_febio
 from ..forward.spec import ModelSpec
-from .store import CampaignStore
+from .designs import Design, design_from_option
+from .store import CampaignSpec, CampaignStore
 
 
 class PointTimeout(RuntimeError):
@@ -54,9 +58,11 @@ def solve_point(
         with threadpool_limits(1):
             spec = ModelSpec.from_dict(model).with_material(**dict(zip(parameters, values, strict=True)))
             if solver == "febio":
-                from ..forward.febio_runner import FebioSolver
+                from ..forward.febio_runner import FebioSolver, require_equilibrium
 
-                result = FebioSolver(spec, workdir=workdir, timeout_s=timeout_s).run()
+                # steps FEBio accepted off equilibrium (after its one rerun) fail the point:
+                # a force curve with holes is no training sample (forward.febio_equilibrium)
+                result = require_equilibrium(FebioSolver(spec, workdir=workdir, timeout_s=timeout_s).run())
             else:
                 from ..forward.solver import EmbeddedSolver
 
@@ -145,3 +151,30 @@ def run_campaign(
 
 def default_runs_dir() -> Path:
     return Path("runs")
+
+
+def run_named_campaign(
+    name: str,
+    design: Design | str,
+    model: ModelSpec,
+    runs_dir: str | Path = "runs",
+    solver: str = "embedded",
+    jobs: int = 0,
+    scheduler: str | None = None,
+    retry_failed: bool = False,
+    timeout_s: float | None = None,
+    progress: Callable[[int, int, dict[str, int]], None] | None = None,
+) -> dict[str, Any]:
+    """Create (or resume) the campaign ``runs_dir/name`` of ``model`` over ``design`` (a Design or a
+    grid option such as 'paper', 'lhs:200:7', 'c1=2:20:10,c5=100:500:9') and solve what is left.
+    ``jobs`` 0 means all cores. A store started with another spec is refused, naming the fields."""
+    if isinstance(design, str):
+        design = design_from_option(design)
+    store = CampaignStore.create_or_open(runs_dir, CampaignSpec(name, design, model, solver))
+    if solver == "febio":
+        find_febio()  # absent FEBio is a clear error before anything runs
+    n_jobs = jobs if jobs > 0 else (os.cpu_count() or 1)
+    summary = run_campaign(
+        store, n_jobs, scheduler, retry_failed=retry_failed, timeout_s=timeout_s, progress=progress
+    )
+    return summary | {"name": name, "root": str(store.root), "jobs": n_jobs}

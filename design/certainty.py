@@ -42,7 +42,7 @@ def stencil(p: int, h) -> np.ndarray:
 
 
 #: The spacing of the paper's 25 x 31 grid in theta_bar at theta* = (10, 350) kPa: the step the
-#: authors' code differentiates with (authors-code-notes.md).
+#: authors' code differentiates with.
 PAPER_GRID_STEP = (20.0 / 24.0 / 10.0, (578.0 - 82.5) / 30.0 / 350.0)
 
 

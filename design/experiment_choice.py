@@ -20,10 +20,10 @@ import pandas as pd
 from ..forward.predictor import FESolverPredictor, Prediction
 from ..forward.spec import Indenter, ModelSpec, Protocol
 from .certainty import bounds_pct, combine, gauss_newton_term_hessians
-from .objective import Objective, check_weights
+from .objective import PAPER_WEIGHTS, Objective, check_weights
 from .weights import optimise_weights
 
-PAPER_COMBINED_WEIGHTS = (0.45, 0.35, 0.2, 0.0)
+PAPER_COMBINED_WEIGHTS = PAPER_WEIGHTS
 
 
 @dataclass(frozen=True)

@@ -1,7 +1,7 @@
 """Nodal weights of the displacement objectives (paper Appendix B, eq. B.1 to B.3) and the mask of
 nodes with measured data.
 
-Two readings (../shared/reference/authors-code-notes.md):
+Two readings (the paper as printed, and the authors' public code):
 
 * ``paper`` (default): B.1 to B.3 as printed, normalised to sum to one over the nodes with data;
   nodes obscured by the indenter (within the sphere's radius of the axis) get weight 0.

@@ -1,7 +1,7 @@
 """The objective of the paper (eq. 4a, 4b, 5): force and per-direction displacement errors against a
 measured (or baseline) response, their weighted sum, and the residual vector whose squared sum it is.
 
-Readings (../shared/reference/authors-code-notes.md), chosen with ``reading``:
+Readings (the paper as printed, or the authors' public code), chosen with ``reading``:
 
 * ``paper`` (default): eq. 4a sums over all steps the force error relative to that step's
   measured force; eq. 4b sums over all steps the displacement errors over max |u_j,exp| with the
@@ -24,6 +24,9 @@ from .nodal_weights import default_selection, nodal_weights
 
 TERMS = ("force", "ux", "uy", "uz")
 
+#: The paper's combined weights (eq. 13, Table 1's last row): force, ux, uy, uz.
+PAPER_WEIGHTS = (0.45, 0.35, 0.2, 0.0)
+
 
 def check_weights(eta) -> np.ndarray:
     """``eta`` (4,) as an array; refused unless on the simplex (eq. 5: eta_i in [0, 1], sum 1)."""
@@ -43,7 +46,8 @@ class Objective:
 
     ``force`` (steps,) and ``displacement`` (steps, nodes, 3) are the measured (or baseline)
     response at ``top_xyz`` (nodes, 3); ``radius`` is the indenter's. ``mask`` (nodes,) marks nodes
-    with data (default: see the readings).
+    with data (default: see the readings). ``excluded_steps`` (step numbers counting from 1, as
+    in experiment.json) are left out of eq. 4a and 4b; their targets may be NaN.
     """
 
     force: np.ndarray
@@ -53,6 +57,7 @@ class Objective:
     reading: str = "paper"
     step: int | None = None
     mask: np.ndarray | None = None
+    excluded_steps: tuple[int, ...] = ()
 
     def __post_init__(self) -> None:
         self.force = np.asarray(self.force, float)
@@ -62,20 +67,25 @@ class Objective:
                 f"displacement must be (steps, nodes, 3) = ({len(self.force)}, {len(self.top_xyz)}, 3), "
                 f"got {self.displacement.shape}"
             )
-        if not (np.all(np.isfinite(self.force)) and np.all(np.isfinite(self.displacement))):
+        used = np.setdiff1d(np.arange(len(self.force)), np.asarray(self.excluded_steps, int) - 1)
+        if not used.size:
+            raise ValueError("every step is excluded: nothing to compare")
+        if not (np.all(np.isfinite(self.force[used])) and np.all(np.isfinite(self.displacement[used]))):
             raise ValueError("the target force or displacement holds NaN or infinite values")
         selection = default_selection(self.radius, self.reading, self.mask)
         self.measured = selection.measured(np.asarray(self.top_xyz)[:, :2])
         self.weights = nodal_weights(np.asarray(self.top_xyz)[:, :2], self.measured, self.reading)
         if self.reading == "authors":
             k = len(self.force) - 1 if self.step is None else self.step
+            if k not in used:
+                raise ValueError(f"the authors' reading compares step {k + 1}, which is excluded")
             self.steps = np.array([k])
             self.force_scale = np.full(1, np.max(np.abs(self.force)))
             u_norm = np.max(np.abs(self.displacement[-1][self.measured]), axis=0)
         else:
-            self.steps = np.arange(len(self.force)) if self.step is None else np.array([self.step])
+            self.steps = used if self.step is None else np.array([self.step])
             self.force_scale = self.force[self.steps]
-            u_norm = np.max(np.abs(self.displacement[:, self.measured]), axis=(0, 1))
+            u_norm = np.max(np.abs(self.displacement[used][:, self.measured]), axis=(0, 1))
         if np.any(np.abs(self.force_scale) <= 0.0):
             raise ValueError("the target force is zero at a step the objective uses (eq. 4a divides by it)")
         if np.any(u_norm <= 0.0):

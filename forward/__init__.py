@@ -1,1 +1,31 @@
-"""The forward model: one indentation simulation (spec, mesh, material, solver, results)."""
+"""The forward model: one indentation simulation (model spec, meshes, material, element, contact,
+the embedded solver and its sensitivities, the FEBio backend, result files, the Predictor seam).
+
+Names are imported on first use (lazy_loader), so ``import indentation_studio.forward`` is cheap."""
+
+import lazy_loader as lazy
+
+__getattr__, __dir__, __all__ = lazy.attach(
+    __name__,
+    submod_attrs={
+        "spec": [
+            "Geometry",
+            "Indenter",
+            "Material",
+            "MeshChoice",
+            "ModelSpec",
+            "Protocol",
+            "SolverOptions",
+            "SpecError",
+        ],
+        "mesh": ["MESH_PRESETS", "BlockMesh", "build_mesh", "preset_mesh", "structured_block"],
+        "solver": ["EmbeddedSolver", "SimulationError", "simulate"],
+        "material": ["InvertedElementError"],
+        "result": ["SimulationResult"],
+        "predictor": ["FESolverPredictor", "Prediction", "Predictor"],
+        "feb_writer": ["FebSettings", "write_feb"],
+        "febio_runner": ["FebioSolver", "find_febio"],
+        "mesh_study": ["MeshErrors", "convergence_study", "mesh_errors"],
+        "vtu_export": ["write_vtu_series"],
+    },
+)

@@ -4,14 +4,17 @@ The model is the paper's (2.4, 2.5): the quarter block of hex8 elements with FEB
 Mooney-Rivlin`` (eq. 3: c2 = 0, lam_max = 1), symmetry and bottom boundary conditions, the
 quarter-sphere indenter as rigid tri3 shells driven down by a load curve, and sliding-elastic
 contact with a very large friction coefficient (near-perfect stick). The settings that real
-FEBio 4 needed (../shared/febio/README.md) are the defaults of :class:`FebSettings`:
+FEBio 4 needed (README, "FEBio backend") are the defaults of :class:`FebSettings`:
 
 - ``c3`` must not be 0: with c3 = c4 = 0 this FEBio computes c3 = c5/c4 exp(...) and gives NaN;
   1e-9 with lam_max = 1 leaves the fiber stress c5 (lam~ - 1) of eq. 2.
 - the default contact penalty is too soft (the sphere sinks 0.13 mm at 0.5 mm depth and the
   force comes out 20% low): auto penalty with scale 100.
 - friction 1e8 with 0.5 mm increments fails near 12 mm: the increment is capped at half a step
-  from ``late_from_depth`` on.
+  (``late_max_increment``) from ``late_from_depth`` on.
+
+:meth:`FebSettings.tightened` gives the settings of the one rerun the runner makes when FEBio
+accepted steps off equilibrium (:mod:`forward.febio_equilibrium`).
 
 Time is measured in steps (one time unit per indentation step), so the must points, where the
 log records the results that the parser keeps, fall on the whole times 1, 2, ..., steps.
@@ -20,7 +23,7 @@ log records the results that the parser keeps, fall on the whole times 1, 2, ...
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -55,7 +58,9 @@ class FebSettings:
     max_retries: int = 10
     opt_iter: int = 15
     dtmin: float = 0.001
-    late_from_depth: float = 10.0  # mm: from here on the increment is capped at half a step
+    late_from_depth: float = 10.0  # mm: from here on the increment is capped at late_max_increment
+    max_increment: float = 1.0  # steps: the largest time increment before late_from_depth
+    late_max_increment: float = 0.5  # steps: ... and from late_from_depth on
     dtol: float = 0.001
     etol: float = 0.01
     rtol: float = 0.0
@@ -67,6 +72,36 @@ class FebSettings:
             raise ValueError("FebSettings.c3 must be > 0 (FEBio gives NaN for c3 = c4 = 0)")
         if self.sphere_divisions < 2:
             raise ValueError("FebSettings.sphere_divisions must be >= 2")
+        for name in ("max_increment", "late_max_increment"):
+            if not 0.0 < getattr(self, name) <= 1.0:
+                raise ValueError(f"FebSettings.{name} must be in (0, 1] steps, got {getattr(self, name)!r}")
+
+    def tightened(self) -> FebSettings:
+        """The settings of the rerun after FEBio accepted steps off equilibrium.
+
+        - increments capped at half of the present caps (0.5 step, and 0.25 from
+          ``late_from_depth``): FEBio's bad steps start from a huge first residual (1.8e16 at
+          12.5 mm in the baseline, where a contact predictor pushed nodes deep into the
+          sphere); smaller increments keep that predictor, and the residual, small;
+        - ``dtol`` and ``etol`` ten times smaller: the baseline's 12.5 mm step was accepted with
+          its displacement norm at 0.4 of the required one; FEBio compares squared norms, so the
+          new requirement is 100 times stricter on it;
+        - ``rtol`` 1e-6 (was 0, FEBio's residual check off): FEBio then also wants the squared
+          residual at 1e-6 of the increment's first one (the residual norm at 1e-3). The
+          baseline accepted two increments whose residual had grown (100 and 4e4 times; 8.98
+          and 10.50 time units); its clean increments end between 1e-15 and 1e-7. rtol alone
+          would not have refused 12.5 mm (3e-14 of a huge first residual), hence the two above.
+
+        Everything else (model, contact, penalty) stays, so both runs solve the same model.
+        """
+        return replace(
+            self,
+            max_increment=self.max_increment / 2,
+            late_max_increment=self.late_max_increment / 2,
+            dtol=self.dtol / 10,
+            etol=self.etol / 10,
+            rtol=self.rtol / 10 if self.rtol > 0 else 1e-6,
+        )
 
 
 def _num(v: float) -> str:
@@ -296,7 +331,8 @@ def build_feb(
     pts = _sub(must, "points")
     late_step = int(np.ceil(s.late_from_depth / spec.protocol.step_size - 1e-9))
     for k in range(steps + 1):
-        _sub(pts, "pt", f"{k},{_num(0.5 if k >= late_step else 1.0)}")
+        cap = s.late_max_increment if k >= late_step else s.max_increment
+        _sub(pts, "pt", f"{k},{_num(cap)}")
 
     output = _sub(root, "Output")
     plot = _sub(output, "plotfile", type="febio")

@@ -5,7 +5,9 @@ writer (:mod:`forward.feb_writer`) asks for the top-surface displacements ``ux;u
 rigid indenter's ``z;Fx;Fy;Fz`` and the bottom reactions ``Rz``. Only the must points are kept:
 the whole times 0, 1, ..., steps (one time unit per indentation step). The quarter model's
 indentation force is ``-Fz`` (FEBio's rigid-body reaction is negative while the sphere pushes
-down); the whole specimen's is 4 times that.
+down); the whole specimen's is 4 times that. Every step is checked for equilibrium against the
+bottom reactions (:mod:`forward.febio_equilibrium`): a step FEBio accepted off equilibrium is
+flagged and its force is NaN.
 """
 
 from __future__ import annotations
@@ -18,6 +20,12 @@ from typing import Any
 import numpy as np
 
 from .feb_writer import BOTTOM_DATA, INDENTER_DATA, TOP_DATA
+from .febio_equilibrium import (
+    BOTTOM_KEY,
+    DEFAULT_EQUILIBRIUM_TOLERANCE,
+    EquilibriumTolerance,
+    check_equilibrium,
+)
 from .result import SYMMETRY_FACTOR, SimulationResult
 
 NORMAL_TERMINATION = "N O R M A L   T E R M I N A T I O N"
@@ -135,10 +143,13 @@ def febio_result(
     feb_file: str | Path | None = None,
     steps: int | None = None,
     wall_s: float = 0.0,
+    tolerance: EquilibriumTolerance = DEFAULT_EQUILIBRIUM_TOLERANCE,
 ) -> SimulationResult:
     """The must-point records of ``log`` as a :class:`SimulationResult` (depth 0 first).
 
-    Raises :class:`FebioLogError` when the log lacks the writer's data requests.
+    Steps off equilibrium by ``tolerance`` (:func:`forward.febio_equilibrium.check_equilibrium`)
+    are flagged in ``off_equilibrium`` and their forces are NaN. Raises :class:`FebioLogError`
+    when the log lacks the writer's data requests.
     """
     for name in (TOP_DATA, INDENTER_DATA):
         if name not in log.values:
@@ -165,12 +176,12 @@ def febio_result(
         convergence["newton_iterations"] = np.diff(np.concatenate([[0], cum[ends]]))
     if BOTTOM_DATA in log.values:
         b_rows = must_point_rows(log.times[BOTTOM_DATA], steps)
-        if len(b_rows) == len(rows):
-            convergence["bottom_reaction_quarter"] = log.values[BOTTOM_DATA][b_rows, :, 0].sum(axis=1)
+        if np.array_equal(np.round(log.times[BOTTOM_DATA][b_rows]), np.round(t_body[rows])):
+            convergence[BOTTOM_KEY] = log.values[BOTTOM_DATA][b_rows, :, 0].sum(axis=1)
     top_xyz = np.full((len(log.ids[TOP_DATA]), 3), np.nan)
     if spec is not None:
         top_xyz = _top_coordinates(spec, log.ids[TOP_DATA], top_xyz)
-    return SimulationResult(
+    raw = SimulationResult(
         depth=depth,
         force=SYMMETRY_FACTOR * force_quarter,
         top_node_ids=log.ids[TOP_DATA],
@@ -188,6 +199,7 @@ def febio_result(
         convergence=convergence,
         wall_s=wall_s,
     )
+    return check_equilibrium(raw, tolerance)
 
 
 def _top_coordinates(spec: dict[str, Any], top_ids: np.ndarray, fallback: np.ndarray) -> np.ndarray:

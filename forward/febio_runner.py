@@ -6,6 +6,13 @@ folder holding the ``.feb``, FEBio's log and plot file; FEBio is started with an
 (never through a shell) and a timeout. Normal and error termination are told apart by the log;
 a failure raises :class:`FebioError`, which names the depth reached, quotes the log's last
 lines and carries the steps that did converge.
+
+Every must point is checked for equilibrium (:mod:`forward.febio_equilibrium`). When FEBio
+accepted steps off equilibrium, the model is run once more with
+:meth:`FebSettings.tightened` (smaller increments, tighter convergence norms) in ``rerun/`` of
+the work folder, and the run with fewer flagged steps is kept (the first on a tie, or when the
+rerun fails); ``solver['rerun']`` of the result records what changed and what each run gave.
+The flagged steps that remain have NaN forces.
 """
 
 from __future__ import annotations
@@ -16,9 +23,11 @@ import subprocess
 import tempfile
 import time
 from collections.abc import Callable
+from dataclasses import asdict
 from pathlib import Path
 
 from .feb_writer import FebSettings, write_feb
+from .febio_equilibrium import DEFAULT_EQUILIBRIUM_TOLERANCE, EquilibriumTolerance, off_equilibrium_message
 from .febio_log import FebioLog, FebioLogError, depth_reached, febio_result, read_febio_log
 from .mesh import BlockMesh
 from .result import SimulationResult
@@ -34,6 +43,24 @@ class FebioNotFoundError(FileNotFoundError):
 
 class FebioError(SimulationError):
     """A FEBio run that did not terminate normally."""
+
+
+class OffEquilibriumError(FebioError):
+    """A FEBio run whose result still has steps off equilibrium (``partial`` holds it)."""
+
+
+def require_equilibrium(result: SimulationResult) -> SimulationResult:
+    """``result`` unchanged when no step is flagged off equilibrium; else
+    :class:`OffEquilibriumError` naming the depths, with the result (NaN there) as ``partial``."""
+    message = off_equilibrium_message(result)
+    if message is None:
+        return result
+    rerun = result.solver.get("rerun")
+    if rerun:
+        message += (
+            f" (after a rerun with tightened settings: {rerun['outcome']}, kept the {rerun['kept']} run)"
+        )
+    raise OffEquilibriumError(message, float(result.depth[-1]), result)
 
 
 def find_febio(environ: dict[str, str] | None = None) -> Path:
@@ -77,7 +104,10 @@ def febio_version(executable: Path) -> str | None:
 
 
 class FebioSolver:
-    """Solves one :class:`ModelSpec` with FEBio 4: write, run, parse."""
+    """Solves one :class:`ModelSpec` with FEBio 4: write, run, parse, check equilibrium.
+
+    ``timeout_s`` bounds the whole solve, the rerun included (it gets the time left over).
+    """
 
     def __init__(
         self,
@@ -87,6 +117,8 @@ class FebioSolver:
         executable: str | Path | None = None,
         workdir: str | Path | None = None,
         timeout_s: float | None = 3600.0,
+        tolerance: EquilibriumTolerance = DEFAULT_EQUILIBRIUM_TOLERANCE,
+        rerun_off_equilibrium: bool = True,
     ) -> None:
         self.spec = spec
         self.mesh = mesh
@@ -94,12 +126,61 @@ class FebioSolver:
         self.executable = Path(executable) if executable else find_febio()
         self.workdir = Path(workdir) if workdir else None
         self.timeout_s = timeout_s
+        self.tolerance = tolerance
+        self.rerun_off_equilibrium = rerun_off_equilibrium
 
     def run(self, progress: Callable[[int, int, float], None] | None = None) -> SimulationResult:
-        """Run FEBio to the spec's last step; ``progress(k, steps, depth)`` after each must point."""
+        """Run FEBio to the spec's last step; ``progress(k, steps, depth)`` after each must point.
+
+        Steps off equilibrium make one rerun with tightened settings (module docstring)."""
         workdir = self.workdir or Path(tempfile.mkdtemp(prefix="febio-"))
+        first = self._run_once(self.settings, workdir, progress, self.timeout_s)
+        flagged = first.off_equilibrium_depths
+        if not flagged or not self.rerun_off_equilibrium:
+            return first
+        remaining = None if self.timeout_s is None else self.timeout_s - first.wall_s
+        tighter = self.settings.tightened()
+        old, new = asdict(self.settings), asdict(tighter)
+        record: dict = {
+            "reason": f"off equilibrium at depth {', '.join(f'{d:g}' for d in flagged)} mm",
+            "settings_changed": {k: [old[k], new[k]] for k in old if old[k] != new[k]},
+            "first_off_equilibrium_depths_mm": flagged,
+            "first_log_file": first.solver["log_file"],
+        }
+        if remaining is not None and remaining <= 0:
+            record |= {"outcome": f"not rerun: the {self.timeout_s:g} s timeout is used up", "kept": "first"}
+            first.solver["rerun"] = record
+            return first
+        try:
+            second = self._run_once(tighter, workdir / "rerun", progress, remaining)
+        except FebioError as exc:
+            record |= {"outcome": f"rerun failed: {str(exc).splitlines()[0]}", "kept": "first"}
+            first.solver["rerun"] = record
+            return first
+        better = len(second.off_equilibrium_depths) < len(flagged)
+        kept = second if better else first
+        record |= {
+            "outcome": "rerun finished",
+            "rerun_off_equilibrium_depths_mm": second.off_equilibrium_depths,
+            "rerun_log_file": second.solver["log_file"],
+            "kept": "rerun" if better else "first",
+            "wall_s": [first.wall_s, second.wall_s],
+        }
+        kept.solver["rerun"] = record
+        kept.wall_s = first.wall_s + second.wall_s
+        return kept
+
+    def _run_once(
+        self,
+        settings: FebSettings,
+        workdir: Path,
+        progress: Callable[[int, int, float], None] | None,
+        timeout_s: float | None,
+    ) -> SimulationResult:
+        """Write the .feb with ``settings`` into ``workdir``, run FEBio there (killed after
+        ``timeout_s``), read the log."""
         workdir.mkdir(parents=True, exist_ok=True)
-        feb = write_feb(self.spec, workdir / "model.feb", mesh=self.mesh, settings=self.settings)
+        feb = write_feb(self.spec, workdir / "model.feb", mesh=self.mesh, settings=settings)
         log_path = feb.with_suffix(".log")
         log_path.unlink(missing_ok=True)
         steps = self.spec.protocol.steps
@@ -110,7 +191,7 @@ class FebioSolver:
             timed_out = False
             done = 0
             while proc.poll() is None:
-                if self.timeout_s is not None and time.perf_counter() - t0 > self.timeout_s:
+                if timeout_s is not None and time.perf_counter() - t0 > timeout_s:
                     proc.kill()
                     proc.wait()
                     timed_out = True
@@ -127,9 +208,12 @@ class FebioSolver:
             )
         log = read_febio_log(log_path)
         if timed_out or log.terminated != "normal":
-            self._fail(log, feb, wall, f"timed out after {self.timeout_s:.0f} s" if timed_out else None)
-        result = febio_result(log, self.spec.to_dict(), feb_file=feb, steps=steps, wall_s=wall)
+            self._fail(log, feb, wall, f"timed out after {timeout_s:.0f} s" if timed_out else None)
+        result = febio_result(
+            log, self.spec.to_dict(), feb_file=feb, steps=steps, wall_s=wall, tolerance=self.tolerance
+        )
         result.solver["executable"] = str(self.executable)
+        result.solver["settings"] = asdict(settings)
         if len(result.depth) != steps + 1:
             self._fail(log, feb, wall, f"the log holds {len(result.depth) - 1} of {steps} steps")
         if progress is not None:
@@ -153,7 +237,12 @@ class FebioSolver:
         partial = None
         try:
             partial = febio_result(
-                log, self.spec.to_dict(), feb_file=feb, steps=self.spec.protocol.steps, wall_s=wall
+                log,
+                self.spec.to_dict(),
+                feb_file=feb,
+                steps=self.spec.protocol.steps,
+                wall_s=wall,
+                tolerance=self.tolerance,
             )
         except FebioLogError:
             pass

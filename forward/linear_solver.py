@@ -5,18 +5,7 @@ zeroing their rows and columns and putting 1 on the diagonal, so the pattern of 
 changes during a run: the fill-reducing ordering and symbolic analysis are done once and every
 Newton iteration pays only the numerical factorisation and the solve.
 
-Backends, chosen by measurement on FEBio's baseline mesh (3,751 free dofs) and ``fine``
-(28,182), 2-core machine (README, "Solver choices"):
-
-==========  ==========================  =======================
-backend     baseline mesh, factor+solve  ``fine``, factor+solve
-==========  ==========================  =======================
-pardiso     about 22 ms                 about 0.4 s
-superlu     about 105 ms                about 8 s
-cholespy    about 115 ms                about 10 s
-==========  ==========================  =======================
-
-``pardiso`` (MKL PARDISO through pypardiso, symmetric indefinite mode) is the default;
+Backends (timings in the README, "Solver choices"): ``pardiso`` (MKL PARDISO through pypardiso, symmetric indefinite mode) is the default;
 ``superlu`` (scipy) is the fallback when MKL is not importable.
 """
 
@@ -43,11 +32,9 @@ def default_backend() -> str:
     return "pardiso"
 
 
-#: PARDISO settings (1-based iparm numbers as in the MKL manual), measured on FEBio's baseline mesh
-#: (3,751 free dofs, 944k factor entries): user settings on, METIS ordering, pivots perturbed by
-#: 1e-8, no scaling or weighted matching (the tangent is symmetric and well scaled), iterative
-#: refinement only after a perturbed pivot. Factorisation 19.7 -> 18.0 ms and back-substitution
-#: 2.3 -> 0.75 ms against PARDISO's built-in defaults, same residual (2e-13).
+#: PARDISO settings (1-based iparm numbers as in the MKL manual): user settings on, METIS ordering,
+#: pivots perturbed by 1e-8, no scaling or weighted matching (the tangent is symmetric and well
+#: scaled), iterative refinement only after a perturbed pivot (README, "Solver choices").
 PARDISO_IPARM = {1: 1, 2: 2, 8: 0, 10: 8, 11: 0, 13: 0}
 
 

@@ -3,7 +3,7 @@
 The block spans x in [0, half_x], y in [0, half_y], z in [0, height]; the indenter touches
 (0, 0, height). Cells are uniform (size ``h0``) in a core around the indentation point and
 then grow geometrically to the far faces. Node numbering follows the FEBio files of
-``../shared/febio`` (id = 1 + k + nz * (j + ny * i) for grid x[i], y[j], z[k]), so that node ids
+FEBio's baseline input (id = 1 + k + nz * (j + ny * i) for grid x[i], y[j], z[k]), so that node ids
 of our meshes and of FEBio's coincide when the grids do.
 """
 

@@ -2,12 +2,17 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, replace
+from pathlib import Path
 
 import numpy as np
 from scipy.interpolate import LinearNDInterpolator, RegularGridInterpolator
 
+from .mesh_presets import MESH_PRESETS
 from .result import SimulationResult
+from .solver import EmbeddedSolver
+from .spec import MeshChoice, ModelSpec
 from .stick_contact import RigidSphere
 
 
@@ -91,3 +96,58 @@ def mesh_errors(result: SimulationResult, reference: SimulationResult) -> MeshEr
         100.0 * E_u_contact,
         int(contact.sum()),
     )
+
+
+def solve_or_reuse(
+    spec: ModelSpec,
+    saved: Path | None,
+    progress: Callable[[int, int, float], None] | None = None,
+    say: Callable[[str], None] | None = None,
+) -> SimulationResult:
+    """``spec`` solved on the embedded solver, or read back from ``saved`` when that file holds the
+    same spec on the same number of nodes (a reference mesh takes many minutes); a new result is
+    kept in ``saved``."""
+    if saved is not None and saved.exists():
+        previous = SimulationResult.load(saved)
+        nodes = MESH_PRESETS[spec.mesh.preset].node_count() if spec.mesh.feb_file is None else None
+        if previous.spec == spec.to_dict() and previous.solver.get("mesh", {}).get("nodes") == nodes:
+            if say is not None:
+                say(f"mesh {spec.mesh.preset}: read {saved} (same spec)")
+            return previous
+    result = EmbeddedSolver(spec).run(progress=progress)
+    if saved is not None:
+        result.save(saved)
+    return result
+
+
+def convergence_study(
+    spec: ModelSpec,
+    presets: list[str],
+    reference: str = "reference",
+    out_dir: str | Path | None = None,
+    progress: Callable[[str, int, int, float], None] | None = None,
+    say: Callable[[str], None] | None = None,
+) -> list[dict]:
+    """Eq. 1a and 1b of each mesh preset in ``presets`` against ``reference``, all solved for
+    ``spec`` (its own mesh choice is replaced). With ``out_dir``, each mesh's result is kept there
+    as ``<preset>.npz`` and reused by later studies of the same spec. One row per preset:
+    ``preset``, ``nodes``, ``elements``, the :class:`MeshErrors` fields and ``wall_s``."""
+    folder = Path(out_dir) if out_dir is not None else None
+    results = {}
+    for name in [*presets, reference]:
+        at = replace(spec, mesh=MeshChoice(name))
+        report = None if progress is None else (lambda k, n, f, m=name: progress(m, k, n, f))
+        results[name] = solve_or_reuse(at, None if folder is None else folder / f"{name}.npz", report, say)
+    rows = []
+    for name in presets:
+        r = results[name]
+        rows.append(
+            {
+                "preset": name,
+                "nodes": r.solver["mesh"]["nodes"],
+                "elements": r.solver["mesh"]["elements"],
+                **asdict(mesh_errors(r, results[reference])),
+                "wall_s": r.wall_s,
+            }
+        )
+    return rows

@@ -80,7 +80,8 @@ class FESolverPredictor:
     """A Predictor that runs one FE simulation per parameter point.
 
     ``solver`` is ``"embedded"`` (sensitivities available: exact d force / d theta and
-    d u / d theta from the solver) or ``"febio"`` (needs FEBio 4, see forward.febio_runner).
+    d u / d theta from the solver) or ``"febio"`` (needs FEBio 4, see forward.febio_runner;
+    steps FEBio accepted off equilibrium, even after its rerun, come back with NaN forces).
     ``n_jobs`` > 1 runs points in parallel with joblib processes.
     """
 

@@ -37,6 +37,9 @@ class SimulationResult:
     displacement_sensitivity: np.ndarray | None = None  # (s, nt, 3, p) mm per kPa
     parameters: tuple[str, ...] = ("c1", "c5")
     full_displacement: np.ndarray | None = None  # (s, n, 3) mm: every node, when asked for (VTU export)
+    # (s,) bool: steps a FEBio run accepted off equilibrium (force NaN there, see
+    # forward.febio_equilibrium); None when not checked (the embedded solver, old files)
+    off_equilibrium: np.ndarray | None = None
 
     @property
     def force_quarter(self) -> np.ndarray:
@@ -46,6 +49,13 @@ class SimulationResult:
     def newton_iterations(self) -> int:
         it = self.convergence.get("newton_iterations")
         return int(np.sum(it)) if it is not None else 0
+
+    @property
+    def off_equilibrium_depths(self) -> list[float]:
+        """Depths (mm) of the steps flagged off equilibrium; empty when none or not checked."""
+        if self.off_equilibrium is None:
+            return []
+        return [float(d) for d in np.asarray(self.depth)[np.asarray(self.off_equilibrium, bool)]]
 
     def table(self) -> list[dict[str, float]]:
         return [
@@ -65,6 +75,8 @@ class SimulationResult:
         arrays.update({f"conv_{k}": np.asarray(v) for k, v in self.convergence.items()})
         if self.full_displacement is not None:
             arrays["full_displacement"] = self.full_displacement
+        if self.off_equilibrium is not None:
+            arrays["off_equilibrium"] = np.asarray(self.off_equilibrium, bool)
         if self.force_sensitivity is not None:
             arrays["force_sensitivity"] = self.force_sensitivity
             arrays["displacement_sensitivity"] = self.displacement_sensitivity
@@ -106,6 +118,7 @@ class SimulationResult:
                     displacement_sensitivity=z["displacement_sensitivity"] if sens else None,
                     parameters=tuple(meta.get("parameters", ("c1", "c5"))),
                     full_displacement=z["full_displacement"] if "full_displacement" in z.files else None,
+                    off_equilibrium=z["off_equilibrium"] if "off_equilibrium" in z.files else None,
                 )
         except (OSError, KeyError, ValueError) as exc:
             raise ValueError(f"{path}: not a readable simulation result ({exc})") from exc

@@ -149,12 +149,8 @@ class SolverOptions:
     """Numerical controls of the embedded solver (forward.solver)."""
 
     substeps: int = 1
-    #: Newton's residual on the free dofs relative to the reactions. Measured over 18 points
-    #: spanning the campaign box (c1 1 to 21, c5 82.5 to 578 kPa, paper protocol, `default`):
-    #: forces within 4.0e-5 (relative) of those at 1e-6 and 14 % less CPU (1e-5: 4.1e-6, 6.5 %).
-    #: That is 20 times below the surrogates' error and 50 times below the mesh's, and still far
-    #: tighter than FEBio's defaults (energy 1e-2, displacement 1e-3). Sensitivity checks against
-    #: finite differences need tighter (the tests use 1e-11).
+    #: Newton's residual on the free dofs relative to the reactions (why 1e-4: README, "The forward
+    #: model"); sensitivity checks against finite differences need tighter (the tests use 1e-11).
     residual_tol: float = 1e-4
     max_newton: int = 25
     max_cutbacks: int = 6

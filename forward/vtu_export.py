@@ -10,6 +10,7 @@ from xml.sax.saxutils import quoteattr
 import meshio
 import numpy as np
 
+from ..atomic_write import atomic_write
 from .mesh import BlockMesh
 from .result import SimulationResult
 
@@ -29,20 +30,25 @@ def write_vtu_series(
     entries = []
     for k, (depth, uk) in enumerate(zip(result.depth, u, strict=True)):
         name = f"{stem}_{k:03d}.vtu"
-        meshio.write(
+        atomic_write(
             folder / name,
-            meshio.Mesh(
-                mesh.nodes,
-                [("hexahedron", mesh.elements)],
-                point_data={"displacement": uk, "node_id": mesh.node_ids.astype(np.int64)},
-                field_data={"depth_mm": np.array([depth]), "force_mN": np.array([result.force[k]])},
+            lambda tmp, k=k, depth=depth, uk=uk: meshio.write(
+                tmp,
+                meshio.Mesh(
+                    mesh.nodes,
+                    [("hexahedron", mesh.elements)],
+                    point_data={"displacement": uk, "node_id": mesh.node_ids.astype(np.int64)},
+                    field_data={"depth_mm": np.array([depth]), "force_mN": np.array([result.force[k]])},
+                ),
+                file_format="vtu",
             ),
         )
         entries.append(f'  <DataSet timestep="{depth:.6g}" file={quoteattr(name)}/>')
     pvd = folder / f"{stem}.pvd"
-    pvd.write_text(
+    atomic_write(
+        pvd,
         '<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1">\n <Collection>\n'
         + "\n".join(entries)
-        + "\n </Collection>\n</VTKFile>\n"
+        + "\n </Collection>\n</VTKFile>\n",
     )
     return pvd

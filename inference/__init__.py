@@ -1,2 +1,29 @@
-"""Inference: what is done after a test (experiment data and its processing, synthetic experiments,
-the inverse fit, posteriors, the model-error check, the FE confirmation)."""
+"""Inference: what is done after a test. Experiment data and its processing (eq. 9, registration,
+DIC to nodes), synthetic experiments, the inverse fit (2.8.2), posteriors, the model-error (mesh)
+check, the FE confirmation."""
+
+import lazy_loader as lazy
+
+__getattr__, __dir__, __all__ = lazy.attach(
+    __name__,
+    submod_attrs={
+        "experiment_data": ["ExperimentData", "ExperimentDataError", "load_experiment"],
+        "experiment_processing": ["experiment_objective", "static_forces", "to_model_frame"],
+        "synthetic_experiment": ["write_synthetic_experiment"],
+        "inverse_fit": ["FitResult", "fit_parameters"],
+        "fit_inputs": ["FitInputs", "prepare_fit"],
+        "experiment_fit": ["ExperimentFit", "fit_experiment"],
+        "posterior": ["Posterior", "sample_posterior"],
+        "experiment_posterior": ["ExperimentPosterior", "sample_posterior_for"],
+        "confirmation": ["Confirmation", "confirm"],
+        "mesh_check": ["MeshCheck", "check_mesh_at"],
+        "experiment_import": [
+            "import_dic_csv",
+            "import_duodic",
+            "import_experiment",
+            "import_load_frame",
+            "import_matchid",
+        ],
+        "data_check": ["check_experiment"],
+    },
+)

@@ -4,14 +4,17 @@ An experiment is a folder:
 
 ``experiment.json``
     ``{"radius_mm": 4.77, "step_size_mm": 0.5, "steps": 28, "fiber_angle_deg": 90.0 | null,
-    "description": "..."}``. ``fiber_angle_deg`` is the fiber direction in the DIC frame,
-    counter-clockwise from x (null: estimate it from the strain field).
+    "excluded_steps": [7], "description": "..."}``. ``fiber_angle_deg`` is the fiber direction in
+    the DIC frame, counter-clockwise from x (null: estimate it from the strain field);
+    ``excluded_steps`` (optional) are steps left out of the fit (a hold with a load-cell spike, a
+    slipped step, a lost DIC frame): their readings may be missing or wrong and are not checked.
 ``force.csv``
     The indenter force readings during each step's hold: columns ``step`` (1..N), ``time_s``
     (from the start of that step's hold), ``force_mN``.
 ``dic.npz`` (or ``dic/step_NN.csv``)
     The DIC point cloud of each step: reference position ``x, y, z`` (mm) and displacement
-    ``ux, uy, uz`` (mm). In ``dic.npz``: ``xyz`` (points, 3) and ``u`` (steps, points, 3) with
+    ``ux, uy, uz`` (mm) from the reference (undeformed, zero-depth) state. There is no step 0:
+    the reference state is where displacements are zero, and step k is the k-th hold. In ``dic.npz``: ``xyz`` (points, 3) and ``u`` (steps, points, 3) with
     NaN where a point was not correlated; as CSVs one file per step with columns
     ``x, y, z, ux, uy, uz``.
 ``indenter.csv``
@@ -20,7 +23,9 @@ An experiment is a folder:
 Loading checks everything a fit relies on and names the file, row and column of the first
 problem: missing files or columns, NaN or infinite values, an empty step, a step that is not
 in the protocol, and units that cannot be right (forces whose Hertz-implied shear modulus,
-F / (16/3 sqrt(R) d^1.5), lies outside 0.1 kPa .. 100 MPa: newtons or micronewtons; displacements larger than the specimen read as microns).
+F / (16/3 sqrt(R) d^1.5), lies outside 0.1 kPa .. 100 MPa over the steps: newtons or
+micronewtons; displacements larger than the specimen read as microns). One hold whose readings
+are wrong (a spike, a slipped step) is named by its step and rows (:mod:`.hold_checks`).
 """
 
 from __future__ import annotations
@@ -51,6 +56,13 @@ class ExperimentData:
     dic_u: np.ndarray  # (steps, points, 3), NaN where not correlated
     indenter_xyz: np.ndarray  # (points, 3)
     description: str = ""
+    excluded_steps: tuple[int, ...] = ()  # steps (1..N) left out of the fit
+    missing_steps: tuple[int, ...] = ()  # of those, the ones left out for lack of data (exclude_missing)
+
+    @property
+    def used_steps(self) -> np.ndarray:
+        """The steps (1..N) the fit uses."""
+        return np.array([k for k in range(1, self.steps + 1) if k not in self.excluded_steps], int)
 
     @property
     def depths(self) -> np.ndarray:
@@ -115,6 +127,15 @@ def _read_meta(root: Path) -> dict:
     angle = meta.get("fiber_angle_deg")
     if angle is not None and (not isinstance(angle, int | float) or not np.isfinite(angle)):
         raise ExperimentDataError(f"{path}: 'fiber_angle_deg' must be a number or null, got {angle!r}")
+    excluded = meta.get("excluded_steps", [])
+    if not isinstance(excluded, list) or not all(
+        isinstance(k, int) and not isinstance(k, bool) and 1 <= k <= meta["steps"] for k in excluded
+    ):
+        raise ExperimentDataError(
+            f"{path}: 'excluded_steps' must be a list of steps in 1..{meta['steps']}, got {excluded!r}"
+        )
+    if len(excluded) >= meta["steps"]:
+        raise ExperimentDataError(f"{path}: 'excluded_steps' leaves no step to fit")
     return meta
 
 
@@ -156,13 +177,18 @@ def _read_dic(root: Path, steps: int) -> tuple[np.ndarray, np.ndarray]:
     return xyz, u
 
 
-def load_experiment(root: str | Path) -> ExperimentData:
-    """Read and validate an experiment folder (module docstring)."""
+def load_experiment(root: str | Path, exclude_missing: bool = False) -> ExperimentData:
+    """Read and validate an experiment folder (module docstring). With ``exclude_missing`` a step
+    with fewer than 4 force readings or no correlated DIC point is left out (listed in
+    ``missing_steps``) instead of refused: the data check reports it."""
+    from .hold_checks import check_hold_forces
+
     root = Path(root)
     if not root.is_dir():
         raise ExperimentDataError(f"{root}: no such experiment folder")
     meta = _read_meta(root)
     steps = int(meta["steps"])
+    excluded = tuple(sorted(set(meta.get("excluded_steps", []))))
     force_path = root / "force.csv"
     force = _read_csv(force_path, ("step", "time_s", "force_mN"))
     unknown = sorted(set(force["step"].astype(int)) - set(range(1, steps + 1)))
@@ -171,26 +197,35 @@ def load_experiment(root: str | Path) -> ExperimentData:
         raise ExperimentDataError(
             f"{force_path}: row {row + 2}, column 'step': step {unknown[0]} is not in 1..{steps}"
         )
+    missing: list[int] = []
     for k in range(1, steps + 1):
+        if k in excluded:
+            continue
         rows = force[force["step"] == k]
-        if len(rows) < 4:
+        if len(rows) < 4 and exclude_missing:
+            missing.append(k)
+        elif len(rows) < 4:
             raise ExperimentDataError(
                 f"{force_path}: step {k} has {len(rows)} force readings; the relaxation fit (eq. 9) needs at least 4"
             )
-    peak = force.groupby("step")["force_mN"].median().abs().to_numpy()
-    depth = float(meta["step_size_mm"]) * np.arange(1, steps + 1)
-    mu = float(np.max(peak / (16.0 / 3.0 * np.sqrt(float(meta["radius_mm"])) * depth**1.5)))
-    if not 0.1 <= mu <= 1e5:
-        raise ExperimentDataError(
-            f"{force_path}: column 'force_mN': these forces imply a shear modulus of {mu:.3g} kPa (Hertz), "
-            "outside 0.1 kPa .. 100 MPa; they cannot be millinewtons (newtons, or micronewtons?)"
-        )
+    check_hold_forces(
+        force,
+        float(meta["radius_mm"]),
+        float(meta["step_size_mm"]),
+        str(force_path),
+        excluded_steps=(*excluded, *missing),
+    )
     xyz, u = _read_dic(root, steps)
     for k in range(steps):
-        if not np.isfinite(u[k]).all(axis=1).any():
-            raise ExperimentDataError(f"{root}: DIC step {k + 1} has no correlated point")
+        if k + 1 not in excluded and not np.isfinite(u[k]).all(axis=1).any():
+            if not exclude_missing:
+                raise ExperimentDataError(f"{root}: DIC step {k + 1} has no correlated point")
+            missing.append(k + 1)
+    missing = sorted(set(missing))
+    if len(set(excluded) | set(missing)) >= steps:
+        raise ExperimentDataError(f"{root}: no step has both force readings and DIC points")
     span = float(np.ptp(xyz[:, :2], axis=0).max())
-    u_max = float(np.nanmax(np.abs(u)))
+    u_max = float(np.nanmax(np.abs(u))) if np.isfinite(u).any() else 0.0
     if u_max > max(span, 1.0):
         raise ExperimentDataError(
             f"{root}: DIC displacements up to {u_max:g} exceed the field's {span:g} mm extent (microns, not mm?)"
@@ -211,4 +246,6 @@ def load_experiment(root: str | Path) -> ExperimentData:
         dic_u=u,
         indenter_xyz=indenter,
         description=str(meta.get("description", "")),
+        excluded_steps=tuple(sorted(set(excluded) | set(missing))),
+        missing_steps=tuple(missing),
     )

@@ -57,11 +57,13 @@ def relaxation_fit(t: np.ndarray, f: np.ndarray) -> RelaxationFit:
 
 
 def static_forces(exp: ExperimentData) -> tuple[np.ndarray, np.ndarray]:
-    """f_inf and its standard error per step (eq. 9)."""
-    fits = [
-        relaxation_fit(g["time_s"].to_numpy(), g["force_mN"].to_numpy()) for _, g in exp.force.groupby("step")
-    ]
-    return np.array([r.f_inf for r in fits]), np.array([r.f_inf_std for r in fits])
+    """f_inf and its standard error per step 1..N (eq. 9); NaN for the excluded steps."""
+    f_inf, f_std = np.full(exp.steps, np.nan), np.full(exp.steps, np.nan)
+    for k in exp.used_steps:
+        g = exp.force[exp.force["step"] == k]
+        fit = relaxation_fit(g["time_s"].to_numpy(), g["force_mN"].to_numpy())
+        f_inf[k - 1], f_std[k - 1] = fit.f_inf, fit.f_inf_std
+    return f_inf, f_std
 
 
 def fit_sphere(points: np.ndarray) -> tuple[np.ndarray, float]:
@@ -124,6 +126,19 @@ class RegisteredDIC:
     fiber_angle_deg: float
     fiber_angle_estimated: bool
     sphere_radius: float
+    sphere_rms: float = float("nan")  # RMS distance of the indenter points from the fitted sphere, mm
+    rotation: np.ndarray | None = None  # DIC frame -> model frame (rotation about z)
+
+    def to_dict(self) -> dict:
+        """The registration a fit used (what ``fit --json`` reports)."""
+        return {
+            "origin_mm": self.origin.tolist(),
+            "sphere_radius_mm": self.sphere_radius,
+            "sphere_fit_rms_mm": self.sphere_rms,
+            "rotation": None if self.rotation is None else self.rotation.tolist(),
+            "fiber_angle_deg": self.fiber_angle_deg,
+            "fiber_angle_estimated": self.fiber_angle_estimated,
+        }
 
 
 def to_model_frame(exp: ExperimentData) -> RegisteredDIC:
@@ -134,12 +149,22 @@ def to_model_frame(exp: ExperimentData) -> RegisteredDIC:
     xyz = exp.dic_xyz - origin
     estimated = exp.fiber_angle_deg is None
     angle = (
-        fiber_angle_from_strain(xyz[:, :2], exp.dic_u[-1], 1.5 * exp.radius, 4.0 * exp.radius)
+        fiber_angle_from_strain(
+            xyz[:, :2], exp.dic_u[exp.used_steps[-1] - 1], 1.5 * exp.radius, 4.0 * exp.radius
+        )
         if estimated
         else exp.fiber_angle_deg
     )
     Q = rotation_to_fibers(angle)
-    return RegisteredDIC(xyz @ Q.T, exp.dic_u @ Q.T, origin, float(angle), estimated, radius)
+    rms = float(np.sqrt(np.mean((np.linalg.norm(exp.indenter_xyz - centre, axis=1) - radius) ** 2)))
+    return RegisteredDIC(xyz @ Q.T, exp.dic_u @ Q.T, origin, float(angle), estimated, radius, rms, Q)
+
+
+def _step_mask(steps: int, used: np.ndarray) -> np.ndarray:
+    """(steps, 1, 1): 1 for the steps used, 0 for the others."""
+    mask = np.zeros((steps, 1, 1))
+    mask[used] = 1.0
+    return mask
 
 
 #: A node counts as measured only when its DIC neighbours surround it: the widest angle between
@@ -165,7 +190,11 @@ def unfold_by_symmetry(xy: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.nd
 
 
 def dic_to_nodes(
-    dic: RegisteredDIC, node_xy: np.ndarray, neighbours: int = 12, max_distance: float | None = None
+    dic: RegisteredDIC,
+    node_xy: np.ndarray,
+    neighbours: int = 12,
+    max_distance: float | None = None,
+    used_steps: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Displacements (steps, nodes, 3) at the FE top nodes ``node_xy`` (nodes, 2) and the mask of
     nodes with data, from the ``neighbours`` nearest DIC points of each node in the reference
@@ -177,15 +206,17 @@ def dic_to_nodes(
     weighs most). A node is obscured (no data, weight 0) where its neighbours do not surround it
     (``MAX_NEIGHBOUR_GAP_DEG``: the edge of the field of view, the indenter's shadow) or lie
     farther than ``max_distance`` (default twice the median distance of a DIC point to its k-th
-    neighbour)."""
+    neighbour). ``used_steps`` (1..N; default all) are the steps that count: a point needs to be
+    correlated in those only, and the other steps' displacements are returned as 0."""
     xy = dic.xyz[:, :2]
-    ok = np.all(np.isfinite(dic.u), axis=(0, 2))  # points correlated at every step
+    used = np.arange(dic.u.shape[0]) if used_steps is None else np.asarray(used_steps, int) - 1
+    ok = np.all(np.isfinite(dic.u[used]), axis=(0, 2))  # points correlated at every step used
     if not ok.any():
         raise ExperimentDataError("no DIC point is correlated at every step")
     k = int(min(neighbours, 4 * int(ok.sum())))
     if k < 3:
         raise ExperimentDataError(f"a plane through the DIC points needs 3 of them, got {int(ok.sum())}")
-    pts, u = unfold_by_symmetry(xy[ok], dic.u[:, ok])
+    pts, u = unfold_by_symmetry(xy[ok], np.nan_to_num(dic.u[:, ok]) * _step_mask(dic.u.shape[0], used))
     tree = cKDTree(pts)
     if max_distance is None:  # twice the typical reach of k neighbours among the DIC points
         d, _ = tree.query(pts, k=k + 1)
@@ -210,14 +241,25 @@ def dic_to_nodes(
     return out, measured
 
 
-def experiment_objective(exp: ExperimentData, top_xyz: np.ndarray, reading: str = "paper"):
+def experiment_objective(exp: ExperimentData, top_xyz: np.ndarray, reading: str = "paper", excluded_steps=()):
     """The objective (eq. 4, 5) of a measured experiment against a model with top nodes
     ``top_xyz``: static forces from eq. 9, DIC registered and interpolated at the nodes, nodes
-    without data obscured. Returns the objective and the registration."""
+    without data obscured; the steps of ``exp.excluded_steps`` and ``excluded_steps`` (1..N) left
+    out. Returns the objective and the registration."""
+    from dataclasses import replace
+
     from ..design.objective import Objective
 
+    bad = [k for k in excluded_steps if not 1 <= int(k) <= exp.steps]
+    if bad:
+        raise ExperimentDataError(f"excluded step(s) {bad} are not in 1..{exp.steps}")
+    excluded = tuple(sorted(set(exp.excluded_steps) | {int(k) for k in excluded_steps}))
+    if excluded != exp.excluded_steps:
+        exp = replace(exp, excluded_steps=excluded)
     f_inf, _ = static_forces(exp)
     dic = to_model_frame(exp)
-    u_nodes, measured = dic_to_nodes(dic, np.asarray(top_xyz)[:, :2])
-    objective = Objective(f_inf, u_nodes, top_xyz, radius=exp.radius, reading=reading, mask=measured)
+    u_nodes, measured = dic_to_nodes(dic, np.asarray(top_xyz)[:, :2], used_steps=exp.used_steps)
+    objective = Objective(
+        f_inf, u_nodes, top_xyz, radius=exp.radius, reading=reading, mask=measured, excluded_steps=excluded
+    )
     return objective, dic

@@ -40,6 +40,13 @@ class FitResult:
     message: str
     history: list[tuple[list[float], float]] = field(default_factory=list)
 
+    @property
+    def residual_sd(self) -> float:
+        """sqrt(F(theta_hat) / (n - p)): the standard deviation of one normalised residual, the noise
+        level of the posterior's likelihood (eq. 8's s is this times the 95 % factor
+        sqrt(p F_{p,n-p}^0.95), which would widen a posterior about 2.4 times)."""
+        return float(np.sqrt(self.F / (self.n_residuals - self.theta.size)))
+
     def interval(self) -> np.ndarray:
         """theta_hat +- the eq. 6 bound (p, 2) in kPa."""
         half = self.theta * self.bounds_pct / 100.0

@@ -24,7 +24,10 @@ delta and spread by that GCI, read as a 95 % half-width of a normal error.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import json
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from pathlib import Path
 
 import numpy as np
 
@@ -33,6 +36,8 @@ from ..design.objective import Objective, check_weights
 from ..forward.mesh_study import top_field_interpolator
 from ..forward.predictor import Prediction
 from ..forward.result import SimulationResult
+from ..forward.solver import simulate
+from ..forward.spec import MeshChoice, ModelSpec
 
 
 @dataclass(frozen=True)
@@ -71,6 +76,25 @@ class MeshCheck:
     def corrected_combined_pct(self) -> np.ndarray:
         """95 % half-width of the corrected fit: statistical and finer mesh's GCI, root sum of squares."""
         return np.hypot(self.statistical_pct, self.corrected_uncertainty_pct)
+
+    def to_dict(self, check_mesh: str) -> dict:
+        """The check as written to fit.json / confirm.json (read back by :func:`load_mesh_check`)."""
+        return {
+            "check_mesh": check_mesh,
+            "nodes": list(self.nodes),
+            "refinement_ratio": self.refinement_ratio,
+            "order": self.order,
+            "safety_factor": self.safety,
+            "shift_pct": self.shift_pct.tolist(),
+            "theta": self.theta.tolist(),
+            "theta_on_finer_mesh": self.corrected_theta.tolist(),
+            "uncertainty_pct": self.uncertainty_pct.tolist(),
+            "statistical_pct": self.statistical_pct.tolist(),
+            "combined_pct": self.combined_pct.tolist(),
+            "corrected_uncertainty_pct": self.corrected_uncertainty_pct.tolist(),
+            "corrected_combined_pct": self.corrected_combined_pct.tolist(),
+            "s": self.s,
+        }
 
 
 def prediction_at_nodes(result: SimulationResult, top_xyz: np.ndarray) -> Prediction:
@@ -130,3 +154,53 @@ def mesh_check(
         s=s,
         statistical_pct=bounds_pct(H, s),
     )
+
+
+def check_mesh_at(
+    spec: ModelSpec,
+    objective: Objective,
+    eta,
+    theta: np.ndarray,
+    preset: str,
+    say: Callable[[str], None] | None = None,
+) -> tuple[MeshCheck, Prediction]:
+    """Solve ``spec`` at ``theta`` on its own mesh (with sensitivities) and on the finer ``preset``,
+    and return the mesh check with the fit's-mesh prediction at ``theta`` (an FE confirmation)."""
+    at = spec.with_material(c1=float(theta[0]), c5=float(theta[1]))
+    if say is not None:
+        say(f"solving at {np.round(theta, 3).tolist()} kPa on the fit's mesh and on '{preset}' ...")
+    coarse = simulate(at, sensitivities=True)
+    check = mesh_check(objective, eta, coarse, simulate(replace(at, mesh=MeshChoice(preset))))
+    return check, Prediction.from_results([coarse], ("c1", "c5"))
+
+
+def load_mesh_check(path: str | Path, experiment: str | Path, theta_fit: np.ndarray) -> dict:
+    """The mesh check stored in a fit.json or confirm.json, refused if it belongs to another
+    experiment or lies more than 10 % from this fit (its shift is first-order, at its own theta)."""
+    try:
+        payload = json.loads(Path(path).read_text())
+    except (OSError, json.JSONDecodeError) as exc:
+        raise ValueError(f"{path}: not a readable fit.json or confirm.json ({exc})") from exc
+    check = payload.get("mesh_check")
+    if not isinstance(check, dict) or "corrected_uncertainty_pct" not in check or "theta" not in check:
+        raise ValueError(
+            f"{path}: no mesh check in it; run 'indent-studio fit' or 'confirm' with --check-mesh PRESET"
+        )
+    where = (payload.get("inputs") or {}).get("experiment")
+    if where is not None and Path(where).resolve() != Path(experiment).resolve():
+        raise ValueError(f"{path}: the mesh check was made for experiment {where}, not {experiment}")
+    theta = np.asarray(check["theta"], float)
+    far = np.abs(theta / np.asarray(theta_fit, float) - 1.0)
+    if np.any(far > 0.1):
+        raise ValueError(
+            f"{path}: the mesh check was made at {theta.round(4).tolist()} kPa, more than 10 % from this fit "
+            f"{np.round(theta_fit, 4).tolist()}; confirm at the fit first"
+        )
+    return {
+        "file": str(path),
+        "check_mesh": check["check_mesh"],
+        "nodes": check["nodes"],
+        "theta": theta.tolist(),
+        "shift_pct": check["shift_pct"],
+        "corrected_uncertainty_pct": check["corrected_uncertainty_pct"],
+    }

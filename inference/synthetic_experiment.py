@@ -11,12 +11,12 @@ sphere fit.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
+from ..atomic_write import atomic_write, atomic_write_json
 from ..forward.mesh_study import top_field_interpolator
 from .experiment_processing import rotation_to_fibers
 
@@ -75,9 +75,10 @@ def write_synthetic_experiment(
         f = f + f_noise * force[s] * rng.standard_normal(t.size)
         rows.append(pd.DataFrame({"step": s + 1, "time_s": t, "force_mN": f}))
     out.mkdir(parents=True, exist_ok=True)
-    pd.concat(rows).to_csv(out / "force.csv", index=False)
-    np.savez_compressed(out / "dic.npz", xyz=xyz_dic, u=u_dic)
-    pd.DataFrame(cap @ Q.T + offset, columns=["x", "y", "z"]).to_csv(out / "indenter.csv", index=False)
+    atomic_write(out / "force.csv", pd.concat(rows).to_csv(index=False))
+    atomic_write(out / "dic.npz", lambda tmp: _write_npz(tmp, xyz=xyz_dic, u=u_dic))
+    indenter = pd.DataFrame(cap @ Q.T + offset, columns=["x", "y", "z"])
+    atomic_write(out / "indenter.csv", indenter.to_csv(index=False))
     meta = {
         "radius_mm": radius,
         "step_size_mm": step_size,
@@ -96,5 +97,10 @@ def write_synthetic_experiment(
             "model": getattr(predictor, "spec", None).to_dict() if hasattr(predictor, "spec") else None,
         },
     }
-    (out / "experiment.json").write_text(json.dumps(meta, indent=1))
+    atomic_write_json(out / "experiment.json", meta)  # last: a folder without it is no experiment
     return out
+
+
+def _write_npz(path: Path, **arrays: np.ndarray) -> None:
+    with open(path, "wb") as fh:  # a file object: np.savez would append .npz to the temporary name
+        np.savez_compressed(fh, **arrays)

@@ -1,1 +1,22 @@
-"""The studio: command-line interface, figures and reports."""
+"""The studio: the ``indent-studio`` command line, figures (functions that return matplotlib
+Figures), the HTML report and the demo."""
+
+import lazy_loader as lazy
+
+__getattr__, __dir__, __all__ = lazy.attach(
+    __name__,
+    submodules=["figures"],
+    submod_attrs={
+        "figures": [
+            "corner_figure",
+            "design_comparison_figure",
+            "displacement_maps_figure",
+            "force_depth_figure",
+            "mesh_figure",
+            "objective_map_figure",
+            "parity_figure",
+            "save_figure",
+        ],
+        "demo": ["run_demo"],
+    },
+)

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import os
 import time
 from pathlib import Path
 from typing import Annotated, Any
@@ -12,7 +11,8 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from ..campaign.designs import DesignError, design_from_option
+from ..atomic_write import atomic_write
+from ..campaign.designs import DesignError
 from ..campaign.store import CampaignError
 from ..forward.spec import SpecError
 from .options import (
@@ -72,46 +72,25 @@ def run(
     as_json: JSON = False,
 ) -> None:
     """Run (or resume) a campaign; finished points are skipped, failures recorded."""
-    from ..campaign.runner import run_campaign
-    from ..campaign.store import CampaignSpec, CampaignStore
+    from ..campaign.runner import run_named_campaign
 
-    try:
-        design = design_from_option(grid)
-        # the material values of the base spec are placeholders: each point sets its own
-        base = model_spec(1.0, 1.0, kappa, radius, steps, step_size, mesh, mesh_from, substeps)
-        spec = CampaignSpec(name, design, base, solver.value)
-        store = CampaignStore.create_or_open(runs_dir, spec)
-        if solver == SolverName.febio:
-            from ..forward.febio_runner import find_febio
-
-            find_febio()
-    except (DesignError, CampaignError, SpecError, ValueError, FileNotFoundError) as exc:
-        fail(str(exc), as_json)
-    n_jobs = jobs if jobs > 0 else (os.cpu_count() or 1)
-    todo = len(store.points_with("pending", "failed") if retry_failed else store.points_with("pending"))
-    err.print(
-        f"campaign {name}: {len(design.points)} points ({design.description}), {todo} to solve, "
-        f"{'dask ' + scheduler if scheduler else f'{n_jobs} processes'}; store {store.root}",
-        highlight=False,
-    )
+    where = f"dask {scheduler}" if scheduler else f"{jobs or 'all'} processes"
+    err.print(f"campaign {name}: grid {grid}, {where}, store {Path(runs_dir) / name}", highlight=False)
     t0 = time.perf_counter()
-    with step_progress(err, f"campaign {name}", max(todo, 1)) as bar:
+    with step_progress(err, f"campaign {name}", 1) as bar:
 
         def report(done: int, total: int, counts: dict[str, int]) -> None:
             rate = done / max(time.perf_counter() - t0, 1e-9) * 60.0
-            bar.update(done, f"done {counts['done']} failed {counts['failed']}  {rate:.1f} points/min")
+            bar.update(done, f"done {counts['done']} failed {counts['failed']}  {rate:.1f} points/min", total)
 
         try:
-            summary = run_campaign(
-                store,
-                jobs=n_jobs,
-                scheduler=scheduler,
-                retry_failed=retry_failed,
-                timeout_s=timeout,
-                progress=report,
+            # the material values of the base spec are placeholders: each point sets its own
+            base = model_spec(1.0, 1.0, kappa, radius, steps, step_size, mesh, mesh_from, substeps)
+            summary = run_named_campaign(
+                name, grid, base, runs_dir, solver.value, jobs, scheduler, retry_failed, timeout, report
             )
-        except (OSError, ValueError) as exc:
-            fail(f"campaign {name}: {exc} (finished points are kept in {store.root})", as_json)
+        except (DesignError, CampaignError, SpecError, ValueError, FileNotFoundError, OSError) as exc:
+            fail(f"campaign {name}: {exc} (finished points are kept in {Path(runs_dir) / name})", as_json)
     if as_json:
         print(json.dumps(summary))
         return
@@ -147,13 +126,12 @@ def export(
     try:
         store = open_campaign(name, runs_dir)
         table = force_table(store)
-        out.parent.mkdir(parents=True, exist_ok=True)
-        if out.suffix == ".csv":
-            table.to_csv(out, index=False)
-        elif out.suffix == ".parquet":
-            table.to_parquet(out, index=False)
-        else:
+        if out.suffix not in (".csv", ".parquet"):
             raise ValueError(f"{out}: use a .parquet or .csv file name")
+        csv = out.suffix == ".csv"
+        atomic_write(
+            out, table.to_csv(index=False) if csv else lambda tmp: table.to_parquet(tmp, index=False)
+        )
     except (CampaignError, ValueError, OSError) as exc:
         fail(str(exc), as_json)
     payload = {

@@ -7,6 +7,7 @@ on stdout; progress and logs go to stderr.
 from __future__ import annotations
 
 import json
+import math
 import sys
 import time
 from pathlib import Path
@@ -19,6 +20,7 @@ from rich.table import Table
 from ..forward.spec import SpecError
 from .campaign_cli import campaign_app
 from .design_cli import design_app
+from .import_cli import register as register_import
 from .inference_cli import register as register_inference
 from .options import (
     C1,
@@ -35,6 +37,7 @@ from .options import (
     err,
     fail,
     model_spec,
+    say,
 )
 from .progress import step_progress
 from .surrogate_cli import surrogate_app
@@ -44,10 +47,22 @@ app = typer.Typer(
     no_args_is_help=True,
     add_completion=False,
 )
+
+
+@app.callback()
+def _headless() -> None:
+    """Figures are written to files from the command line: matplotlib's Agg backend, set here
+    (the entry point) and nowhere else, so notebooks keep their inline backend."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+
+
 app.add_typer(campaign_app, name="campaign")
 app.add_typer(design_app, name="design")
 app.add_typer(surrogate_app, name="surrogate")
 register_inference(app)
+register_import(app)
 
 
 @app.command()
@@ -70,56 +85,59 @@ def simulate(
         Path | None,
         typer.Option(help="also write the whole block per step as VTU (+ .pvd) for ParaView here"),
     ] = None,
+    from_log: Annotated[
+        Path | None,
+        typer.Option(
+            help="read back this FEBio log instead of running FEBio (implies --solver febio; the model "
+            "options must be the run's; --mesh-from defaults to the .feb beside the log)"
+        ),
+    ] = None,
     as_json: JSON = False,
 ) -> None:
     """One indentation simulation (default: the paper's baseline, R = 4.77 mm, 28 x 0.5 mm).
 
     ``--solver febio`` runs the same model on FEBio 4 (FEBIO_PATH or PATH); its .feb, log and
-    plot file stay in a folder beside the result file."""
-    from ..forward.solver import EmbeddedSolver, SimulationError
+    plot file stay in a folder beside the result file. Steps FEBio accepted off equilibrium are
+    named on stderr and their forces are NaN (null in --json)."""
+    from ..forward.febio_log import FebioLogError
+    from ..forward.simulation_run import run_simulation
+    from ..forward.solver import SimulationError
 
-    try:
-        spec = model_spec(c1, c5, kappa, radius, steps, step_size, mesh, mesh_from, substeps)
-    except (SpecError, ValueError) as exc:
-        fail(str(exc), as_json)
-    if out is None:
-        tag = Path(mesh_from).stem if mesh_from else mesh
-        out = Path("runs/simulations") / f"c1={c1:g}_c5={c5:g}_R={radius:g}_{tag}_{solver.value}.npz"
-    try:
-        if solver == SolverName.febio:
-            from ..forward.febio_runner import FebioSolver
-
-            if sensitivities:
-                raise ValueError("--sensitivities needs the embedded solver")
-            engine = FebioSolver(spec, workdir=out.with_name(out.stem + ".febio"))
-        else:
-            engine = EmbeddedSolver(spec)
-    except (SpecError, ValueError, FileNotFoundError) as exc:
-        fail(str(exc), as_json)
+    if from_log is not None:
+        solver = SolverName.febio
+        mesh_from = mesh_from or (
+            from_log.with_suffix(".feb") if from_log.with_suffix(".feb").is_file() else None
+        )
+        if mesh_from is None:
+            fail(
+                f"--from-log {from_log}: no {from_log.with_suffix('.feb').name} beside it; give --mesh-from",
+                as_json,
+            )
+    tag = Path(mesh_from).stem if mesh_from else mesh
+    out = out or Path("runs/simulations") / f"c1={c1:g}_c5={c5:g}_R={radius:g}_{tag}_{solver.value}.npz"
     t0 = time.perf_counter()
-    with step_progress(err, f"simulate ({solver.value})", spec.protocol.steps) as bar:
-        report = lambda k, n, f: bar.update(k, f"{k * step_size:.1f} mm  {f:.1f} mN")  # noqa: E731
+    with step_progress(err, f"simulate ({solver.value})", steps) as bar:
+        unit = "mm" if solver == SolverName.febio else "mN"
         try:
-            if solver == SolverName.febio:
-                result = engine.run(progress=lambda k, n, d: bar.update(k, f"{d:.2f} mm"))
-            else:
-                result = engine.run(sensitivities=sensitivities, progress=report, full_field=vtu is not None)
-        except SimulationError as exc:
-            if exc.partial is not None and len(exc.partial.depth) > 1:
-                partial = exc.partial.save(out.with_name(out.stem + ".partial.npz"))
-                err.print(f"steps completed before the failure are kept in {partial}")
+            spec = model_spec(c1, c5, kappa, radius, steps, step_size, mesh, mesh_from, substeps)
+            run = run_simulation(
+                spec,
+                out,
+                solver.value,
+                sensitivities,
+                vtu,
+                from_log,
+                lambda k, n, v: bar.update(k, f"{v:.2f} {unit}"),
+                say,
+            )
+        except (SpecError, ValueError, FileNotFoundError, SimulationError, FebioLogError, OSError) as exc:
             fail(str(exc), as_json)
-    path = result.save(out)
-    pvd = None
-    if vtu is not None:
-        if solver == SolverName.febio:
-            fail("--vtu needs the embedded solver (FEBio writes its own .xplt for FEBio Studio)", as_json)
-        from ..forward.vtu_export import write_vtu_series
-
-        pvd = write_vtu_series(result, engine.mesh, vtu)
+    result, path, pvd = run.result, run.result_file, run.vtu_series
+    for note in run.warnings:
+        err.print(f"[bold yellow]warning:[/] {note}", soft_wrap=True, highlight=False)
     payload: dict[str, Any] = {
         "depth_mm": result.depth.tolist(),
-        "force_mN": result.force.tolist(),
+        "force_mN": [float(f) if math.isfinite(f) else None for f in result.force],
         "force_is": "whole specimen (4 x quarter model)",
         "wall_s": time.perf_counter() - t0,
         "newton_iterations": result.newton_iterations,
@@ -127,6 +145,8 @@ def simulate(
         "solver": result.solver["name"],
         "mesh": result.solver.get("mesh", {"source": str(mesh_from or mesh)}),
         "vtu_series": str(pvd) if pvd else None,
+        "off_equilibrium_depths_mm": result.off_equilibrium_depths,
+        "febio_rerun": result.solver.get("rerun"),
     }
     if as_json:
         print(json.dumps(payload))
@@ -196,62 +216,30 @@ def mesh_study(
 ) -> None:
     """Mesh convergence (eq. 1a, 1b) of presets against a reference mesh (paper: c1 = 9.4, c5 = 321).
     With --out-dir, a mesh already solved there for the same model spec is read back instead of
-    solved again (the reference takes about half an hour)."""
-    from ..forward.mesh import MESH_PRESETS
-    from ..forward.mesh_study import mesh_errors
-    from ..forward.result import SimulationResult
-    from ..forward.solver import EmbeddedSolver, SimulationError
+    solved again (the reference takes many minutes)."""
+    from ..forward.mesh_presets import MESH_PRESETS
+    from ..forward.mesh_study import convergence_study
+    from ..forward.solver import SimulationError
 
     names = [p.strip() for p in presets.split(",") if p.strip()]
-    results = {}
-    try:
-        specs = {
-            n: model_spec(c1, c5, kappa, radius, steps, step_size, n, None, substeps)
-            for n in [*names, reference]
-        }
-    except (SpecError, ValueError) as exc:
-        fail(str(exc), as_json)
-    for name, spec in specs.items():
-        saved = Path(out_dir) / f"{name}.npz" if out_dir is not None else None
-        if saved is not None and saved.exists():
-            previous = SimulationResult.load(saved)
-            same_mesh = previous.solver.get("mesh", {}).get("nodes") == MESH_PRESETS[name].node_count()
-            if previous.spec == spec.to_dict() and same_mesh:
-                err.print(f"mesh {name}: read {saved} (same spec)")
-                results[name] = previous
-                continue
-        with step_progress(err, f"mesh {name}", steps) as bar:
-            try:
-                results[name] = EmbeddedSolver(spec).run(
-                    progress=lambda k, n, f, b=bar: b.update(k, f"{f:.1f} mN")
-                )
-                if saved is not None:
-                    results[name].save(saved)
-            except SimulationError as exc:
-                fail(f"mesh {name}: {exc}", as_json)
-    rows = []
-    for name in names:
-        e = mesh_errors(results[name], results[reference])
-        r = results[name]
-        rows.append(
-            {
-                "preset": name,
-                "nodes": r.solver["mesh"]["nodes"],
-                "elements": r.solver["mesh"]["elements"],
-                "E_f_pct": e.E_f_pct,
-                "E_f_rel_pct": e.E_f_rel_pct,
-                "E_u_pct": e.E_u_pct,
-                "E_u_contact_pct": e.E_u_contact_pct,
-                "contact_nodes": e.contact_nodes,
-                "wall_s": r.wall_s,
-            }
-        )
+    with step_progress(err, "mesh study", steps * (len(names) + 1)) as bar:
+        done = {name: 0 for name in [*names, reference]}
+
+        def report(mesh: str, k: int, n: int, f: float) -> None:
+            done[mesh] = k
+            bar.update(sum(done.values()), f"{mesh}: {f:.1f} mN")
+
+        try:
+            spec = model_spec(c1, c5, kappa, radius, steps, step_size, reference, None, substeps)
+            rows = convergence_study(spec, names, reference, out_dir, report, say)
+        except (SpecError, ValueError, SimulationError) as exc:
+            fail(str(exc), as_json)
     if as_json:
         print(
             json.dumps(
                 {
                     "reference": reference,
-                    "reference_nodes": results[reference].solver["mesh"]["nodes"],
+                    "reference_nodes": MESH_PRESETS[reference].node_count(),
                     "rows": rows,
                 }
             )

@@ -10,7 +10,8 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from ..forward.spec import ModelSpec, SpecError
+from ..atomic_write import atomic_write, atomic_write_json
+from ..forward.spec import SpecError
 from .options import (
     JSON,
     KAPPA,
@@ -200,8 +201,7 @@ def weights_cmd(
         "spec": study.spec,
     }
     if out is not None:
-        out.parent.mkdir(parents=True, exist_ok=True)
-        out.write_text(json.dumps(payload, indent=1))
+        atomic_write_json(out, payload)
     if as_json:
         print(json.dumps(payload))
         return
@@ -293,49 +293,30 @@ def map_cmd(
 ) -> None:
     """Fig. 8: the objective over a campaign's (c1, c5) points against the response at theta*
     (simulated on the campaign's model with sensitivities), the certainty ellipse and theta*."""
-    import numpy as np
-
-    from ..campaign.loader import load_campaign
-    from ..design.certainty import bounds_pct, combine, gauss_newton_term_hessians
-    from ..design.objective import Objective, check_weights
-    from ..forward.predictor import FESolverPredictor
-    from .figures import objective_map_figure
+    from ..design.objective_over_plane import campaign_objective_map
+    from .figures import objective_map_figure, save_figure
 
     try:
-        eta = check_weights([float(v) for v in weights.split(",")])
-        theta_star = np.array([float(v) for v in theta.split(",")])
-        data = load_campaign(campaign)
-        spec = ModelSpec.from_dict(data.spec["model"])
+        theta_star = _floats(theta)
         err.print(f"simulating theta* = {theta} kPa on the campaign's model with sensitivities ...")
-        target = FESolverPredictor(spec, sensitivities=True).predict(theta_star)
-        objective = Objective.from_prediction(target, radius=spec.indenter.radius, reading=reading)
-        F = objective.value(data.prediction(), eta)
-        H = combine(gauss_newton_term_hessians(objective, target, theta_star), eta)
-        bars = data.theta / theta_star
-        path = Path(out) if out is not None else Path("runs") / data.spec["name"] / "figure8.png"
-        objective_map_figure(
-            bars[:, 0],
-            bars[:, 1],
-            F,
-            H,
-            s,
-            path,
-            title=f"F over {data.n} simulations, weights {_fmt(eta)}, R = {spec.indenter.radius:g} mm",
-        )
+        omap = campaign_objective_map(campaign, theta_star, _floats(weights), s, reading)
+        name = Path(campaign).name
+        title = f"F over {len(omap.F)} simulations, weights {_fmt(omap.eta)}, R = {omap.radius:g} mm"
+        path = save_figure(objective_map_figure(omap, title), out or Path("runs") / name / "figure8.png")
     except (ValueError, OSError) as exc:
         fail(str(exc), as_json)
-    b = bounds_pct(H, s)
+    b = omap.bounds_pct
     payload = {
         "png": str(path),
-        "points": int(data.n),
-        "hessian": H.tolist(),
+        "points": len(omap.F),
+        "hessian": omap.hessian.tolist(),
         "c1_pct": float(b[0]),
         "c5_pct": float(b[1]),
     }
     if as_json:
         print(json.dumps(payload))
         return
-    Console().print(f"wrote {path} ({data.n} points); bounds c1 +-{b[0]:.1f} %, c5 +-{b[1]:.1f} %")
+    Console().print(f"wrote {path} ({len(omap.F)} points); bounds c1 +-{b[0]:.1f} %, c5 +-{b[1]:.1f} %")
 
 
 def _floats(text: str) -> list[float]:
@@ -369,7 +350,7 @@ def compare_cmd(
     import numpy as np
 
     from ..design.experiment_choice import candidate_grid, compare_designs
-    from .figures import design_comparison_figure
+    from .figures import design_comparison_figure, save_figure
 
     try:
         c1, c5 = _floats(theta)
@@ -388,8 +369,8 @@ def compare_cmd(
         fail(str(exc), as_json)
     out_dir.mkdir(parents=True, exist_ok=True)
     csv = out_dir / "design-comparison.csv"
-    table.to_csv(csv, index=False)
-    png = design_comparison_figure(table, out_dir / "design-comparison.png")
+    atomic_write(csv, table.to_csv(index=False))
+    png = save_figure(design_comparison_figure(table), out_dir / "design-comparison.png")
     if as_json:
         rows = json.loads(table.to_json(orient="records"))
         print(json.dumps({"rows": rows, "csv": str(csv), "png": str(png), "theta_star": [c1, c5]}))

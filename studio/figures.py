@@ -1,24 +1,25 @@
-"""Figures of the studio (matplotlib, Agg): the objective map with its certainty ellipse (paper
-Fig. 8) and the comparison of candidate test designs. Each function writes one PNG and returns
-its path; the numerics come from the packages."""
+"""Figures of the studio, in the style of corner.py: each function returns a matplotlib Figure (shown
+inline in a notebook); saving is the caller's (:func:`save_figure`), and the backend is chosen by
+whoever runs them (the CLI's entry point sets Agg). The numerics come from the packages."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 from matplotlib.colors import LogNorm
+from matplotlib.figure import Figure
 from matplotlib.ticker import ScalarFormatter
+
+from ..atomic_write import atomic_write
+from ..design.objective_over_plane import ObjectiveMap
 
 
 def certainty_ellipse(H: np.ndarray, s: float, centre=(1.0, 1.0), n: int = 200) -> np.ndarray:
     """Points (n, 2) of the level set (theta_bar - centre)^T H (theta_bar - centre) = s^2
-    (the ellipse of Fig. 8, authors-code-notes.md); H in theta_bar, positive definite."""
+    (the ellipse of Fig. 8); H in theta_bar, positive definite."""
     w, V = np.linalg.eigh(np.asarray(H, float))
     if np.any(w <= 0):
         raise ValueError("the Hessian is not positive definite: the certainty region is unbounded")
@@ -27,21 +28,14 @@ def certainty_ellipse(H: np.ndarray, s: float, centre=(1.0, 1.0), n: int = 200) 
     return (V @ (circle * (s / np.sqrt(w))[:, None])).T + np.asarray(centre)
 
 
-def objective_map_figure(
-    c1_bar: np.ndarray,
-    c5_bar: np.ndarray,
-    F: np.ndarray,
-    H: np.ndarray,
-    s: float,
-    path: str | Path,
-    title: str = "",
-) -> Path:
+def objective_map_figure(omap: ObjectiveMap, title: str = "") -> Figure:
     """Fig. 8: F over the normalised (c1, c5) plane from scattered or gridded points, the
-    certainty ellipse from H at theta* = (1, 1), and theta*."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    certainty ellipse from H at theta* = (1, 1), and theta* (``omap`` from
+    :func:`design.objective_over_plane.objective_map`)."""
+    c1_bar, c5_bar = omap.theta_bar[:, 0], omap.theta_bar[:, 1]
+    H, s = omap.hessian, omap.s
     fig, ax = plt.subplots(figsize=(6.4, 5.2), constrained_layout=True)
-    F = np.maximum(np.asarray(F, float), 1e-12)
+    F = np.maximum(np.asarray(omap.F, float), 1e-12)
     levels = np.geomspace(max(F.min(), 1e-8), F.max(), 30)
     cs = ax.tricontourf(
         np.ravel(c1_bar), np.ravel(c5_bar), np.ravel(F), levels=levels, norm=LogNorm(), cmap="viridis"
@@ -55,16 +49,12 @@ def objective_map_figure(
     ax.set_ylabel(r"$\bar c_5 = c_5 / c_5^*$")
     ax.set_title(title or "objective over the normalised parameter plane")
     ax.legend(loc="upper right", fontsize=8, framealpha=0.7)
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
-    return path
+    return fig
 
 
-def design_comparison_figure(table: pd.DataFrame, path: str | Path) -> Path:
+def design_comparison_figure(table: pd.DataFrame) -> Figure:
     """Bounds of c1 and c5 (optimised weights) against the maximum depth, one line per indenter
     radius and field of view: which test identifies c5 best."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     fig, axes = plt.subplots(1, 2, figsize=(10, 4.2), constrained_layout=True)
     groups = table.fillna({"fov_mm": np.inf}).groupby(["radius_mm", "fov_mm", "every", "s"], sort=True)
     for (radius, fov, every, s), g in groups:
@@ -83,20 +73,15 @@ def design_comparison_figure(table: pd.DataFrame, path: str | Path) -> Path:
         ax.grid(True, which="both", alpha=0.3)
     axes[1].legend(fontsize=8)
     fig.suptitle("candidate test designs (weights optimised per design, eq. 6)")
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
-    return path
+    return fig
 
 
-def corner_figure(
-    posterior, path: str | Path, fit_theta=None, fit_hessian=None, s: float | None = None
-) -> Path:
+def corner_figure(posterior, fit_theta=None, fit_hessian=None, s: float | None = None, truth=None) -> Figure:
     """Corner plot (corner package) of posterior samples, with the fit and its eq. 6 certainty
-    ellipse (H in theta_bar = theta / theta_hat) overlaid."""
+    ellipse (H in theta_bar = theta / theta_hat) overlaid, and the truth of a synthetic
+    experiment when it is known."""
     import corner
 
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     labels = [f"{name} (kPa)" for name in posterior.parameters]
     fig = corner.corner(
         posterior.samples,
@@ -107,21 +92,22 @@ def corner_figure(
         truths=None if fit_theta is None else list(fit_theta),
         truth_color="tab:red",
     )
-    if fit_theta is not None and fit_hessian is not None and s is not None:
+    if truth is not None:
+        corner.overplot_lines(fig, list(truth), color="tab:green", lw=1.5)
+        corner.overplot_points(fig, [list(truth)], marker="s", color="tab:green")
+        fig.axes[0].plot([], [], color="tab:green", label="truth")
+        fig.axes[0].legend(fontsize=7, loc="upper left")
+    if fit_theta is not None and fit_hessian is not None and s is not None and len(labels) == 2:
         e = certainty_ellipse(fit_hessian, s) * np.asarray(fit_theta)  # back to kPa
         ax = fig.axes[len(labels)]  # lower-left panel: c5 against c1
         ax.plot(e[:, 0], e[:, 1], color="tab:red", lw=1.5, label="Hessian ellipse (eq. 6)")
         ax.legend(fontsize=7, loc="upper right")
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return fig
 
 
-def force_depth_figure(depth, curves: dict, path: str | Path, errors=None, title: str = "") -> Path:
+def force_depth_figure(depth, curves: dict, errors=None, title: str = "") -> Figure:
     """Force against depth: ``curves`` maps a label to forces (mN) at ``depth`` (mm); the first
     is drawn as measured points (with ``errors`` as error bars), the rest as lines."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     fig, ax = plt.subplots(figsize=(5.6, 4.2), constrained_layout=True)
     for k, (label, f) in enumerate(curves.items()):
         if k == 0:
@@ -133,16 +119,12 @@ def force_depth_figure(depth, curves: dict, path: str | Path, errors=None, title
     ax.set_title(title or "force against depth")
     ax.grid(alpha=0.3)
     ax.legend()
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
-    return path
+    return fig
 
 
-def displacement_maps_figure(top_xyz: np.ndarray, u: np.ndarray, path: str | Path, title: str = "") -> Path:
+def displacement_maps_figure(top_xyz: np.ndarray, u: np.ndarray, title: str = "") -> Figure:
     """Top-surface displacement maps (ux, uy, uz) of one step over the full field (the quarter
     model mirrored by its symmetry planes), with the fiber direction (+y) marked."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     x, y = top_xyz[:, 0], top_xyz[:, 1]
     X = np.concatenate([x, -x, x, -x])
     Y = np.concatenate([y, y, -y, -y])
@@ -178,15 +160,11 @@ def displacement_maps_figure(top_xyz: np.ndarray, u: np.ndarray, path: str | Pat
         ax.set_xlabel("x (mm)")
         ax.set_ylabel("y (mm)")
     fig.suptitle(title or "top-surface displacement")
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return fig
 
 
-def parity_figure(pairs: dict, path: str | Path, title: str = "") -> Path:
+def parity_figure(pairs: dict, title: str = "") -> Figure:
     """Surrogate against FE (held-out points): one panel per entry of ``pairs`` = {label: (fe, surrogate)}."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     fig, axes = plt.subplots(
         1, len(pairs), figsize=(4.4 * len(pairs), 4.2), constrained_layout=True, squeeze=False
     )
@@ -199,15 +177,11 @@ def parity_figure(pairs: dict, path: str | Path, title: str = "") -> Path:
         ax.set_ylabel(f"surrogate {label}")
         ax.grid(alpha=0.3)
     fig.suptitle(title or "surrogate against FE on held-out points")
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return fig
 
 
-def mesh_figure(nodes: np.ndarray, elements: np.ndarray, path: str | Path, title: str = "") -> Path:
+def mesh_figure(nodes: np.ndarray, elements: np.ndarray, title: str = "") -> Figure:
     """The block mesh: the edges of the element faces on the top and the two symmetry planes, in 3D."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     edges = np.concatenate(
         [
             elements[:, [a, b]]
@@ -247,6 +221,14 @@ def mesh_figure(nodes: np.ndarray, elements: np.ndarray, path: str | Path, title
     ax.set_title(
         title or f"quarter block: {len(nodes)} nodes, {len(elements)} hex8 (indentation at (0, 0, {z_max:g}))"
     )
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    return fig
+
+
+def save_figure(fig: Figure, path: str | Path, dpi: int = 130) -> Path:
+    """Write ``fig`` as a PNG at ``path`` (atomically) and close it; returns the path."""
+    path = Path(path)
+    try:
+        atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=dpi, format=path.suffix.lstrip(".") or "png"))
+    finally:
+        plt.close(fig)
     return path

@@ -23,6 +23,11 @@ from ..forward.spec import (
 err = Console(stderr=True)
 
 
+def say(message: str) -> None:
+    """A workflow's progress line, on stderr (stdout is the --json contract's)."""
+    err.print(message, highlight=False)
+
+
 class SolverName(StrEnum):
     embedded = "embedded"
     febio = "febio"

@@ -16,7 +16,8 @@ class _LineProgress:
         self.console, self.label, self.total = console, label, total
         self.t0 = time.perf_counter()
 
-    def update(self, completed: int, info: str = "") -> None:
+    def update(self, completed: int, info: str = "", total: int | None = None) -> None:
+        self.total = total if total is not None else self.total
         elapsed = time.perf_counter() - self.t0
         eta = elapsed / completed * (self.total - completed) if completed else float("nan")
         self.console.print(
@@ -29,13 +30,14 @@ class _BarProgress:
     def __init__(self, progress: Progress, task: int) -> None:
         self.progress, self.task = progress, task
 
-    def update(self, completed: int, info: str = "") -> None:
-        self.progress.update(self.task, completed=completed, info=info)
+    def update(self, completed: int, info: str = "", total: int | None = None) -> None:
+        self.progress.update(self.task, completed=completed, info=info, total=total)
 
 
 @contextmanager
 def step_progress(console: Console, label: str, total: int) -> Iterator[_LineProgress | _BarProgress]:
-    """Context manager yielding an object with ``update(completed, info)``."""
+    """Context manager yielding an object with ``update(completed, info, total=None)`` (a ``total``
+    given there replaces the one given here)."""
     if not console.is_terminal:
         yield _LineProgress(console, label, total)
         return

@@ -8,6 +8,7 @@ from pathlib import Path
 import pandas as pd
 
 from .. import __version__
+from ..atomic_write import atomic_write
 
 STYLE = """
 body { font-family: system-ui, sans-serif; max-width: 1100px; margin: 2em auto; color: #222; }
@@ -97,6 +98,4 @@ def write_report(out: Path, results: dict, sections: list[tuple[str, str]]) -> P
         else:
             parts.append(f"<p><b>{html.escape(name)}</b>: {html.escape(caption)}</p>")
     page = f"<!doctype html><html><head><meta charset='utf-8'><title>Indentation Studio demo</title><style>{STYLE}</style></head><body>{''.join(parts)}</body></html>"
-    path = out / "index.html"
-    path.write_text(page)
-    return path
+    return atomic_write(out / "index.html", page)

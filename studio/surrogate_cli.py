@@ -27,26 +27,6 @@ class Kind(StrEnum):
     mlp = "mlp"
 
 
-def make_surrogate(kind: str, input_scale: str = "log", pca_tol: float = 1e-3, **kwargs):
-    """An untrained surrogate of ``kind`` ('gp' or 'mlp')."""
-    if kind == "gp":
-        from ..surrogate.gaussian_process import GaussianProcessSurrogate
-
-        return GaussianProcessSurrogate(input_scale=input_scale, pca_tol=pca_tol, **kwargs)
-    if kind == "mlp":
-        from ..surrogate.mlp import MLPSurrogate
-
-        return MLPSurrogate(input_scale=input_scale, pca_tol=pca_tol, **kwargs)
-    raise ValueError(f"unknown surrogate kind {kind!r}; use 'gp' or 'mlp'")
-
-
-def _training_data(campaign: str, runs_dir: Path):
-    from ..campaign.loader import load_campaign
-    from ..surrogate.base import TrainingData
-
-    return TrainingData.from_campaign(load_campaign(campaign, runs_dir))
-
-
 def _errors_table(title: str, rows: dict[str, dict]) -> None:
     table = Table(title=title)
     for col in ("data", "points", "force RMS %", "force max %", "u RMS %", "u max %"):
@@ -82,25 +62,16 @@ def train(
 ) -> None:
     """Train a surrogate on a campaign, validate it, and save it next to the campaign."""
     from ..surrogate.persistence import save_surrogate
-    from ..surrogate.validation import k_fold_errors, prediction_errors
+    from ..surrogate.training import train_surrogate
 
     try:
-        data = _training_data(campaign, runs_dir)
-        err.print(f"training a {kind.value} surrogate on {data.n} points of {campaign!r} ...")
-        model = make_surrogate(kind.value, input_scale, pca_tol).fit(data, seed=seed)
-        validation = {"training": prediction_errors(model, data)}
-        if kfold:
-            err.print(f"{kfold}-fold cross-validation ...")
-            validation["kfold"] = k_fold_errors(
-                lambda: make_surrogate(kind.value, input_scale, pca_tol), data, kfold, seed
-            )
-        if test_campaign:
-            validation["test"] = prediction_errors(model, _training_data(test_campaign, runs_dir))
-        model.meta["validation"] = validation
-        path = (
-            out or Path(runs_dir) / data.source.get("name", campaign) / f"surrogate-{kind.value}.safetensors"
+        err.print(f"training a {kind.value} surrogate on {campaign!r} ({kfold}-fold cross-validation) ...")
+        model = train_surrogate(
+            campaign, kind.value, input_scale, pca_tol, test_campaign, kfold, seed, runs_dir
         )
-        save_surrogate(model, path)
+        validation = model.meta["validation"]
+        name = model.meta["campaign"].get("name", campaign)
+        path = save_surrogate(model, out or Path(runs_dir) / name / f"surrogate-{kind.value}.safetensors")
     except (ValueError, OSError) as exc:
         fail(str(exc), as_json)
     payload = {
@@ -130,6 +101,7 @@ def evaluate(
     import numpy as np
 
     from ..surrogate.persistence import load_surrogate
+    from ..surrogate.training import training_data
     from ..surrogate.validation import prediction_errors
 
     payload: dict = {}
@@ -137,7 +109,7 @@ def evaluate(
         model = load_surrogate(model_file)
         payload["kind"] = model.kind
         if campaign:
-            payload["errors"] = prediction_errors(model, _training_data(campaign, runs_dir))
+            payload["errors"] = prediction_errors(model, training_data(campaign, runs_dir))
         if timing:
             rng = np.random.default_rng(0)
             theta = model.scaler.lo + rng.random((timing, len(model.parameters))) * (

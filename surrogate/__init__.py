@@ -1,1 +1,17 @@
-"""Emulators of the forward model trained on a campaign: Gaussian process and MLP."""
+"""Emulators of the forward model trained on a campaign: Gaussian process (scikit-learn) and MLP
+(torch), their training, validation and files."""
+
+import lazy_loader as lazy
+
+__getattr__, __dir__, __all__ = lazy.attach(
+    __name__,
+    submod_attrs={
+        "base": ["FieldSurrogate", "TrainingData"],
+        "gaussian_process": ["GaussianProcessSurrogate"],
+        "mlp": ["MLPSurrogate"],
+        "training": ["SURROGATE_KINDS", "make_surrogate", "train_surrogate", "training_data"],
+        "persistence": ["SurrogateFileError", "load_surrogate", "save_surrogate"],
+        "pickle_conversion": ["convert_pickled_surrogate"],
+        "validation": ["k_fold_errors", "prediction_errors"],
+    },
+)

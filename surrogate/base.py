@@ -3,8 +3,7 @@ force curves and of the displacement field, the reconstruction, the chain rule f
 the Predictor seam of ARCHITECTURE.md.
 
 Inputs: theta scaled to [0, 1] over the training box, in log (default) or linearly (``input_scale``);
-log serves better (measured on the paper campaign against 100 LHS points: GP force error max 1.6 %
-vs 2.3 %, MLP 0.8 % vs 2.5 %): the response changes fastest at small c1.
+log serves better because the response changes fastest at small c1 (README, "Surrogates").
 Outputs: log(force) per step (relative force errors are what eq. 4a weighs) and the top-surface
 displacement field (steps x nodes x 3), each reduced with scikit-learn's PCA to the components
 that keep the training set's reconstruction error under ``pca_tol`` (force: relative; field:

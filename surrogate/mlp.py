@@ -87,7 +87,12 @@ class MLPSurrogate(FieldSurrogate):
         Hessians and bounds, feel first)."""
         if int(self.ensemble) != self.ensemble or self.ensemble < 1:
             raise ValueError(f"ensemble must be a positive whole number, got {self.ensemble!r}")
-        members = [self._train_one(X, T, seed + 1000 * k) for k in range(int(self.ensemble))]
+        threads = torch.get_num_threads()
+        torch.set_num_threads(1)  # full-batch steps on a few hundred rows: threads only add waiting,
+        try:  # and on a loaded machine their spinning multiplies the training time
+            members = [self._train_one(X, T, seed + 1000 * k) for k in range(int(self.ensemble))]
+        finally:
+            torch.set_num_threads(threads)
         self.nets = [net for net, _ in members]
         self.meta["validation_mse"] = [v for _, v in members]
         self.meta["architecture"] = f"{self.ensemble} x ({self.hidden_layers} x {self.width} tanh)"

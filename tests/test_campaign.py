@@ -80,6 +80,7 @@ def test_store_refuses_a_different_spec(tmp_path):
         CampaignStore.create_or_open(tmp_path, _spec("a", "c1=2:4:2,c5=100:200:2", other))
 
 
+@pytest.mark.slow
 def test_sigkill_then_resume_gives_every_point_once(tmp_path):
     args = [*CLI, "campaign", "run", "--name", "k", "--grid", "c1=3:15:4,c5=100:500:2", "--mesh", "coarse"]
     args += ["--steps", "3", "--jobs", "2", "--runs-dir", str(tmp_path), "--json"]

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 
 import numpy as np
+import pytest
 
 from indentation_studio.forward.predictor import FESolverPredictor
 from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
@@ -12,6 +13,7 @@ from indentation_studio.inference.synthetic_experiment import write_synthetic_ex
 from indentation_studio.studio.demo import run_demo
 
 
+@pytest.mark.slow
 def test_demo_small_end_to_end(tmp_path):
     protocol = Protocol(step_size=0.5, steps=4)
     spec = ModelSpec(mesh=MeshChoice("coarse"), protocol=protocol)

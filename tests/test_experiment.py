@@ -51,6 +51,7 @@ def test_relaxation_fit_recovers_f_inf():
     assert 0 < fit.f_inf_std < 0.3
 
 
+@pytest.mark.slow
 def test_sphere_fit_and_registration(experiment):
     exp = load_experiment(experiment)
     _, r = fit_sphere(exp.indenter_xyz)
@@ -76,6 +77,7 @@ def test_fiber_direction_estimated_from_strain(experiment, tmp_path):
     assert abs(err) < 10.0
 
 
+@pytest.mark.slow
 def test_synthetic_experiment_fit_on_a_coarser_mesh(experiment):
     exp = load_experiment(experiment)
     fit_model = FESolverPredictor(FIT)

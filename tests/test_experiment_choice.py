@@ -13,12 +13,14 @@ from indentation_studio.design.experiment_choice import (
     measured_steps,
 )
 from indentation_studio.design.objective import Objective
+from indentation_studio.design.objective_over_plane import ObjectiveMap
 from indentation_studio.forward.predictor import FESolverPredictor
 from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
 from indentation_studio.studio.figures import (
     certainty_ellipse,
     design_comparison_figure,
     objective_map_figure,
+    save_figure,
 )
 
 THETA = np.array([10.0, 350.0])
@@ -64,8 +66,9 @@ def test_compare_designs_table_and_plot(coarse, tmp_path):
     # eq. 6 is linear in s
     assert table["c1_pct"][2] == pytest.approx(2 * table["c1_pct"][0])
     assert table["c5_pct_optimised"][2] == pytest.approx(2 * table["c5_pct_optimised"][0], rel=1e-6)
-    png = design_comparison_figure(table, tmp_path / "d.png")
-    assert png.stat().st_size > 10_000
+    fig = design_comparison_figure(table)
+    assert [len(ax.lines) for ax in fig.axes] == [2, 2]  # one line per (radius, FOV, sampling, s)
+    assert save_figure(fig, tmp_path / "d.png").stat().st_size > 10_000
 
 
 def test_certainty_ellipse_is_the_level_set_and_fig8_is_written(tmp_path):
@@ -79,5 +82,17 @@ def test_certainty_ellipse_is_the_level_set_and_fig8_is_written(tmp_path):
         certainty_ellipse(np.diag([1.0, -1.0]), 0.05)
     g1, g5 = np.meshgrid(np.linspace(0.5, 1.5, 9), np.linspace(0.5, 1.5, 9))
     F = 0.5 * (H[0, 0] * (g1 - 1) ** 2 + 2 * H[0, 1] * (g1 - 1) * (g5 - 1) + H[1, 1] * (g5 - 1) ** 2)
-    png = objective_map_figure(g1, g5, F, H, 0.05, tmp_path / "f8.png")
-    assert png.stat().st_size > 10_000
+    theta_star = np.array([10.0, 350.0])
+    omap = ObjectiveMap(
+        np.column_stack([g1.ravel(), g5.ravel()]),
+        F.ravel(),
+        H,
+        0.05,
+        np.ones(2),
+        theta_star,
+        np.ones(4) / 4,
+        4.77,
+    )
+    fig = objective_map_figure(omap)
+    np.testing.assert_allclose(fig.axes[0].lines[1].get_xydata(), e)  # the ellipse drawn is the level set
+    assert save_figure(fig, tmp_path / "f8.png").stat().st_size > 10_000

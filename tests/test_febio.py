@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import FEBIO_BASELINE
 from typer.testing import CliRunner
 
 from indentation_studio.forward.feb_writer import indenter_surface, top_faces, write_feb
@@ -25,7 +26,7 @@ from indentation_studio.forward.mesh import preset_mesh
 from indentation_studio.forward.spec import MeshChoice, ModelSpec
 from indentation_studio.studio.cli import app
 
-BASE = Path(__file__).resolve().parents[2] / "shared" / "febio" / "baseline"
+BASE = FEBIO_BASELINE
 FEB, LOG, NPZ = BASE / "baseline.feb", BASE / "baseline.log", BASE / "baseline.npz"
 pytestmark = pytest.mark.skipif(not FEB.is_file(), reason="../shared/febio/baseline not beside the clone")
 
@@ -40,8 +41,12 @@ def test_parse_baseline_log_gives_the_stored_arrays():
     assert log.terminated == "normal" and log.version.startswith("4.")
     r = febio_result(log, baseline_spec().to_dict(), feb_file=FEB, steps=28)
     np.testing.assert_array_equal(r.depth, ref["depth"])
-    np.testing.assert_array_equal(r.force, ref["F_full"])
-    np.testing.assert_array_equal(r.force_quarter, ref["F_quarter"])
+    # 12.5 mm (step 25) is off equilibrium (tests/test_febio_equilibrium.py): NaN, the rest as stored
+    clean = np.arange(29) != 25
+    assert np.isnan(r.force[25]) and r.off_equilibrium_depths == [12.5]
+    np.testing.assert_array_equal(r.force[clean], ref["F_full"][clean])
+    np.testing.assert_array_equal(r.force_quarter[clean], ref["F_quarter"][clean])
+    np.testing.assert_array_equal(r.convergence["indenter_reaction_quarter"], ref["F_quarter"])
     np.testing.assert_array_equal(r.top_node_ids, ref["top_ids"])
     np.testing.assert_array_equal(r.displacement, ref["U_top"])
     np.testing.assert_allclose(r.top_xyz, ref["top_xyz0"], atol=1e-8)
@@ -181,8 +186,11 @@ def test_fake_febio_error_termination_names_depth_reached(tmp_path):
 def test_fake_febio_normal_run_reads_back_the_result(tmp_path):
     exe = _fake_febio(tmp_path / "bin", LOG.read_text(encoding="latin-1"), 0)
     r = FebioSolver(baseline_spec(), executable=exe, workdir=tmp_path / "run").run()
-    np.testing.assert_array_equal(r.force, np.load(NPZ)["F_full"])
+    clean = np.arange(29) != 25  # 12.5 mm: off equilibrium in FEBio's run, and in its rerun here
+    np.testing.assert_array_equal(r.force[clean], np.load(NPZ)["F_full"][clean])
+    assert np.isnan(r.force[25]) and r.solver["rerun"]["kept"] == "first"
     assert (tmp_path / "run" / "model.feb").is_file() and r.solver["executable"] == str(exe)
+    assert (tmp_path / "run" / "rerun" / "model.log").is_file()
 
 
 def test_cli_export_feb_and_febio_simulate(tmp_path, monkeypatch):
@@ -201,4 +209,5 @@ def test_cli_export_feb_and_febio_simulate(tmp_path, monkeypatch):
     assert res.exit_code == 0, res.output
     payload = json.loads(res.stdout)
     assert payload["force_mN"][-1] == pytest.approx(float(np.load(NPZ)["F_full"][-1]))
+    assert payload["force_mN"][25] is None and payload["off_equilibrium_depths_mm"] == [12.5]
     assert os.path.isfile(payload["result_file"])

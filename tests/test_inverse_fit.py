@@ -20,6 +20,7 @@ def target():
     return FESolverPredictor(SPEC).predict(TRUE)
 
 
+@pytest.mark.slow
 def test_noise_free_fit_recovers_theta_from_the_paper_start(target):
     objective = Objective.from_prediction(target, radius=4.77)
     fit = fit_parameters(objective, FESolverPredictor(SPEC), ETA)
@@ -30,6 +31,7 @@ def test_noise_free_fit_recovers_theta_from_the_paper_start(target):
     assert early.F < PAPER_F_STOP and early.evaluations <= fit.evaluations
 
 
+@pytest.mark.slow
 def test_noisy_fit_bounds_contain_the_truth(target):
     rng = np.random.default_rng(1)
     force = target.force[0] * (1 + 0.02 * rng.standard_normal(target.force.shape[1]))
@@ -48,6 +50,7 @@ def test_bad_start_is_refused(target):
         fit_parameters(objective, FESolverPredictor(SPEC), ETA, theta0=(-1.0, 300.0))
 
 
+@pytest.mark.slow
 def test_mesh_check_predicts_where_the_finer_mesh_puts_the_fit():
     """Data from the finer mesh (`default`) at TRUE, fitted on `coarse`: the fit misses TRUE by
     the coarse mesh's error, and the mesh check at the coarse fit (one Gauss-Newton step with the

@@ -1,7 +1,6 @@
 """Model spec validation and the graded block meshes."""
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,8 +14,6 @@ from indentation_studio.forward.spec import (
     Protocol,
     SpecError,
 )
-
-BASELINE = Path(__file__).resolve().parents[2] / "shared" / "febio" / "baseline"
 
 
 @pytest.mark.parametrize(
@@ -63,10 +60,10 @@ def test_preset_meshes_are_valid_quarter_blocks(name):
         assert 25_000 <= mesh.n_nodes <= 30_000
 
 
-def test_febio_block_mesh_is_read_and_default_preset_reproduces_it():
-    feb = read_feb_block_mesh(BASELINE / "baseline.feb")
+def test_febio_block_mesh_is_read_and_default_preset_reproduces_it(febio_baseline):
+    feb = read_feb_block_mesh(febio_baseline / "baseline.feb")
     assert (feb.n_nodes, feb.n_elements, feb.top.size) == (1452, 1100, 121)
-    ref = np.load(BASELINE / "baseline.npz")
+    ref = np.load(febio_baseline / "baseline.npz")
     assert np.array_equal(feb.node_ids[feb.top], ref["top_ids"])
     assert np.allclose(feb.nodes[feb.top], ref["top_xyz0"], atol=1e-8)
     ours = preset_mesh("default")

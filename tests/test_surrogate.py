@@ -16,9 +16,9 @@ from indentation_studio.campaign.store import CampaignSpec, CampaignStore
 from indentation_studio.forward.predictor import Predictor
 from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
 from indentation_studio.studio.cli import app
-from indentation_studio.studio.surrogate_cli import make_surrogate
 from indentation_studio.surrogate.base import InputScaler, TrainingData
 from indentation_studio.surrogate.persistence import load_surrogate, save_surrogate
+from indentation_studio.surrogate.training import make_surrogate
 from indentation_studio.surrogate.validation import k_fold_errors, prediction_errors
 
 MODEL = ModelSpec(protocol=Protocol(step_size=0.5, steps=4), mesh=MeshChoice("coarse"))
@@ -117,6 +117,7 @@ def test_kfold_and_cli(campaigns, tmp_path):
     assert res.exit_code == 1 and "no surrogate file" in json.loads(res.stdout)["error"]
 
 
+@pytest.mark.slow
 def test_confirm_with_mesh_check_cli(campaigns, tmp_path):
     """`confirm --check-mesh`: an experiment made on `default`, the fit's model on `coarse` (the
     campaign's mesh): the check solves both meshes and reports the shift and the widened bounds."""

@@ -22,7 +22,6 @@ from indentation_studio.campaign.runner import run_campaign
 from indentation_studio.campaign.store import CampaignSpec, CampaignStore
 from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
 from indentation_studio.studio.cli import app
-from indentation_studio.studio.surrogate_cli import make_surrogate
 from indentation_studio.surrogate.base import TrainingData
 from indentation_studio.surrogate.persistence import load_surrogate, save_surrogate
 from indentation_studio.surrogate.pickle_conversion import convert_pickled_surrogate
@@ -33,6 +32,7 @@ from indentation_studio.surrogate.safe_file import (
     read_container,
     write_container,
 )
+from indentation_studio.surrogate.training import make_surrogate
 
 MODEL = ModelSpec(protocol=Protocol(step_size=0.5, steps=3), mesh=MeshChoice("coarse"))
 SMALL_MLP = {

@@ -1,0 +1,86 @@
+"""The FE confirmation of a fit (paper 3.4): F(theta_hat) from an FE run against the surrogate's, how
+far the surrogate's prediction is from that run, and optionally the mesh check at theta_hat."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..atomic_write import atomic_write_json
+from ..design.objective import PAPER_WEIGHTS
+from ..forward.predictor import FESolverPredictor, Prediction
+from ..surrogate.base import FieldSurrogate
+from .experiment_data import ExperimentData
+from .fit_inputs import FitInputs, prepare_fit
+from .mesh_check import MeshCheck, check_mesh_at
+
+__all__ = ["Confirmation", "confirm"]
+
+
+@dataclass
+class Confirmation:
+    """An FE run at theta beside the surrogate's prediction there."""
+
+    inputs: FitInputs
+    theta: np.ndarray
+    solver: str
+    fe: Prediction
+    surrogate: Prediction
+    mesh_check: MeshCheck | None = None
+    check_mesh: str | None = None
+
+    def to_dict(self) -> dict:
+        """confirm.json: both objective values, the surrogate's largest errors, the mesh check."""
+        fe, sur, eta = self.fe, self.surrogate, self.inputs.eta
+        u_max = np.abs(fe.displacement[0]).max(axis=(0, 1))
+        payload = {
+            "F_fe": float(self.inputs.objective.value(fe, eta)[0]),
+            "F_surrogate": float(self.inputs.objective.value(sur, eta)[0]),
+            "force_diff_max_pct": float(100 * np.abs(sur.force[0] / fe.force[0] - 1).max()),
+            "displacement_diff_max_pct": float(
+                100 * (np.abs(sur.displacement[0] - fe.displacement[0]) / u_max).max()
+            ),
+            "solver": self.solver,
+        }
+        if self.mesh_check is not None:
+            payload["mesh_check"] = self.mesh_check.to_dict(self.check_mesh)
+        payload["inputs"] = {
+            **self.inputs.sources,
+            "theta": self.theta.tolist(),
+            "weights": eta.tolist(),
+            "model": self.inputs.spec.to_dict(),
+        }
+        return payload
+
+    def save(self, folder: str | Path) -> Path:
+        """Write ``folder/confirm.json`` atomically (``posterior --mesh-check`` reads it)."""
+        return atomic_write_json(Path(folder) / "confirm.json", self.to_dict())
+
+
+def confirm(
+    experiment: str | Path | ExperimentData,
+    surrogate: str | Path | FieldSurrogate,
+    theta,
+    weights=PAPER_WEIGHTS,
+    solver: str = "embedded",
+    check_mesh: str | None = None,
+    exclude_steps=(),
+    say: Callable[[str], None] | None = None,
+) -> Confirmation:
+    """Run the surrogate's FE model at ``theta`` (kPa) on ``solver`` (embedded or febio) and compare.
+    With ``check_mesh`` (embedded only) also the finer mesh's shift of the fit and its uncertainty."""
+    inputs = prepare_fit(experiment, surrogate, weights, exclude_steps)
+    theta = np.asarray(theta, float).reshape(-1)
+    check = None
+    if check_mesh is None:
+        fe = FESolverPredictor(inputs.spec, solver=solver).predict(theta[None, :])
+    else:
+        if solver != "embedded":
+            raise ValueError("the mesh check needs the embedded solver (exact sensitivities)")
+        check, fe = check_mesh_at(inputs.spec, inputs.objective, inputs.eta, theta, check_mesh, say)
+    return Confirmation(
+        inputs, theta, solver, fe, inputs.surrogate.predict(theta[None, :]), check, check_mesh
+    )

@@ -1,0 +1,98 @@
+"""The posterior of (c1, c5) given a measured experiment, sampled on the surrogate (emcee), with the
+noise level from the surrogate fit's residuals; optionally carried to a finer mesh by a stored
+mesh check (:func:`inference.posterior.carried_to_finer_mesh`)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..atomic_write import atomic_write_json
+from ..design.certainty import bounds_pct
+from ..design.objective import PAPER_WEIGHTS
+from ..surrogate.base import FieldSurrogate
+from .experiment_data import ExperimentData
+from .fit_inputs import FitInputs, prepare_fit
+from .inverse_fit import FitResult, fit_parameters
+from .mesh_check import load_mesh_check
+from .posterior import Posterior, carried_to_finer_mesh, sample_posterior
+
+__all__ = ["ExperimentPosterior", "sample_posterior_for"]
+
+
+@dataclass
+class ExperimentPosterior:
+    """The samples, the fit they centre on, the noise level, and the mesh check they were carried by."""
+
+    inputs: FitInputs
+    posterior: Posterior
+    fit: FitResult  # the fit on the surrogate the posterior was sampled on
+    sigma: float  # the likelihood's residual sd, fit.residual_sd
+    carried: dict | None = None  # the mesh check read by inference.mesh_check.load_mesh_check
+
+    @property
+    def marker(self) -> np.ndarray:
+        """The fit, moved as the samples were when the posterior was carried to a finer mesh."""
+        if self.carried is None:
+            return self.fit.theta
+        return (
+            self.fit.theta + np.asarray(self.carried["theta"]) * np.asarray(self.carried["shift_pct"]) / 100.0
+        )
+
+    @property
+    def hessian_sd(self) -> np.ndarray:
+        """The Gaussian approximation's sd at the fit: cov = 2 sigma^2 H^-1 (H in theta_bar)."""
+        return self.fit.theta * bounds_pct(self.fit.hessian, self.sigma) / 100.0
+
+    def to_dict(self) -> dict:
+        """posterior.json: the summary (median, sd, 68 % and 95 % intervals, chain diagnostics)."""
+        return {
+            **self.posterior.summary(),
+            "parameters": list(self.posterior.parameters),
+            "fit": self.fit.theta.tolist(),
+            "hessian_sd": self.hessian_sd.tolist(),
+            "hessian_bounds_pct": bounds_pct(self.fit.hessian, self.fit.s).tolist(),
+            "sigma": self.sigma,
+            "carried_to_finer_mesh": self.carried,
+            "inputs": {**self.inputs.sources, "weights": self.inputs.eta.tolist()},
+        }
+
+    def save(self, folder: str | Path, **extra) -> Path:
+        """Write ``folder/posterior.json`` (with ``extra`` keys, e.g. the corner plot's path)."""
+        return atomic_write_json(Path(folder) / "posterior.json", {**self.to_dict(), **extra})
+
+
+def sample_posterior_for(
+    experiment: str | Path | ExperimentData,
+    surrogate: str | Path | FieldSurrogate,
+    weights=PAPER_WEIGHTS,
+    walkers: int = 32,
+    steps: int = 4000,
+    seed: int = 0,
+    mesh_check: str | Path | None = None,
+    fit: FitResult | None = None,
+    exclude_steps=(),
+    say: Callable[[str], None] | None = None,
+) -> ExperimentPosterior:
+    """emcee posterior of (c1, c5) on the surrogate: log L = -F / (2 sigma^2) with sigma the fit's
+    residual sd (:attr:`FitResult.residual_sd`), uniform prior on the surrogate's training box,
+    walkers started at the surrogate fit (``fit``, computed when not given). ``mesh_check`` is a
+    fit.json or confirm.json made with a mesh check: the samples are carried to that finer mesh."""
+    say = say or (lambda message: None)
+    inputs = prepare_fit(experiment, surrogate, weights, exclude_steps)
+    model = inputs.surrogate
+    fit = fit if fit is not None else fit_parameters(inputs.objective, model, inputs.eta)
+    sigma = fit.residual_sd
+    say(f"sampling with {walkers} walkers x {steps} steps (sigma = {sigma:.3g}) ...")
+    box = (model.scaler.lo, model.scaler.hi)
+    post = sample_posterior(inputs.objective, model, inputs.eta, sigma, box, fit.theta, walkers, steps, seed)
+    carried = None
+    if mesh_check is not None:
+        carried = load_mesh_check(mesh_check, inputs.experiment.root, fit.theta)
+        post = carried_to_finer_mesh(
+            post, carried["theta"], carried["shift_pct"], carried["corrected_uncertainty_pct"], seed
+        )
+    return ExperimentPosterior(inputs, post, fit, sigma, carried)

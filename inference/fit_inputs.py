@@ -1,0 +1,65 @@
+"""What every inference workflow starts from: a measured experiment, the surrogate that emulates the
+FE model, that model's spec, and the objective of eq. 4 and 5 built on the surrogate's top nodes."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..design.objective import PAPER_WEIGHTS, Objective, check_weights
+from ..forward.spec import ModelSpec
+from ..surrogate.base import FieldSurrogate
+from ..surrogate.persistence import load_surrogate
+from .experiment_data import ExperimentData, load_experiment
+from .experiment_processing import RegisteredDIC, experiment_objective
+
+__all__ = ["FitInputs", "prepare_fit"]
+
+
+@dataclass
+class FitInputs:
+    """The experiment, the surrogate and the FE model it emulates, the objective and weights."""
+
+    experiment: ExperimentData
+    surrogate: FieldSurrogate
+    spec: ModelSpec  # the FE model the surrogate was trained on (for the FE stage)
+    objective: Objective
+    dic: RegisteredDIC  # the DIC data registered to the model frame
+    eta: np.ndarray
+    sources: dict[str, str]  # where the experiment and the surrogate came from (provenance)
+
+
+def prepare_fit(
+    experiment: str | Path | ExperimentData,
+    surrogate: str | Path | FieldSurrogate,
+    weights=PAPER_WEIGHTS,
+    exclude_steps=(),
+) -> FitInputs:
+    """Load (or take) the experiment and the surrogate, check that they describe the same test
+    (indenter radius, steps and depths), and build the objective (eq. 4, 5) on the surrogate's
+    top nodes. ``weights`` are eta = (force, ux, uy, uz) on the simplex; ``exclude_steps`` (1..N)
+    are left out of the fit beside those experiment.json excludes."""
+    eta = check_weights(weights)
+    exp = experiment if isinstance(experiment, ExperimentData) else load_experiment(experiment)
+    model = surrogate if isinstance(surrogate, FieldSurrogate) else load_surrogate(surrogate)
+    label = (
+        str(surrogate) if not isinstance(surrogate, FieldSurrogate) else f"{model.kind} surrogate (in memory)"
+    )
+    campaign = model.meta.get("campaign") or {}
+    if "model" not in campaign:
+        raise ValueError(f"{label}: the surrogate does not record the model it was trained on")
+    spec = ModelSpec.from_dict(campaign["model"])
+    if (
+        abs(spec.indenter.radius - exp.radius) > 1e-6
+        or len(model.depth) != exp.steps
+        or not np.allclose(model.depth, exp.depths)
+    ):
+        raise ValueError(
+            f"the experiment (R = {exp.radius:g} mm, {exp.steps} x {exp.step_size:g} mm) does not match the "
+            f"surrogate's model (R = {spec.indenter.radius:g} mm, {len(model.depth)} steps to {model.depth[-1]:g} mm)"
+        )
+    objective, dic = experiment_objective(exp, model.top_xyz, excluded_steps=exclude_steps)
+    sources = {"experiment": str(exp.root), "surrogate": label}
+    return FitInputs(exp, model, spec, objective, dic, eta, sources)

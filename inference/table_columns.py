@@ -1,0 +1,87 @@
+"""Columns of lab CSV files found by name (with or without the unit a header carries) and read as
+numbers, with errors that name the file, the column and the row."""
+
+from __future__ import annotations
+
+import difflib
+import re
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from .experiment_data import ExperimentDataError
+
+_UNIT_SUFFIX = re.compile(r"\s*[\[(][^\])]*[\])]\s*$")
+
+
+def bare_name(header: str) -> str:
+    """The header without its unit: ``coor.X [mm]`` -> ``coor.X``."""
+    return _UNIT_SUFFIX.sub("", str(header)).strip()
+
+
+def read_table(path: Path) -> pd.DataFrame:
+    """A CSV (comma, semicolon or tab separated; quoted headers as VIC-3D writes them) with its
+    headers stripped; an error naming the file when it cannot be read."""
+    if not path.is_file():
+        raise ExperimentDataError(f"{path}: missing file")
+    with open(path, encoding="utf-8", errors="replace") as fh:
+        header = fh.readline()
+    sep = max((",", ";", "\t"), key=header.count)  # the header's most frequent separator
+    try:
+        table = pd.read_csv(path, sep=sep, skipinitialspace=True)
+    except Exception as exc:  # pandas raises several types for unreadable text
+        raise ExperimentDataError(f"{path}: not a readable CSV ({exc})") from exc
+    table.columns = [str(c).strip().strip('"').strip() for c in table.columns]
+    if table.empty:
+        raise ExperimentDataError(f"{path}: no rows")
+    return table
+
+
+def find_column(table: pd.DataFrame, name: str, path: Path, role: str = "") -> str:
+    """The header of ``table`` that is ``name``, exactly or but for its unit; an error naming the
+    file and the closest headers when there is none."""
+    if name in table.columns:
+        return name
+    wanted = bare_name(name)
+    hits = [c for c in table.columns if bare_name(c) == wanted]
+    if len(hits) == 1:
+        return hits[0]
+    if len(hits) > 1:
+        raise ExperimentDataError(f"{path}: column '{name}' is ambiguous: {', '.join(hits)}")
+    close = difflib.get_close_matches(name, list(table.columns), n=3, cutoff=0.5)
+    what = f" ({role})" if role else ""
+    hint = f"; closest: {', '.join(repr(c) for c in close)}" if close else ""
+    raise ExperimentDataError(f"{path}: no column '{name}'{what}{hint}")
+
+
+def numeric_column(table: pd.DataFrame, column: str, path: Path, allow_missing: bool = True) -> np.ndarray:
+    """``column`` as floats; blank cells are NaN when ``allow_missing``; text where a number belongs
+    is an error naming the row (as an editor counts it, the header being row 1)."""
+    raw = table[column]
+    values = pd.to_numeric(raw, errors="coerce")
+    blank = raw.isna() | (raw.astype(str).str.strip() == "")
+    bad = values.isna() & ~blank
+    if bad.any():
+        row = int(np.flatnonzero(bad.to_numpy())[0])
+        raise ExperimentDataError(
+            f"{path}: row {row + 2}, column '{column}': {raw.iloc[row]!r} is not a number"
+        )
+    if not allow_missing and blank.any():
+        row = int(np.flatnonzero(blank.to_numpy())[0])
+        raise ExperimentDataError(f"{path}: row {row + 2}, column '{column}': empty")
+    out = values.to_numpy(float)
+    inf = np.isinf(out)
+    if inf.any():
+        row = int(np.flatnonzero(inf)[0])
+        raise ExperimentDataError(f"{path}: row {row + 2}, column '{column}': not a finite number")
+    return out
+
+
+def frame_number(path: Path) -> int:
+    """The frame (image) number in a file name: the first run of digits (``Image_0012_0.tiff.csv``
+    -> 12, ``B00012.csv`` -> 12)."""
+    match = re.search(r"(\d+)", path.name)
+    if not match:
+        raise ExperimentDataError(f"{path}: no frame number in the file name")
+    return int(match.group(1))

@@ -1,0 +1,315 @@
+"""``indent-studio import matchid | duodic | csv | load-frame`` and ``indent-studio check``: a lab's
+files into the experiment format, and the data check before any fit. Each command parses its
+options, calls one library function (inference/experiment_import.py, studio/check_report.py) and
+prints one JSON object with ``--json``."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from .options import JSON, err, fail
+
+import_app = typer.Typer(help="Import a lab's files (DIC export, load-frame record) as an experiment folder.")
+
+OUT = Annotated[
+    Path, typer.Option(help="the experiment folder to write (refused if it exists, unless --overwrite)")
+]
+RADIUS = Annotated[float, typer.Option(help="indenter sphere radius, mm")]
+STEP_SIZE = Annotated[float, typer.Option(help="depth per step, mm")]
+STEPS = Annotated[int, typer.Option(help="number of indentation steps (holds)")]
+FIBER = Annotated[
+    float | None,
+    typer.Option(help="fiber direction in the DIC frame, degrees from x (default: from the strain)"),
+]
+EXCLUDE = Annotated[str, typer.Option(help="steps left out of the fit, e.g. 3,7")]
+LOAD_FRAME = Annotated[
+    Path | None, typer.Option(help="the load frame's continuous record (CSV: time, position, force)")
+]
+FORCE_CSV = Annotated[
+    Path | None, typer.Option(help="or a force.csv already in hold form (step, time_s, force_mN)")
+]
+INDENTER = Annotated[Path, typer.Option(help="indenter points: CSV (x, y, z), MatchID folder or DuoDIC .mat")]
+INDENTER_UNIT = Annotated[
+    str | None, typer.Option(help="length unit of the indenter points (if the file states none)")
+]
+FRAMES = Annotated[str | None, typer.Option(help="the DIC frame of every step, e.g. 1:28, 2:56:2 or 3,5,9")]
+FRAME_TIMES = Annotated[
+    Path | None,
+    typer.Option(help="CSV of frame and time: frames matched to the holds by time (the last in each)"),
+]
+TIME_OFFSET = Annotated[
+    float, typer.Option(help="added to the DIC frame times to reach the load frame's clock, s")
+]
+LENGTH_UNIT = Annotated[
+    str | None, typer.Option(help="length unit of the DIC export (if its headers state none)")
+]
+TIME_COL = Annotated[str | None, typer.Option(help="record: time column (default: found by name)")]
+POSITION_COL = Annotated[str | None, typer.Option(help="record: position column")]
+FORCE_COL = Annotated[str | None, typer.Option(help="record: force column")]
+TIME_UNIT = Annotated[
+    str | None, typer.Option(help="record: time unit (s, ms, min) if the header states none")
+]
+POSITION_UNIT = Annotated[str | None, typer.Option(help="record: position unit (mm, um, m)")]
+FORCE_UNIT = Annotated[str | None, typer.Option(help="record: force unit (mN, N, g for a balance)")]
+MIN_HOLD = Annotated[float, typer.Option(help="record: shortest hold, s")]
+OVERWRITE = Annotated[bool, typer.Option(help="replace an existing experiment folder")]
+DESCRIPTION = Annotated[str, typer.Option(help="free text for experiment.json")]
+
+
+def _steps(text: str) -> tuple[int, ...]:
+    try:
+        return tuple(sorted({int(v) for v in text.split(",") if v.strip()}))
+    except ValueError as exc:
+        raise ValueError(f"--exclude-steps: {text!r} is not a list of steps like 3,7") from exc
+
+
+def _sources(o: dict):
+    """The protocol, force, indenter and frame choice of the import commands' common options."""
+    from ..inference.experiment_import import (
+        ForceSource,
+        FrameChoice,
+        IndenterSource,
+        ProtocolInfo,
+        parse_frames,
+    )
+    from ..inference.load_frame import LoadFrameColumns
+
+    protocol = ProtocolInfo(
+        o["radius"],
+        o["step_size"],
+        o["steps"],
+        o["fiber_angle"],
+        o["description"],
+        _steps(o["exclude_steps"]),
+    )
+    columns = LoadFrameColumns(
+        o["time_col"], o["position_col"], o["force_col"], o["time_unit"], o["position_unit"], o["force_unit"]
+    )
+    force = ForceSource(
+        load_frame=o["load_frame"], columns=columns, min_hold_s=o["min_hold"], force_csv=o["force_csv"]
+    )
+    frames = FrameChoice(
+        frames=parse_frames(o["frames"]) if o["frames"] else None,
+        times_file=o["frame_times"],
+        time_offset_s=o["time_offset"],
+    )
+    return protocol, force, IndenterSource(o["indenter"], o["indenter_unit"]), frames
+
+
+def _report(result: dict, as_json: bool) -> None:
+    if as_json:
+        print(json.dumps(result, default=float))
+    else:
+        err.print(
+            f"[green]wrote[/] {result.get('experiment') or result.get('force_csv') or result.get('report')}"
+        )
+        for line in result.get("warnings", []):
+            err.print(f"[yellow]warning:[/] {line}")
+
+
+@import_app.command("matchid")
+def import_matchid_command(
+    dic: Annotated[Path, typer.Option(help="folder of MatchID CSV exports, one per image")],
+    out: OUT,
+    radius: RADIUS,
+    step_size: STEP_SIZE,
+    steps: STEPS,
+    indenter: INDENTER,
+    load_frame: LOAD_FRAME = None,
+    force_csv: FORCE_CSV = None,
+    fiber_angle: FIBER = None,
+    exclude_steps: EXCLUDE = "",
+    frames: FRAMES = None,
+    frame_times: FRAME_TIMES = None,
+    time_offset: TIME_OFFSET = 0.0,
+    length_unit: LENGTH_UNIT = None,
+    max_sigma: Annotated[
+        float | None, typer.Option(help="drop points whose stats.Sigma exceeds this, mm")
+    ] = None,
+    indenter_unit: INDENTER_UNIT = None,
+    time_col: TIME_COL = None,
+    position_col: POSITION_COL = None,
+    force_col: FORCE_COL = None,
+    time_unit: TIME_UNIT = None,
+    position_unit: POSITION_UNIT = None,
+    force_unit: FORCE_UNIT = None,
+    min_hold: MIN_HOLD = 5.0,
+    description: DESCRIPTION = "",
+    overwrite: OVERWRITE = False,
+    as_json: JSON = False,
+) -> None:
+    """A MatchID export folder (+ load-frame record, indenter points) into an experiment folder."""
+    from ..inference.experiment_import import import_matchid
+
+    try:
+        protocol, force, ind, choice = _sources(locals())
+        result = import_matchid(dic, out, protocol, force, ind, choice, length_unit, max_sigma, overwrite)
+    except (ValueError, OSError) as exc:
+        fail(str(exc), as_json)
+    _report(result.to_dict(), as_json)
+
+
+@import_app.command("duodic")
+def import_duodic_command(
+    mat: Annotated[Path, typer.Option(help="DuoDIC results (DIC3DPPresults.mat), MATLAB v7 or v7.3")],
+    out: OUT,
+    radius: RADIUS,
+    step_size: STEP_SIZE,
+    steps: STEPS,
+    indenter: INDENTER,
+    length_unit: Annotated[
+        str, typer.Option(help="the calibration target's length unit (DuoDIC stores none)")
+    ],
+    load_frame: LOAD_FRAME = None,
+    force_csv: FORCE_CSV = None,
+    fiber_angle: FIBER = None,
+    exclude_steps: EXCLUDE = "",
+    frames: FRAMES = None,
+    frame_times: FRAME_TIMES = None,
+    time_offset: TIME_OFFSET = 0.0,
+    max_corr: Annotated[float | None, typer.Option(help="drop points whose corrComb exceeds this")] = None,
+    rigid_body_removed: Annotated[bool, typer.Option(help="use Disp.DispVec_ARBM")] = False,
+    variable: Annotated[str | None, typer.Option(help="the structure's name in the file")] = None,
+    indenter_unit: INDENTER_UNIT = None,
+    time_col: TIME_COL = None,
+    position_col: POSITION_COL = None,
+    force_col: FORCE_COL = None,
+    time_unit: TIME_UNIT = None,
+    position_unit: POSITION_UNIT = None,
+    force_unit: FORCE_UNIT = None,
+    min_hold: MIN_HOLD = 5.0,
+    description: DESCRIPTION = "",
+    overwrite: OVERWRITE = False,
+    as_json: JSON = False,
+) -> None:
+    """DuoDIC results (+ load-frame record, indenter points) into an experiment folder."""
+    from ..inference.experiment_import import import_duodic
+
+    try:
+        protocol, force, ind, choice = _sources(locals())
+        result = import_duodic(
+            mat,
+            out,
+            protocol,
+            force,
+            ind,
+            length_unit,
+            choice,
+            max_corr,
+            rigid_body_removed,
+            variable,
+            overwrite,
+        )
+    except (ValueError, OSError) as exc:
+        fail(str(exc), as_json)
+    _report(result.to_dict(), as_json)
+
+
+@import_app.command("csv")
+def import_csv_command(
+    dic: Annotated[Path, typer.Option(help="folder of per-frame CSVs, or one CSV with a frame column")],
+    columns: Annotated[
+        str,
+        typer.Option(help="mapping, e.g. x=X,y=Y,z=Z,ux=U,uy=V,uz=W,sigma=sigma (id=a+b; frame=..; time=..)"),
+    ],
+    out: OUT,
+    radius: RADIUS,
+    step_size: STEP_SIZE,
+    steps: STEPS,
+    indenter: INDENTER,
+    positions: Annotated[
+        str, typer.Option(help="x, y, z are the 'reference' or the 'current' positions")
+    ] = "reference",
+    pattern: Annotated[str, typer.Option(help="file pattern in the folder")] = "*.csv",
+    load_frame: LOAD_FRAME = None,
+    force_csv: FORCE_CSV = None,
+    fiber_angle: FIBER = None,
+    exclude_steps: EXCLUDE = "",
+    frames: FRAMES = None,
+    frame_times: FRAME_TIMES = None,
+    time_offset: TIME_OFFSET = 0.0,
+    length_unit: LENGTH_UNIT = None,
+    max_sigma: Annotated[float | None, typer.Option(help="drop points whose sigma exceeds this")] = None,
+    indenter_unit: INDENTER_UNIT = None,
+    time_col: TIME_COL = None,
+    position_col: POSITION_COL = None,
+    force_col: FORCE_COL = None,
+    time_unit: TIME_UNIT = None,
+    position_unit: POSITION_UNIT = None,
+    force_unit: FORCE_UNIT = None,
+    min_hold: MIN_HOLD = 5.0,
+    description: DESCRIPTION = "",
+    overwrite: OVERWRITE = False,
+    as_json: JSON = False,
+) -> None:
+    """Any DIC CSV export (VIC-3D, GOM, Ncorr) with a column mapping into an experiment folder."""
+    from ..inference.experiment_import import import_dic_csv
+    from ..inference.import_csv import CSVMapping
+
+    try:
+        mapping = CSVMapping.parse(columns, positions=positions, length_unit=length_unit)
+        protocol, force, ind, choice = _sources(locals())
+        result = import_dic_csv(
+            dic, mapping, out, protocol, force, ind, choice, pattern, max_sigma, overwrite
+        )
+    except (ValueError, OSError) as exc:
+        fail(str(exc), as_json)
+    _report(result.to_dict(), as_json)
+
+
+@import_app.command("load-frame")
+def import_load_frame_command(
+    record: Annotated[Path, typer.Option(help="the load frame's continuous record (CSV)")],
+    out: Annotated[Path, typer.Option(help="force.csv to write (hold form)")],
+    radius: RADIUS,
+    step_size: STEP_SIZE,
+    steps: STEPS,
+    exclude_steps: EXCLUDE = "",
+    time_col: TIME_COL = None,
+    position_col: POSITION_COL = None,
+    force_col: FORCE_COL = None,
+    time_unit: TIME_UNIT = None,
+    position_unit: POSITION_UNIT = None,
+    force_unit: FORCE_UNIT = None,
+    min_hold: MIN_HOLD = 5.0,
+    as_json: JSON = False,
+) -> None:
+    """Cut a load-frame record into the protocol's holds (one per step, eq. 9 fit each) as force.csv."""
+    from ..inference.experiment_import import ForceSource, ProtocolInfo, import_load_frame
+    from ..inference.load_frame import LoadFrameColumns
+
+    try:
+        protocol = ProtocolInfo(radius, step_size, steps, excluded_steps=_steps(exclude_steps))
+        columns = LoadFrameColumns(time_col, position_col, force_col, time_unit, position_unit, force_unit)
+        result = import_load_frame(record, out, protocol, ForceSource(columns=columns, min_hold_s=min_hold))
+    except (ValueError, OSError) as exc:
+        fail(str(exc), as_json)
+    _report(result, as_json)
+
+
+def register(app: typer.Typer) -> None:
+    """Add ``import ...`` and ``check`` to the studio's CLI."""
+    app.add_typer(import_app, name="import")
+
+    @app.command("check")
+    def check(
+        experiment: Annotated[Path, typer.Option(help="experiment folder")],
+        out: Annotated[Path | None, typer.Option(help="report folder (default <experiment>/check)")] = None,
+        mesh: Annotated[
+            str, typer.Option(help="mesh preset whose top nodes are matched to the DIC data")
+        ] = "default",
+        as_json: JSON = False,
+    ) -> None:
+        """The data check before any fit: holds and their eq. 9 fits, DIC coverage, sphere fit,
+        registration, nodes obscured, DIC noise and warnings with numbers (HTML + PNGs)."""
+        from .check_report import write_check_report
+
+        try:
+            result = write_check_report(experiment, out, mesh)
+        except (ValueError, OSError) as exc:
+            fail(str(exc), as_json)
+        _report(result, as_json)

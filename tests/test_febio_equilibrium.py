@@ -1,0 +1,238 @@
+"""FEBio steps off equilibrium: flagged by depth, NaN in every force, rerun, read back, campaigns.
+
+The bad logs are FEBio's baseline log with the indenter's Fz of one or two must points replaced
+by the values a real FEBio 4 run returned off equilibrium (5.9e5 mN at 5.0 mm, 8.7e8 mN at
+7.5 mm for the whole specimen) while the bottom reactions stay as they were.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import stat
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import FEBIO_BASELINE
+from typer.testing import CliRunner
+
+from indentation_studio.campaign.designs import Design
+from indentation_studio.campaign.loader import force_table, load_campaign
+from indentation_studio.campaign.runner import run_campaign
+from indentation_studio.campaign.store import CampaignError, CampaignSpec, CampaignStore
+from indentation_studio.forward.feb_writer import FebSettings
+from indentation_studio.forward.febio_equilibrium import (
+    EquilibriumTolerance,
+    check_equilibrium,
+    equilibrium_notes,
+    off_equilibrium_steps,
+)
+from indentation_studio.forward.febio_log import febio_result, read_febio_log
+from indentation_studio.forward.febio_readback import read_febio_run
+from indentation_studio.forward.febio_runner import FebioSolver
+from indentation_studio.forward.result import SimulationResult
+from indentation_studio.forward.spec import MeshChoice, ModelSpec
+from indentation_studio.studio.cli import app
+
+BASE = FEBIO_BASELINE
+FEB, LOG, NPZ = BASE / "baseline.feb", BASE / "baseline.log", BASE / "baseline.npz"
+needs_baseline = pytest.mark.skipif(
+    not LOG.is_file(), reason="../shared/febio/baseline (FEBio's real run) is not beside the clone"
+)
+#: Whole-specimen forces FEBio returned at steps it accepted off equilibrium, by time (= step).
+BAD_FORCES = {10: 5.9e5, 15: 8.7e8}  # 5.0 mm and 7.5 mm
+
+
+def altered_log(folder: Path, forces: dict[int, float] = BAD_FORCES, name: str = "bad.log") -> Path:
+    """The baseline log with the indenter's Fz at the given must points set to -force / 4."""
+    text = LOG.read_text(encoding="latin-1")
+    for time, force in forces.items():
+        record = re.compile(rf"(Time = {time}\nData = indenter\n\d+ \S+ \S+ \S+ )(\S+)\n")
+        text, n = record.subn(lambda m, f=force: f"{m.group(1)}{-f / 4!r}\n", text)
+        assert n == 1, f"no indenter record at time {time}"
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / name
+    path.write_text(text, encoding="latin-1")
+    return path
+
+
+def baseline_spec() -> ModelSpec:
+    return ModelSpec(mesh=MeshChoice(feb_file=str(FEB)))
+
+
+@pytest.fixture(scope="module")
+def baseline_log():
+    return read_febio_log(LOG)
+
+
+def test_tolerance_relative_absolute_and_non_finite():
+    tol = EquilibriumTolerance(relative=3e-3, absolute_mN=0.01)
+    bottom = np.array([0.0, 0.004, 1000.0, 1000.0, 1000.0, 1000.0, 1000.0])
+    force = np.array([0.0, 0.013, 1002.9, 1003.1, 996.9, np.nan, 5.9e5])
+    flags = off_equilibrium_steps(force, bottom, tol)
+    # 0/0 and 9 micronewtons are under the floor; 0.29 % passes, 0.31 % either way fails
+    assert flags.tolist() == [False, False, False, True, True, True, True]
+    with pytest.raises(ValueError, match="relative"):
+        EquilibriumTolerance(relative=0.0)
+
+
+@needs_baseline
+def test_baseline_flags_only_12_5_mm_and_keeps_11_5_mm(baseline_log):
+    """Clean steps balance to < 4e-5; 11.5 mm (-0.09 %) is kept, 12.5 mm (-0.85 %) is flagged."""
+    ref = np.load(NPZ)
+    r = febio_result(baseline_log, None, steps=28)
+    assert r.off_equilibrium.sum() == 1 and r.off_equilibrium[25]
+    assert r.off_equilibrium_depths == [pytest.approx(12.5)]
+    imbalance = r.convergence["equilibrium_imbalance"]
+    assert imbalance[23] == pytest.approx(-8.748e-4, rel=1e-3)  # 11.5 mm, kept
+    assert imbalance[25] == pytest.approx(-8.483e-3, rel=1e-3)  # 12.5 mm, flagged
+    assert np.abs(np.delete(imbalance, [23, 25])).max() < 4e-5
+    keep = np.arange(29) != 25
+    np.testing.assert_array_equal(r.force[keep], ref["F_full"][keep])
+    assert np.isnan(r.force[25]) and np.isnan(r.force_quarter[25])
+    np.testing.assert_array_equal(r.convergence["indenter_reaction_quarter"], ref["F_quarter"])
+    # a looser tolerance keeps 12.5 mm too (the check starts again from FEBio's numbers)
+    loose = check_equilibrium(r, EquilibriumTolerance(relative=0.01))
+    np.testing.assert_array_equal(loose.force, ref["F_full"])
+    assert loose.off_equilibrium_depths == []
+
+
+@needs_baseline
+def test_altered_log_flags_the_altered_steps_and_returns_the_others_as_before(tmp_path, baseline_log):
+    before = read_febio_run(LOG, baseline_spec())
+    after = read_febio_run(altered_log(tmp_path), baseline_spec())
+    assert after.off_equilibrium_depths == [5.0, 7.5, 12.5]  # 12.5: the baseline's own (above)
+    assert np.isnan(after.force[[10, 15, 25]]).all()
+    keep = np.ones(29, bool)
+    keep[[10, 15, 25]] = False
+    np.testing.assert_array_equal(after.force[keep], before.force[keep])
+    np.testing.assert_array_equal(after.displacement, before.displacement)
+    assert after.convergence["indenter_reaction_quarter"][10] == pytest.approx(5.9e5 / 4)
+    assert after.convergence["equilibrium_imbalance"][15] == pytest.approx(8.7e8 / 5878.9 - 1, rel=1e-3)
+    # the result file carries the flags; a file without them (older) still loads
+    loaded = SimulationResult.load(after.save(tmp_path / "bad.npz"))
+    np.testing.assert_array_equal(loaded.off_equilibrium, after.off_equilibrium)
+    np.testing.assert_array_equal(loaded.force, after.force)
+    old = SimulationResult.load(replace(after, off_equilibrium=None).save(tmp_path / "old.npz"))
+    assert old.off_equilibrium is None and old.off_equilibrium_depths == []
+
+
+@needs_baseline
+def test_read_back_refuses_a_log_of_another_model(tmp_path):
+    spec = baseline_spec()
+    with pytest.raises(ValueError, match=r"c5 = 350 kPa, the spec's 300 kPa"):
+        read_febio_run(LOG, spec.with_material(c5=300.0))
+    with pytest.raises(ValueError, match=r"the run has 28 steps, the spec 20"):
+        read_febio_run(LOG, replace(spec, protocol=replace(spec.protocol, steps=20)))
+    with pytest.raises(ValueError, match=r"step 1: the indenter is 0.5 mm deep, the spec's depth is 0.4"):
+        read_febio_run(LOG, replace(spec, protocol=replace(spec.protocol, step_size=0.4)))
+
+
+@needs_baseline
+def test_cli_from_log_prints_null_and_names_the_depths_on_stderr(tmp_path):
+    bad = altered_log(tmp_path)
+    out = tmp_path / "r.npz"
+    args = ["simulate", "--from-log", str(bad), "--mesh-from", str(FEB), "--out", str(out), "--json"]
+    res = CliRunner().invoke(app, args)
+    assert res.exit_code == 0, res.output
+    assert "NaN" not in res.stdout
+    payload = json.loads(res.stdout)
+    ref = np.load(NPZ)["F_full"]
+    assert [payload["force_mN"][k] for k in (10, 15, 25)] == [None, None, None]
+    assert payload["force_mN"][9] == ref[9] and payload["force_mN"][28] == ref[28]
+    assert payload["off_equilibrium_depths_mm"] == [5.0, 7.5, 12.5]
+    assert "off equilibrium" in res.stderr and "at depth 5, 7.5, 12.5 mm" in res.stderr
+    assert SimulationResult.load(out).off_equilibrium_depths == [5.0, 7.5, 12.5]
+
+
+def _fake_febio(folder: Path, first_log: Path, rerun_log: Path | None) -> Path:
+    """A febio4 that writes ``first_log`` as model.log, or ``rerun_log`` when the .feb asks for
+    a residual tolerance (the tightened rerun); no rerun log: the rerun ends in error."""
+    folder.mkdir(parents=True, exist_ok=True)
+    rerun = "None" if rerun_log is None else repr(str(rerun_log))
+    exe = folder / "febio4"
+    exe.write_text(
+        f"#!{sys.executable}\n"
+        "import pathlib, shutil, sys\n"
+        "feb = pathlib.Path(sys.argv[sys.argv.index('-i') + 1])\n"
+        f"source = {rerun} if '<rtol>1e-06</rtol>' in feb.read_text() else {str(first_log)!r}\n"
+        "if source is None:\n"
+        "    feb.with_suffix('.log').write_text(' E R R O R   T E R M I N A T I O N\\n')\n"
+        "    sys.exit(1)\n"
+        "shutil.copy(source, feb.with_suffix('.log'))\n"
+    )
+    exe.chmod(exe.stat().st_mode | stat.S_IXUSR)
+    return exe
+
+
+@needs_baseline
+def test_rerun_with_tightened_settings_keeps_the_better_run(tmp_path):
+    exe = _fake_febio(tmp_path / "bin", altered_log(tmp_path), LOG)
+    r = FebioSolver(baseline_spec(), executable=exe, workdir=tmp_path / "run").run()
+    rerun = r.solver["rerun"]
+    assert rerun["first_off_equilibrium_depths_mm"] == [5.0, 7.5, 12.5]
+    assert rerun["rerun_off_equilibrium_depths_mm"] == [12.5] and rerun["kept"] == "rerun"
+    assert rerun["settings_changed"] == {
+        "max_increment": [1.0, 0.5],
+        "late_max_increment": [0.5, 0.25],
+        "dtol": [0.001, 0.0001],
+        "etol": [0.01, 0.001],
+        "rtol": [0.0, 1e-06],
+    }
+    assert r.solver["log_file"] == str(tmp_path / "run" / "rerun" / "model.log")
+    assert r.solver["settings"] == FebSettings().tightened().__dict__
+    np.testing.assert_array_equal(r.force, read_febio_run(LOG, baseline_spec()).force)
+    feb = (tmp_path / "run" / "rerun" / "model.feb").read_text()
+    notes = equilibrium_notes(r)
+    assert "reran with tightened settings" in notes[0] and notes[0].endswith("kept the rerun run")
+    assert notes[1].startswith("FEBio accepted 1 step(s) off equilibrium") and "at depth 12.5 mm" in notes[1]
+    assert "<pt>0,0.5</pt>" in feb and "<pt>28,0.25</pt>" in feb and "<dtol>0.0001</dtol>" in feb
+
+
+@needs_baseline
+def test_failed_rerun_keeps_the_first_run_with_its_flags(tmp_path):
+    exe = _fake_febio(tmp_path / "bin", altered_log(tmp_path), None)
+    r = FebioSolver(baseline_spec(), executable=exe, workdir=tmp_path / "run").run()
+    assert r.off_equilibrium_depths == [5.0, 7.5, 12.5] and r.solver["rerun"]["kept"] == "first"
+    assert r.solver["rerun"]["outcome"].startswith("rerun failed: FEBio run failed (error termination)")
+
+
+@needs_baseline
+def test_campaign_point_off_equilibrium_fails_with_the_depths(tmp_path, monkeypatch):
+    monkeypatch.setenv("FEBIO_PATH", str(_fake_febio(tmp_path / "bin", altered_log(tmp_path), None)))
+    design = Design(np.array([[10.0, 350.0]]), ("c1", "c5"), "baseline")
+    store = CampaignStore.create_or_open(
+        tmp_path / "runs", CampaignSpec("fe", design, baseline_spec(), "febio")
+    )
+    summary = run_campaign(store)
+    assert summary["failed"] == 1 and summary["done"] == 0
+    error = summary["failures"][0]["error"]
+    assert error.startswith("OffEquilibriumError") and "at depth 5, 7.5, 12.5 mm" in error
+    assert "after a rerun with tightened settings: rerun failed" in error
+    partial = SimulationResult.load(store.partial_path(0))
+    assert partial.off_equilibrium_depths == [5.0, 7.5, 12.5]
+    with pytest.raises(CampaignError, match="no finished points"):
+        load_campaign(store.root)
+
+
+@needs_baseline
+def test_loader_leaves_out_points_with_nan_forces_and_rechecks_old_febio_files(tmp_path, baseline_log):
+    design = Design(np.array([[10.0, 350.0], [10.0, 351.0], [10.0, 352.0]]), ("c1", "c5"), "three")
+    store = CampaignStore.create_or_open(
+        tmp_path / "runs", CampaignSpec("ld", design, baseline_spec(), "febio")
+    )
+    loose = febio_result(baseline_log, None, steps=28, tolerance=EquilibriumTolerance(relative=0.01))
+    loose.save(store.result_path(0))  # complete curve
+    febio_result(baseline_log, None, steps=28).save(store.result_path(1))  # NaN at 12.5 mm
+    old = replace(loose, off_equilibrium=None, solver={"name": "febio"})  # written before the check
+    old.save(store.result_path(2))
+    with pytest.warns(UserWarning, match=r"1: off equilibrium at 12\.5 mm; 2: off equilibrium at 12\.5 mm"):
+        data = load_campaign(store.root)
+    assert data.points.tolist() == [0] and sorted(data.left_out) == [1, 2]
+    assert np.all(np.isfinite(data.force)) and data.force.shape == (1, 28)
+    table = force_table(store)  # the export shows the old file's 12.5 mm as NaN too
+    assert table.loc[(table.point == 2) & (table.step == 25), "force_mN"].isna().all()
+    assert table.loc[(table.point == 0) & (table.step == 25), "force_mN"].notna().all()

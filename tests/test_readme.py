@@ -1,0 +1,33 @@
+"""The README's Python example runs as it stands, and .ci/run calls exactly the README's test command."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+README = (ROOT / "README.md").read_text()
+
+
+def test_ci_runs_the_readme_test_command():
+    commands = re.findall(r"^python3 -m venv .*$", README, flags=re.M)
+    assert len(commands) == 2 and commands[1].endswith(".venv/bin/python -m pytest")
+    assert "ruff check ." in commands[1] and "ruff format --check ." in commands[1]
+    assert commands[1] in (ROOT / ".ci" / "run").read_text().splitlines()
+
+
+@pytest.mark.slow
+def test_readme_python_example_runs(tmp_path, monkeypatch):
+    block = re.search(r"## Python\n.*?```python\n(.*?)```", README, flags=re.S).group(1)
+    monkeypatch.chdir(tmp_path)
+    namespace: dict = {}
+    exec(compile(block, "README.md", "exec"), namespace)
+    fit, truth = namespace["result"].fit, namespace["truth"]
+    # data and model on the same mesh: the truth lies inside the 95 % bounds
+    assert np.all(np.abs(fit.theta / truth - 1) * 100 < fit.bounds_pct)
+    lo, hi = np.array(namespace["posterior"].to_dict()["ci95"]).T
+    assert np.all((lo < fit.theta) & (fit.theta < hi))
+    assert len(namespace["fig"].axes) == 4  # a 2 x 2 corner plot
