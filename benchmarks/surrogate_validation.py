@@ -59,7 +59,7 @@ def main() -> None:
         fit_s = time.perf_counter() - t0
         errors = prediction_errors(model, test)
         model.meta["validation"] = {"test": errors}
-        save_surrogate(model, Path("runs") / args.train / f"surrogate-{kind}.joblib")
+        save_surrogate(model, Path("runs") / args.train / f"surrogate-{kind}.safetensors")
         sb = table1_bounds(model, THETA_STAR, spec.indenter.radius)
         rng = np.random.default_rng(0)
         theta = model.scaler.lo + rng.random((100_000, 2)) * (model.scaler.hi - model.scaler.lo)

@@ -1,4 +1,4 @@
-"""``indent-studio surrogate train | evaluate``: emulators of the forward model from a campaign."""
+"""``indent-studio surrogate train | evaluate | convert``: emulators of the forward model from a campaign."""
 
 from __future__ import annotations
 
@@ -55,7 +55,7 @@ def train(
     ] = 0,
     seed: Annotated[int, typer.Option(help="random seed")] = 0,
     out: Annotated[
-        Path | None, typer.Option(help="model file (default runs/<campaign>/surrogate-<kind>.joblib)")
+        Path | None, typer.Option(help="model file (default runs/<campaign>/surrogate-<kind>.safetensors)")
     ] = None,
     runs_dir: RUNS_DIR = Path("runs"),
     as_json: JSON = False,
@@ -71,7 +71,7 @@ def train(
         )
         validation = model.meta["validation"]
         name = model.meta["campaign"].get("name", campaign)
-        path = save_surrogate(model, out or Path(runs_dir) / name / f"surrogate-{kind.value}.joblib")
+        path = save_surrogate(model, out or Path(runs_dir) / name / f"surrogate-{kind.value}.safetensors")
     except (ValueError, OSError) as exc:
         fail(str(exc), as_json)
     payload = {
@@ -128,3 +128,27 @@ def evaluate(
     if "timing" in payload:
         t = payload["timing"]
         Console().print(f"prediction of {t['points']} points: {t['wall_s']:.3f} s")
+
+
+@surrogate_app.command("convert")
+def convert(
+    model_file: Annotated[
+        Path, typer.Option("--model", help="an old pickle (joblib) surrogate file that you trust")
+    ],
+    out: Annotated[Path, typer.Option(help="the new file (e.g. surrogate-gp.safetensors)")],
+    as_json: JSON = False,
+) -> None:
+    """Convert an old pickle (joblib) surrogate file to the safe format, once.
+
+    WARNING: this UNPICKLES the old file, which runs any code it holds. Convert only files you
+    made yourself or trust; the new file runs nothing when it is loaded."""
+    from ..surrogate.pickle_conversion import convert_pickled_surrogate
+
+    try:
+        path = convert_pickled_surrogate(model_file, out)
+    except (ValueError, OSError) as exc:
+        fail(str(exc), as_json)
+    if as_json:
+        print(json.dumps({"model_file": str(path), "converted_from": str(model_file)}))
+        return
+    Console().print(f"converted {model_file} -> {path}")

@@ -10,7 +10,8 @@ __getattr__, __dir__, __all__ = lazy.attach(
         "gaussian_process": ["GaussianProcessSurrogate"],
         "mlp": ["MLPSurrogate"],
         "training": ["SURROGATE_KINDS", "make_surrogate", "train_surrogate", "training_data"],
-        "persistence": ["load_surrogate", "save_surrogate"],
+        "persistence": ["SurrogateFileError", "load_surrogate", "save_surrogate"],
+        "pickle_conversion": ["convert_pickled_surrogate"],
         "validation": ["k_fold_errors", "prediction_errors"],
     },
 )

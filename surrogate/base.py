@@ -22,6 +22,7 @@ import numpy as np
 from sklearn.decomposition import PCA
 
 from ..forward.predictor import Prediction, ReducedBasis
+from .sklearn_state import estimator_from_state, estimator_state
 
 INPUT_SCALES = ("linear", "log")
 
@@ -216,6 +217,77 @@ class FieldSurrogate(ABC):
             nodes=self.n_nodes,
             coordinates=coordinates,
         )
+
+    # ------------------------------------------------------------------ saving (no pickle)
+    def hyperparameters(self) -> dict[str, Any]:
+        """The constructor's arguments: what makes an untrained surrogate of this kind."""
+        return {
+            "input_scale": self.input_scale,
+            "pca_tol": self.pca_tol,
+            "max_components": self.max_components,
+        }
+
+    def to_state(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+        """The trained surrogate as (JSON-ready configuration, named arrays), nothing pickled;
+        :meth:`from_state` rebuilds it with bit-for-bit the same predictions."""
+        force_pca, force_arrays = estimator_state(self.force_pca, "force_pca")
+        field_pca, field_arrays = estimator_state(self.field_pca, "field_pca")
+        regressor, regressor_arrays = self._regressor_state()
+        config = {
+            "kind": self.kind,
+            "hyperparameters": self.hyperparameters(),
+            "parameters": list(self.parameters),
+            "n_steps": int(self.n_steps),
+            "n_nodes": int(self.n_nodes),
+            "k_force": int(self.k_force),
+            "input_scale": self.scaler.scale,
+            "force_pca": force_pca,
+            "field_pca": field_pca,
+            "regressor": regressor,
+        }
+        arrays = {
+            "depth": self.depth,
+            "top_xyz": self.top_xyz,
+            "scaler.lo": self.scaler.lo,
+            "scaler.hi": self.scaler.hi,
+            "score_mean": self.score_mean,
+            "score_std": self.score_std,
+            **force_arrays,
+            **field_arrays,
+            **regressor_arrays,
+        }
+        return config, arrays
+
+    @classmethod
+    def from_state(cls, config: dict[str, Any], arrays: dict[str, np.ndarray]) -> FieldSurrogate:
+        """The surrogate that :meth:`to_state` described (``cls`` must be of its ``kind``)."""
+        if config["kind"] != cls.kind:
+            raise ValueError(f"a {config['kind']!r} surrogate cannot be rebuilt as {cls.kind!r}")
+        missing = [
+            k
+            for k in ("depth", "top_xyz", "scaler.lo", "scaler.hi", "score_mean", "score_std")
+            if k not in arrays
+        ]
+        if missing:
+            raise KeyError(f"arrays {missing} missing")
+        model = cls(**config["hyperparameters"])
+        model.parameters = tuple(config["parameters"])
+        model.n_steps, model.n_nodes, model.k_force = config["n_steps"], config["n_nodes"], config["k_force"]
+        model.depth, model.top_xyz = arrays["depth"], arrays["top_xyz"]
+        model.scaler = InputScaler(arrays["scaler.lo"], arrays["scaler.hi"], config["input_scale"])
+        model.score_mean, model.score_std = arrays["score_mean"], arrays["score_std"]
+        model.force_pca = estimator_from_state(config["force_pca"], arrays, "force_pca")
+        model.field_pca = estimator_from_state(config["field_pca"], arrays, "field_pca")
+        model._restore_regressor(config["regressor"], arrays)
+        return model
+
+    @abstractmethod
+    def _regressor_state(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+        """The fitted regressor as (JSON-ready configuration, named arrays)."""
+
+    @abstractmethod
+    def _restore_regressor(self, config: dict[str, Any], arrays: dict[str, np.ndarray]) -> None:
+        """Set the regressor that :meth:`_regressor_state` described."""
 
     def inside_box(self, theta) -> np.ndarray:
         """Which points lie in the training box (the surrogate extrapolates outside it)."""

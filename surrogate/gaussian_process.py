@@ -16,6 +16,7 @@ from sklearn.gaussian_process import GaussianProcessRegressor
 from sklearn.gaussian_process.kernels import ConstantKernel, Matern, Product, Sum, WhiteKernel
 
 from .base import FieldSurrogate
+from .sklearn_state import estimator_from_state, estimator_state
 
 
 def _matern52_gradient(X: np.ndarray, Xt: np.ndarray, length: np.ndarray, amplitude: float) -> np.ndarray:
@@ -71,6 +72,20 @@ class GaussianProcessSurrogate(FieldSurrogate):
     def __init__(self, restarts: int = 3, **kwargs) -> None:
         super().__init__(**kwargs)
         self.restarts = restarts
+
+    def hyperparameters(self) -> dict:
+        return {**super().hyperparameters(), "restarts": self.restarts}
+
+    def _regressor_state(self):
+        configs, arrays = [], {}
+        for i, gp in enumerate(self.gps):
+            config, gp_arrays = estimator_state(gp, f"gp{i}")
+            configs.append(config)
+            arrays.update(gp_arrays)
+        return {"gps": configs}, arrays
+
+    def _restore_regressor(self, config, arrays) -> None:
+        self.gps = [estimator_from_state(c, arrays, f"gp{i}") for i, c in enumerate(config["gps"])]
 
     def _fit_regressor(self, X: np.ndarray, T: np.ndarray, seed: int) -> None:
         p = X.shape[1]

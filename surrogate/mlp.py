@@ -79,6 +79,44 @@ class MLPSurrogate(FieldSurrogate):
         self.validation_fraction, self.patience = validation_fraction, patience
         self.ensemble = ensemble
 
+    def hyperparameters(self) -> dict:
+        return {
+            **super().hyperparameters(),
+            "width": self.width,
+            "hidden_layers": self.hidden_layers,
+            "adam_epochs": self.adam_epochs,
+            "lbfgs_steps": self.lbfgs_steps,
+            "validation_fraction": self.validation_fraction,
+            "patience": self.patience,
+            "ensemble": self.ensemble,
+        }
+
+    def _regressor_state(self):
+        """Each network's weights (float64 arrays ``mlp<i>.<layer>.weight|bias``) and its shape."""
+        arrays = {
+            f"mlp{i}.{key}": tensor.detach().numpy()
+            for i, net in enumerate(self.nets)
+            for key, tensor in net.state_dict().items()
+        }
+        shape = {"inputs": self.nets[0][0].in_features, "outputs": self.nets[0][-1].out_features}
+        return {"networks": len(self.nets), **shape}, arrays
+
+    def _restore_regressor(self, config, arrays) -> None:
+        """Networks of the saved shape built on the meta device (no random initialisation, the
+        global torch generator is left alone) and given the saved weights."""
+        self.nets = []
+        for i in range(config["networks"]):
+            with torch.device("meta"):
+                net = _network(config["inputs"], config["outputs"], self.width, self.hidden_layers)
+            state = {}
+            for key in net.state_dict():
+                name = f"mlp{i}.{key}"
+                if name not in arrays:
+                    raise KeyError(f"array {name!r} missing")
+                state[key] = torch.from_numpy(np.require(arrays[name], np.float64, ["C", "W"]))
+            net.load_state_dict(state, strict=True, assign=True)
+            self.nets.append(net.eval())
+
     def _fit_regressor(self, X: np.ndarray, T: np.ndarray, seed: int) -> None:
         """``ensemble`` networks from different seeds and validation splits; their mean is the
         prediction (averaging removes most of one network's wiggles, which derivatives, hence

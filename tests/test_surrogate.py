@@ -84,14 +84,14 @@ def test_jacobian_is_the_derivative_of_the_prediction(trained):
 
 
 def test_save_load_round_trip_and_bad_file(trained, tmp_path):
-    path = save_surrogate(trained, tmp_path / "m.joblib")
+    path = save_surrogate(trained, tmp_path / "m.safetensors")
     again = load_surrogate(path)
     theta = np.array([[10.0, 350.0]])
     np.testing.assert_array_equal(again.predict(theta).force, trained.predict(theta).force)
     assert again.meta["versions"]["torch"] and again.meta["training_points"] == 36
-    (tmp_path / "bad.joblib").write_text("not a model")
+    (tmp_path / "bad.safetensors").write_text("not a model")
     with pytest.raises(ValueError, match="surrogate"):
-        load_surrogate(tmp_path / "bad.joblib")
+        load_surrogate(tmp_path / "bad.safetensors")
 
 
 def test_kfold_and_cli(campaigns, tmp_path):
@@ -102,12 +102,12 @@ def test_kfold_and_cli(campaigns, tmp_path):
         app,
         [
             *("surrogate", "train", "--campaign", "train", "--kind", "gp", "--test-campaign", "test"),
-            *("--runs-dir", str(root), "--out", str(tmp_path / "gp.joblib"), "--json"),
+            *("--runs-dir", str(root), "--out", str(tmp_path / "gp.safetensors"), "--json"),
         ],
     )
     assert res.exit_code == 0, res.output
     out = json.loads(res.stdout)
-    assert out["model_file"] == str(tmp_path / "gp.joblib") and out["test_errors"]["force_rms_pct"] < 1.0
+    assert out["model_file"] == str(tmp_path / "gp.safetensors") and out["test_errors"]["force_rms_pct"] < 1.0
     res = CliRunner().invoke(
         app, ["surrogate", "evaluate", "--model", out["model_file"], "--timing", "1000", "--json"]
     )
@@ -125,7 +125,7 @@ def test_confirm_with_mesh_check_cli(campaigns, tmp_path):
     from indentation_studio.inference.synthetic_experiment import write_synthetic_experiment
 
     root, _, _ = campaigns
-    model_file = tmp_path / "gp.joblib"
+    model_file = tmp_path / "gp.safetensors"
     res = CliRunner().invoke(
         app,
         [
