@@ -52,7 +52,7 @@ ETA = (0.45, 0.35, 0.2, 0.0)
 
 def surrogate_of(kind: str, campaign: str, runs_dir: Path, pca_tol: float = 1e-3):
     suffix = "" if pca_tol == 1e-3 else f"-pca{pca_tol:g}"
-    path = runs_dir / campaign / f"surrogate-{kind}{suffix}.joblib"
+    path = runs_dir / campaign / f"surrogate-{kind}{suffix}.safetensors"
     if path.is_file():
         return load_surrogate(path), str(path), 0.0
     t0 = time.perf_counter()
@@ -82,7 +82,7 @@ def paper_size_stand_in(model, runs_dir: Path, campaign: str):
     of the real kind, so a like number of PCA components), a GP trained on them (no optimizer
     restarts, to save time). Only its cost means anything: the GP's kernel work grows with the
     training points, the rest of F does not."""
-    path = runs_dir / campaign / "surrogate-gp-paper-size-stand-in.joblib"
+    path = runs_dir / campaign / "surrogate-gp-paper-size-stand-in.safetensors"
     if path.is_file():
         return load_surrogate(path), str(path), 0.0
     grid = design_from_option("paper").points

@@ -153,7 +153,7 @@ def _surrogates(data, test, folder: Path, out: Path, say: Callable[[str], None])
     for kind in SURROGATE_KINDS:
         say(f"training the {kind} surrogate on {data.n} points ...")
         models[kind] = train_surrogate(data, kind, test_campaign=test)
-        save_surrogate(models[kind], folder / f"surrogate-{kind}.joblib")
+        save_surrogate(models[kind], folder / f"surrogate-{kind}.safetensors")
     pred = models["mlp"].predict(test.theta)
     pairs = {
         "force (mN)": (test.force, pred.force),
