@@ -20,6 +20,8 @@ def atomic_write(path: str | Path, content: str | bytes | Callable[[Path], Any])
     ``content`` is text (UTF-8), bytes, or a function that writes the file it is given (for
     writers that take a file name: ``np.savez``, ``DataFrame.to_parquet``, ``ElementTree.write``).
     The temporary name is unique (``mkstemp``), so two writers of the same target never share it.
+    The file gets the permissions of a file created the ordinary way (0666 less the umask), not
+    ``mkstemp``'s owner-only 0600, so a colleague can read a shared result.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -32,11 +34,18 @@ def atomic_write(path: str | Path, content: str | bytes | Callable[[Path], Any])
         else:
             with os.fdopen(fd, "wb") as fh:
                 fh.write(content.encode() if isinstance(content, str) else content)
+        os.chmod(tmp, 0o666 & ~_umask())
         os.replace(tmp, path)
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
     return path
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
 
 
 def atomic_write_json(path: str | Path, payload: Any, indent: int | None = 1) -> Path:
