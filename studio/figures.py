@@ -83,8 +83,13 @@ def corner_figure(posterior, fit_theta=None, fit_hessian=None, s: float | None =
     import corner
 
     labels = [f"{name} (kPa)" for name in posterior.parameters]
+    span = np.percentile(posterior.samples, [0.5, 99.5], axis=0).T  # corner's own default range
+    if truth is not None:  # widened so that a truth far from the samples is seen, not clipped
+        span = np.column_stack([np.minimum(span[:, 0], truth), np.maximum(span[:, 1], truth)])
+    pad = 0.05 * (span[:, 1] - span[:, 0])
     fig = corner.corner(
         posterior.samples,
+        range=list(zip(span[:, 0] - pad, span[:, 1] + pad, strict=True)),
         labels=labels,
         quantiles=[0.025, 0.5, 0.975],
         show_titles=True,

@@ -96,3 +96,18 @@ def test_carried_posterior_is_shifted_and_widened_by_the_mesh_check(linear_targe
     assert np.all(np.abs(moved_by - theta_ls * shift_pct / 100) < 4 * mesh_sd / np.sqrt(len(post.samples)))
     np.testing.assert_allclose(moved.std(), np.hypot(post.std(), mesh_sd), rtol=0.1)
     assert np.all(sd < mesh_sd)  # the check's spread dominates here, so the test sees it
+
+
+def test_corner_figure_shows_a_truth_far_from_the_samples():
+    from indentation_studio.inference.posterior import Posterior
+    from indentation_studio.studio.figures import corner_figure
+
+    rng = np.random.default_rng(0)
+    samples = rng.normal([11.7, 299.5], [0.023, 3.6], (4000, 2))
+    post = Posterior(samples, ("c1", "c5"), np.array([20.0, 20.0]), 0.7, True, 1.0, 0.004)
+    fig = corner_figure(
+        post, np.array([11.7, 299.3]), np.array([[19.5, 2.27], [2.27, 0.47]]), 0.01, truth=[12, 250]
+    )
+    (x0, x1), (y0, y1) = fig.axes[2].get_xlim(), fig.axes[2].get_ylim()
+    assert x0 < 11.7 < 12.0 < x1 and y0 < 250.0 < 299.5 < y1  # the 17 % miss is on the plot
+    assert len(fig.axes[2].lines) >= 4  # fit and truth cross-hairs, the ellipse
