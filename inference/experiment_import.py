@@ -115,11 +115,11 @@ def read_indenter_points(source: IndenterSource) -> np.ndarray:
     """The indenter's points (n, 3) in mm from a CSV, a MatchID folder or a DuoDIC .mat."""
     path = Path(source.path)
     if path.is_dir():
-        from .import_matchid import read_matchid
+        from .matchid_export import read_matchid
 
         return read_matchid(path, source.length_unit, allow_gaps=True).xyz
     if path.suffix.lower() == ".mat":
-        from .import_duodic import read_duodic
+        from .duodic_results import read_duodic
 
         if source.length_unit is None:
             raise ExperimentDataError(f"{path}: DuoDIC stores no units; declare the indenter's length unit")
@@ -301,8 +301,8 @@ def import_matchid(
     max_sigma: float | None = None,
     overwrite: bool = False,
 ) -> ImportResult:
-    """A MatchID export folder (:mod:`.import_matchid`) into an experiment folder."""
-    from .import_matchid import read_matchid
+    """A MatchID export folder (:mod:`.matchid_export`) into an experiment folder."""
+    from .matchid_export import read_matchid
 
     dic = read_matchid(folder, length_unit, max_sigma=max_sigma, allow_gaps=frames.frames is not None)
     return import_experiment(dic, out_dir, protocol, force, indenter, frames, overwrite, "MatchID CSV")
@@ -321,8 +321,8 @@ def import_duodic(
     variable: str | None = None,
     overwrite: bool = False,
 ) -> ImportResult:
-    """A DuoDIC results .mat (:mod:`.import_duodic`) into an experiment folder."""
-    from .import_duodic import read_duodic
+    """A DuoDIC results .mat (:mod:`.duodic_results`) into an experiment folder."""
+    from .duodic_results import read_duodic
 
     dic = read_duodic(path, length_unit, variable, max_corr, rigid_body_removed)
     return import_experiment(dic, out_dir, protocol, force, indenter, frames, overwrite, "DuoDIC .mat")

@@ -24,6 +24,7 @@ from lab_files import (
 
 from indentation_studio.forward.predictor import FESolverPredictor, Prediction
 from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
+from indentation_studio.inference.duodic_results import read_duodic
 from indentation_studio.inference.experiment_data import ExperimentDataError, load_experiment
 from indentation_studio.inference.experiment_import import (
     ForceSource,
@@ -37,10 +38,9 @@ from indentation_studio.inference.experiment_import import (
 )
 from indentation_studio.inference.experiment_processing import experiment_objective, static_forces
 from indentation_studio.inference.import_csv import CSVMapping
-from indentation_studio.inference.import_duodic import read_duodic
-from indentation_studio.inference.import_matchid import read_matchid
 from indentation_studio.inference.inverse_fit import fit_parameters
 from indentation_studio.inference.load_frame import LoadFrameColumns
+from indentation_studio.inference.matchid_export import read_matchid
 from indentation_studio.inference.synthetic_experiment import write_synthetic_experiment
 
 SPEC = ModelSpec(mesh=MeshChoice("coarse"), protocol=Protocol(step_size=0.5, steps=4))

@@ -1,0 +1,35 @@
+"""The public API: every name in a subpackage's ``__all__`` resolves, none shadows a submodule of
+the same package (which the import system would set over it), and ``ins.*`` reaches the workflows."""
+
+from __future__ import annotations
+
+import importlib
+import pkgutil
+
+import pytest
+
+import indentation_studio as ins
+
+PACKAGES = ["forward", "campaign", "surrogate", "design", "inference", "studio"]
+
+
+@pytest.mark.parametrize("name", PACKAGES)
+def test_every_exported_name_resolves_and_shadows_no_submodule(name):
+    package = importlib.import_module(f"indentation_studio.{name}")
+    submodules = {m.name for m in pkgutil.iter_modules(package.__path__)}
+    assert package.__all__, name
+    for exported in package.__all__:
+        assert getattr(package, exported) is not None
+        assert exported not in submodules - {"figures"}, f"{name}.{exported} is also a submodule"
+
+
+def test_top_level_reaches_the_everyday_workflows():
+    for exported in (
+        "simulate",
+        "run_named_campaign",
+        "train_surrogate",
+        "fit_experiment",
+        "sample_posterior_for",
+    ):
+        assert callable(getattr(ins, exported))
+    assert callable(ins.figures.corner_figure) and isinstance(ins.__version__, str)
