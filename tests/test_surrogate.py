@@ -148,6 +148,16 @@ def test_confirm_with_mesh_check_cli(campaigns, tmp_path):
     assert res.exit_code == 0, res.output
     fitted = json.loads(res.stdout)
     theta = np.array([fitted["c1"], fitted["c5"]])
+    registration = fitted["registration"]  # what the fit used, reported (issue: a lab's files in)
+    assert registration["sphere_radius_mm"] == pytest.approx(4.77, abs=0.02)
+    assert registration["sphere_fit_rms_mm"] < 0.01 and fitted["excluded_steps"] == []
+    res = CliRunner().invoke(
+        app, [*fit_args, "--exclude-steps", "2", "--out", str(tmp_path / "fewer"), "--json"]
+    )
+    assert res.exit_code == 0, res.output
+    fewer = json.loads(res.stdout)
+    assert fewer["excluded_steps"] == [2]
+    assert fewer["n"] == fitted["n"] * 3 // 4  # one of four steps left out of every term
     args = ["confirm", "--experiment", str(exp), "--surrogate", str(model_file)]
     args += ["--c1", str(float(theta[0])), "--c5", str(float(theta[1]))]
     res = CliRunner().invoke(app, [*args, "--check-mesh", "default", "--json"])
