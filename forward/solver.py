@@ -62,6 +62,12 @@ MAX_HALVINGS = 6
 #: residual, in at most this many iterations, before a new factorisation is made.
 KRYLOV_RTOL = 1e-2
 KRYLOV_MAXITER = 8
+#: ... or more where a factorisation costs many back-substitutions (large meshes).
+KRYLOV_MAXITER_LARGE = 30
+KRYLOV_DOFS_PER_ITERATION = 3000
+#: Meshes with at least this many dofs factorise in single precision (PARDISO): the factorisation
+#: only preconditions CG and makes corrections that Newton's residual checks, and costs half.
+SINGLE_PRECISION_DOFS = 20_000
 
 
 _STRUCTURES: dict[bytes, tuple[ReferenceGeometry, SparsePattern]] = {}
@@ -110,7 +116,12 @@ class EmbeddedSolver:
         fixed[self.mesh.xsym, 0] = True
         fixed[self.mesh.ysym, 1] = True
         self.bc_fixed = fixed
-        self.linear = ConstrainedSymmetricSolver(self.pattern, linear_solver, permanent=fixed.ravel())
+        self.linear = ConstrainedSymmetricSolver(
+            self.pattern,
+            linear_solver,
+            permanent=fixed.ravel(),
+            single_precision=self.n_dofs >= SINGLE_PRECISION_DOFS,
+        )
         self.linear_solver = self.linear.backend
         self.top = self.mesh.top
         top_z = float(self.mesh.nodes[:, 2].max())
@@ -128,12 +139,13 @@ class EmbeddedSolver:
             "tangent_assemblies": 0,
             "assembly_s": 0.0,
             "factorizations": 0,
+            "factorize_s": 0.0,
             "solves": 0,
             "solve_s": 0.0,
             "krylov_steps": 0,
             "krylov_iterations": 0,
+            "krylov_s": 0.0,
         }
-        self._factor_mask: np.ndarray | None = None  # the constraints of the factorisation in hand
 
     # ------------------------------------------------------------------ numerics
     def assemble(self, u: np.ndarray, tangent: bool = True, parameter_derivatives: bool = False):
@@ -155,46 +167,67 @@ class EmbeddedSolver:
 
     def _factorize(self, K: sp.csr_matrix, constrained: np.ndarray) -> None:
         t = time.perf_counter()
-        self._factor_mask = None
         self.linear.factorize(K, constrained)
-        self._factor_mask = constrained.copy()
+        dt = time.perf_counter() - t
         self.stats["factorizations"] += 1
-        self.stats["solve_s"] += time.perf_counter() - t
+        self.stats["factorize_s"] += dt
+        self.stats["solve_s"] += dt
+
+    def _krylov_maxiter(self) -> int:
+        """CG iterations worth trying before a factorisation. A factorisation's cost grows faster
+        than a back-substitution's with the mesh, so larger meshes try more: one iteration per
+        ``KRYLOV_DOFS_PER_ITERATION`` dofs, within ``KRYLOV_MAXITER`` .. ``KRYLOV_MAXITER_LARGE``
+        (a fixed rule, not a timing, so that a run is reproducible to the last digit)."""
+        return int(np.clip(self.n_dofs // KRYLOV_DOFS_PER_ITERATION, KRYLOV_MAXITER, KRYLOV_MAXITER_LARGE))
+
+    def _krylov(
+        self, K: sp.csr_matrix, cmask: np.ndarray, rhs: np.ndarray, rtol: float, maxiter: int
+    ) -> np.ndarray | None:
+        """CG on K x = rhs with the dofs in ``cmask`` eliminated, preconditioned with the
+        factorisation in hand (with ``cmask``'s extra constraints by its Schur complement);
+        None when it does not reach ``rtol`` in ``maxiter`` iterations."""
+        t = time.perf_counter()
+
+        def matvec(x: np.ndarray) -> np.ndarray:
+            y = K @ np.where(cmask, 0.0, x)
+            y[cmask] = x[cmask]
+            return y
+
+        n = self.n_dofs
+        A = spla.LinearOperator((n, n), matvec=matvec, dtype=float)
+        M = spla.LinearOperator((n, n), matvec=lambda r: self.linear.solve_constrained(r, cmask), dtype=float)
+        its = [0]
+
+        def count(_x: np.ndarray) -> None:
+            its[0] += 1
+
+        x, info = spla.cg(A, rhs, rtol=rtol, maxiter=maxiter, M=M, callback=count)
+        dt = time.perf_counter() - t
+        self.stats["krylov_iterations"] += its[0]
+        self.stats["krylov_s"] += dt
+        self.stats["solve_s"] += dt
+        if info != 0 or not np.all(np.isfinite(x)):
+            return None
+        self.stats["krylov_steps"] += 1
+        return np.where(cmask, 0.0, x)
 
     def _newton_step(self, K: sp.csr_matrix, cmask: np.ndarray, rhs: np.ndarray) -> np.ndarray:
         """Solve K x = rhs with the dofs in ``cmask`` eliminated: by conjugate gradients
-        preconditioned with the factorisation in hand when it was made for the same constraints
-        (``KRYLOV_RTOL`` in at most ``KRYLOV_MAXITER`` iterations: a tangent assembly and a few
-        back-substitutions instead of a factorisation), else, or when CG does not get there, by
-        factorising K."""
-        if self._factor_mask is not None and np.array_equal(self._factor_mask, cmask):
-            t = time.perf_counter()
-
-            def matvec(x: np.ndarray) -> np.ndarray:
-                y = K @ np.where(cmask, 0.0, x)
-                y[cmask] = x[cmask]
-                return y
-
-            n = self.n_dofs
-            A = spla.LinearOperator((n, n), matvec=matvec, dtype=float)
-            M = spla.LinearOperator((n, n), matvec=self.linear.solve, dtype=float)
-            its = [0]
-
-            def count(_x: np.ndarray) -> None:
-                its[0] += 1
-
-            x, info = spla.cg(A, rhs, rtol=KRYLOV_RTOL, maxiter=KRYLOV_MAXITER, M=M, callback=count)
-            self.stats["krylov_iterations"] += its[0]
-            self.stats["solve_s"] += time.perf_counter() - t
-            if info == 0 and np.all(np.isfinite(x)):
-                self.stats["krylov_steps"] += 1
-                return np.where(cmask, 0.0, x)
+        preconditioned with the factorisation in hand (``KRYLOV_RTOL``; a tangent assembly and a
+        few back-substitutions instead of a factorisation) when that factorisation covers the
+        constraints (its own plus nodes attached since, :meth:`ConstrainedSymmetricSolver.covers`),
+        else, or when CG does not get there, by factorising K."""
+        if self.linear.covers(cmask):
+            x = self._krylov(K, cmask, rhs, KRYLOV_RTOL, self._krylov_maxiter())
+            if x is not None:
+                return x
         self._factorize(K, cmask)
-        return self._solve(rhs)
+        return self._solve(rhs, cmask)
 
-    def _solve(self, rhs: np.ndarray) -> np.ndarray:
+    def _solve(self, rhs: np.ndarray, cmask: np.ndarray) -> np.ndarray:
+        """One back-substitution with the factorisation in hand, ``cmask``'s dofs held at zero."""
         t = time.perf_counter()
-        x = self.linear.solve(rhs)
+        x = self.linear.solve_constrained(rhs, cmask)
         self.stats["solves"] += 1
         self.stats["solve_s"] += time.perf_counter() - t
         return x
@@ -268,7 +301,7 @@ class EmbeddedSolver:
                     du = self._newton_step(self.assemble(u.reshape(-1, 3))[1], cmask, r_free)
                     stale_steps = 0
                 else:  # a correction with the factorisation made elsewhere
-                    du = self._solve(r_free)
+                    du = self._solve(r_free, cmask)
                 last, u_prev = norm, u.copy()
                 u = u - du
                 stale_steps += 1
@@ -336,8 +369,8 @@ class EmbeddedSolver:
         self, eq: _Equilibrium, cmask: np.ndarray, contact: StickContactState
     ) -> np.ndarray:
         """d u / d theta (n, 3, p) of a converged state: K_ff du_f = -(dR_f + K_fc du_c), where
-        du_c is the anchors' derivative at attached nodes (0 at supports). Solved with the last
-        Newton factorisation, refined with the exact converged tangent."""
+        du_c is the anchors' derivative at attached nodes (0 at supports). Solved by CG on the
+        exact converged tangent, preconditioned with the factorisation in hand."""
         n_p = eq.dR.shape[1]
         jump = np.zeros((self.mesh.n_nodes, 3, n_p))
         att = self.top[contact.attached]
@@ -346,17 +379,15 @@ class EmbeddedSolver:
         jump = jump.reshape(-1, n_p)
         b = -(eq.dR + eq.K @ jump)
         b[cmask] = 0.0
-        scale = np.linalg.norm(b, axis=0) + 1e-300
-        x = self._solve(b)
-        for _ in range(30):  # iterative refinement with the exact tangent
-            r = b - eq.K @ x
-            r[cmask] = 0.0
-            if np.all(np.linalg.norm(r, axis=0) <= 1e-12 * scale):
-                break
-            x += self._solve(r)
-        else:
-            self._factorize(eq.K, cmask)
-            x = self._solve(b)
+        x = np.zeros_like(b)
+        for k in range(n_p):  # CG with the factorisation in hand, to round-off
+            col = self._krylov(eq.K, cmask, b[:, k], 1e-12, 100) if self.linear.covers(cmask) else None
+            if col is None:
+                self._factorize(eq.K, cmask)
+                col = self._krylov(eq.K, cmask, b[:, k], 1e-12, 100)
+                if col is None:
+                    raise LinearSolveError("the sensitivity solve did not converge")
+            x[:, k] = col
         return (x + jump).reshape(-1, 3, n_p)
 
     # ------------------------------------------------------------------ driver
@@ -489,6 +520,7 @@ class EmbeddedSolver:
                 "element": "hex8 three-field (mean dilatation), 2x2x2 Gauss",
                 "contact": "rigid sphere, node-to-surface stick (attach at path crossing, release on tension)",
                 "linear_solver": self.linear_solver,
+                "factorisation": "single precision" if self.linear.single_precision else "double precision",
                 "mesh": {"source": mesh.source, "nodes": mesh.n_nodes, "elements": mesh.n_elements},
                 "stats": dict(self.stats),
             },
