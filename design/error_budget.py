@@ -1,0 +1,175 @@
+"""The error budget of a model: the parameter bias it causes in a fit, beside what a typical
+experiment can resolve.
+
+At each test point theta_t of a reference campaign (noise-free responses of a finer model), the
+reference is read at the model's top nodes and fitted with the model, with the fit's own
+objective (eq. 4, 5, Appendix B weights) and weights. The bias is theta_fit / theta_t - 1. It is
+set beside the 95 % half-width of eq. 6 to 8 that a typical experiment gives on the same
+objective: force noise ``force_noise`` (relative, per step) and DIC noise ``dic_noise`` (mm, per
+node), whose expected objective value F_noise = sum_k eta_k E|r_k|^2 gives s by eq. 8.
+
+A model is converged for that test when its bias is well inside the half-width; the studio asks
+for a third (:data:`CONVERGED_FRACTION`). For a surrogate the bias is split into a
+discretisation part (the FE model it emulates, fitted the same way) and a surrogate part (the
+rest). FE models are fitted by Gauss-Newton from theta_t (with their exact
+sensitivities, at most ``fe_steps``: each one simulation); surrogates by Levenberg-Marquardt to
+convergence.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from ..forward.mesh import build_mesh
+from ..forward.predictor import FESolverPredictor, Prediction
+from ..forward.result import SimulationResult
+from .certainty import bounds_pct, s_from_data
+from .objective import PAPER_WEIGHTS, Objective, check_weights
+
+__all__ = ["CONVERGED_FRACTION", "ErrorBudget", "error_budget", "noise_objective_value"]
+
+#: A model is good enough for a test when its bias is below this fraction of the test's half-width.
+CONVERGED_FRACTION = 1.0 / 3.0
+
+
+@dataclass
+class ErrorBudget:
+    """Bias of each model at each test point (percent of the truth) and the typical half-width."""
+
+    table: pd.DataFrame  # one row per (model, test point)
+    weights: np.ndarray
+    force_noise: float
+    dic_noise: float
+    reference: dict = field(default_factory=dict)  # where the reference came from (provenance)
+
+    def summary(self) -> pd.DataFrame:
+        """Per model: the largest |bias| of c1 and c5, the median half-width, their ratio, and
+        whether the model is converged for the test (every point below the fraction)."""
+        rows = []
+        for model, t in self.table.groupby("model", sort=False):
+            row = {"model": model, "points": len(t)}
+            ok = True
+            for p in ("c1", "c5"):
+                bias = t[f"{p}_bias_pct"].abs()
+                half = t[f"{p}_half_width_pct"]
+                row[f"{p}_max_bias_pct"] = float(bias.max())
+                row[f"{p}_median_half_width_pct"] = float(half.median())
+                row[f"{p}_max_bias_over_half_width"] = float((bias / half).max())
+                ok &= bool(np.all(bias <= CONVERGED_FRACTION * half))
+            row["converged"] = ok
+            rows.append(row)
+        return pd.DataFrame(rows)
+
+    def to_dict(self) -> dict:
+        return {
+            "weights": self.weights.tolist(),
+            "force_noise": self.force_noise,
+            "dic_noise_mm": self.dic_noise,
+            "converged_fraction": CONVERGED_FRACTION,
+            "reference": self.reference,
+            "rows": self.table.to_dict(orient="records"),
+            "summary": self.summary().to_dict(orient="records"),
+        }
+
+
+def noise_objective_value(objective: Objective, eta, force_noise: float, dic_noise: float) -> float:
+    """E[F] of eq. 5 for pure measurement noise: relative force noise per step and DIC noise (mm)
+    at every measured node, through the objective's own normalisation and nodal weights."""
+    e = check_weights(eta)
+    steps = len(objective.steps)
+    force_term = steps * force_noise**2
+    scale = objective.displacement_residual_scale()[objective.measured]  # (nodes, 3)
+    field_terms = steps * dic_noise**2 * np.sum(scale**2, axis=0)
+    return float(e[0] * force_term + e[1:] @ field_terms)
+
+
+def model_top_xyz(model) -> np.ndarray:
+    """The top nodes a Predictor answers on: a surrogate's ``top_xyz``, an FE model's mesh top."""
+    if hasattr(model, "top_xyz"):
+        return np.asarray(model.top_xyz, float)
+    if isinstance(model, FESolverPredictor):
+        mesh = build_mesh(model.spec)
+        return mesh.nodes[mesh.top]
+    raise TypeError(f"cannot tell the top nodes of {type(model).__name__}")
+
+
+def reference_prediction(result: SimulationResult, top_xyz: np.ndarray) -> Prediction:
+    """A reference simulation read at other top nodes (steps without depth 0)."""
+    from ..inference.mesh_check import prediction_at_nodes
+
+    return prediction_at_nodes(result, top_xyz)
+
+
+def _fit_bias(model, objective: Objective, eta: np.ndarray, theta_t: np.ndarray, fe_steps: int) -> tuple:
+    """(theta_fit, Jacobian in log theta at the fit) for one model and one reference target."""
+    if isinstance(model, FESolverPredictor):  # Gauss-Newton from the truth, exact sensitivities
+        theta = theta_t.copy()
+        for _ in range(fe_steps):
+            pred = model.predict(theta[None, :], jacobian=True)
+            r = objective.residuals(pred, eta)[0]
+            J = objective.jacobian(pred, eta)[0] * theta
+            delta, *_ = np.linalg.lstsq(J, -r, rcond=None)
+            theta = theta * np.exp(delta)
+            if np.max(np.abs(delta)) < 1e-3:
+                break
+        return theta, J
+    from ..inference.inverse_fit import fit_parameters
+
+    fit = fit_parameters(objective, model, eta, theta0=theta_t)
+    pred = model.predict(fit.theta[None, :], jacobian=True)
+    return fit.theta, objective.jacobian(pred, eta)[0] * fit.theta
+
+
+def error_budget(
+    reference: Sequence[SimulationResult],
+    models: Mapping[str, object],
+    fe_models: Mapping[str, object] | None = None,
+    weights=PAPER_WEIGHTS,
+    force_noise: float = 0.02,
+    dic_noise: float = 0.02,
+    reference_source: dict | None = None,
+    fe_steps: int = 3,
+    progress: Callable[[str], None] | None = None,
+) -> ErrorBudget:
+    """Fit each of ``models`` (name -> Predictor: an FE model or a surrogate) to each noise-free
+    ``reference`` response and tabulate the biases beside the typical 95 % half-width.
+    ``fe_models`` (name -> the FE Predictor a surrogate of that name emulates) splits a
+    surrogate's bias into discretisation and surrogate parts."""
+    eta = check_weights(weights)
+    if not reference:
+        raise ValueError("the error budget needs at least one reference response")
+    if not (force_noise > 0 and dic_noise > 0):
+        raise ValueError(f"noise levels must be positive, got {force_noise}, {dic_noise}")
+    fe_models = dict(fe_models or {})
+    rows = []
+    for name, model in models.items():
+        top = model_top_xyz(model)
+        fe = fe_models.get(name)
+        for result in reference:
+            m = result.spec["material"]
+            theta_t = np.array([m["c1"], m["c5"]], float)
+            if progress is not None:
+                progress(f"{name} at {theta_t.round(3).tolist()} kPa")
+            target = reference_prediction(result, top)
+            objective = Objective.from_prediction(target, radius=float(result.spec["indenter"]["radius"]))
+            theta_fit, J = _fit_bias(model, objective, eta, theta_t, fe_steps)
+            s = s_from_data(
+                noise_objective_value(objective, eta, force_noise, dic_noise), objective.data_points(eta)
+            )
+            half = bounds_pct(2.0 * J.T @ J, s)
+            bias = 100.0 * (theta_fit / theta_t - 1.0)
+            row = {"model": name, "c1_true": theta_t[0], "c5_true": theta_t[1]}
+            row |= {"c1_fit": theta_fit[0], "c5_fit": theta_fit[1]}
+            row |= {"c1_bias_pct": bias[0], "c5_bias_pct": bias[1]}
+            row |= {"c1_half_width_pct": half[0], "c5_half_width_pct": half[1]}
+            if fe is not None:
+                fe_fit, _ = _fit_bias(fe, objective, eta, theta_t, fe_steps)
+                disc = 100.0 * (fe_fit / theta_t - 1.0)
+                row |= {"c1_discretisation_pct": disc[0], "c5_discretisation_pct": disc[1]}
+                row |= {"c1_surrogate_pct": bias[0] - disc[0], "c5_surrogate_pct": bias[1] - disc[1]}
+            rows.append(row)
+    return ErrorBudget(pd.DataFrame(rows), eta, force_noise, dic_noise, dict(reference_source or {}))

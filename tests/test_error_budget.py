@@ -1,0 +1,74 @@
+"""The error budget of a model (design.error_budget): a model fitted to its own response has no
+bias; the expected noise objective matches Monte Carlo; a coarser mesh's bias is the fit it causes."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from indentation_studio.design.error_budget import (
+    error_budget,
+    model_top_xyz,
+    noise_objective_value,
+    reference_prediction,
+)
+from indentation_studio.design.objective import PAPER_WEIGHTS, Objective
+from indentation_studio.forward.predictor import FESolverPredictor
+from indentation_studio.forward.solver import simulate
+from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
+from indentation_studio.inference.inverse_fit import fit_parameters
+
+PROTOCOL = Protocol(step_size=0.5, steps=3)
+COARSE = ModelSpec(mesh=MeshChoice("coarse"), protocol=PROTOCOL)
+FINER = ModelSpec(mesh=MeshChoice("default"), protocol=PROTOCOL)
+THETA = (8.0, 300.0)
+
+
+def _reference(spec: ModelSpec):
+    return simulate(spec.with_material(c1=THETA[0], c5=THETA[1]))
+
+
+def test_noise_objective_matches_monte_carlo():
+    ref = _reference(COARSE)
+    target = reference_prediction(ref, ref.top_xyz)
+    objective = Objective.from_prediction(target, radius=COARSE.indenter.radius)
+    expected = noise_objective_value(objective, PAPER_WEIGHTS, 0.02, 0.02)
+    rng = np.random.default_rng(1)
+    values = []
+    for _ in range(400):
+        noisy_force = target.force * (1 + 0.02 * rng.standard_normal(target.force.shape))
+        noisy_u = target.displacement + 0.02 * rng.standard_normal(target.displacement.shape)
+        # residuals of the truth against a noisy target: scale kept from the noise-free target
+        r = objective.residuals(
+            type(target)(noisy_force, noisy_u, target.depth, target.top_xyz), PAPER_WEIGHTS
+        )
+        values.append(float(r[0] @ r[0]))
+    mc = np.mean(values)
+    # Monte Carlo error of the mean: sd / sqrt(400); the force term divides by the noise-free force
+    assert abs(mc - expected) < 4 * np.std(values) / np.sqrt(len(values))
+    assert expected > 0
+
+
+def test_model_against_its_own_response_has_no_bias():
+    fe = FESolverPredictor(COARSE)
+    budget = error_budget([_reference(COARSE)], {"coarse": fe})
+    row = budget.table.iloc[0]
+    # Newton stops at 1e-4 of the reactions: the same model agrees with itself to about 1e-5
+    assert abs(row.c1_bias_pct) < 0.01 and abs(row.c5_bias_pct) < 0.01
+    assert 0 < row.c1_half_width_pct < 50 and 0 < row.c5_half_width_pct < 200
+    assert bool(budget.summary().converged.iloc[0])
+
+
+def test_coarse_mesh_bias_is_the_fit_it_causes():
+    """Against a finer mesh's noise-free response, the budget's Gauss-Newton bias of the coarse FE
+    model equals a full Levenberg-Marquardt fit of that model to the same target."""
+    fe = FESolverPredictor(COARSE)
+    reference = _reference(FINER)
+    budget = error_budget([reference], {"coarse": fe}, fe_steps=4)
+    row = budget.table.iloc[0]
+    objective = Objective.from_prediction(
+        reference_prediction(reference, model_top_xyz(fe)), radius=COARSE.indenter.radius
+    )
+    lm = fit_parameters(objective, fe, PAPER_WEIGHTS, theta0=THETA)
+    bias = 100 * (lm.theta / np.array(THETA) - 1)
+    assert abs(bias[1]) > 0.5  # the coarse mesh does move the fit
+    np.testing.assert_allclose([row.c1_bias_pct, row.c5_bias_pct], bias, atol=0.05)
