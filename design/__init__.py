@@ -1,6 +1,6 @@
 """Design: what is decided before a test. Objectives (eq. 4, 5), Appendix B nodal weights, certainty
-bounds (eq. 6 to 8), weight optimisation (Table 1), Fig. 8, which experiment to run, constituents
-and homogenisation (eq. 10, 11)."""
+bounds (eq. 6 to 8), weight optimisation (Table 1), Fig. 8, which experiment to run, the error
+budget of a model, constituents and homogenisation (eq. 10, 11)."""
 
 import lazy_loader as lazy
 
@@ -15,5 +15,6 @@ __getattr__, __dir__, __all__ = lazy.attach(
         "objective_over_plane": ["ObjectiveMap", "campaign_objective_map", "objective_map"],
         "experiment_choice": ["candidate_grid", "compare_designs"],
         "constituents": ["fit_equibiaxial", "rule_of_mixtures"],
+        "error_budget": ["ErrorBudget", "campaign_error_budget", "compute_error_budget"],
     },
 )

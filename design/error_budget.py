@@ -30,7 +30,14 @@ from ..forward.result import SimulationResult
 from .certainty import bounds_pct, s_from_data
 from .objective import PAPER_WEIGHTS, Objective, check_weights
 
-__all__ = ["CONVERGED_FRACTION", "ErrorBudget", "error_budget", "noise_objective_value"]
+__all__ = [
+    "CONVERGED_FRACTION",
+    "ErrorBudget",
+    "campaign_error_budget",
+    "compute_error_budget",
+    "noise_objective_value",
+    "resolve_model",
+]
 
 #: A model is good enough for a test when its bias is below this fraction of the test's half-width.
 CONVERGED_FRACTION = 1.0 / 3.0
@@ -104,6 +111,20 @@ def reference_prediction(result: SimulationResult, top_xyz: np.ndarray) -> Predi
     return prediction_at_nodes(result, top_xyz)
 
 
+def _check_same_test(name: str, model, result: SimulationResult) -> None:
+    """The model must simulate the reference's test: the same depths and indenter radius."""
+    if isinstance(model, FESolverPredictor):
+        depth, radius = np.asarray(model.spec.protocol.depths), model.spec.indenter.radius
+    else:
+        spec = (getattr(model, "meta", {}).get("campaign") or {}).get("model") or {}
+        depth, radius = np.asarray(model.depth), (spec.get("indenter") or {}).get("radius")
+    ref_depth, ref_radius = np.asarray(result.depth[1:]), float(result.spec["indenter"]["radius"])
+    if depth.shape != ref_depth.shape or not np.allclose(depth, ref_depth):
+        raise ValueError(f"model {name!r} simulates other depths than the reference ({len(depth)} steps)")
+    if radius is not None and abs(float(radius) - ref_radius) > 1e-9:
+        raise ValueError(f"model {name!r} has R = {radius:g} mm, the reference R = {ref_radius:g} mm")
+
+
 def _fit_bias(model, objective: Objective, eta: np.ndarray, theta_t: np.ndarray, fe_steps: int) -> tuple:
     """(theta_fit, Jacobian in log theta at the fit) for one model and one reference target."""
     if isinstance(model, FESolverPredictor):  # Gauss-Newton from the truth, exact sensitivities
@@ -124,7 +145,7 @@ def _fit_bias(model, objective: Objective, eta: np.ndarray, theta_t: np.ndarray,
     return fit.theta, objective.jacobian(pred, eta)[0] * fit.theta
 
 
-def error_budget(
+def compute_error_budget(
     reference: Sequence[SimulationResult],
     models: Mapping[str, object],
     fe_models: Mapping[str, object] | None = None,
@@ -150,6 +171,7 @@ def error_budget(
         top = model_top_xyz(model)
         fe = fe_models.get(name)
         for result in reference:
+            _check_same_test(name, model, result)
             m = result.spec["material"]
             theta_t = np.array([m["c1"], m["c5"]], float)
             if progress is not None:
@@ -173,3 +195,60 @@ def error_budget(
                 row |= {"c1_surrogate_pct": bias[0] - disc[0], "c5_surrogate_pct": bias[1] - disc[1]}
             rows.append(row)
     return ErrorBudget(pd.DataFrame(rows), eta, force_noise, dic_noise, dict(reference_source or {}))
+
+
+def resolve_model(name: str, reference_spec, runs_dir="runs") -> tuple[object, object | None]:
+    """A model named on the command line: a mesh preset (the reference's model on that mesh), a
+    FEBio .feb file's hex8 mesh, or a surrogate file. Returns (Predictor, the FE Predictor a
+    surrogate emulates, or None)."""
+    from dataclasses import replace
+    from pathlib import Path
+
+    from ..forward.mesh_presets import MESH_PRESETS
+    from ..forward.spec import MeshChoice, ModelSpec
+
+    if name in MESH_PRESETS:
+        return FESolverPredictor(replace(reference_spec, mesh=MeshChoice(name))), None
+    path = Path(name)
+    if path.suffix == ".feb":
+        return FESolverPredictor(replace(reference_spec, mesh=MeshChoice(feb_file=str(path)))), None
+    if not path.is_file():
+        raise ValueError(
+            f"model {name!r}: not a mesh preset ({', '.join(MESH_PRESETS)}), .feb file or surrogate file"
+        )
+    from ..surrogate.persistence import load_surrogate
+
+    surrogate = load_surrogate(path)
+    model = (surrogate.meta.get("campaign") or {}).get("model")
+    fe = FESolverPredictor(ModelSpec.from_dict(model)) if model else None
+    return surrogate, fe
+
+
+def campaign_error_budget(
+    reference: str,
+    models: Sequence[str],
+    weights=PAPER_WEIGHTS,
+    force_noise: float = 0.02,
+    dic_noise: float = 0.02,
+    fe_steps: int = 3,
+    runs_dir="runs",
+    progress: Callable[[str], None] | None = None,
+) -> ErrorBudget:
+    """:func:`error_budget` with the reference given as a campaign (name or folder: its done points
+    are the test points) and the models by name (:func:`resolve_model`)."""
+    from ..campaign.loader import open_campaign
+
+    store = open_campaign(reference, runs_dir)
+    done = store.points_with("done")
+    if len(done) == 0:
+        raise ValueError(f"reference campaign {store.spec.name!r} has no finished points")
+    results = [SimulationResult.load(store.result_path(i)) for i in done]
+    predictors, fe_models = {}, {}
+    for name in models:
+        predictors[name], fe = resolve_model(name, store.spec.model, runs_dir)
+        if fe is not None:
+            fe_models[name] = fe
+    source = {"campaign": str(store.root), "points": len(results), "model": store.spec.model.to_dict()}
+    return compute_error_budget(
+        results, predictors, fe_models, weights, force_noise, dic_noise, source, fe_steps, progress
+    )

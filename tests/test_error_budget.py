@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from indentation_studio.design.error_budget import (
-    error_budget,
+    compute_error_budget,
     model_top_xyz,
     noise_objective_value,
     reference_prediction,
@@ -50,7 +50,7 @@ def test_noise_objective_matches_monte_carlo():
 
 def test_model_against_its_own_response_has_no_bias():
     fe = FESolverPredictor(COARSE)
-    budget = error_budget([_reference(COARSE)], {"coarse": fe})
+    budget = compute_error_budget([_reference(COARSE)], {"coarse": fe})
     row = budget.table.iloc[0]
     # Newton stops at 1e-4 of the reactions: the same model agrees with itself to about 1e-5
     assert abs(row.c1_bias_pct) < 0.01 and abs(row.c5_bias_pct) < 0.01
@@ -63,7 +63,7 @@ def test_coarse_mesh_bias_is_the_fit_it_causes():
     model equals a full Levenberg-Marquardt fit of that model to the same target."""
     fe = FESolverPredictor(COARSE)
     reference = _reference(FINER)
-    budget = error_budget([reference], {"coarse": fe}, fe_steps=4)
+    budget = compute_error_budget([reference], {"coarse": fe}, fe_steps=4)
     row = budget.table.iloc[0]
     objective = Objective.from_prediction(
         reference_prediction(reference, model_top_xyz(fe)), radius=COARSE.indenter.radius
@@ -72,3 +72,26 @@ def test_coarse_mesh_bias_is_the_fit_it_causes():
     bias = 100 * (lm.theta / np.array(THETA) - 1)
     assert abs(bias[1]) > 0.5  # the coarse mesh does move the fit
     np.testing.assert_allclose([row.c1_bias_pct, row.c5_bias_pct], bias, atol=0.05)
+
+
+def test_error_budget_command(tmp_path):
+    import json
+
+    from typer.testing import CliRunner
+
+    from indentation_studio.campaign.runner import run_named_campaign
+    from indentation_studio.studio.cli import app
+
+    run_named_campaign("ref", "c1=6:12:2,c5=200:200:1", FINER, runs_dir=tmp_path, jobs=1)
+    args = ["design", "error-budget", "--reference", "ref", "--model", "coarse", "--runs-dir", str(tmp_path)]
+    out = CliRunner().invoke(app, [*args, "--fe-steps", "1", "--json"])
+    assert out.exit_code == 0, out.output
+    payload = json.loads(out.stdout)
+    assert [r["c1_true"] for r in payload["rows"]] == [6.0, 12.0]
+    assert payload["summary"][0]["model"] == "coarse" and payload["reference"]["points"] == 2
+    assert (tmp_path / "ref" / "error-budget.json").is_file()
+    bad = CliRunner().invoke(
+        app,
+        ["design", "error-budget", "--reference", "ref", "--model", "nowhere", "--runs-dir", str(tmp_path)],
+    )
+    assert bad.exit_code != 0 and "not a mesh preset" in bad.output
