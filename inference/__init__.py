@@ -14,6 +14,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
         "fit_inputs": ["FitInputs", "prepare_fit"],
         "experiment_fit": ["ExperimentFit", "fit_experiment"],
         "posterior": ["Posterior", "sample_posterior"],
+        "model_error": ["ModelError", "model_error_at", "with_model_error"],
         "experiment_posterior": ["ExperimentPosterior", "sample_posterior_for"],
         "confirmation": ["Confirmation", "confirm"],
         "mesh_check": ["MeshCheck", "check_mesh_at"],

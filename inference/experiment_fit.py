@@ -8,6 +8,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from ..atomic_write import atomic_write_json
 from ..design.objective import PAPER_WEIGHTS
 from ..forward.predictor import FESolverPredictor
@@ -16,6 +18,16 @@ from .experiment_data import ExperimentData
 from .fit_inputs import FitInputs, prepare_fit
 from .inverse_fit import PAPER_F_STOP, FitResult, fit_parameters
 from .mesh_check import MeshCheck, check_mesh_at
+from .model_error import ModelError, combined_pct, has_high_fidelity_level, model_error_at
+
+#: What a fit's bounds hold, as fit.json and the CLI say it.
+WITH_MODEL_ERROR = (
+    "statistical (eq. 6 to 8) and model error (the discrepancy's uncertainty and the error budget)"
+)
+WITHOUT_MODEL_ERROR = (
+    "statistical only (eq. 6 to 8): the surrogate has no high-fidelity level, so these bounds hold no model "
+    "error (mesh, contact); train a multi-fidelity surrogate or use --check-mesh"
+)
 
 __all__ = ["ExperimentFit", "fit_experiment"]
 
@@ -30,6 +42,12 @@ class ExperimentFit:
     refined: bool
     mesh_check: MeshCheck | None = None
     check_mesh: str | None = None  # the preset the mesh check solved on
+    model_error: ModelError | None = None  # with a high-fidelity level: the model-error parts
+
+    @property
+    def bounds_pct(self) -> np.ndarray:
+        """The reported 95 % half-width: statistical and, where known, model error combined."""
+        return combined_pct(self.fit.bounds_pct, self.model_error)
 
     def to_dict(self) -> dict:
         """fit.json: theta, bounds (statistical only unless a mesh check is present), provenance."""
@@ -38,8 +56,11 @@ class ExperimentFit:
         return {
             "c1": float(final.theta[0]),
             "c5": float(final.theta[1]),
-            "c1_pct": float(final.bounds_pct[0]),
-            "c5_pct": float(final.bounds_pct[1]),
+            "c1_pct": float(self.bounds_pct[0]),
+            "c5_pct": float(self.bounds_pct[1]),
+            "bounds_include": WITH_MODEL_ERROR if self.model_error is not None else WITHOUT_MODEL_ERROR,
+            "statistical_pct": final.bounds_pct.tolist(),
+            "model_error": None if self.model_error is None else self.model_error.to_dict(),
             "F": final.F,
             "s": final.s,
             "n": final.n_residuals,
@@ -90,4 +111,8 @@ def fit_experiment(
     check = None
     if check_mesh is not None:
         check, _ = check_mesh_at(inputs.spec, inputs.objective, inputs.eta, final.theta, check_mesh, say)
-    return ExperimentFit(inputs, first, final, refine, check, check_mesh)
+    model_error = None
+    if has_high_fidelity_level(inputs.surrogate):
+        say("the model error at the fit (discrepancy and error budget) ...")
+        model_error = model_error_at(inputs.objective, inputs.eta, inputs.surrogate, final.theta)
+    return ExperimentFit(inputs, first, final, refine, check, check_mesh, model_error)

@@ -5,7 +5,7 @@ mesh check (:func:`inference.posterior.carried_to_finer_mesh`)."""
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -18,6 +18,7 @@ from .experiment_data import ExperimentData
 from .fit_inputs import FitInputs, prepare_fit
 from .inverse_fit import FitResult, fit_parameters
 from .mesh_check import load_mesh_check
+from .model_error import ModelError, has_high_fidelity_level, model_error_at, with_model_error
 from .posterior import Posterior, carried_to_finer_mesh, sample_posterior
 
 __all__ = ["ExperimentPosterior", "sample_posterior_for"]
@@ -32,6 +33,7 @@ class ExperimentPosterior:
     fit: FitResult  # the fit on the surrogate the posterior was sampled on
     sigma: float  # the likelihood's residual sd, fit.residual_sd
     carried: dict | None = None  # the mesh check read by inference.mesh_check.load_mesh_check
+    model_error: ModelError | None = None  # spread into the samples (multi-fidelity surrogate)
 
     @property
     def marker(self) -> np.ndarray:
@@ -57,6 +59,10 @@ class ExperimentPosterior:
             "hessian_bounds_pct": bounds_pct(self.fit.hessian, self.fit.s).tolist(),
             "sigma": self.sigma,
             "carried_to_finer_mesh": self.carried,
+            "model_error": None if self.model_error is None else self.model_error.to_dict(),
+            "intervals_include": "measurement noise and model error (discrepancy, error budget)"
+            if self.model_error is not None
+            else "measurement noise only: the surrogate has no high-fidelity level (no model error)",
             "inputs": {**self.inputs.sources, "weights": self.inputs.eta.tolist()},
         }
 
@@ -80,7 +86,9 @@ def sample_posterior_for(
     """emcee posterior of (c1, c5) on the surrogate: log L = -F / (2 sigma^2) with sigma the fit's
     residual sd (:attr:`FitResult.residual_sd`), uniform prior on the surrogate's training box,
     walkers started at the surrogate fit (``fit``, computed when not given). ``mesh_check`` is a
-    fit.json or confirm.json made with a mesh check: the samples are carried to that finer mesh."""
+    fit.json or confirm.json made with a mesh check: the samples are carried to that finer mesh. On a
+    multi-fidelity surrogate each sample is spread by the model error at the fit
+    (:func:`inference.model_error.with_model_error`)."""
     say = say or (lambda message: None)
     inputs = prepare_fit(experiment, surrogate, weights, exclude_steps)
     model = inputs.surrogate
@@ -89,10 +97,14 @@ def sample_posterior_for(
     say(f"sampling with {walkers} walkers x {steps} steps (sigma = {sigma:.3g}) ...")
     box = (model.scaler.lo, model.scaler.hi)
     post = sample_posterior(inputs.objective, model, inputs.eta, sigma, box, fit.theta, walkers, steps, seed)
+    model_error = None
+    if has_high_fidelity_level(model):
+        model_error = model_error_at(inputs.objective, inputs.eta, model, fit.theta)
+        post = replace(post, samples=with_model_error(post.samples, model_error, seed))
     carried = None
     if mesh_check is not None:
         carried = load_mesh_check(mesh_check, inputs.experiment.root, fit.theta)
         post = carried_to_finer_mesh(
             post, carried["theta"], carried["shift_pct"], carried["corrected_uncertainty_pct"], seed
         )
-    return ExperimentPosterior(inputs, post, fit, sigma, carried)
+    return ExperimentPosterior(inputs, post, fit, sigma, carried, model_error)

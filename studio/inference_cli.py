@@ -76,8 +76,18 @@ def fit(
     final = result.fit
     Console().print(
         f"c1 = {payload['c1']:.3f} kPa +- {payload['c1_pct']:.1f} %, c5 = {payload['c5']:.1f} kPa +- "
-        f"{payload['c5_pct']:.1f} %  (F = {final.F:.3g}, s = {final.s:.3g}, n = {final.n_residuals})"
+        f"{payload['c5_pct']:.1f} %  (95 %; F = {final.F:.3g}, s = {final.s:.3g}, n = {final.n_residuals})"
     )
+    stat = payload["statistical_pct"]
+    if payload["model_error"] is not None:
+        m = payload["model_error"]
+        Console().print(
+            f"  statistical +- {stat[0]:.2f} % / {stat[1]:.2f} %; model error +- {m['model_pct'][0]:.2f} % / "
+            f"{m['model_pct'][1]:.2f} % (discrepancy {m['discrepancy_pct'][0]:.2f} / {m['discrepancy_pct'][1]:.2f}, "
+            f"error budget {m['error_budget_pct'][0]:.2f} / {m['error_budget_pct'][1]:.2f})"
+        )
+    else:
+        Console().print(f"  bounds: {payload['bounds_include']}")
     check = payload["mesh_check"]
     if check is not None:
         t, u = check["theta_on_finer_mesh"], check["corrected_combined_pct"]

@@ -151,6 +151,9 @@ def test_confirm_with_mesh_check_cli(campaigns, tmp_path):
     registration = fitted["registration"]  # what the fit used, reported (issue: a lab's files in)
     assert registration["sphere_radius_mm"] == pytest.approx(4.77, abs=0.02)
     assert registration["sphere_fit_rms_mm"] < 0.01 and fitted["excluded_steps"] == []
+    # a single-fidelity surrogate: the bounds are the statistical ones, and say they hold no model error
+    assert fitted["model_error"] is None and "hold no model error" in fitted["bounds_include"]
+    assert fitted["statistical_pct"] == [fitted["c1_pct"], fitted["c5_pct"]]
     res = CliRunner().invoke(
         app, [*fit_args, "--exclude-steps", "2", "--out", str(tmp_path / "fewer"), "--json"]
     )

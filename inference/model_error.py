@@ -1,0 +1,116 @@
+"""Model error carried into a fit's bounds and its posterior.
+
+The bounds of eq. 6 to 8 are statistical: they hold the measurement noise only. A fit on a
+multi-fidelity surrogate also knows two model errors, which are reported beside them:
+
+* the discrepancy's uncertainty: the surrogate's predictive covariance of the high-fidelity
+  response, L^T L in its output space (log force per step, top-surface field), pushed through
+  the fit: each row l of L moves the residuals by dr_l and the fit, to first order, by
+  d log theta_l = -(J^T J)^-1 J^T dr_l; the covariance is sum_l d log theta_l d log theta_l^T;
+* what the error budget leaves: the largest bias of the high-fidelity mesh itself against the
+  reference at the budget's test points (``design.error_budget``), a systematic half-width
+  recorded in the surrogate's provenance (``meta['error_budget']``).
+
+Both are 95 % half-widths in percent of theta_hat and are combined with the statistical one by
+root sum of squares (independent sources, as ASME V&V 20 combines uncertainties).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ..design.objective import Objective, check_weights
+from ..forward.predictor import Prediction
+
+__all__ = ["Z95", "ModelError", "combined_pct", "model_error_at", "with_model_error"]
+
+Z95 = 1.959963984540054
+
+
+@dataclass(frozen=True)
+class ModelError:
+    """Model-error parts of a fit's 95 % half-width (percent of theta_hat)."""
+
+    discrepancy_pct: np.ndarray  # from the discrepancy's predictive uncertainty
+    budget_pct: np.ndarray  # the high-fidelity mesh's remaining bias (error budget)
+    covariance_log: np.ndarray  # (p, p) the discrepancy part's covariance of log theta
+    budget_source: dict | None = None  # what the budget part was read from
+
+    @property
+    def half_width_pct(self) -> np.ndarray:
+        return np.hypot(self.discrepancy_pct, self.budget_pct)
+
+    def covariance_with_budget(self) -> np.ndarray:
+        """Covariance of log theta of both parts, the budget read as a normal with that 95 % width."""
+        return self.covariance_log + np.diag((self.budget_pct / 100.0 / Z95) ** 2)
+
+    def to_dict(self) -> dict:
+        return {
+            "discrepancy_pct": self.discrepancy_pct.tolist(),
+            "error_budget_pct": self.budget_pct.tolist(),
+            "model_pct": self.half_width_pct.tolist(),
+            "error_budget_source": self.budget_source,
+        }
+
+
+def combined_pct(statistical_pct: np.ndarray, model: ModelError | None) -> np.ndarray:
+    """The 95 % half-width of statistical and model parts, root sum of squares."""
+    stat = np.asarray(statistical_pct, float)
+    return stat if model is None else np.hypot(stat, model.half_width_pct)
+
+
+def has_high_fidelity_level(surrogate) -> bool:
+    """Whether a surrogate knows a discrepancy to a high-fidelity model (a multi-fidelity one)."""
+    return callable(getattr(surrogate, "discrepancy_factor", None))
+
+
+def _perturbed(prediction: Prediction, force_log: np.ndarray, field: np.ndarray) -> Prediction:
+    """The prediction with its log force and field moved by one discrepancy direction."""
+    return replace(
+        prediction,
+        force=prediction.force * np.exp(force_log)[None],
+        displacement=prediction.displacement + field.reshape(prediction.displacement.shape[1:])[None],
+        force_jacobian=None,
+        displacement_jacobian=None,
+    )
+
+
+def model_error_at(objective: Objective, eta, surrogate, theta: np.ndarray) -> ModelError | None:
+    """The model-error parts at the fit ``theta`` on ``surrogate``; None for a surrogate without a
+    high-fidelity level (its bounds then hold no model error, and say so)."""
+    if not has_high_fidelity_level(surrogate):
+        return None
+    e = check_weights(eta)
+    theta = np.asarray(theta, float)
+    pred = surrogate.predict(theta[None, :], jacobian=True)
+    r0 = objective.residuals(pred, e)[0]
+    J = objective.jacobian(pred, e)[0] * theta  # d r / d log theta
+    L_force, L_field = surrogate.discrepancy_factor(theta)  # (k, steps), (k, steps * nodes * 3)
+    dr = np.stack(
+        [
+            objective.residuals(_perturbed(pred, f, u), e)[0] - r0
+            for f, u in zip(L_force, L_field, strict=True)
+        ]
+    )  # (k, m)
+    A = np.linalg.solve(J.T @ J, J.T)  # (p, m)
+    moves = -dr @ A.T  # (k, p) in log theta
+    cov = moves.T @ moves
+    budget = (getattr(surrogate, "meta", {}) or {}).get("error_budget") or {}
+    budget_pct = np.array([float(budget.get(f"{name}_pct", 0.0)) for name in surrogate.parameters])
+    return ModelError(
+        discrepancy_pct=100.0 * Z95 * np.sqrt(np.diag(cov)),
+        budget_pct=budget_pct,
+        covariance_log=cov,
+        budget_source=budget.get("source") if budget else None,
+    )
+
+
+def with_model_error(samples: np.ndarray, model: ModelError, seed: int = 0) -> np.ndarray:
+    """Posterior samples (n, p) spread by the model error: each multiplied by exp(e), e normal with
+    the model error's covariance of log theta (discrepancy and error budget)."""
+    rng = np.random.default_rng(seed)
+    cov = model.covariance_with_budget()
+    e = rng.multivariate_normal(np.zeros(len(cov)), cov, size=len(samples), method="eigh")
+    return np.asarray(samples) * np.exp(e)

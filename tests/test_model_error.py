@@ -1,0 +1,105 @@
+"""Model error carried into a fit (inference.model_error): the discrepancy's covariance pushed
+through the fit equals the spread of refits of targets drawn from it; the error budget adds."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from indentation_studio.design.objective import PAPER_WEIGHTS, Objective
+from indentation_studio.forward.predictor import Prediction
+from indentation_studio.inference.inverse_fit import fit_parameters
+from indentation_studio.inference.model_error import Z95, combined_pct, model_error_at, with_model_error
+
+STEPS = 4
+XY = np.stack(np.meshgrid(np.linspace(0, 30, 9), np.linspace(0, 30, 9), indexing="ij"), -1).reshape(-1, 2)
+TOP = np.column_stack([XY, np.full(len(XY), 60.0)])
+TRUTH = np.array([8.0, 300.0])
+
+
+class PowerLawModel:
+    """An analytic Predictor (force and field power laws in c1, c5) with a known discrepancy factor."""
+
+    parameters = ("c1", "c5")
+    top_xyz = TOP
+
+    def __init__(self, factor_scale: float = 0.01, k: int = 3):
+        rng = np.random.default_rng(7)
+        n = len(TOP)
+        self.depth = 0.5 * np.arange(1, STEPS + 1)
+        r = np.linalg.norm(XY, axis=1) + 1.0
+        self.shape = np.stack([-np.ones(n), XY[:, 0] / r, XY[:, 1] / r], -1) / r[:, None] * 5.0
+        self.L_force = factor_scale * rng.standard_normal((k, STEPS))
+        self.L_field = factor_scale * rng.standard_normal((k, STEPS * n * 3))
+        self.meta = {"error_budget": {"c1_pct": 0.4, "c5_pct": 2.5, "source": "test"}}
+
+    def predict(self, theta, jacobian=False):
+        theta = np.atleast_2d(theta)
+        c1, c5 = theta[:, 0:1], theta[:, 1:2]
+        force = 100.0 * self.depth**1.5 * (c1 / 8.0) ** 0.8 * (c5 / 300.0) ** 0.15
+        ax = (c5 / 300.0) ** -0.3 * (c1 / 8.0) ** -0.1  # (n, 1): the field's y component scales with it
+        base = self.depth[None, :, None, None] * self.shape[None, None]  # (1, steps, nodes, 3)
+        scale = np.stack([np.ones_like(ax), ax, np.ones_like(ax)], -1)[:, :, None, :]  # (n, 1, 1, 3)
+        field = base * scale
+        fj = dj = None
+        if jacobian:
+            fj = np.stack([force * 0.8 / c1, force * 0.15 / c5], -1)
+            dax = np.stack([-0.1 * ax / c1, -0.3 * ax / c5], -1)  # (n, 1, 2)
+            dj = np.zeros((*field.shape, 2))
+            dj[..., 1, :] = base[..., 1, None] * dax[:, :, None, :]
+        return Prediction(force, field, self.depth, TOP, self.parameters, fj, dj)
+
+    def discrepancy_factor(self, theta):
+        return self.L_force, self.L_field
+
+
+def _objective(model, force_log=0.0, field=0.0):
+    p = model.predict(TRUTH[None])
+    return Objective(p.force[0] * np.exp(force_log), p.displacement[0] + field, TOP, radius=4.77)
+
+
+def test_power_law_model_jacobian():
+    model = PowerLawModel()
+    p = model.predict(TRUTH[None], jacobian=True)
+    for i in range(2):
+        h = np.zeros(2)
+        h[i] = 1e-6 * TRUTH[i]
+        up, down = model.predict((TRUTH + h)[None]), model.predict((TRUTH - h)[None])
+        np.testing.assert_allclose(p.force_jacobian[..., i], (up.force - down.force) / (2 * h[i]), rtol=1e-6)
+        fd = (up.displacement - down.displacement) / (2 * h[i])
+        np.testing.assert_allclose(p.displacement_jacobian[..., i], fd, rtol=1e-5, atol=1e-12)
+
+
+def test_discrepancy_covariance_matches_refits():
+    model = PowerLawModel()
+    me = model_error_at(_objective(model), PAPER_WEIGHTS, model, TRUTH)
+    rng = np.random.default_rng(0)
+    fits = []
+    for _ in range(300):
+        z = rng.standard_normal(len(model.L_force))
+        target = _objective(model, z @ model.L_force, (z @ model.L_field).reshape(STEPS, len(TOP), 3))
+        fits.append(np.log(fit_parameters(target, model, PAPER_WEIGHTS, theta0=TRUTH).theta / TRUTH))
+    sd_mc = np.std(fits, axis=0, ddof=1)
+    sd = np.sqrt(np.diag(me.covariance_log))
+    np.testing.assert_allclose(sd_mc, sd, rtol=0.15)  # 300 draws: sd known to about 4 %, plus linearisation
+    np.testing.assert_allclose(me.discrepancy_pct, 100 * Z95 * sd)
+    np.testing.assert_allclose(me.budget_pct, [0.4, 2.5])
+    np.testing.assert_allclose(me.half_width_pct, np.hypot(me.discrepancy_pct, [0.4, 2.5]))
+    np.testing.assert_allclose(combined_pct([1.0, 3.0], me), np.hypot([1.0, 3.0], me.half_width_pct))
+    assert np.all(me.discrepancy_pct > 0)
+
+
+def test_posterior_samples_spread_by_model_error():
+    model = PowerLawModel(factor_scale=0.03)
+    me = model_error_at(_objective(model), PAPER_WEIGHTS, model, TRUTH)
+    samples = np.tile(TRUTH, (20000, 1))
+    spread = np.log(with_model_error(samples, me, seed=3) / TRUTH)
+    np.testing.assert_allclose(np.cov(spread.T), me.covariance_with_budget(), rtol=0.05, atol=1e-7)
+
+
+def test_without_a_high_fidelity_level_there_is_no_model_error():
+    class Plain(PowerLawModel):
+        discrepancy_factor = None
+
+    model = Plain()
+    assert model_error_at(_objective(model), PAPER_WEIGHTS, model, TRUTH) is None
+    np.testing.assert_allclose(combined_pct([1.0, 3.0], None), [1.0, 3.0])
