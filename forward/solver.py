@@ -65,6 +65,8 @@ KRYLOV_MAXITER = 8
 #: ... or more where a factorisation costs many back-substitutions (large meshes).
 KRYLOV_MAXITER_LARGE = 30
 KRYLOV_DOFS_PER_ITERATION = 3000
+#: Relative residual of the sensitivity solves (their CG runs on the exact converged tangent).
+SENSITIVITY_RTOL = 1e-11
 #: Meshes with at least this many dofs factorise in single precision (PARDISO): the factorisation
 #: only preconditions CG and makes corrections that Newton's residual checks, and costs half.
 SINGLE_PRECISION_DOFS = 20_000
@@ -380,11 +382,16 @@ class EmbeddedSolver:
         b = -(eq.dR + eq.K @ jump)
         b[cmask] = 0.0
         x = np.zeros_like(b)
-        for k in range(n_p):  # CG with the factorisation in hand, to round-off
-            col = self._krylov(eq.K, cmask, b[:, k], 1e-12, 100) if self.linear.covers(cmask) else None
-            if col is None:
+        maxiter = self._krylov_maxiter()
+        for k in range(n_p):  # CG on the exact tangent, preconditioned with the factorisation in hand
+            col = (
+                self._krylov(eq.K, cmask, b[:, k], SENSITIVITY_RTOL, maxiter)
+                if self.linear.covers(cmask)
+                else None
+            )
+            if col is None:  # that factorisation is too far from this tangent: factorise it
                 self._factorize(eq.K, cmask)
-                col = self._krylov(eq.K, cmask, b[:, k], 1e-12, 100)
+                col = self._krylov(eq.K, cmask, b[:, k], SENSITIVITY_RTOL, 100)
                 if col is None:
                     raise LinearSolveError("the sensitivity solve did not converge")
             x[:, k] = col
