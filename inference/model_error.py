@@ -63,7 +63,7 @@ def combined_pct(statistical_pct: np.ndarray, model: ModelError | None) -> np.nd
 
 def has_high_fidelity_level(surrogate) -> bool:
     """Whether a surrogate knows a discrepancy to a high-fidelity model (a multi-fidelity one)."""
-    return callable(getattr(surrogate, "discrepancy_factor", None))
+    return callable(getattr(surrogate, "discrepancy_covariance_factor", None))
 
 
 def _perturbed(prediction: Prediction, force_log: np.ndarray, field: np.ndarray) -> Prediction:
@@ -87,7 +87,9 @@ def model_error_at(objective: Objective, eta, surrogate, theta: np.ndarray) -> M
     pred = surrogate.predict(theta[None, :], jacobian=True)
     r0 = objective.residuals(pred, e)[0]
     J = objective.jacobian(pred, e)[0] * theta  # d r / d log theta
-    L_force, L_field = surrogate.discrepancy_factor(theta)  # (k, steps), (k, steps * nodes * 3)
+    L = surrogate.discrepancy_covariance_factor(theta)  # (k, steps + steps * nodes * 3)
+    steps = pred.force.shape[1]
+    L_force, L_field = L[:, :steps], L[:, steps:]
     dr = np.stack(
         [
             objective.residuals(_perturbed(pred, f, u), e)[0] - r0

@@ -48,8 +48,8 @@ class PowerLawModel:
             dj[..., 1, :] = base[..., 1, None] * dax[:, :, None, :]
         return Prediction(force, field, self.depth, TOP, self.parameters, fj, dj)
 
-    def discrepancy_factor(self, theta):
-        return self.L_force, self.L_field
+    def discrepancy_covariance_factor(self, theta):
+        return np.hstack([self.L_force, self.L_field])
 
 
 def _objective(model, force_log=0.0, field=0.0):
@@ -98,7 +98,7 @@ def test_posterior_samples_spread_by_model_error():
 
 def test_without_a_high_fidelity_level_there_is_no_model_error():
     class Plain(PowerLawModel):
-        discrepancy_factor = None
+        discrepancy_covariance_factor = None
 
     model = Plain()
     assert model_error_at(_objective(model), PAPER_WEIGHTS, model, TRUTH) is None
