@@ -36,6 +36,7 @@ __all__ = [
     "campaign_error_budget",
     "compute_error_budget",
     "noise_objective_value",
+    "remaining_bias",
     "resolve_model",
 ]
 
@@ -252,3 +253,25 @@ def campaign_error_budget(
     return compute_error_budget(
         results, predictors, fe_models, weights, force_noise, dic_noise, source, fe_steps, progress
     )
+
+
+def remaining_bias(budget_file, model: str) -> dict:
+    """What an error budget leaves for ``model`` (its name in the budget, e.g. the high-fidelity
+    mesh preset): the largest |bias| of each parameter over the test points, as the systematic
+    half-width a multi-fidelity surrogate carries into fits (``meta['error_budget']``)."""
+    import json
+    from pathlib import Path
+
+    try:
+        payload = json.loads(Path(budget_file).read_text())
+        summary = {row["model"]: row for row in payload["summary"]}
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise ValueError(f"{budget_file}: not an error-budget.json ({exc})") from exc
+    if model not in summary:
+        raise ValueError(f"{budget_file}: no model {model!r} in it (it has {', '.join(summary)})")
+    row = summary[model]
+    return {
+        "c1_pct": float(row["c1_max_bias_pct"]),
+        "c5_pct": float(row["c5_max_bias_pct"]),
+        "source": {"file": str(budget_file), "model": model, "points": int(row["points"])},
+    }

@@ -4,12 +4,14 @@ bias; the expected noise objective matches Monte Carlo; a coarser mesh's bias is
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from indentation_studio.design.error_budget import (
     compute_error_budget,
     model_top_xyz,
     noise_objective_value,
     reference_prediction,
+    remaining_bias,
 )
 from indentation_studio.design.objective import PAPER_WEIGHTS, Objective
 from indentation_studio.forward.predictor import FESolverPredictor
@@ -90,6 +92,13 @@ def test_error_budget_command(tmp_path):
     assert [r["c1_true"] for r in payload["rows"]] == [6.0, 12.0]
     assert payload["summary"][0]["model"] == "coarse" and payload["reference"]["points"] == 2
     assert (tmp_path / "ref" / "error-budget.json").is_file()
+    left = remaining_bias(tmp_path / "ref" / "error-budget.json", "coarse")
+    assert (
+        left["c5_pct"] == max(abs(r["c5_bias_pct"]) for r in payload["rows"])
+        and left["source"]["points"] == 2
+    )
+    with pytest.raises(ValueError, match="no model 'fine'"):
+        remaining_bias(tmp_path / "ref" / "error-budget.json", "fine")
     bad = CliRunner().invoke(
         app,
         ["design", "error-budget", "--reference", "ref", "--model", "nowhere", "--runs-dir", str(tmp_path)],
