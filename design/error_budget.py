@@ -25,8 +25,9 @@ import numpy as np
 import pandas as pd
 
 from ..forward.mesh import build_mesh
-from ..forward.predictor import FESolverPredictor, Prediction
+from ..forward.predictor import CachedPredictor, FESolverPredictor, Prediction
 from ..forward.result import SimulationResult
+from ..forward.richardson import RichardsonPredictor
 from .certainty import bounds_pct, s_from_data
 from .objective import PAPER_WEIGHTS, Objective, check_weights
 
@@ -99,7 +100,7 @@ def model_top_xyz(model) -> np.ndarray:
     """The top nodes a Predictor answers on: a surrogate's ``top_xyz``, an FE model's mesh top."""
     if hasattr(model, "top_xyz"):
         return np.asarray(model.top_xyz, float)
-    if isinstance(model, FESolverPredictor):
+    if _is_fe(model):
         mesh = build_mesh(model.spec)
         return mesh.nodes[mesh.top]
     raise TypeError(f"cannot tell the top nodes of {type(model).__name__}")
@@ -112,9 +113,15 @@ def reference_prediction(result: SimulationResult, top_xyz: np.ndarray) -> Predi
     return prediction_at_nodes(result, top_xyz)
 
 
+def _is_fe(model) -> bool:
+    """FE models (fitted by Gauss-Newton from the truth) as opposed to surrogates."""
+    inner = model.predictor if isinstance(model, CachedPredictor) else model
+    return isinstance(inner, FESolverPredictor | RichardsonPredictor)
+
+
 def _check_same_test(name: str, model, result: SimulationResult) -> None:
     """The model must simulate the reference's test: the same depths and indenter radius."""
-    if isinstance(model, FESolverPredictor):
+    if _is_fe(model):
         depth, radius = np.asarray(model.spec.protocol.depths), model.spec.indenter.radius
     else:
         spec = (getattr(model, "meta", {}).get("campaign") or {}).get("model") or {}
@@ -128,7 +135,7 @@ def _check_same_test(name: str, model, result: SimulationResult) -> None:
 
 def _fit_bias(model, objective: Objective, eta: np.ndarray, theta_t: np.ndarray, fe_steps: int) -> tuple:
     """(theta_fit, Jacobian in log theta at the fit) for one model and one reference target."""
-    if isinstance(model, FESolverPredictor):  # Gauss-Newton from the truth, exact sensitivities
+    if _is_fe(model):  # Gauss-Newton from the truth, exact sensitivities
         theta = theta_t.copy()
         for _ in range(fe_steps):
             pred = model.predict(theta[None, :], jacobian=True)
@@ -198,31 +205,53 @@ def compute_error_budget(
     return ErrorBudget(pd.DataFrame(rows), eta, force_noise, dic_noise, dict(reference_source or {}))
 
 
-def resolve_model(name: str, reference_spec, runs_dir="runs") -> tuple[object, object | None]:
+def resolve_model(name: str, reference_spec, fe_cache: dict | None = None) -> tuple[object, object | None]:
     """A model named on the command line: a mesh preset (the reference's model on that mesh), a
-    FEBio .feb file's hex8 mesh, or a surrogate file. Returns (Predictor, the FE Predictor a
-    surrogate emulates, or None)."""
+    FEBio .feb file's hex8 mesh, ``richardson:FINE,COARSE[,ORDER]`` (two presets extrapolated,
+    :mod:`forward.richardson`) or a surrogate file. Returns (Predictor, the FE Predictor a
+    surrogate emulates, or None). FE models are shared through ``fe_cache`` (mesh -> Predictor),
+    so that a mesh is solved once per test point whatever uses it."""
     from dataclasses import replace
     from pathlib import Path
 
     from ..forward.mesh_presets import MESH_PRESETS
     from ..forward.spec import MeshChoice, ModelSpec
 
+    cache = {} if fe_cache is None else fe_cache
+
+    def fe(spec) -> CachedPredictor:
+        key = json_key(spec.to_dict())
+        if key not in cache:
+            cache[key] = CachedPredictor(FESolverPredictor(spec))
+        return cache[key]
+
     if name in MESH_PRESETS:
-        return FESolverPredictor(replace(reference_spec, mesh=MeshChoice(name))), None
+        return fe(replace(reference_spec, mesh=MeshChoice(name))), None
+    if name.startswith("richardson:"):
+        parts = name.split(":", 1)[1].split(",")
+        if len(parts) not in (2, 3) or not all(m in MESH_PRESETS for m in parts[:2]):
+            raise ValueError(f"model {name!r}: use richardson:FINE,COARSE[,ORDER] with mesh presets")
+        fine, coarse = (fe(replace(reference_spec, mesh=MeshChoice(m))) for m in parts[:2])
+        return RichardsonPredictor(fine, coarse, float(parts[2]) if len(parts) == 3 else 1.0), None
     path = Path(name)
     if path.suffix == ".feb":
-        return FESolverPredictor(replace(reference_spec, mesh=MeshChoice(feb_file=str(path)))), None
+        return fe(replace(reference_spec, mesh=MeshChoice(feb_file=str(path)))), None
     if not path.is_file():
         raise ValueError(
-            f"model {name!r}: not a mesh preset ({', '.join(MESH_PRESETS)}), .feb file or surrogate file"
+            f"model {name!r}: not a mesh preset ({', '.join(MESH_PRESETS)}), richardson:FINE,COARSE, "
+            ".feb file or surrogate file"
         )
     from ..surrogate.persistence import load_surrogate
 
     surrogate = load_surrogate(path)
     model = (surrogate.meta.get("campaign") or {}).get("model")
-    fe = FESolverPredictor(ModelSpec.from_dict(model)) if model else None
-    return surrogate, fe
+    return surrogate, (fe(ModelSpec.from_dict(model)) if model else None)
+
+
+def json_key(payload: dict) -> str:
+    import json
+
+    return json.dumps(payload, sort_keys=True)
 
 
 def campaign_error_budget(
@@ -244,9 +273,9 @@ def campaign_error_budget(
     if len(done) == 0:
         raise ValueError(f"reference campaign {store.spec.name!r} has no finished points")
     results = [SimulationResult.load(store.result_path(i)) for i in done]
-    predictors, fe_models = {}, {}
+    predictors, fe_models, cache = {}, {}, {}
     for name in models:
-        predictors[name], fe = resolve_model(name, store.spec.model, runs_dir)
+        predictors[name], fe = resolve_model(name, store.spec.model, cache)
         if fe is not None:
             fe_models[name] = fe
     source = {"campaign": str(store.root), "points": len(results), "model": store.spec.model.to_dict()}

@@ -183,3 +183,62 @@ class FESolverPredictor:
         return FESolverPredictor(
             spec, self.solver, self.sensitivities, self.parameters, self.n_jobs, self.workdir
         )
+
+
+class CachedPredictor:
+    """A Predictor that remembers its answers point by point (with or without Jacobians), for
+    callers that ask an expensive FE model the same point more than once (an error budget that
+    fits several models built on the same meshes)."""
+
+    def __init__(self, predictor) -> None:
+        self.predictor = predictor
+        self.parameters = tuple(predictor.parameters)
+        self._rows: dict[bytes, tuple[Prediction, bool]] = {}
+
+    def __getattr__(self, name: str):
+        return getattr(self.predictor, name)
+
+    def predict(self, theta: np.ndarray, jacobian: bool = False) -> Prediction:
+        t = as_theta(theta, len(self.parameters))
+        keys = [row.tobytes() for row in t]
+        missing = [
+            i for i, k in enumerate(keys) if k not in self._rows or (jacobian and not self._rows[k][1])
+        ]
+        if missing:
+            fresh = self.predictor.predict(t[missing], jacobian=jacobian)
+            for j, i in enumerate(missing):
+                self._rows[keys[i]] = (_row(fresh, j), jacobian)
+        rows = [self._rows[k][0] for k in keys]
+
+        def stacked(name: str) -> np.ndarray | None:
+            return (
+                np.concatenate([getattr(r, name) for r in rows])
+                if jacobian or "jacobian" not in name
+                else None
+            )
+
+        first = rows[0]
+        return Prediction(
+            stacked("force"),
+            stacked("displacement"),
+            first.depth,
+            first.top_xyz,
+            first.parameters,
+            stacked("force_jacobian"),
+            stacked("displacement_jacobian"),
+        )
+
+
+def _row(prediction: Prediction, i: int) -> Prediction:
+    """Point ``i`` of a Prediction as a one-point Prediction."""
+
+    def pick(a: np.ndarray | None) -> np.ndarray | None:
+        return None if a is None else a[i : i + 1]
+
+    return replace(
+        prediction,
+        force=pick(prediction.force),
+        displacement=pick(prediction.displacement),
+        force_jacobian=pick(prediction.force_jacobian),
+        displacement_jacobian=pick(prediction.displacement_jacobian),
+    )
