@@ -29,7 +29,7 @@ __getattr__, __dir__, _all = lazy.attach(
             "simulate",
         ],
         "campaign": ["load_campaign", "run_named_campaign"],
-        "surrogate": ["load_surrogate", "save_surrogate", "train_surrogate"],
+        "surrogate": ["load_surrogate", "save_surrogate", "train_multi_fidelity", "train_surrogate"],
         "design": [
             "PAPER_WEIGHTS",
             "campaign_objective_map",

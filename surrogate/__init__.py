@@ -1,5 +1,6 @@
 """Emulators of the forward model trained on a campaign: Gaussian process (scikit-learn) and MLP
-(torch), their training, validation and files."""
+(torch), the multi-fidelity correction of one by a second campaign, their training, validation and
+files."""
 
 import lazy_loader as lazy
 
@@ -9,7 +10,14 @@ __getattr__, __dir__, __all__ = lazy.attach(
         "base": ["FieldSurrogate", "TrainingData"],
         "gaussian_process": ["GaussianProcessSurrogate"],
         "mlp": ["MLPSurrogate"],
-        "training": ["SURROGATE_KINDS", "make_surrogate", "train_surrogate", "training_data"],
+        "multi_fidelity": ["MultiFidelitySurrogate"],
+        "training": [
+            "SURROGATE_KINDS",
+            "make_surrogate",
+            "train_multi_fidelity",
+            "train_surrogate",
+            "training_data",
+        ],
         "persistence": ["SurrogateFileError", "load_surrogate", "save_surrogate"],
         "pickle_conversion": ["convert_pickled_surrogate"],
         "validation": ["k_fold_errors", "prediction_errors"],

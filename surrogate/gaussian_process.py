@@ -69,12 +69,13 @@ class GaussianProcessMeans:
 class GaussianProcessSurrogate(FieldSurrogate):
     kind = "gp"
 
-    def __init__(self, restarts: int = 3, **kwargs) -> None:
+    def __init__(self, restarts: int = 3, per_component: bool = False, **kwargs) -> None:
         super().__init__(**kwargs)
         self.restarts = restarts
+        self.per_component = per_component
 
     def hyperparameters(self) -> dict:
-        return {**super().hyperparameters(), "restarts": self.restarts}
+        return {**super().hyperparameters(), "restarts": self.restarts, "per_component": self.per_component}
 
     def _regressor_state(self):
         configs, arrays = [], {}
@@ -90,7 +91,11 @@ class GaussianProcessSurrogate(FieldSurrogate):
     def _fit_regressor(self, X: np.ndarray, T: np.ndarray, seed: int) -> None:
         p = X.shape[1]
         self.gps = []
-        for block in (slice(0, self.k_force), slice(self.k_force, T.shape[1])):
+        if self.per_component:
+            blocks = [slice(j, j + 1) for j in range(T.shape[1])]
+        else:
+            blocks = [slice(0, self.k_force), slice(self.k_force, T.shape[1])]
+        for block in blocks:
             kernel = ConstantKernel(1.0, (1e-3, 1e3)) * Matern(
                 length_scale=np.full(p, 0.5), length_scale_bounds=(1e-2, 1e2), nu=2.5
             ) + WhiteKernel(1e-6, (1e-12, 1e-2))

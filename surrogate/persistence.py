@@ -55,7 +55,8 @@ def versions() -> dict[str, str]:
 
 
 def _surrogate_class(kind: str) -> type[FieldSurrogate]:
-    """The class of a saved ``kind``, from a fixed list (torch is imported only for an MLP)."""
+    """The class of a saved ``kind``, from a fixed list (torch is imported only for an MLP, or a
+    multi-fidelity surrogate whose low level is one)."""
     if kind == "gp":
         from .gaussian_process import GaussianProcessSurrogate
 
@@ -64,6 +65,10 @@ def _surrogate_class(kind: str) -> type[FieldSurrogate]:
         from .mlp import MLPSurrogate
 
         return MLPSurrogate
+    if kind == "mf":
+        from .multi_fidelity import MultiFidelitySurrogate
+
+        return MultiFidelitySurrogate
     raise ValueError(f"unknown surrogate kind {kind!r}")
 
 

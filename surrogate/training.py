@@ -3,13 +3,19 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ..campaign.loader import CampaignData, load_campaign
 from .base import FieldSurrogate, TrainingData
 from .validation import k_fold_errors, prediction_errors
 
-__all__ = ["SURROGATE_KINDS", "make_surrogate", "train_surrogate", "training_data"]
+if TYPE_CHECKING:
+    from .multi_fidelity import MultiFidelitySurrogate
 
+__all__ = ["SURROGATE_KINDS", "make_surrogate", "train_multi_fidelity", "train_surrogate", "training_data"]
+
+#: The kinds trained on one campaign; a multi-fidelity surrogate ('mf') is trained on a second
+#: campaign from one of them (:func:`train_multi_fidelity`).
 SURROGATE_KINDS = ("gp", "mlp")
 
 
@@ -23,6 +29,11 @@ def make_surrogate(kind: str, input_scale: str = "log", pca_tol: float = 1e-3, *
         from .mlp import MLPSurrogate
 
         return MLPSurrogate(input_scale=input_scale, pca_tol=pca_tol, **kwargs)
+    if kind == "mf":
+        raise ValueError(
+            "a multi-fidelity surrogate ('mf') is made from a trained low-fidelity surrogate and a "
+            "high-fidelity campaign: use train_multi_fidelity"
+        )
     raise ValueError(f"unknown surrogate kind {kind!r}; use 'gp' or 'mlp'")
 
 
@@ -51,6 +62,38 @@ def train_surrogate(
         validation["kfold"] = k_fold_errors(
             lambda: make_surrogate(kind, input_scale, pca_tol), data, kfold, seed
         )
+    if test_campaign is not None:
+        validation["test"] = prediction_errors(model, training_data(test_campaign, runs_dir))
+    model.meta["validation"] = validation
+    return model
+
+
+def train_multi_fidelity(
+    low: str | Path | FieldSurrogate,
+    high_campaign: str | Path | CampaignData,
+    pca_tol: float = 1e-3,
+    max_components: int = 8,
+    folds: int = 5,
+    test_campaign: str | Path | CampaignData | None = None,
+    seed: int = 0,
+    runs_dir: str | Path = "runs",
+) -> MultiFidelitySurrogate:
+    """A multi-fidelity surrogate: ``low`` (a surrogate file or a trained surrogate, e.g. on a
+    large campaign on a coarser mesh) corrected by the GP of its discrepancy from
+    ``high_campaign`` (a few tens of points on the finer mesh, same test). It predicts the high
+    fidelity on the high campaign's top nodes, and its FE model (meta['campaign']) is the high
+    campaign's. The discrepancy's ``folds``-fold errors go to meta['discrepancy_kfold'] (force %,
+    field mm); its errors on the training points and on ``test_campaign`` (percent, as for
+    :func:`train_surrogate`) to meta['validation']."""
+    from .multi_fidelity import MultiFidelitySurrogate
+    from .persistence import load_surrogate
+
+    low_model = low if isinstance(low, FieldSurrogate) else load_surrogate(low)
+    data = training_data(high_campaign, runs_dir)
+    model = MultiFidelitySurrogate(
+        low_model, pca_tol=pca_tol, max_components=max_components, folds=folds
+    ).fit(data, seed=seed)
+    validation = {"training": prediction_errors(model, data)}
     if test_campaign is not None:
         validation["test"] = prediction_errors(model, training_data(test_campaign, runs_dir))
     model.meta["validation"] = validation

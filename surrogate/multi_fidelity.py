@@ -1,0 +1,354 @@
+"""Multi-fidelity emulator: a surrogate trained on a large low-fidelity campaign (a coarser mesh)
+corrected by a Gaussian-process model of its discrepancy from a small high-fidelity campaign.
+
+With F_lo, u_lo the LOW SURROGATE's predictions (so the discrepancy also absorbs the low
+surrogate's own error) and W the fixed linear interpolation from the low to the high top nodes
+(:func:`interpolation_matrix`), the prediction on the high campaign's top nodes is
+
+    log F(theta) = log F_lo(theta) + delta_f(theta)                                    (1a)
+    u(theta)     = W u_lo(theta)   + delta_u(theta)                                    (1b)
+
+delta = (delta_f, delta_u) is learned from D_i = [log F_hi,i - log F_lo(theta_i),
+u_hi,i - W u_lo(theta_i)] at the high campaign's points by a :class:`GaussianProcessSurrogate`
+(PCA of each part, one GP per part on the standardised scores, log-scaled inputs over the high
+campaign's box): its "force" is the ratio F_hi / F_lo, which it learns in log, i.e. delta_f. The
+Jacobians follow from (1) through both levels; the reduced basis stacks the low basis carried by
+W with the discrepancy's. The discrepancy's predictive covariance (GP variance of each score
+through its PCA components) and its k-fold errors (what the PCA truncation and the GP leave) are
+what a fit can add to its bounds as model error.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+from scipy import sparse
+from sklearn.model_selection import KFold
+
+from ..forward.mesh_study import top_field_interpolator
+from ..forward.predictor import Prediction, ReducedBasis
+from .base import FieldSurrogate, TrainingData
+from .gaussian_process import GaussianProcessSurrogate
+
+__all__ = ["MultiFidelitySurrogate", "interpolation_matrix", "model_differences"]
+
+# the parts of the two campaigns' FE models that must agree (the mesh and the solver may differ)
+SHARED_MODEL_PARTS = ("geometry", "indenter", "protocol")
+
+
+def interpolation_matrix(source_xyz: np.ndarray, target_xyz: np.ndarray) -> sparse.csr_array:
+    """W (targets, sources) with ``W @ f`` equal to ``top_field_interpolator(source_xyz, f)`` at
+    ``target_xyz`` for any field f (sources, ...): that interpolation (bilinear on a tensor grid,
+    linear on Delaunay triangles otherwise) is linear in f, so W's columns interpolate unit vectors."""
+    source_xyz, target_xyz = np.asarray(source_xyz, float), np.asarray(target_xyz, float)
+    W = top_field_interpolator(source_xyz, np.eye(len(source_xyz)))(target_xyz)
+    outside = ~np.all(np.isfinite(W), axis=1)
+    if outside.any():
+        raise ValueError(
+            f"{int(outside.sum())} high-fidelity top nodes (e.g. {target_xyz[outside][0, :2].tolist()} mm) "
+            "lie outside the triangulation of the low-fidelity top nodes"
+        )
+    W[np.abs(W) < 1e-13] = 0.0  # rounding of the interpolants of unit vectors
+    return sparse.csr_array(W)
+
+
+def model_differences(low: dict[str, Any], high: dict[str, Any]) -> list[str]:
+    """The parts of two campaigns' FE model specs (campaign.json ``model``) that differ and must
+    not: geometry, indenter and protocol; an empty list when they agree."""
+    return [
+        f"{part}: {low.get(part)} (low) vs {high.get(part)} (high)"
+        for part in SHARED_MODEL_PARTS
+        if low.get(part) != high.get(part)
+    ]
+
+
+class MultiFidelitySurrogate(FieldSurrogate):
+    """A low-fidelity surrogate plus a GP of its discrepancy from a high-fidelity campaign (eq. 1);
+    predicts the high fidelity on the high campaign's top nodes. A Predictor, with Jacobians and
+    a reduced basis like the single-fidelity surrogates; :meth:`fit` takes the high campaign."""
+
+    kind = "mf"
+
+    def __init__(
+        self,
+        low: FieldSurrogate,
+        input_scale: str = "log",
+        pca_tol: float = 1e-3,
+        max_components: int = 8,
+        restarts: int = 3,
+        per_component: bool = True,
+        folds: int = 5,
+    ) -> None:
+        self.low = low
+        super().__init__(input_scale, pca_tol, max_components)
+        self.restarts, self.per_component, self.folds = restarts, per_component, folds
+
+    @property
+    def meta(self) -> dict[str, Any]:
+        return self._meta
+
+    @meta.setter
+    def meta(self, value: dict[str, Any]) -> None:
+        """A loaded model gets its meta after it is built: the low surrogate's goes back to it."""
+        self._meta = value
+        if "low_fidelity" in value:
+            self.low.meta = value["low_fidelity"]
+
+    def hyperparameters(self) -> dict[str, Any]:
+        return {
+            **super().hyperparameters(),
+            "restarts": self.restarts,
+            "per_component": self.per_component,
+            "folds": self.folds,
+        }
+
+    def _discrepancy_model(self) -> GaussianProcessSurrogate:
+        return GaussianProcessSurrogate(
+            restarts=self.restarts,
+            per_component=self.per_component,
+            input_scale=self.input_scale,
+            pca_tol=self.pca_tol,
+            max_components=self.max_components,
+        )
+
+    # ------------------------------------------------------------------ training
+    def _check_compatible(self, data: TrainingData) -> None:
+        low = self.low
+        problems = []
+        if tuple(data.parameters) != tuple(low.parameters):
+            problems.append(f"parameters: {low.parameters} (low) vs {tuple(data.parameters)} (high)")
+        depth = np.asarray(data.depth, float)
+        if depth.shape != low.depth.shape or not np.allclose(depth, low.depth, rtol=0, atol=1e-9):
+            problems.append(
+                f"depths: {len(low.depth)} steps to {low.depth[-1]:g} mm (low) vs "
+                f"{len(depth)} steps to {depth[-1]:g} mm (high)"
+            )
+        low_model = (low.meta.get("campaign") or {}).get("model")
+        high_model = (data.source or {}).get("model")
+        if low_model is not None and high_model is not None:
+            problems += model_differences(low_model, high_model)
+        if problems:
+            raise ValueError(
+                "the high-fidelity campaign does not describe the low-fidelity surrogate's test: "
+                + "; ".join(problems)
+            )
+        outside = ~low.inside_box(data.theta)
+        if outside.any():
+            raise ValueError(
+                f"{int(outside.sum())} high-fidelity points (e.g. {data.theta[outside][0].tolist()} kPa) lie "
+                f"outside the low-fidelity surrogate's training box {low.scaler.lo.tolist()} .. "
+                f"{low.scaler.hi.tolist()}: it would extrapolate there"
+            )
+
+    def discrepancy_data(self, data: TrainingData) -> TrainingData:
+        """The discrepancies D of the high-fidelity ``data`` from the low surrogate: its 'force' is
+        F_hi / F_lo (learned in log: delta_f of eq. 1a), its field u_hi - W u_lo (eq. 1b)."""
+        low = self.low.predict(data.theta)
+        return TrainingData(
+            data.theta,
+            data.force / low.force,
+            data.displacement - self._carried(low.displacement),
+            data.depth,
+            data.top_xyz,
+            tuple(data.parameters),
+            data.source,
+        )
+
+    def fit(self, data: TrainingData, seed: int = 0) -> MultiFidelitySurrogate:
+        """Learn the discrepancy of the low surrogate from the high-fidelity campaign ``data``;
+        with ``folds`` >= 2 also its k-fold errors (meta['discrepancy_kfold'])."""
+        t0 = time.perf_counter()
+        self._check_compatible(data)
+        self.parameters = tuple(data.parameters)
+        self.depth = np.asarray(data.depth, float)
+        self.top_xyz = np.asarray(data.top_xyz, float)
+        self.n_steps, self.n_nodes = data.displacement.shape[1], data.displacement.shape[2]
+        self.interpolation = interpolation_matrix(self.low.top_xyz, self.top_xyz)
+        D = self.discrepancy_data(data)
+        self.discrepancy = self._discrepancy_model().fit(D, seed=seed)
+        self.scaler = self.discrepancy.scaler
+        d = self.discrepancy.meta
+        self.meta.update(
+            {
+                "kind": self.kind,
+                "input_scale": self.input_scale,
+                "training_points": int(data.n),
+                "force_components": d["force_components"],
+                "field_components": d["field_components"],
+                "pca_tol": self.pca_tol,
+                "box": d["box"],
+                "discrepancy": {
+                    **{k: d[k] for k in ("kernels", "force_pca_error", "field_pca_error")},
+                    "truncation": self._truncation_errors(D),
+                },
+                "campaign": data.source,
+                "low_fidelity": self.low.meta,
+            }
+        )
+        if self.folds >= 2:
+            self.meta["discrepancy_kfold"] = self._k_fold_errors(D, seed)
+        self.meta["fit_s"] = time.perf_counter() - t0
+        return self
+
+    def _truncation_errors(self, D: TrainingData) -> dict[str, float]:
+        """What the discrepancy's PCA leaves of its training data (largest force % and field mm)."""
+        d = self.discrepancy
+        log_ratio = np.log(D.force)
+        U = D.displacement.reshape(D.n, -1)
+        f = d.force_pca.inverse_transform(d.force_pca.transform(log_ratio)) - log_ratio
+        u = d.field_pca.inverse_transform(d.field_pca.transform(U)) - U
+        return {
+            "force_max_pct": 100.0 * float(np.abs(np.expm1(f)).max()),
+            "field_max_mm": float(np.abs(u).max()),
+        }
+
+    def _k_fold_errors(self, D: TrainingData, seed: int) -> dict[str, Any]:
+        """Held-out errors of the discrepancy model (PCA truncation and GP together), refitted on
+        each fold's rest: the multi-fidelity prediction's errors at the high-fidelity points."""
+        folds = min(self.folds, D.n)
+        df, du = [], []
+        for train, test in KFold(folds, shuffle=True, random_state=seed).split(D.theta):
+            model = self._discrepancy_model().fit(D.subset(train), seed=seed)
+            pred = model.predict(D.theta[test])
+            df.append(np.log(pred.force) - np.log(D.force[test]))
+            du.append(pred.displacement - D.displacement[test])
+        rel_f = np.expm1(np.concatenate(df))
+        err_u = np.concatenate(du)
+        return {
+            "folds": folds,
+            "points": int(D.n),
+            "force_rms_pct": 100.0 * float(np.sqrt(np.mean(rel_f**2))),
+            "force_max_pct": 100.0 * float(np.abs(rel_f).max()),
+            "field_rms_mm": float(np.sqrt(np.mean(err_u**2))),
+            "field_max_mm": float(np.abs(err_u).max()),
+            **{f"u{'xyz'[j]}_rms_mm": float(np.sqrt(np.mean(err_u[..., j] ** 2))) for j in range(3)},
+        }
+
+    # the single-fidelity regressor hooks: this class predicts through its two levels instead
+    def _fit_regressor(self, X: np.ndarray, T: np.ndarray, seed: int) -> None:
+        raise NotImplementedError("a multi-fidelity surrogate fits its discrepancy model in fit()")
+
+    def _regress(self, X: np.ndarray, jacobian: bool):
+        raise NotImplementedError("a multi-fidelity surrogate predicts through its two levels")
+
+    def _regressor_state(self):
+        raise NotImplementedError("a multi-fidelity surrogate saves its two levels in to_state()")
+
+    def _restore_regressor(self, config, arrays) -> None:
+        raise NotImplementedError("a multi-fidelity surrogate restores its two levels in from_state()")
+
+    # ------------------------------------------------------------------ prediction
+    def _carried(self, u: np.ndarray) -> np.ndarray:
+        """A low-fidelity array with the top nodes on axis 2, (n, steps, nodes, ...), at the high
+        top nodes: W applied along that axis (eq. 1b)."""
+        moved = np.moveaxis(u, 2, 0)
+        out = self.interpolation @ moved.reshape(moved.shape[0], -1)
+        return np.moveaxis(out.reshape(-1, *moved.shape[1:]), 0, 2)
+
+    def predict(self, theta, jacobian: bool = False) -> Prediction:
+        """Force curves and fields of the high fidelity at ``theta`` (n, p) kPa (eq. 1), with their
+        Jacobians through both levels when asked."""
+        theta = self._checked_theta(theta)
+        low = self.low.predict(theta, jacobian)
+        delta = self.discrepancy.predict(theta, jacobian)  # force: the ratio exp(delta_f)
+        force = low.force * delta.force
+        disp = self._carried(low.displacement) + delta.displacement
+        fj = dj = None
+        if jacobian:
+            fj = low.force_jacobian * delta.force[..., None] + low.force[..., None] * delta.force_jacobian
+            dj = self._carried(low.displacement_jacobian) + delta.displacement_jacobian
+        return Prediction(force, disp, self.depth, self.top_xyz, self.parameters, fj, dj)
+
+    def reduced_basis(self) -> ReducedBasis:
+        """The low basis carried to the high nodes stacked with the discrepancy's basis; the
+        coordinates are both levels' scores side by side (eq. 1 is affine in them)."""
+        low, delta = self.low.reduced_basis(), self.discrepancy.reduced_basis()
+        shape = (low.steps, low.nodes, 3)
+
+        def carried(rows: np.ndarray) -> np.ndarray:
+            rows = np.atleast_2d(rows)
+            return self._carried(rows.reshape(len(rows), *shape)).reshape(len(rows), -1)
+
+        def coordinates(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            theta = self._checked_theta(theta)
+            (zf, zu), (df, du) = low.coordinates(theta), delta.coordinates(theta)
+            return np.hstack([zf, df]), np.hstack([zu, du])
+
+        return ReducedBasis(
+            force_mean=low.force_mean + delta.force_mean,
+            force_basis=np.vstack([low.force_basis, delta.force_basis]),
+            field_mean=carried(low.field_mean)[0] + delta.field_mean,
+            field_basis=np.vstack([carried(low.field_basis), delta.field_basis]),
+            steps=self.n_steps,
+            nodes=self.n_nodes,
+            coordinates=coordinates,
+        )
+
+    def discrepancy_covariance_factor(self, theta) -> np.ndarray:
+        """L (k, steps + steps * nodes * 3) at one point ``theta`` (p,) with L^T L the predictive
+        covariance of the discrepancy in the output space [log force (steps), field (steps x nodes
+        x 3, mm)]: row j is score j's GP standard deviation times its score scale times its PCA
+        component (the scores' GPs are independent). Zero rows in the other part's columns."""
+        theta = self._checked_theta(theta)
+        if len(theta) != 1:
+            raise ValueError(f"one parameter point at a time, got {len(theta)}")
+        d = self.discrepancy
+        scale = d.predict_std(theta)[0] * d.score_std  # (k,): score units
+        kf, n_force = d.k_force, d.force_pca.components_.shape[1]
+        L = np.zeros((len(scale), n_force + d.field_pca.components_.shape[1]))
+        L[:kf, :n_force] = scale[:kf, None] * d.force_pca.components_
+        L[kf:, n_force:] = scale[kf:, None] * d.field_pca.components_
+        return L
+
+    def discrepancy_std(self, theta) -> tuple[np.ndarray, np.ndarray]:
+        """The discrepancy's predictive standard deviations at one point ``theta``: of log force
+        (steps,) and of the field (steps, nodes, 3) mm; the diagonal of L^T L."""
+        L = self.discrepancy_covariance_factor(theta)
+        sd = np.sqrt(np.einsum("ko,ko->o", L, L))
+        return sd[: self.n_steps], sd[self.n_steps :].reshape(self.n_steps, self.n_nodes, 3)
+
+    # ------------------------------------------------------------------ saving (no pickle)
+    def to_state(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+        """Both levels' states, the arrays under ``low.`` and ``discrepancy.``; W is rebuilt from
+        the two sets of top nodes."""
+        low_config, low_arrays = self.low.to_state()
+        delta_config, delta_arrays = self.discrepancy.to_state()
+        config = {
+            "kind": self.kind,
+            "hyperparameters": self.hyperparameters(),
+            "parameters": list(self.parameters),
+            "low": low_config,
+            "discrepancy": delta_config,
+        }
+        arrays = {
+            **{f"low.{k}": v for k, v in low_arrays.items()},
+            **{f"discrepancy.{k}": v for k, v in delta_arrays.items()},
+        }
+        return config, arrays
+
+    @classmethod
+    def from_state(cls, config: dict[str, Any], arrays: dict[str, np.ndarray]) -> MultiFidelitySurrogate:
+        """The surrogate that :meth:`to_state` described."""
+        from .persistence import _surrogate_class
+
+        if config["kind"] != cls.kind:
+            raise ValueError(f"a {config['kind']!r} surrogate cannot be rebuilt as {cls.kind!r}")
+
+        def level(name: str) -> FieldSurrogate:
+            prefix = f"{name}."
+            own = {k[len(prefix) :]: v for k, v in arrays.items() if k.startswith(prefix)}
+            return _surrogate_class(config[name]["kind"]).from_state(config[name], own)
+
+        low, discrepancy = level("low"), level("discrepancy")
+        if not isinstance(discrepancy, GaussianProcessSurrogate):
+            raise ValueError(f"the discrepancy model must be a 'gp' surrogate, not {discrepancy.kind!r}")
+        model = cls(low, **config["hyperparameters"])
+        model.discrepancy = discrepancy
+        model.parameters = tuple(config["parameters"])
+        model.depth, model.top_xyz = discrepancy.depth, discrepancy.top_xyz
+        model.n_steps, model.n_nodes = discrepancy.n_steps, discrepancy.n_nodes
+        model.scaler = discrepancy.scaler
+        model.interpolation = interpolation_matrix(low.top_xyz, model.top_xyz)
+        return model

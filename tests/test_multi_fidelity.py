@@ -1,0 +1,302 @@
+"""The multi-fidelity surrogate (surrogate/multi_fidelity.py) on synthetic two-level data: a low
+"model" and a high one that is the low plus a known smooth discrepancy, on different top nodes.
+The discrepancy is learned, Jacobians are exact, files round-trip, the discrepancy's uncertainty
+vanishes at its data, and a fit on it recovers what the low level alone misses."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from indentation_studio.campaign.designs import design_from_option
+from indentation_studio.campaign.loader import CampaignData
+from indentation_studio.campaign.runner import run_campaign
+from indentation_studio.campaign.store import CampaignSpec, CampaignStore
+from indentation_studio.design.objective import Objective
+from indentation_studio.design.reduced_objective import FieldObjective, ReducedObjective, objective_function
+from indentation_studio.forward.mesh_study import top_field_interpolator
+from indentation_studio.forward.predictor import Prediction
+from indentation_studio.forward.solver import simulate
+from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
+from indentation_studio.inference.inverse_fit import fit_parameters
+from indentation_studio.inference.mesh_check import prediction_at_nodes
+from indentation_studio.surrogate.base import FieldSurrogate, TrainingData
+from indentation_studio.surrogate.gaussian_process import GaussianProcessSurrogate
+from indentation_studio.surrogate.multi_fidelity import MultiFidelitySurrogate, interpolation_matrix
+from indentation_studio.surrogate.persistence import load_surrogate, save_surrogate
+from indentation_studio.surrogate.training import make_surrogate, train_multi_fidelity, train_surrogate
+
+LO, HI = np.array([2.0, 100.0]), np.array([20.0, 500.0])
+DEPTH = np.array([0.5, 1.0, 1.5, 2.0])
+RADIUS = 2.0
+ETA = (0.45, 0.35, 0.2, 0.0)
+MODEL = {
+    "geometry": {"half_x": 10.0, "half_y": 10.0, "height": 10.0},
+    "indenter": {"radius": RADIUS},
+    "protocol": {"step_size": 0.5, "steps": 4},
+}
+
+
+def grid_nodes(n: int) -> np.ndarray:
+    """A quarter top surface [0, 10]^2 (a tensor grid, finer towards the axis)."""
+    x = 10.0 * np.linspace(0.0, 1.0, n) ** 1.5
+    X, Y = np.meshgrid(x, x, indexing="ij")
+    return np.column_stack([X.ravel(), Y.ravel(), np.full(X.size, 10.0)])
+
+
+LOW_XYZ, HIGH_XYZ = grid_nodes(6), grid_nodes(9)
+
+
+def response(theta: np.ndarray, xyz: np.ndarray, high: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Force (n, steps) mN and field (n, steps, nodes, 3) mm of the synthetic models: the low one,
+    or the low one plus a smooth discrepancy in log force (about 5 %) and in the field."""
+    a, b = (np.log(theta[:, j])[:, None, None] for j in range(2))  # (n, 1, 1)
+    d = DEPTH[None, :, None]
+    x, y = xyz[None, None, :, 0], xyz[None, None, :, 1]
+    r2 = x**2 + y**2
+    a2, b2, d2 = a[..., 0], b[..., 0], d[..., 0]  # (n, 1), (n, 1), (1, steps)
+    log_f = 0.5 * a2 + 0.3 * b2 + 1.5 * np.log(d2) + 0.05 * a2 * b2 - 2.0
+    width = 2.0 + 0.4 * a - 0.15 * b + 1.0
+    uz = -d * np.exp(-r2 / (2.0 * width**2))
+    ux = 0.05 * d * x * np.exp(-r2 / (3.0 * width**2)) * (1.0 + 0.1 * a)
+    uy = 0.04 * d * y * np.exp(-r2 / (3.0 * width**2)) * (1.0 + 0.05 * b)
+    if high:
+        log_f = log_f + 0.05 * np.sin(a2) * (1.0 + 0.2 * d2) + 0.02 * b2 - 0.1
+        uz = uz + 0.05 * d * np.cos(b) * np.exp(-r2 / 20.0)
+        ux = ux + 0.01 * d * x / 10.0 * np.sin(a)
+    return np.exp(log_f), np.stack(np.broadcast_arrays(ux, uy, uz), axis=-1)
+
+
+def synthetic(theta: np.ndarray, high: bool, name: str) -> TrainingData:
+    xyz = HIGH_XYZ if high else LOW_XYZ
+    force, disp = response(theta, xyz, high)
+    mesh = {"preset": "default" if high else "coarse"}
+    return TrainingData(
+        theta, force, disp, DEPTH, xyz, source={"name": name, "model": {**MODEL, "mesh": mesh}}
+    )
+
+
+def box_points(n: int, seed: int) -> np.ndarray:
+    """n points of the box, uniform in log theta (Latin hypercube)."""
+    rng = np.random.default_rng(seed)
+    u = (np.argsort(rng.random((2, n)), axis=1).T + rng.random((n, 2))) / n
+    return np.exp(np.log(LO) + u * (np.log(HI) - np.log(LO)))
+
+
+@pytest.fixture(scope="module")
+def low() -> GaussianProcessSurrogate:
+    g = np.exp(np.linspace(np.log(LO), np.log(HI), 10))
+    theta = np.stack(np.meshgrid(g[:, 0], g[:, 1], indexing="ij"), axis=-1).reshape(-1, 2)
+    return make_surrogate("gp", restarts=1).fit(synthetic(theta, False, "low-campaign"))
+
+
+HIGH_THETA = box_points(20, seed=1)
+
+
+@pytest.fixture(scope="module")
+def high_data() -> TrainingData:
+    return synthetic(HIGH_THETA, True, "high-campaign")
+
+
+@pytest.fixture(scope="module")
+def mf(low, high_data) -> MultiFidelitySurrogate:
+    return MultiFidelitySurrogate(low, restarts=1, folds=4).fit(high_data, seed=0)
+
+
+def held_out(n: int = 30) -> np.ndarray:
+    """n points inside the high campaign's box (smaller than the low one's), none of its points."""
+    lo, hi = HIGH_THETA.min(axis=0), HIGH_THETA.max(axis=0)
+    u = (np.log(box_points(n, seed=7)) - np.log(LO)) / (np.log(HI) - np.log(LO))
+    return np.exp(np.log(lo) + u * (np.log(hi) - np.log(lo)))
+
+
+def test_interpolation_matrix_is_the_top_field_interpolator():
+    rng = np.random.default_rng(0)
+    field = rng.standard_normal((len(LOW_XYZ), 5))
+    W = interpolation_matrix(LOW_XYZ, HIGH_XYZ)  # tensor grid: bilinear
+    np.testing.assert_allclose(W @ field, top_field_interpolator(LOW_XYZ, field)(HIGH_XYZ), atol=1e-12)
+    scattered = np.vstack([[[0, 0, 10], [10, 0, 10], [0, 10, 10], [10, 10, 10]], rng.random((30, 3)) * 10])
+    W = interpolation_matrix(scattered, HIGH_XYZ)  # Delaunay triangles
+    f = rng.standard_normal((len(scattered), 3))
+    np.testing.assert_allclose(W @ f, top_field_interpolator(scattered, f)(HIGH_XYZ), atol=1e-12)
+    np.testing.assert_allclose(W.sum(axis=1), 1.0)
+    with pytest.raises(ValueError, match="outside the triangulation"):
+        interpolation_matrix(scattered[4:], HIGH_XYZ)
+
+
+def test_discrepancy_is_learned(mf, low):
+    """At held-out points the multi-fidelity prediction matches the high model closely; the low
+    surrogate (carried to the high nodes) misses it by the discrepancy."""
+    theta = held_out()
+    force, disp = response(theta, HIGH_XYZ, True)
+    p = mf.predict(theta)
+    assert p.force.shape == force.shape and p.displacement.shape == disp.shape
+    assert np.array_equal(p.top_xyz, HIGH_XYZ)
+    low_p = low.predict(theta)
+    low_disp = np.moveaxis(
+        top_field_interpolator(LOW_XYZ, np.moveaxis(low_p.displacement, 2, 0))(HIGH_XYZ), 0, 2
+    )
+    mf_f, low_f = np.abs(p.force / force - 1).max(), np.abs(low_p.force / force - 1).max()
+    mf_u, low_u = np.abs(p.displacement - disp).max(), np.abs(low_disp - disp).max()
+    assert mf_f < 1e-3 and low_f > 0.05  # measured 2e-5 and 0.085
+    assert mf_u < 2e-3 and low_u > 0.05  # mm, of |u| up to 2 mm; measured 4e-4 and 0.125
+    kfold = mf.meta["discrepancy_kfold"]
+    assert kfold["folds"] == 4 and kfold["points"] == 20 and 0 < kfold["force_max_pct"] < 0.1
+    assert 0 < kfold["field_rms_mm"] < kfold["field_max_mm"] < 0.01
+    truncation = mf.meta["discrepancy"]["truncation"]  # what the PCA leaves of the training data
+    assert truncation["force_max_pct"] < 0.01 and truncation["field_max_mm"] < 0.01
+
+
+def test_jacobians_are_the_derivatives(mf):
+    """Against central differences (steps of 1e-3 theta: the GPs of these very smooth functions
+    are ill-conditioned, and smaller steps see their rounding)."""
+    theta = np.array([[5.0, 180.0], [13.0, 420.0]])
+    p = mf.predict(theta, jacobian=True)
+    assert p.force_jacobian.shape == (2, 4, 2) and p.displacement_jacobian.shape == (2, 4, 81, 3, 2)
+    for j in range(2):
+        h = 1e-3 * theta[:, j]
+        up, down = theta.copy(), theta.copy()
+        up[:, j] += h
+        down[:, j] -= h
+        a, b = mf.predict(up), mf.predict(down)
+        fd_f = (a.force - b.force) / (2 * h[:, None])
+        fd_u = (a.displacement - b.displacement) / (2 * h[:, None, None, None])
+        np.testing.assert_allclose(p.force_jacobian[..., j], fd_f, rtol=0, atol=2e-5 * np.abs(fd_f).max())
+        np.testing.assert_allclose(
+            p.displacement_jacobian[..., j], fd_u, rtol=0, atol=2e-5 * np.abs(fd_u).max()
+        )
+
+
+def test_reduced_basis_gives_the_prediction_and_the_objective(mf):
+    theta = held_out(5)
+    p, basis = mf.predict(theta), mf.reduced_basis()
+    zf, zu = basis.coordinates(theta)
+    np.testing.assert_allclose(np.exp(zf @ basis.force_basis + basis.force_mean), p.force, rtol=1e-12)
+    field = (zu @ basis.field_basis + basis.field_mean).reshape(p.displacement.shape)
+    np.testing.assert_allclose(field, p.displacement, atol=1e-12)
+    objective = Objective.from_prediction(mf.predict([[9.0, 250.0]]), radius=RADIUS)
+    reduced = objective_function(objective, mf, ETA)
+    assert isinstance(reduced, ReducedObjective)
+    np.testing.assert_allclose(
+        reduced.value(theta), FieldObjective(objective, mf, ETA).value(theta), rtol=1e-9
+    )
+
+
+def test_save_load_round_trip(mf, tmp_path):
+    path = save_surrogate(mf, tmp_path / "surrogate-mf.safetensors")
+    again = load_surrogate(path)
+    assert isinstance(again, MultiFidelitySurrogate) and isinstance(again, FieldSurrogate)
+    theta = held_out(4)
+    a, b = mf.predict(theta, jacobian=True), again.predict(theta, jacobian=True)
+    for name in ("force", "displacement", "force_jacobian", "displacement_jacobian"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
+    np.testing.assert_array_equal(
+        mf.discrepancy_covariance_factor(theta[0]), again.discrepancy_covariance_factor(theta[0])
+    )
+    # both campaigns named: the high one is the model a fit's FE stage runs
+    assert again.meta["campaign"]["name"] == "high-campaign"
+    assert again.meta["campaign"]["model"]["mesh"]["preset"] == "default"
+    assert again.meta["low_fidelity"]["campaign"]["name"] == "low-campaign"
+    assert again.low.meta["campaign"]["name"] == "low-campaign"
+    assert again.meta["kind"] == again.kind == "mf" and again.hyperparameters() == mf.hyperparameters()
+    assert len(again.discrepancy.gps) == mf.meta["force_components"] + mf.meta["field_components"]
+    np.testing.assert_array_equal(again.inside_box(theta), True)
+
+
+def test_discrepancy_std_vanishes_at_the_data_and_grows_away(mf, high_data):
+    L = mf.discrepancy_covariance_factor(high_data.theta[0])
+    d = mf.discrepancy
+    assert L.shape == (d.k_force + d.field_pca.n_components_, 4 + 4 * 81 * 3)
+    sd_f, sd_u = mf.discrepancy_std(high_data.theta[0])
+    np.testing.assert_allclose(np.sqrt(np.sum(L**2, axis=0)), np.concatenate([sd_f, sd_u.ravel()]))
+
+    def largest(theta):
+        f, u = mf.discrepancy_std(theta)
+        return f.max(), u.max()
+
+    at_data = np.array([largest(t) for t in high_data.theta]).max(axis=0)
+    # between the data (the held-out points), and beyond the box (the GP extrapolates)
+    between = np.array([largest(t) for t in held_out(10)]).max(axis=0)
+    beyond = np.array(largest(HIGH_THETA.max(axis=0) * [1.5, 1.0]))
+    assert np.all(at_data < 0.05 * between) and np.all(between < beyond)
+    assert np.all(at_data < 1e-5)  # log force; mm (measured 2e-7, 3e-7; between 3e-5, 5e-5)
+
+
+def test_fit_recovers_what_the_low_level_misses(mf, low):
+    """Noise-free data of the high model at a truth: the fit on the multi-fidelity surrogate lands
+    on the truth; the fit on the low surrogate (with the same data at its own nodes) is biased."""
+    truth = np.array([8.0, 260.0])
+    force, disp = response(truth[None], HIGH_XYZ, True)
+    data = Prediction(force, disp, DEPTH, HIGH_XYZ)
+    fit = fit_parameters(Objective.from_prediction(data, radius=RADIUS), mf, ETA, theta0=(6.0, 300.0))
+    force, disp = response(truth[None], LOW_XYZ, True)  # the same high model at the low nodes
+    data = Prediction(force, disp, DEPTH, LOW_XYZ)
+    fit_low = fit_parameters(Objective.from_prediction(data, radius=RADIUS), low, ETA, theta0=(6.0, 300.0))
+    assert np.abs(fit.theta / truth - 1).max() < 1e-3  # measured 2e-5
+    assert np.abs(fit_low.theta / truth - 1).max() > 0.05  # measured c1 +11.5 %, c5 -4.6 %
+
+
+def test_training_function_and_refusals(low, high_data, tmp_path):
+    low_file = save_surrogate(low, tmp_path / "low.safetensors")
+    campaign = CampaignData(
+        high_data.theta,
+        high_data.force,
+        high_data.displacement,
+        high_data.depth,
+        high_data.top_xyz,
+        np.arange(len(high_data.top_xyz)),
+        high_data.parameters,
+        np.arange(high_data.n),
+        high_data.source,
+    )
+    model = train_multi_fidelity(low_file, campaign, folds=0)
+    assert model.meta["validation"]["training"]["force_max_pct"] < 0.01
+    assert "discrepancy_kfold" not in model.meta and model.meta["campaign"]["name"] == "high-campaign"
+    with pytest.raises(ValueError, match=r"'mf'.*train_multi_fidelity"):
+        make_surrogate("mf")
+
+    def changed(**changes) -> TrainingData:
+        d = TrainingData(**{**vars(high_data), "source": {**high_data.source}})
+        for key, value in changes.items():
+            if key == "model":
+                d.source["model"] = {**MODEL, **value}
+            else:
+                setattr(d, key, value)
+        return d
+
+    with pytest.raises(ValueError, match=r"indenter: \{'radius': 2.0\} \(low\) vs \{'radius': 3.0\}"):
+        MultiFidelitySurrogate(low).fit(changed(model={"indenter": {"radius": 3.0}}))
+    with pytest.raises(ValueError, match=r"depths: 4 steps to 2 mm \(low\) vs 4 steps to 4 mm"):
+        MultiFidelitySurrogate(low).fit(changed(depth=2 * DEPTH))
+    with pytest.raises(ValueError, match="outside the low-fidelity surrogate's training box"):
+        MultiFidelitySurrogate(low).fit(changed(theta=high_data.theta * [1.0, 1.3]))
+
+
+def test_fit_on_two_fe_campaigns(tmp_path):
+    """Two small real campaigns (about 10 s), 16 points on `coarse` and 9 on `default` (3 steps):
+    the fit to the `default` mesh's response at a truth lands on it with the multi-fidelity
+    surrogate, whose FE model is the `default` mesh's; the coarse surrogate alone is biased."""
+    protocol = Protocol(step_size=0.5, steps=3)
+    for spec in (
+        CampaignSpec(
+            "coarse16",
+            design_from_option("c1=4:16:4,c5=150:500:4"),
+            ModelSpec(protocol=protocol, mesh=MeshChoice("coarse")),
+        ),
+        CampaignSpec("default9", design_from_option("c1=5:14:3,c5=180:450:3"), ModelSpec(protocol=protocol)),
+    ):
+        assert run_campaign(CampaignStore.create_or_open(tmp_path, spec), jobs=1)["failed"] == 0
+    low = train_surrogate("coarse16", "gp", runs_dir=tmp_path)
+    mf = train_multi_fidelity(low, "default9", folds=3, runs_dir=tmp_path)
+    fe_model = ModelSpec.from_dict(mf.meta["campaign"]["model"])
+    assert fe_model.mesh.preset == "default" and mf.meta["low_fidelity"]["campaign"]["name"] == "coarse16"
+    truth = np.array([9.0, 300.0])
+    result = simulate(fe_model.with_material(c1=truth[0], c5=truth[1]))
+    fit = fit_parameters(
+        Objective.from_prediction(prediction_at_nodes(result, mf.top_xyz), radius=4.77), mf, ETA
+    )
+    data_at_coarse_nodes = Objective.from_prediction(prediction_at_nodes(result, low.top_xyz), radius=4.77)
+    fit_low = fit_parameters(data_at_coarse_nodes, low, ETA)
+    assert np.abs(fit.theta / truth - 1).max() < 5e-3  # measured c1 -0.02 %, c5 -0.08 %
+    assert np.abs(fit_low.theta / truth - 1).max() > 0.1  # measured c1 +1.5 %, c5 -29 %
+    assert 0 < mf.meta["discrepancy_kfold"]["force_max_pct"] < 2.0  # measured 0.66 % (3 folds of 9)
