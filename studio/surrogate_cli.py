@@ -43,6 +43,72 @@ def _errors_table(title: str, rows: dict[str, dict]) -> None:
     Console(width=120).print(table)
 
 
+@surrogate_app.command("train-mf")
+def train_mf(
+    low: Annotated[Path, typer.Option(help="the low-fidelity surrogate file (trained on a large campaign)")],
+    campaign: Annotated[
+        str, typer.Option(help="the high-fidelity campaign (tens of points on a finer mesh)")
+    ],
+    error_budget: Annotated[
+        Path | None,
+        typer.Option(
+            help="an error-budget.json: what it leaves for the high-fidelity mesh joins every fit's bounds"
+        ),
+    ] = None,
+    budget_model: Annotated[
+        str | None,
+        typer.Option(help="the high-fidelity mesh's name in that budget (default: its mesh preset)"),
+    ] = None,
+    test_campaign: Annotated[
+        str | None, typer.Option(help="a high-fidelity campaign of points to test on")
+    ] = None,
+    seed: Annotated[int, typer.Option(help="random seed")] = 0,
+    out: Annotated[
+        Path | None, typer.Option(help="model file (default runs/<campaign>/surrogate-mf.safetensors)")
+    ] = None,
+    runs_dir: RUNS_DIR = Path("runs"),
+    as_json: JSON = False,
+) -> None:
+    """Train a multi-fidelity surrogate: the low-fidelity surrogate corrected by a GP of its
+    discrepancy from the high-fidelity campaign; fits on it refine on the high-fidelity mesh and carry
+    the discrepancy's uncertainty (and the error budget's remaining bias) in their bounds."""
+    from ..campaign.loader import open_campaign
+    from ..design.error_budget import remaining_bias
+    from ..surrogate.persistence import save_surrogate
+    from ..surrogate.training import train_multi_fidelity
+
+    try:
+        budget = None
+        if error_budget is not None:
+            mesh = open_campaign(campaign, runs_dir).spec.model.mesh
+            budget = remaining_bias(error_budget, budget_model or mesh.preset or str(mesh.feb_file))
+        err.print(f"training a multi-fidelity surrogate: {low} corrected by {campaign!r} ...")
+        model = train_multi_fidelity(
+            low, campaign, test_campaign=test_campaign, seed=seed, runs_dir=runs_dir, error_budget=budget
+        )
+        name = model.meta["campaign"].get("name", campaign)
+        path = save_surrogate(model, out or Path(runs_dir) / name / "surrogate-mf.safetensors")
+    except (ValueError, OSError) as exc:
+        fail(str(exc), as_json)
+    payload = {
+        "model_file": str(path),
+        "kind": "mf",
+        "validation": model.meta["validation"],
+        "discrepancy_kfold": model.meta.get("discrepancy_kfold"),
+        "error_budget": model.meta.get("error_budget"),
+    }
+    if as_json:
+        print(json.dumps(payload, default=float))
+        return
+    _errors_table(f"multi-fidelity surrogate {path}", model.meta["validation"])
+    if budget is not None:
+        Console().print(
+            f"error budget left for the high-fidelity mesh: c1 {budget['c1_pct']:.2f} %, c5 {budget['c5_pct']:.2f} %"
+        )
+    else:
+        Console().print("no error budget given: fits will carry the discrepancy's uncertainty only")
+
+
 @surrogate_app.command("train")
 def train(
     campaign: CAMPAIGN,

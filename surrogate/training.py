@@ -77,6 +77,7 @@ def train_multi_fidelity(
     test_campaign: str | Path | CampaignData | None = None,
     seed: int = 0,
     runs_dir: str | Path = "runs",
+    error_budget: dict | None = None,
 ) -> MultiFidelitySurrogate:
     """A multi-fidelity surrogate: ``low`` (a surrogate file or a trained surrogate, e.g. on a
     large campaign on a coarser mesh) corrected by the GP of its discrepancy from
@@ -84,7 +85,9 @@ def train_multi_fidelity(
     fidelity on the high campaign's top nodes, and its FE model (meta['campaign']) is the high
     campaign's. The discrepancy's ``folds``-fold errors go to meta['discrepancy_kfold'] (force %,
     field mm); its errors on the training points and on ``test_campaign`` (percent, as for
-    :func:`train_surrogate`) to meta['validation']."""
+    :func:`train_surrogate`) to meta['validation']. ``error_budget`` (what the budget leaves for the
+    high-fidelity mesh, :func:`design.error_budget.remaining_bias`) goes to meta['error_budget'],
+    where fits read the systematic part of their model error."""
     from .multi_fidelity import MultiFidelitySurrogate
     from .persistence import load_surrogate
 
@@ -97,4 +100,6 @@ def train_multi_fidelity(
     if test_campaign is not None:
         validation["test"] = prediction_errors(model, training_data(test_campaign, runs_dir))
     model.meta["validation"] = validation
+    if error_budget is not None:
+        model.meta["error_budget"] = dict(error_budget)
     return model
