@@ -16,7 +16,7 @@ from ..forward.predictor import FESolverPredictor
 from ..surrogate.base import FieldSurrogate
 from .experiment_data import ExperimentData
 from .fit_inputs import FitInputs, prepare_fit
-from .inverse_fit import PAPER_F_STOP, FitResult, fit_parameters
+from .inverse_fit import PAPER_F_STOP, FitResult, fit_parameters, gauss_newton_refine
 from .mesh_check import MeshCheck, check_mesh_at
 from .model_error import ModelError, combined_pct, has_high_fidelity_level, model_error_at
 
@@ -66,7 +66,9 @@ class ExperimentFit:
             "n": final.n_residuals,
             "hessian": final.hessian.tolist(),
             "surrogate_fit": {"theta": first.theta.tolist(), "F": first.F, "wall_s": first.wall_s},
-            "fe_fit": {"evaluations": final.evaluations, "wall_s": final.wall_s} if self.refined else None,
+            "fe_fit": {"evaluations": final.evaluations, "wall_s": final.wall_s, "message": final.message}
+            if self.refined
+            else None,
             "fiber_angle_deg": inputs.dic.fiber_angle_deg,
             "fiber_angle_estimated": inputs.dic.fiber_angle_estimated,
             "registration": inputs.dic.to_dict(),
@@ -104,15 +106,24 @@ def fit_experiment(
     say(f"fitting on the {inputs.surrogate.kind} surrogate ...")
     first = fit_parameters(inputs.objective, inputs.surrogate, inputs.eta, f_stop=f_stop)
     final = first
+    two_level = has_high_fidelity_level(inputs.surrogate)
     if refine:
-        say(f"refining on the FE solver from {first.theta.round(3).tolist()} kPa ...")
         fe = FESolverPredictor(inputs.spec)
-        final = fit_parameters(inputs.objective, fe, inputs.eta, theta0=first.theta, f_stop=f_stop)
+        if (
+            two_level and not paper_stop
+        ):  # the surrogate already emulates this FE model: confirm by Gauss-Newton
+            say(
+                f"refining by Gauss-Newton on the high-fidelity FE model from {first.theta.round(3).tolist()} kPa ..."
+            )
+            final = gauss_newton_refine(inputs.objective, fe, inputs.eta, first.theta)
+        else:
+            say(f"refining on the FE solver from {first.theta.round(3).tolist()} kPa ...")
+            final = fit_parameters(inputs.objective, fe, inputs.eta, theta0=first.theta, f_stop=f_stop)
     check = None
     if check_mesh is not None:
         check, _ = check_mesh_at(inputs.spec, inputs.objective, inputs.eta, final.theta, check_mesh, say)
     model_error = None
-    if has_high_fidelity_level(inputs.surrogate):
+    if two_level:
         say("the model error at the fit (discrepancy and error budget) ...")
         model_error = model_error_at(inputs.objective, inputs.eta, inputs.surrogate, final.theta)
     return ExperimentFit(inputs, first, final, refine, check, check_mesh, model_error)

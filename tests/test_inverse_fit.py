@@ -81,3 +81,20 @@ def test_mesh_check_predicts_where_the_finer_mesh_puts_the_fit():
     assert np.all(check.uncertainty_pct > 100 * np.abs(miss))
     with pytest.raises(ValueError, match="finer"):
         mesh_check(objective, ETA, simulate(at, sensitivities=True), simulate(at))
+
+
+def test_gauss_newton_refine_reaches_the_levenberg_marquardt_minimum(target):
+    """From a start 3 % off (a surrogate's fit), Gauss-Newton stops in few evaluations within a third
+    of the bounds of LM's minimum, with LM's bounds."""
+    from indentation_studio.inference.inverse_fit import gauss_newton_refine
+
+    rng = np.random.default_rng(4)
+    force = target.force[0] * (1 + 0.02 * rng.standard_normal(target.force.shape[1]))
+    u = target.displacement[0]
+    objective = Objective(force, u + 0.01 * rng.standard_normal(u.shape), target.top_xyz, radius=4.77)
+    fe = FESolverPredictor(SPEC)
+    lm = fit_parameters(objective, fe, ETA, theta0=TRUE)
+    gn = gauss_newton_refine(objective, fe, ETA, lm.theta * np.array([1.03, 0.97]))
+    assert gn.evaluations <= 3 and "within" in gn.message
+    assert np.all(np.abs(gn.theta / lm.theta - 1) <= lm.bounds_pct / 100 / 3)
+    np.testing.assert_allclose(gn.bounds_pct, lm.bounds_pct, rtol=0.05)
