@@ -40,6 +40,32 @@ class CampaignData:
         return Prediction(self.force, self.displacement, self.depth, self.top_xyz, self.parameters)
 
 
+class StoredResponses:
+    """A campaign's responses as a Predictor at its own points (no Jacobians): what makes synthetic
+    experiments from a campaign on a fine mesh without solving it again. A point the campaign does
+    not hold is refused."""
+
+    def __init__(self, data: CampaignData) -> None:
+        self.data = data
+        from ..forward.spec import ModelSpec
+
+        self.parameters = tuple(data.parameters)
+        self.spec = ModelSpec.from_dict(data.spec["model"])  # the model the responses were solved on
+
+    def predict(self, theta: np.ndarray, jacobian: bool = False) -> Prediction:
+        if jacobian:
+            raise ValueError("stored responses carry no Jacobians")
+        t = np.atleast_2d(np.asarray(theta, float))
+        rows = []
+        for point in t:
+            close = np.flatnonzero(np.all(np.isclose(self.data.theta, point, rtol=1e-9, atol=0), axis=1))
+            if close.size == 0:
+                raise ValueError(f"the campaign holds no response at {point.tolist()}")
+            rows.append(close[0])
+        d = self.data
+        return Prediction(d.force[rows], d.displacement[rows], d.depth, d.top_xyz, self.parameters)
+
+
 def open_campaign(name_or_path: str | Path, runs_dir: str | Path = "runs") -> CampaignStore:
     """A campaign by folder path or by name under ``runs_dir``."""
     p = Path(name_or_path)

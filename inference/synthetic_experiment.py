@@ -36,8 +36,13 @@ def write_synthetic_experiment(
     frame_offset=(3.0, -2.0, 12.0),
     hold_s: float = 30.0,
     seed: int = 0,
+    u_noise_mm: float | None = None,
+    misregistration_mm: float = 0.0,
 ) -> Path:
-    """Simulate ``theta`` with ``predictor`` and write an experiment folder; returns its path."""
+    """Simulate ``theta`` with ``predictor`` and write an experiment folder; returns its path.
+    Displacement noise is ``u_noise`` x max |u| per direction, or ``u_noise_mm`` mm when given;
+    ``misregistration_mm`` moves the indenter's cap by that much in a random in-plane direction, so
+    that the registration (the sphere fit) puts the indentation point that far from the truth."""
     rng = np.random.default_rng(seed)
     out = Path(out_dir)
     pred = predictor.predict(np.asarray(theta, float)[None, :])
@@ -54,8 +59,8 @@ def write_synthetic_experiment(
     u = np.moveaxis(u, 0, 1)
     u[..., 0] *= np.sign(xy[:, 0])
     u[..., 1] *= np.sign(xy[:, 1])
-    scale = np.abs(u).max(axis=(0, 1))
-    u = u + u_noise * scale * rng.standard_normal(u.shape)
+    scale = np.abs(u).max(axis=(0, 1)) * u_noise if u_noise_mm is None else np.full(3, float(u_noise_mm))
+    u = u + scale * rng.standard_normal(u.shape)
     xyz_model = np.column_stack([xy, np.zeros(len(xy))])
     # the DIC frame: fibers (model +y) at fiber_angle_deg from its x axis, origin shifted
     Q = rotation_to_fibers(fiber_angle_deg if fiber_angle_deg is not None else 90.0).T
@@ -67,6 +72,9 @@ def write_synthetic_experiment(
     a, b = 2 * np.pi * rng.random(k), np.arccos(rng.uniform(0.2, 1.0, k))
     cap = radius * np.column_stack([np.sin(b) * np.cos(a), np.sin(b) * np.sin(a), 1.0 + np.cos(b)])
     cap = cap + 0.002 * rng.standard_normal(cap.shape)
+    slip = rng.uniform(0.0, 2 * np.pi) if misregistration_mm else 0.0  # no draw: same noise as before
+    cap_shift = misregistration_mm * np.array([np.cos(slip), np.sin(slip), 0.0])
+    cap = cap + cap_shift
     # relaxation during each hold (eq. 9): f(t) = f_inf (1 + 0.3 exp(-t / 8 s)), readings every second
     t = np.arange(0.0, hold_s + 1e-9, 1.0)
     rows = []
@@ -87,7 +95,9 @@ def write_synthetic_experiment(
         "description": "synthetic",
         "synthetic": {
             "theta": [float(v) for v in np.ravel(theta)],
-            "u_noise": u_noise,
+            "u_noise": u_noise if u_noise_mm is None else None,
+            "u_noise_mm": u_noise_mm,
+            "misregistration_mm": cap_shift.tolist(),
             "f_noise": f_noise,
             "points": len(xy),
             "fov_mm": fov,

@@ -162,3 +162,34 @@ def test_shipped_example_experiment_loads_and_registers():
     assert dic.sphere_radius == pytest.approx(4.77, abs=0.01)
     f_inf, _ = static_forces(exp)
     assert np.all(np.diff(f_inf) > 0)  # the force grows with depth
+
+
+def test_misregistration_and_absolute_dic_noise(tmp_path):
+    """A synthetic experiment with its indenter cap moved by 0.3 mm registers 0.3 mm off (in the DIC
+    frame's plane), and its DIC noise in mm is what the displacements carry."""
+    from indentation_studio.forward.predictor import Prediction
+
+    class Flat:
+        parameters = ("c1", "c5")
+
+        def predict(self, theta, jacobian=False):
+            xy = np.stack(np.meshgrid(np.linspace(0, 50, 11), np.linspace(0, 50, 11), indexing="ij"), -1)
+            top = np.column_stack([xy.reshape(-1, 2), np.full(121, 60.0)])
+            return Prediction(np.array([[10.0, 20.0]]), np.zeros((1, 2, 121, 3)), np.array([0.5, 1.0]), top)
+
+    exp = write_synthetic_experiment(
+        Flat(),
+        TRUE,
+        tmp_path / "m",
+        radius=4.77,
+        step_size=0.5,
+        seed=1,
+        u_noise_mm=0.05,
+        misregistration_mm=0.3,
+    )
+    meta = json.loads((exp / "experiment.json").read_text())["synthetic"]
+    data = load_experiment(exp)
+    off = to_model_frame(data).origin - np.asarray(meta["frame_offset"])
+    assert np.linalg.norm(off) == pytest.approx(0.3, abs=0.01) and abs(off[2]) < 0.01
+    assert meta["u_noise_mm"] == 0.05 and np.linalg.norm(meta["misregistration_mm"]) == pytest.approx(0.3)
+    assert np.std(data.dic_u) == pytest.approx(0.05, rel=0.02)  # the field is zero: what is left is noise

@@ -9,29 +9,13 @@ import json
 import numpy as np
 from typer.testing import CliRunner
 
-from indentation_studio.campaign.loader import load_campaign
+from indentation_studio.campaign.loader import StoredResponses, load_campaign
 from indentation_studio.campaign.runner import run_named_campaign
 from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
 from indentation_studio.inference.synthetic_experiment import write_synthetic_experiment
 from indentation_studio.studio.cli import app
 
-PROTOCOL = Protocol(step_size=0.5, steps=2)
-
-
-class StoredResponses:
-    """The reference campaign's responses as a Predictor (the synthetic experiment is made from
-    them instead of solving the finest mesh again)."""
-
-    parameters = ("c1", "c5")
-
-    def __init__(self, data):
-        self.data = data
-
-    def predict(self, theta, jacobian=False):
-        row = int(np.argmin(np.abs(self.data.theta - np.atleast_2d(theta)).sum(axis=1)))
-        assert np.allclose(self.data.theta[row], theta)
-        p = self.data.prediction()
-        return type(p)(p.force[row : row + 1], p.displacement[row : row + 1], p.depth, p.top_xyz)
+PROTOCOL = Protocol(step_size=0.5, steps=3)
 
 
 def _run(*args: str) -> dict:
@@ -59,7 +43,13 @@ def test_fit_and_posterior_carry_model_error(tmp_path):
     assert left["c5_pct"] == abs(budget["rows"][0]["c5_bias_pct"])
     reference = StoredResponses(load_campaign("ref", runs))
     exp = write_synthetic_experiment(
-        reference, np.array([9.0, 300.0]), tmp_path / "exp", radius=4.77, step_size=0.5, seed=2
+        reference,
+        np.array([9.0, 300.0]),
+        tmp_path / "exp",
+        radius=4.77,
+        step_size=0.5,
+        seed=2,
+        u_noise_mm=0.02,
     )
     fitted = _run("fit", "--experiment", str(exp), "--surrogate", mf["model_file"])
     assert fitted["inputs"]["model"]["mesh"]["preset"] == "default"  # the FE stage ran on the high level
