@@ -54,6 +54,7 @@ class ErrorBudget:
     force_noise: float
     dic_noise: float
     reference: dict = field(default_factory=dict)  # where the reference came from (provenance)
+    fov_mm: float | None = 25.0
 
     def summary(self) -> pd.DataFrame:
         """Per model: the largest |bias| of c1 and c5, the median half-width, their ratio, and
@@ -78,6 +79,7 @@ class ErrorBudget:
             "weights": self.weights.tolist(),
             "force_noise": self.force_noise,
             "dic_noise_mm": self.dic_noise,
+            "field_of_view_mm": self.fov_mm,
             "converged_fraction": CONVERGED_FRACTION,
             "reference": self.reference,
             "rows": self.table.to_dict(orient="records"),
@@ -163,11 +165,13 @@ def compute_error_budget(
     reference_source: dict | None = None,
     fe_steps: int = 3,
     progress: Callable[[str], None] | None = None,
+    fov_mm: float | None = 25.0,
 ) -> ErrorBudget:
     """Fit each of ``models`` (name -> Predictor: an FE model or a surrogate) to each noise-free
     ``reference`` response and tabulate the biases beside the typical 95 % half-width.
     ``fe_models`` (name -> the FE Predictor a surrogate of that name emulates) splits a
-    surrogate's bias into discretisation and surrogate parts."""
+    surrogate's bias into discretisation and surrogate parts. Only the top nodes within ``fov_mm``
+    of the indentation axis are measured (a DIC field of view; None: the whole top)."""
     eta = check_weights(weights)
     if not reference:
         raise ValueError("the error budget needs at least one reference response")
@@ -185,7 +189,10 @@ def compute_error_budget(
             if progress is not None:
                 progress(f"{name} at {theta_t.round(3).tolist()} kPa")
             target = reference_prediction(result, top)
-            objective = Objective.from_prediction(target, radius=float(result.spec["indenter"]["radius"]))
+            in_view = None if fov_mm is None else np.linalg.norm(top[:, :2], axis=1) <= fov_mm
+            objective = Objective.from_prediction(
+                target, radius=float(result.spec["indenter"]["radius"]), mask=in_view
+            )
             theta_fit, J = _fit_bias(model, objective, eta, theta_t, fe_steps)
             s = s_from_data(
                 noise_objective_value(objective, eta, force_noise, dic_noise), objective.data_points(eta)
@@ -202,7 +209,7 @@ def compute_error_budget(
                 row |= {"c1_discretisation_pct": disc[0], "c5_discretisation_pct": disc[1]}
                 row |= {"c1_surrogate_pct": bias[0] - disc[0], "c5_surrogate_pct": bias[1] - disc[1]}
             rows.append(row)
-    return ErrorBudget(pd.DataFrame(rows), eta, force_noise, dic_noise, dict(reference_source or {}))
+    return ErrorBudget(pd.DataFrame(rows), eta, force_noise, dic_noise, dict(reference_source or {}), fov_mm)
 
 
 def resolve_model(name: str, reference_spec, fe_cache: dict | None = None) -> tuple[object, object | None]:
@@ -263,6 +270,7 @@ def campaign_error_budget(
     fe_steps: int = 3,
     runs_dir="runs",
     progress: Callable[[str], None] | None = None,
+    fov_mm: float | None = 25.0,
 ) -> ErrorBudget:
     """:func:`error_budget` with the reference given as a campaign (name or folder: its done points
     are the test points) and the models by name (:func:`resolve_model`)."""
@@ -280,7 +288,7 @@ def campaign_error_budget(
             fe_models[name] = fe
     source = {"campaign": str(store.root), "points": len(results), "model": store.spec.model.to_dict()}
     return compute_error_budget(
-        results, predictors, fe_models, weights, force_noise, dic_noise, source, fe_steps, progress
+        results, predictors, fe_models, weights, force_noise, dic_noise, source, fe_steps, progress, fov_mm
     )
 
 

@@ -408,6 +408,9 @@ def error_budget_cmd(
     force_noise: Annotated[float, typer.Option(help="relative force noise per step")] = 0.02,
     dic_noise: Annotated[float, typer.Option(help="DIC noise per node, mm")] = 0.02,
     fe_steps: Annotated[int, typer.Option(help="Gauss-Newton steps of an FE model's fit")] = 3,
+    fov: Annotated[
+        float, typer.Option(help="DIC field of view: radius around the axis, mm (0: whole top)")
+    ] = 25.0,
     out: Annotated[
         Path | None, typer.Option(help="JSON to write (default runs/<reference>/error-budget.json)")
     ] = None,
@@ -420,7 +423,15 @@ def error_budget_cmd(
 
     try:
         budget = campaign_error_budget(
-            reference, model, _floats(weights), force_noise, dic_noise, fe_steps, runs_dir, err.print
+            reference,
+            model,
+            _floats(weights),
+            force_noise,
+            dic_noise,
+            fe_steps,
+            runs_dir,
+            err.print,
+            fov or None,
         )
     except (SpecError, ValueError, OSError) as exc:
         fail(str(exc), as_json)
