@@ -65,7 +65,7 @@ def test_coarse_mesh_bias_is_the_fit_it_causes():
     model equals a full Levenberg-Marquardt fit of that model to the same target."""
     fe = FESolverPredictor(COARSE)
     reference = _reference(FINER)
-    budget = compute_error_budget([reference], {"coarse": fe}, fe_steps=4)
+    budget = compute_error_budget([reference], {"coarse": fe}, fe_steps=4, fov_mm=None)
     row = budget.table.iloc[0]
     objective = Objective.from_prediction(
         reference_prediction(reference, model_top_xyz(fe)), radius=COARSE.indenter.radius
