@@ -51,7 +51,8 @@ SECTIONS = [
     ),
     (
         "force-depth.png",
-        "Example experiment: static forces (eq. 9) and the FE and surrogate forces at the fit.",
+        "Example experiment: static forces (eq. 9), the FE and surrogate forces at the fit and, for a "
+        "synthetic example, the surrogate at the truth.",
     ),
     ("displacement-maps.png", "Top-surface displacement of the FE model at the fit, 14 mm, fibers along +y."),
     ("corner.png", "Posterior of (c1, c5) with the fit, its eq. 6 ellipse and the synthetic truth."),
@@ -198,6 +199,9 @@ def _example_figures(out: Path, result, post, check, truth, spec: ModelSpec) -> 
         "FE at the fit": check.fe.force[0],
         "MLP at the fit": check.surrogate.force[0],
     }
+    if truth is not None:  # a synthetic example: the model at the truth, for comparison
+        label = f"{result.inputs.surrogate.kind.upper()} at the truth {np.round(truth, 2).tolist()} kPa"
+        curves[label] = result.inputs.surrogate.predict(np.asarray(truth, float)[None]).force[0]
     depth = result.inputs.experiment.depths
     title = "example experiment: force against depth"
     figures.save_figure(
