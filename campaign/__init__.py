@@ -8,7 +8,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
     submod_attrs={
         "designs": ["Design", "DesignError", "design_from_option", "paper_grid", "space_filling"],
         "store": ["CampaignError", "CampaignSpec", "CampaignStore"],
-        "loader": ["CampaignData", "force_table", "load_campaign", "open_campaign"],
+        "loader": ["CampaignData", "StoredResponses", "force_table", "load_campaign", "open_campaign"],
         "runner": ["run_campaign", "run_named_campaign"],
     },
 )

@@ -28,10 +28,11 @@ __getattr__, __dir__, _all = lazy.attach(
             "Material",
             "simulate",
         ],
-        "campaign": ["load_campaign", "run_named_campaign"],
+        "campaign": ["StoredResponses", "load_campaign", "run_named_campaign"],
         "surrogate": ["load_surrogate", "save_surrogate", "train_multi_fidelity", "train_surrogate"],
         "design": [
             "PAPER_WEIGHTS",
+            "campaign_error_budget",
             "campaign_objective_map",
             "compare_designs",
             "compare_with_paper",

@@ -60,7 +60,8 @@ class ExperimentPosterior:
             "sigma": self.sigma,
             "carried_to_finer_mesh": self.carried,
             "model_error": None if self.model_error is None else self.model_error.to_dict(),
-            "intervals_include": "measurement noise and model error (discrepancy, error budget)"
+            "intervals_include": "measurement noise and model error of the mesh and the surrogate (discrepancy, "
+            "error budget); not the contact model's (perfect stick assumed)"
             if self.model_error is not None
             else "measurement noise only: the surrogate has no high-fidelity level (no model error)",
             "inputs": {**self.inputs.sources, "weights": self.inputs.eta.tolist()},
