@@ -103,10 +103,16 @@ def fit_parameters(
         message = f"F < {f_stop:g} (the paper's stopping rule)"
     theta = np.exp(z)
     r, J = evaluate(z)
+    return _fit_result(objective, eta, theta, r, J, s, alpha, history, t0, message)
+
+
+def _fit_result(objective, eta, theta, r, J, s, alpha, history, t0, message) -> FitResult:
+    """The FitResult at ``theta`` from its residuals and Jacobian in log theta: F, the Gauss-Newton
+    Hessian (log theta is theta_bar - 1 to first order), s of eq. 8 unless given, eq. 6 bounds."""
     F = float(r @ r)
-    H = 2.0 * J.T @ J  # Gauss-Newton in log(theta), which is theta_bar - 1 to first order
-    n, p = objective.data_points(eta), theta.size
-    s_used = s if s is not None else s_from_data(F, n, p, alpha)
+    H = 2.0 * J.T @ J
+    n = objective.data_points(eta)
+    s_used = s if s is not None else s_from_data(F, n, theta.size, alpha)
     return FitResult(
         theta=theta,
         F=F,
@@ -150,25 +156,12 @@ def gauss_newton_refine(
     message = f"Gauss-Newton: {max_steps} steps without reaching the tolerance"
     for _ in range(max_steps):
         r, J = _residuals_at(objective, predictor, eta, theta)
-        F = float(r @ r)
-        history.append((theta.tolist(), F))
+        history.append((theta.tolist(), float(r @ r)))
         delta, *_ = np.linalg.lstsq(J, -r, rcond=None)
-        H = 2.0 * J.T @ J
-        s = s_from_data(F, n, p, alpha)
-        half = bounds_pct(H, s) / 100.0
+        half = bounds_pct(2.0 * J.T @ J, s_from_data(float(r @ r), n, p, alpha)) / 100.0
         theta = theta * np.exp(delta)
         if np.all(np.abs(delta) <= tolerance * half):
             message = f"Gauss-Newton: last step {np.round(100 * delta, 3).tolist()} % within {tolerance:.2g} of the bounds"
             break
-    return FitResult(
-        theta=theta,
-        F=F,
-        hessian=H,
-        s=s,
-        bounds_pct=bounds_pct(H, s),
-        n_residuals=n,
-        evaluations=len(history),
-        wall_s=time.perf_counter() - t0,
-        message=message,
-        history=history,
-    )
+    # F, the Hessian and s of the last evaluation, at the stepped theta (first order)
+    return _fit_result(objective, eta, theta, r, J, None, alpha, history, t0, message)
