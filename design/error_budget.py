@@ -166,12 +166,18 @@ def compute_error_budget(
     fe_steps: int = 3,
     progress: Callable[[str], None] | None = None,
     fov_mm: float | None = 25.0,
+    done_rows: Sequence[dict] = (),
+    on_row: Callable[[ErrorBudget], None] | None = None,
 ) -> ErrorBudget:
     """Fit each of ``models`` (name -> Predictor: an FE model or a surrogate) to each noise-free
     ``reference`` response and tabulate the biases beside the typical 95 % half-width.
     ``fe_models`` (name -> the FE Predictor a surrogate of that name emulates) splits a
     surrogate's bias into discretisation and surrogate parts. Only the top nodes within ``fov_mm``
-    of the indentation axis are measured (a DIC field of view; None: the whole top)."""
+    of the indentation axis are measured (a DIC field of view; None: the whole top).
+
+    ``done_rows`` are rows of an earlier, interrupted budget with the same settings (as in its
+    JSON): those (model, test point) pairs are kept, not fitted again. ``on_row`` is called with
+    the budget so far after every new row, so that a caller can save it as it grows."""
     eta = check_weights(weights)
     if not reference:
         raise ValueError("the error budget needs at least one reference response")
@@ -179,13 +185,24 @@ def compute_error_budget(
         raise ValueError(f"noise levels must be positive, got {force_noise}, {dic_noise}")
     fe_models = dict(fe_models or {})
     rows = []
+    previous = {_row_key(r["model"], (r["c1_true"], r["c5_true"])): dict(r) for r in done_rows}
+
+    def budget() -> ErrorBudget:
+        table = pd.DataFrame(rows)
+        return ErrorBudget(table, eta, force_noise, dic_noise, dict(reference_source or {}), fov_mm)
+
     for name, model in models.items():
-        top = model_top_xyz(model)
+        top = None
         fe = fe_models.get(name)
         for result in reference:
             _check_same_test(name, model, result)
             m = result.spec["material"]
             theta_t = np.array([m["c1"], m["c5"]], float)
+            key = _row_key(name, theta_t)
+            if key in previous:
+                rows.append(previous[key])
+                continue
+            top = model_top_xyz(model) if top is None else top
             if progress is not None:
                 progress(f"{name} at {theta_t.round(3).tolist()} kPa")
             target = reference_prediction(result, top)
@@ -209,7 +226,14 @@ def compute_error_budget(
                 row |= {"c1_discretisation_pct": disc[0], "c5_discretisation_pct": disc[1]}
                 row |= {"c1_surrogate_pct": bias[0] - disc[0], "c5_surrogate_pct": bias[1] - disc[1]}
             rows.append(row)
-    return ErrorBudget(pd.DataFrame(rows), eta, force_noise, dic_noise, dict(reference_source or {}), fov_mm)
+            if on_row is not None:
+                on_row(budget())
+    return budget()
+
+
+def _row_key(model: str, theta_t) -> tuple:
+    """A (model, test point) pair, the unit an interrupted budget resumes by."""
+    return (str(model), *(round(float(t), 9) for t in theta_t))
 
 
 def resolve_model(name: str, reference_spec, fe_cache: dict | None = None) -> tuple[object, object | None]:
@@ -271,9 +295,14 @@ def campaign_error_budget(
     runs_dir="runs",
     progress: Callable[[str], None] | None = None,
     fov_mm: float | None = 25.0,
+    out=None,
 ) -> ErrorBudget:
-    """:func:`error_budget` with the reference given as a campaign (name or folder: its done points
-    are the test points) and the models by name (:func:`resolve_model`)."""
+    """:func:`compute_error_budget` with the reference given as a campaign (name or folder: its
+    done points are the test points) and the models by name (:func:`resolve_model`).
+
+    With ``out`` (a JSON path) the budget is saved after every row (``"complete": false`` until
+    the end), and a budget stopped before its end resumes from that file when run again with the
+    same reference and settings: finished rows are not fitted again."""
     from ..campaign.loader import open_campaign
 
     store = open_campaign(reference, runs_dir)
@@ -287,9 +316,49 @@ def campaign_error_budget(
         if fe is not None:
             fe_models[name] = fe
     source = {"campaign": str(store.root), "points": len(results), "model": store.spec.model.to_dict()}
-    return compute_error_budget(
-        results, predictors, fe_models, weights, force_noise, dic_noise, source, fe_steps, progress, fov_mm
+    settings = {"weights": check_weights(weights).tolist(), "force_noise": force_noise}
+    settings |= {"dic_noise_mm": dic_noise, "field_of_view_mm": fov_mm, "fe_steps": fe_steps}
+    done_rows = _resumable_rows(out, source, settings) if out is not None else []
+    if done_rows and progress is not None:
+        progress(f"resuming {out}: {len(done_rows)} rows kept")
+
+    def save(partial: ErrorBudget, complete: bool = False) -> None:
+        from ..atomic_write import atomic_write_json
+
+        atomic_write_json(out, partial.to_dict() | {"fe_steps": fe_steps, "complete": complete})
+
+    budget = compute_error_budget(
+        results,
+        predictors,
+        fe_models,
+        weights,
+        force_noise,
+        dic_noise,
+        source,
+        fe_steps,
+        progress,
+        fov_mm,
+        done_rows=done_rows,
+        on_row=save if out is not None else None,
     )
+    if out is not None:
+        save(budget, complete=True)
+    return budget
+
+
+def _resumable_rows(out, source: dict, settings: dict) -> list[dict]:
+    """Rows of an earlier budget at ``out`` made with the same reference and settings (none if
+    the file is absent, unreadable, or was made otherwise)."""
+    import json
+    from pathlib import Path
+
+    try:
+        payload = json.loads(Path(out).read_text())
+    except (OSError, ValueError):
+        return []
+    same = payload.get("reference") == json.loads(json.dumps(source))
+    same &= all(payload.get(k) == json.loads(json.dumps(v)) for k, v in settings.items())
+    return list(payload.get("rows", [])) if same else []
 
 
 def remaining_bias(budget_file, model: str) -> dict:

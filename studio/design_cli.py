@@ -418,10 +418,13 @@ def error_budget_cmd(
     as_json: JSON = False,
 ) -> None:
     """The error budget of models: the bias each causes in a fit of the reference's noise-free
-    responses, beside a typical experiment's 95 % half-width (converged: bias below a third)."""
+    responses, beside a typical experiment's 95 % half-width (converged: bias below a third).
+    The JSON is saved after every row; run again with the same settings to resume a stopped one."""
+    from ..campaign.loader import open_campaign
     from ..design.error_budget import campaign_error_budget
 
     try:
+        path = out or open_campaign(reference, runs_dir).root / "error-budget.json"
         budget = campaign_error_budget(
             reference,
             model,
@@ -432,12 +435,11 @@ def error_budget_cmd(
             runs_dir,
             err.print,
             fov or None,
+            out=path,
         )
     except (SpecError, ValueError, OSError) as exc:
         fail(str(exc), as_json)
-    payload = budget.to_dict()
-    path = out or Path(budget.reference["campaign"]) / "error-budget.json"
-    atomic_write_json(path, payload)
+    payload = budget.to_dict() | {"fe_steps": fe_steps, "complete": True}
     payload["json_file"] = str(path)
     if as_json:
         print(json.dumps(payload, default=float))

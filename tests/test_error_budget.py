@@ -99,6 +99,22 @@ def test_error_budget_command(tmp_path):
     )
     with pytest.raises(ValueError, match="no model 'fine'"):
         remaining_bias(tmp_path / "ref" / "error-budget.json", "fine")
+
+    # a budget stopped after its first row resumes from its file: the kept row is not fitted again
+    path = tmp_path / "ref" / "error-budget.json"
+    partial = json.loads(path.read_text())
+    assert partial["complete"] is True and partial["fe_steps"] == 1
+    partial["rows"] = partial["rows"][:1]
+    partial["rows"][0]["c5_bias_pct"] = 123.0  # a mark: only a resumed row keeps it
+    partial["complete"] = False
+    path.write_text(json.dumps(partial))
+    resumed = json.loads(CliRunner().invoke(app, [*args, "--fe-steps", "1", "--json"]).stdout)
+    assert resumed["complete"] is True
+    assert [r["c5_bias_pct"] for r in resumed["rows"]] == [123.0, payload["rows"][1]["c5_bias_pct"]]
+    # other settings start afresh
+    path.write_text(json.dumps(partial))
+    fresh = json.loads(CliRunner().invoke(app, [*args, "--fe-steps", "2", "--json"]).stdout)
+    assert fresh["rows"][0]["c5_bias_pct"] != 123.0 and len(fresh["rows"]) == 2
     bad = CliRunner().invoke(
         app,
         ["design", "error-budget", "--reference", "ref", "--model", "nowhere", "--runs-dir", str(tmp_path)],
