@@ -16,6 +16,7 @@ with right-hand side -dR/dtheta (the internal force is linear in c1 and c5).
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import logging
 import time
@@ -70,6 +71,29 @@ SENSITIVITY_RTOL = 1e-11
 #: Meshes with at least this many dofs factorise in single precision (PARDISO): the factorisation
 #: only preconditions CG and makes corrections that Newton's residual checks, and costs half.
 SINGLE_PRECISION_DOFS = 20_000
+#: Meshes below this many dofs run on one thread (numba's kernel and MKL's PARDISO alike): their
+#: kernels and back-substitutions last milliseconds, where two thread pools handing the cores to
+#: each other cost more than they share (``default``: 6.0 s -> 2.7 s on 2 cores, README "Speed").
+THREADED_DOFS = 20_000
+
+
+@contextlib.contextmanager
+def thread_limits(threads: int | None):
+    """Limit numba's and the BLAS/OpenMP libraries' (MKL's PARDISO) threads within the block;
+    None leaves them as they are. numba's count is restored on exit."""
+    if threads is None:
+        yield
+        return
+    import numba
+    from threadpoolctl import threadpool_limits
+
+    before = numba.get_num_threads()
+    numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+    try:
+        with threadpool_limits(threads):
+            yield
+    finally:
+        numba.set_num_threads(before)
 
 
 _STRUCTURES: dict[bytes, tuple[ReferenceGeometry, SparsePattern]] = {}
@@ -408,7 +432,8 @@ class EmbeddedSolver:
         ``full_field`` keeps every node's displacement per step (for VTU export). The linear
         solver's memory (PARDISO keeps its factors outside Python) is freed at the end."""
         try:
-            result = self._run(sensitivities, progress, full_field)
+            with thread_limits(1 if self.n_dofs < THREADED_DOFS else None):
+                result = self._run(sensitivities, progress, full_field)
         finally:
             self.linear.release()
         return result
