@@ -120,3 +120,50 @@ def test_error_budget_command(tmp_path):
         ["design", "error-budget", "--reference", "ref", "--model", "nowhere", "--runs-dir", str(tmp_path)],
     )
     assert bad.exit_code != 0 and "not a mesh preset" in bad.output
+
+
+class _Emulator:
+    """A stand-in surrogate (not an FE model, so fitted by LM): the coarse FE model's answers
+    scaled by a known factor in force, to give it a surrogate part of its own."""
+
+    def __init__(self, fe, factor: float) -> None:
+        self.fe, self.factor = fe, factor
+        self.parameters, self.depth = fe.parameters, np.asarray(fe.spec.protocol.depths)
+        self.top_xyz, self.meta = model_top_xyz(fe), {}
+
+    def predict(self, theta, jacobian: bool = False):
+        from dataclasses import replace
+
+        p = self.fe.predict(theta, jacobian=jacobian)
+        fj = None if p.force_jacobian is None else p.force_jacobian * self.factor
+        return replace(p, force=p.force * self.factor, force_jacobian=fj)
+
+
+def test_surrogate_split_reuses_the_fe_models_row():
+    """A surrogate's discretisation part is its FE model's fit: when that FE model is budgeted
+    too, its row is used (no second fit, the same numbers) and the two parts add up to the bias."""
+    from indentation_studio.forward.predictor import CachedPredictor
+
+    fe = CachedPredictor(FESolverPredictor(COARSE))
+    calls = []
+
+    class Counting(FESolverPredictor):  # an FE model (fitted by Gauss-Newton) that counts its calls
+        def predict(self, theta, jacobian=False):
+            calls.append(jacobian)
+            return fe.predict(theta, jacobian=jacobian)
+
+    reference = [_reference(FINER)]
+    models = {"coarse": fe, "emulator": _Emulator(fe, 1.01)}
+    budget = compute_error_budget(
+        reference, models, {"emulator": Counting(COARSE)}, fe_steps=2, fe_names={"emulator": "coarse"}
+    )
+    fe_row, em_row = budget.table.iloc[0], budget.table.iloc[1]
+    assert calls == []  # the FE fit was taken from the 'coarse' row
+    assert em_row.c5_discretisation_pct == pytest.approx(fe_row.c5_bias_pct, abs=1e-12)
+    assert em_row.c5_discretisation_pct + em_row.c5_surrogate_pct == pytest.approx(em_row.c5_bias_pct)
+    assert abs(em_row.c5_surrogate_pct) > 0.1  # a 1 % force error does move the fit
+    # without the name the split fits the FE model itself, to the same numbers
+    again = compute_error_budget(
+        reference, {"emulator": models["emulator"]}, {"emulator": Counting(COARSE)}, fe_steps=2
+    )
+    assert calls and again.table.iloc[0].c5_discretisation_pct == pytest.approx(fe_row.c5_bias_pct, abs=1e-9)
