@@ -20,6 +20,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -39,6 +40,7 @@ __all__ = [
     "noise_objective_value",
     "remaining_bias",
     "resolve_model",
+    "shipped_budget",
 ]
 
 #: A model is good enough for a test when its bias is below this fraction of the test's half-width.
@@ -403,3 +405,49 @@ def remaining_bias(budget_file, model: str) -> dict:
         "c5_pct": float(row["c5_max_bias_pct"]),
         "source": {"file": str(budget_file), "model": model, "points": int(row["points"])},
     }
+
+
+#: Error budgets measured for the studio (``indent-studio design error-budget``) and shipped with it.
+SHIPPED_BUDGETS = Path(__file__).resolve().parents[1] / "indentation_studio" / "error_budgets"
+
+
+def _test_of(model: dict) -> dict:
+    """What makes two specs the same test for an error budget: everything but the mesh, the
+    solver's options and the parameters (c1, c5)."""
+    material = {k: v for k, v in (model.get("material") or {}).items() if k not in ("c1", "c5")}
+    return {k: model.get(k) for k in ("geometry", "indenter", "protocol")} | {"material": material}
+
+
+def shipped_budget(spec, folder: str | Path | None = None) -> dict | None:
+    """What a shipped error budget leaves for ``spec``'s mesh (:func:`remaining_bias`), when one was
+    measured for the same test (geometry, indenter, protocol, kappa, fibers) and that mesh preset;
+    None otherwise. A surrogate trained on such a campaign carries it in its fits' bounds."""
+    import json
+
+    model = spec.to_dict() if hasattr(spec, "to_dict") else dict(spec)
+    preset = (model.get("mesh") or {}).get("preset")
+    if preset is None:
+        return None
+    test = json.loads(json.dumps(_test_of(model)))
+    for path in sorted(Path(folder or SHIPPED_BUDGETS).glob("*.json")):
+        try:
+            payload = json.loads(path.read_text())
+            reference = payload["reference"]["model"]
+        except (OSError, ValueError, KeyError, TypeError):
+            continue
+        if json.loads(json.dumps(_test_of(reference))) != test:
+            continue
+        if not payload.get("complete", True):
+            continue
+        try:
+            left = remaining_bias(path, preset)
+        except ValueError:
+            continue
+        left["source"] |= {
+            "file": f"indentation_studio/error_budgets/{path.name}" if folder is None else str(path),
+            "reference_mesh": (reference.get("mesh") or {}).get("preset"),
+            "field_of_view_mm": payload.get("field_of_view_mm"),
+            "weights": payload.get("weights"),
+        }
+        return left
+    return None

@@ -18,16 +18,7 @@ from .experiment_data import ExperimentData
 from .fit_inputs import FitInputs, prepare_fit
 from .inverse_fit import PAPER_F_STOP, FitResult, fit_parameters, gauss_newton_refine
 from .mesh_check import MeshCheck, check_mesh_at
-from .model_error import ModelError, combined_pct, has_high_fidelity_level, model_error_at
-
-#: What a fit's bounds hold, as fit.json and the CLI say it.
-WITH_MODEL_ERROR = (
-    "statistical (eq. 6 to 8) and model error (the discrepancy's uncertainty and the error budget)"
-)
-WITHOUT_MODEL_ERROR = (
-    "statistical only (eq. 6 to 8): the surrogate has no high-fidelity level, so these bounds hold no model "
-    "error (mesh, contact); train a multi-fidelity surrogate or use --check-mesh"
-)
+from .model_error import ModelError, combined_pct, has_high_fidelity_level, model_error_at, model_error_scope
 
 __all__ = ["ExperimentFit", "fit_experiment"]
 
@@ -58,7 +49,7 @@ class ExperimentFit:
             "c5": float(final.theta[1]),
             "c1_pct": float(self.bounds_pct[0]),
             "c5_pct": float(self.bounds_pct[1]),
-            "bounds_include": WITH_MODEL_ERROR if self.model_error is not None else WITHOUT_MODEL_ERROR,
+            "bounds_include": model_error_scope(self.model_error),
             "statistical_pct": final.bounds_pct.tolist(),
             "model_error": None if self.model_error is None else self.model_error.to_dict(),
             "F": final.F,
@@ -122,8 +113,7 @@ def fit_experiment(
     check = None
     if check_mesh is not None:
         check, _ = check_mesh_at(inputs.spec, inputs.objective, inputs.eta, final.theta, check_mesh, say)
-    model_error = None
     if two_level:
         say("the model error at the fit (discrepancy and error budget) ...")
-        model_error = model_error_at(inputs.objective, inputs.eta, inputs.surrogate, final.theta)
+    model_error = model_error_at(inputs.objective, inputs.eta, inputs.surrogate, final.theta)
     return ExperimentFit(inputs, first, final, refine, check, check_mesh, model_error)

@@ -18,7 +18,7 @@ from .experiment_data import ExperimentData
 from .fit_inputs import FitInputs, prepare_fit
 from .inverse_fit import FitResult, fit_parameters
 from .mesh_check import load_mesh_check
-from .model_error import ModelError, has_high_fidelity_level, model_error_at, with_model_error
+from .model_error import ModelError, model_error_at, model_error_scope, with_model_error
 from .posterior import Posterior, carried_to_finer_mesh, sample_posterior
 
 __all__ = ["ExperimentPosterior", "sample_posterior_for"]
@@ -60,10 +60,9 @@ class ExperimentPosterior:
             "sigma": self.sigma,
             "carried_to_finer_mesh": self.carried,
             "model_error": None if self.model_error is None else self.model_error.to_dict(),
-            "intervals_include": "measurement noise and model error of the mesh and the surrogate (discrepancy, "
-            "error budget); not the contact model's (perfect stick assumed)"
-            if self.model_error is not None
-            else "measurement noise only: the surrogate has no high-fidelity level (no model error)",
+            "intervals_include": model_error_scope(self.model_error).replace(
+                "statistical (eq. 6 to 8)", "measurement noise"
+            ),
             "inputs": {**self.inputs.sources, "weights": self.inputs.eta.tolist()},
         }
 
@@ -98,9 +97,8 @@ def sample_posterior_for(
     say(f"sampling with {walkers} walkers x {steps} steps (sigma = {sigma:.3g}) ...")
     box = (model.scaler.lo, model.scaler.hi)
     post = sample_posterior(inputs.objective, model, inputs.eta, sigma, box, fit.theta, walkers, steps, seed)
-    model_error = None
-    if has_high_fidelity_level(model):
-        model_error = model_error_at(inputs.objective, inputs.eta, model, fit.theta)
+    model_error = model_error_at(inputs.objective, inputs.eta, model, fit.theta)
+    if model_error is not None:
         post = replace(post, samples=with_model_error(post.samples, model_error, seed))
     carried = None
     if mesh_check is not None:

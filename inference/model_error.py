@@ -11,6 +11,10 @@ multi-fidelity surrogate also knows two model errors, which are reported beside 
   reference at the budget's test points (``design.error_budget``), a systematic half-width
   recorded in the surrogate's provenance (``meta['error_budget']``).
 
+A single-level surrogate knows the second part only, when an error budget of its own mesh for the
+same test is known (given at training, or shipped with the studio:
+:func:`design.error_budget.shipped_budget`); its bounds then hold that mesh's error and say so.
+
 Both are 95 % half-widths in percent of theta_hat and are combined with the statistical one by
 root sum of squares (independent sources, as ASME V&V 20 combines uncertainties).
 """
@@ -24,7 +28,7 @@ import numpy as np
 from ..design.objective import Objective, check_weights
 from ..forward.predictor import Prediction
 
-__all__ = ["Z95", "ModelError", "combined_pct", "model_error_at", "with_model_error"]
+__all__ = ["Z95", "ModelError", "combined_pct", "model_error_at", "model_error_scope", "with_model_error"]
 
 Z95 = 1.959963984540054
 
@@ -37,6 +41,7 @@ class ModelError:
     budget_pct: np.ndarray  # the high-fidelity mesh's remaining bias (error budget)
     covariance_log: np.ndarray  # (p, p) the discrepancy part's covariance of log theta
     budget_source: dict | None = None  # what the budget part was read from
+    has_discrepancy: bool = True  # False: a single-level surrogate, the mesh's error budget only
 
     @property
     def half_width_pct(self) -> np.ndarray:
@@ -52,7 +57,34 @@ class ModelError:
             "error_budget_pct": self.budget_pct.tolist(),
             "model_pct": self.half_width_pct.tolist(),
             "error_budget_source": self.budget_source,
+            "includes": model_error_scope(self),
         }
+
+
+def model_error_scope(model: ModelError | None) -> str:
+    """What a fit's bounds (or a posterior's intervals) hold, in words, as fit.json and the CLI
+    say it: a reported bound must always say what it includes."""
+    if model is None:
+        return (
+            "statistical only (eq. 6 to 8): no error budget is known for this surrogate's mesh and test "
+            "and it has no high-fidelity level, so these bounds hold no model error (mesh, contact); "
+            "train a multi-fidelity surrogate, give the surrogate an error budget or use --check-mesh"
+        )
+    budget = ""
+    if model.budget_source:
+        src = model.budget_source
+        budget = (
+            f" ({src.get('model')}'s largest bias at {src.get('points')} test points of {src.get('file')})"
+        )
+    if not model.has_discrepancy:
+        return (
+            f"statistical (eq. 6 to 8) and the mesh's error budget{budget}; not the surrogate's own error "
+            "nor the contact model's (perfect stick assumed)"
+        )
+    return (
+        "statistical (eq. 6 to 8) and model error (the discrepancy's uncertainty and the error "
+        f"budget{budget}); not the contact model's (perfect stick assumed)"
+    )
 
 
 def combined_pct(statistical_pct: np.ndarray, model: ModelError | None) -> np.ndarray:
@@ -78,10 +110,16 @@ def _perturbed(prediction: Prediction, force_log: np.ndarray, field: np.ndarray)
 
 
 def model_error_at(objective: Objective, eta, surrogate, theta: np.ndarray) -> ModelError | None:
-    """The model-error parts at the fit ``theta`` on ``surrogate``; None for a surrogate without a
-    high-fidelity level (its bounds then hold no model error, and say so)."""
+    """The model-error parts at the fit ``theta`` on ``surrogate``. A single-level surrogate with an
+    error budget of its mesh (``meta['error_budget']``) carries that budget alone; one with
+    neither gives None (its bounds then hold no model error, and say so)."""
+    budget = (getattr(surrogate, "meta", {}) or {}).get("error_budget") or {}
+    budget_pct = np.array([float(budget.get(f"{name}_pct", 0.0)) for name in surrogate.parameters])
     if not has_high_fidelity_level(surrogate):
-        return None
+        if not budget:
+            return None
+        p = len(surrogate.parameters)
+        return ModelError(np.zeros(p), budget_pct, np.zeros((p, p)), budget.get("source"), False)
     e = check_weights(eta)
     theta = np.asarray(theta, float)
     pred = surrogate.predict(theta[None, :], jacobian=True)
@@ -99,8 +137,6 @@ def model_error_at(objective: Objective, eta, surrogate, theta: np.ndarray) -> M
     A = np.linalg.solve(J.T @ J, J.T)  # (p, m)
     moves = -dr @ A.T  # (k, p) in log theta
     cov = moves.T @ moves
-    budget = (getattr(surrogate, "meta", {}) or {}).get("error_budget") or {}
-    budget_pct = np.array([float(budget.get(f"{name}_pct", 0.0)) for name in surrogate.parameters])
     return ModelError(
         discrepancy_pct=100.0 * Z95 * np.sqrt(np.diag(cov)),
         budget_pct=budget_pct,

@@ -86,8 +86,7 @@ def fit(
             f"{m['model_pct'][1]:.2f} % (discrepancy {m['discrepancy_pct'][0]:.2f} / {m['discrepancy_pct'][1]:.2f}, "
             f"error budget {m['error_budget_pct'][0]:.2f} / {m['error_budget_pct'][1]:.2f})"
         )
-    else:
-        Console().print(f"  bounds: {payload['bounds_include']}")
+    Console().print(f"  bounds: {payload['bounds_include']}")
     check = payload["mesh_check"]
     if check is not None:
         t, u = check["theta_on_finer_mesh"], check["corrected_combined_pct"]

@@ -43,22 +43,48 @@ def _errors_table(title: str, rows: dict[str, dict]) -> None:
     Console(width=120).print(table)
 
 
+def _budget_for(
+    error_budget: Path | None, budget_model: str | None, campaign: str, runs_dir: Path
+) -> dict | None:
+    """What ``error_budget`` leaves for the campaign's mesh (named ``budget_model`` in it); None
+    when no file is given (the training then takes the shipped budget for that mesh, if any)."""
+    from ..campaign.loader import open_campaign
+    from ..design.error_budget import remaining_bias
+
+    if error_budget is None:
+        return None
+    mesh = open_campaign(campaign, runs_dir).spec.model.mesh
+    return remaining_bias(error_budget, budget_model or mesh.preset or str(mesh.feb_file))
+
+
+def _say_budget(budget: dict | None, what: str) -> None:
+    if budget is not None:
+        Console().print(
+            f"error budget left for {what}: c1 {budget['c1_pct']:.2f} %, c5 {budget['c5_pct']:.2f} % "
+            f"(from {budget['source']['file']}): fits carry it in their bounds"
+        )
+
+
+ERROR_BUDGET = Annotated[
+    Path | None,
+    typer.Option(
+        help="an error-budget.json: what it leaves for the mesh joins every fit's bounds "
+        "(default: the studio's shipped budget for that mesh and test, if any)"
+    ),
+]
+BUDGET_MODEL = Annotated[
+    str | None, typer.Option(help="the mesh's name in that budget (default: its mesh preset)")
+]
+
+
 @surrogate_app.command("train-mf")
 def train_mf(
     low: Annotated[Path, typer.Option(help="the low-fidelity surrogate file (trained on a large campaign)")],
     campaign: Annotated[
         str, typer.Option(help="the high-fidelity campaign (tens of points on a finer mesh)")
     ],
-    error_budget: Annotated[
-        Path | None,
-        typer.Option(
-            help="an error-budget.json: what it leaves for the high-fidelity mesh joins every fit's bounds"
-        ),
-    ] = None,
-    budget_model: Annotated[
-        str | None,
-        typer.Option(help="the high-fidelity mesh's name in that budget (default: its mesh preset)"),
-    ] = None,
+    error_budget: ERROR_BUDGET = None,
+    budget_model: BUDGET_MODEL = None,
     test_campaign: Annotated[
         str | None, typer.Option(help="a high-fidelity campaign of points to test on")
     ] = None,
@@ -72,16 +98,11 @@ def train_mf(
     """Train a multi-fidelity surrogate: the low-fidelity surrogate corrected by a GP of its
     discrepancy from the high-fidelity campaign; fits on it refine on the high-fidelity mesh and carry
     the discrepancy's uncertainty (and the error budget's remaining bias) in their bounds."""
-    from ..campaign.loader import open_campaign
-    from ..design.error_budget import remaining_bias
     from ..surrogate.persistence import save_surrogate
     from ..surrogate.training import train_multi_fidelity
 
     try:
-        budget = None
-        if error_budget is not None:
-            mesh = open_campaign(campaign, runs_dir).spec.model.mesh
-            budget = remaining_bias(error_budget, budget_model or mesh.preset or str(mesh.feb_file))
+        budget = _budget_for(error_budget, budget_model, campaign, runs_dir)
         err.print(f"training a multi-fidelity surrogate: {low} corrected by {campaign!r} ...")
         model = train_multi_fidelity(
             low, campaign, test_campaign=test_campaign, seed=seed, runs_dir=runs_dir, error_budget=budget
@@ -101,12 +122,12 @@ def train_mf(
         print(json.dumps(payload, default=float))
         return
     _errors_table(f"multi-fidelity surrogate {path}", model.meta["validation"])
-    if budget is not None:
+    budget = model.meta.get("error_budget")
+    _say_budget(budget, "the high-fidelity mesh")
+    if budget is None:
         Console().print(
-            f"error budget left for the high-fidelity mesh: c1 {budget['c1_pct']:.2f} %, c5 {budget['c5_pct']:.2f} %"
+            "no error budget known for that mesh: fits will carry the discrepancy's uncertainty only"
         )
-    else:
-        Console().print("no error budget given: fits will carry the discrepancy's uncertainty only")
 
 
 @surrogate_app.command("train")
@@ -123,6 +144,8 @@ def train(
     out: Annotated[
         Path | None, typer.Option(help="model file (default runs/<campaign>/surrogate-<kind>.safetensors)")
     ] = None,
+    error_budget: ERROR_BUDGET = None,
+    budget_model: BUDGET_MODEL = None,
     runs_dir: RUNS_DIR = Path("runs"),
     as_json: JSON = False,
 ) -> None:
@@ -132,8 +155,9 @@ def train(
 
     try:
         err.print(f"training a {kind.value} surrogate on {campaign!r} ({kfold}-fold cross-validation) ...")
+        budget = _budget_for(error_budget, budget_model, campaign, runs_dir)
         model = train_surrogate(
-            campaign, kind.value, input_scale, pca_tol, test_campaign, kfold, seed, runs_dir
+            campaign, kind.value, input_scale, pca_tol, test_campaign, kfold, seed, runs_dir, budget
         )
         validation = model.meta["validation"]
         name = model.meta["campaign"].get("name", campaign)
@@ -143,6 +167,7 @@ def train(
     payload = {
         "model_file": str(path),
         "kind": kind.value,
+        "error_budget": model.meta.get("error_budget"),
         "fit_s": model.meta["fit_s"],
         "force_components": model.meta["force_components"],
         "field_components": model.meta["field_components"],
@@ -153,6 +178,11 @@ def train(
         return
     _errors_table(f"{kind.value} surrogate of {campaign!r}: errors (percent)", validation)
     Console().print(f"saved {path} (fit {model.meta['fit_s']:.1f} s)")
+    _say_budget(model.meta.get("error_budget"), "its mesh")
+    if model.meta.get("error_budget") is None:
+        Console().print(
+            "no error budget known for its mesh and test: fits will say their bounds hold no model error"
+        )
 
 
 @surrogate_app.command("evaluate")

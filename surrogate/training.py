@@ -52,9 +52,13 @@ def train_surrogate(
     kfold: int = 0,
     seed: int = 0,
     runs_dir: str | Path = "runs",
+    error_budget: dict | None = None,
 ) -> FieldSurrogate:
     """Train a ``kind`` surrogate on ``campaign``; its errors on the training points, by ``kfold``
-    cross-validation and on ``test_campaign`` go to ``model.meta['validation']`` (percent)."""
+    cross-validation and on ``test_campaign`` go to ``model.meta['validation']`` (percent).
+    ``error_budget`` (what a budget leaves for the campaign's mesh,
+    :func:`design.error_budget.remaining_bias`; default: the studio's shipped budget for that
+    mesh and test, if any) goes to meta['error_budget']: fits carry it in their bounds."""
     data = training_data(campaign, runs_dir)
     model = make_surrogate(kind, input_scale, pca_tol).fit(data, seed=seed)
     validation = {"training": prediction_errors(model, data)}
@@ -65,7 +69,19 @@ def train_surrogate(
     if test_campaign is not None:
         validation["test"] = prediction_errors(model, training_data(test_campaign, runs_dir))
     model.meta["validation"] = validation
+    _record_error_budget(model, error_budget)
     return model
+
+
+def _record_error_budget(model: FieldSurrogate, error_budget: dict | None) -> None:
+    """meta['error_budget']: the one given, else the shipped one for the FE model the surrogate
+    emulates (meta['campaign']['model']), else None (fits then say their bounds hold no model error)."""
+    from ..design.error_budget import shipped_budget
+
+    if error_budget is None:
+        spec = (model.meta.get("campaign") or {}).get("model")
+        error_budget = shipped_budget(spec) if spec else None
+    model.meta["error_budget"] = None if error_budget is None else dict(error_budget)
 
 
 def train_multi_fidelity(
@@ -86,8 +102,9 @@ def train_multi_fidelity(
     campaign's. The discrepancy's ``folds``-fold errors go to meta['discrepancy_kfold'] (force %,
     field mm); its errors on the training points and on ``test_campaign`` (percent, as for
     :func:`train_surrogate`) to meta['validation']. ``error_budget`` (what the budget leaves for the
-    high-fidelity mesh, :func:`design.error_budget.remaining_bias`) goes to meta['error_budget'],
-    where fits read the systematic part of their model error."""
+    high-fidelity mesh, :func:`design.error_budget.remaining_bias`; default: the shipped budget for
+    that mesh and test, if any) goes to meta['error_budget'], where fits read the systematic part
+    of their model error."""
     from .multi_fidelity import MultiFidelitySurrogate
     from .persistence import load_surrogate
 
@@ -100,6 +117,5 @@ def train_multi_fidelity(
     if test_campaign is not None:
         validation["test"] = prediction_errors(model, training_data(test_campaign, runs_dir))
     model.meta["validation"] = validation
-    if error_budget is not None:
-        model.meta["error_budget"] = dict(error_budget)
+    _record_error_budget(model, error_budget)
     return model

@@ -167,3 +167,65 @@ def test_surrogate_split_reuses_the_fe_models_row():
         reference, {"emulator": models["emulator"]}, {"emulator": Counting(COARSE)}, fe_steps=2
     )
     assert calls and again.table.iloc[0].c5_discretisation_pct == pytest.approx(fe_row.c5_bias_pct, abs=1e-9)
+
+
+def _budget_file(folder, reference_spec: ModelSpec, rows: list[dict], complete: bool = True):
+    import json
+
+    from indentation_studio.design.error_budget import ErrorBudget
+
+    budget = ErrorBudget(
+        __import__("pandas").DataFrame(rows),
+        np.asarray(PAPER_WEIGHTS, float),
+        0.02,
+        0.02,
+        {"campaign": "ref", "points": 2, "model": reference_spec.to_dict()},
+    )
+    path = folder / "budget.json"
+    path.write_text(json.dumps(budget.to_dict() | {"complete": complete}))
+    return path
+
+
+def test_shipped_budget_applies_to_the_same_test_only(tmp_path):
+    """A shipped budget gives a mesh its largest bias when the test (radius, protocol, kappa,
+    fibers) is the budget's, whatever c1 and c5; another radius, an unbudgeted mesh or an
+    unfinished budget give None."""
+    from dataclasses import replace
+
+    from indentation_studio.design.error_budget import shipped_budget
+    from indentation_studio.forward.spec import Indenter
+
+    reference = replace(FINER, mesh=MeshChoice("reference"))
+    row = {"c1_half_width_pct": 0.2, "c5_half_width_pct": 1.0, "c1_fit": 1.0, "c5_fit": 1.0}
+    rows = [
+        {"model": "coarse", "c1_true": 3.0, "c5_true": 120.0, "c1_bias_pct": -2.5, "c5_bias_pct": 7.0} | row,
+        {"model": "coarse", "c1_true": 19.0, "c5_true": 540.0, "c1_bias_pct": 1.0, "c5_bias_pct": -21.0}
+        | row,
+    ]
+    _budget_file(tmp_path, reference, rows)
+    left = shipped_budget(COARSE.with_material(c1=12.0, c5=250.0), tmp_path)
+    assert left["c1_pct"] == 2.5 and left["c5_pct"] == 21.0
+    assert left["source"]["reference_mesh"] == "reference" and left["source"]["points"] == 2
+    assert shipped_budget(replace(COARSE, indenter=Indenter(radius=8.0)), tmp_path) is None
+    assert shipped_budget(FINER, tmp_path) is None  # 'default' is not in that budget
+    _budget_file(tmp_path, reference, rows, complete=False)
+    assert shipped_budget(COARSE, tmp_path) is None
+
+
+def test_single_level_surrogate_carries_its_meshs_budget():
+    """A single-level surrogate with an error budget: the model error is that budget alone, the
+    bounds its root sum of squares with the statistical ones, and they say what they hold."""
+    from indentation_studio.inference.model_error import combined_pct, model_error_at, model_error_scope
+
+    fe = FESolverPredictor(COARSE)
+    sur = _Emulator(fe, 1.0)
+    ref = _reference(COARSE)
+    objective = Objective.from_prediction(reference_prediction(ref, ref.top_xyz), radius=4.77)
+    assert model_error_at(objective, PAPER_WEIGHTS, sur, np.array(THETA)) is None
+    assert "hold no model error" in model_error_scope(None)
+    sur.meta = {"error_budget": {"c1_pct": 3.0, "c5_pct": 24.0, "source": {"model": "coarse", "points": 9}}}
+    me = model_error_at(objective, PAPER_WEIGHTS, sur, np.array(THETA))
+    np.testing.assert_allclose(me.half_width_pct, [3.0, 24.0])
+    np.testing.assert_allclose(combined_pct([0.4, 3.2], me), np.hypot([0.4, 3.2], [3.0, 24.0]))
+    assert not me.has_discrepancy and "mesh's error budget" in me.to_dict()["includes"]
+    assert "not the surrogate's own error" in model_error_scope(me)

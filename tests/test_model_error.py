@@ -101,5 +101,12 @@ def test_without_a_high_fidelity_level_there_is_no_model_error():
         discrepancy_covariance_factor = None
 
     model = Plain()
+    budget = model.meta.get("error_budget")
+    model.meta = {}  # no high-fidelity level and no error budget: no model error
     assert model_error_at(_objective(model), PAPER_WEIGHTS, model, TRUTH) is None
+    if budget:  # a single level with its mesh's budget carries that budget alone
+        model.meta = {"error_budget": budget}
+        alone = model_error_at(_objective(model), PAPER_WEIGHTS, model, TRUTH)
+        np.testing.assert_allclose(alone.half_width_pct, [budget["c1_pct"], budget["c5_pct"]])
+        assert not alone.has_discrepancy
     np.testing.assert_allclose(combined_pct([1.0, 3.0], None), [1.0, 3.0])
