@@ -71,8 +71,8 @@ def model_error_scope(model: ModelError | None) -> str:
             "train a multi-fidelity surrogate, give the surrogate an error budget or use --check-mesh"
         )
     budget = ""
-    if model.budget_source:
-        src = model.budget_source
+    src = model.budget_source
+    if isinstance(src, dict) and src.get("model"):
         budget = (
             f" ({src.get('model')}'s largest bias at {src.get('points')} test points of {src.get('file')})"
         )
