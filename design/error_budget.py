@@ -407,8 +407,11 @@ def remaining_bias(budget_file, model: str) -> dict:
     }
 
 
-#: Error budgets measured for the studio (``indent-studio design error-budget``) and shipped with it.
-SHIPPED_BUDGETS = Path(__file__).resolve().parents[1] / "indentation_studio" / "error_budgets"
+def shipped_budgets_folder() -> Path:
+    """Where the shipped budgets are: ``indentation_studio/error_budgets`` (package data)."""
+    from importlib.resources import files
+
+    return Path(str(files("indentation_studio") / "error_budgets"))
 
 
 def _test_of(model: dict) -> dict:
@@ -429,7 +432,7 @@ def shipped_budget(spec, folder: str | Path | None = None) -> dict | None:
     if preset is None:
         return None
     test = json.loads(json.dumps(_test_of(model)))
-    for path in sorted(Path(folder or SHIPPED_BUDGETS).glob("*.json")):
+    for path in sorted(Path(folder or shipped_budgets_folder()).glob("*.json")):
         try:
             payload = json.loads(path.read_text())
             reference = payload["reference"]["model"]
