@@ -93,6 +93,18 @@ def combined_pct(statistical_pct: np.ndarray, model: ModelError | None) -> np.nd
     return stat if model is None else np.hypot(stat, model.half_width_pct)
 
 
+def surrogate_error_budget(surrogate) -> dict | None:
+    """The error budget a surrogate carries: meta['error_budget'] as recorded at training (None:
+    none known then); for a file older than that record, the shipped budget for its FE model."""
+    meta = getattr(surrogate, "meta", {}) or {}
+    if "error_budget" in meta:
+        return meta["error_budget"]
+    from ..design.error_budget import shipped_budget
+
+    model = (meta.get("campaign") or {}).get("model")
+    return shipped_budget(model) if model else None
+
+
 def has_high_fidelity_level(surrogate) -> bool:
     """Whether a surrogate knows a discrepancy to a high-fidelity model (a multi-fidelity one)."""
     return callable(getattr(surrogate, "discrepancy_covariance_factor", None))
@@ -113,7 +125,7 @@ def model_error_at(objective: Objective, eta, surrogate, theta: np.ndarray) -> M
     """The model-error parts at the fit ``theta`` on ``surrogate``. A single-level surrogate with an
     error budget of its mesh (``meta['error_budget']``) carries that budget alone; one with
     neither gives None (its bounds then hold no model error, and say so)."""
-    budget = (getattr(surrogate, "meta", {}) or {}).get("error_budget") or {}
+    budget = surrogate_error_budget(surrogate) or {}
     budget_pct = np.array([float(budget.get(f"{name}_pct", 0.0)) for name in surrogate.parameters])
     if not has_high_fidelity_level(surrogate):
         if not budget:

@@ -232,3 +232,35 @@ def test_single_level_surrogate_carries_its_meshs_budget():
     np.testing.assert_allclose(combined_pct([0.4, 3.2], me), np.hypot([0.4, 3.2], [3.0, 24.0]))
     assert not me.has_discrepancy and "mesh's error budget" in me.to_dict()["includes"]
     assert "not the surrogate's own error" in model_error_scope(me)
+
+
+def test_the_shipped_budget_of_the_paper_test():
+    """The studio ships the 9-point budget of the paper's test against 'reference': a surrogate
+    on 'default' or 'fine' for that test carries what it leaves (from its rows), other meshes and
+    tests none; a surrogate file from before the record takes it at fit time."""
+    from indentation_studio.design.error_budget import shipped_budget, shipped_budgets_folder
+    from indentation_studio.inference.model_error import surrogate_error_budget
+
+    path = shipped_budgets_folder() / "paper-test-R4.77.json"
+    paper = ModelSpec()  # R = 4.77 mm, 28 x 0.5 mm on 'default'
+    for mesh in ("default", "fine"):
+        left = shipped_budget(_on(paper, mesh))
+        assert left["c5_pct"] == pytest.approx(remaining_bias(path, mesh)["c5_pct"])
+        assert left["source"]["points"] == 9 and left["source"]["reference_mesh"] == "reference"
+    assert 20 < shipped_budget(paper)["c5_pct"] < 40  # default: c5 24 % below the truth at {3, 540}
+    assert shipped_budget(_on(paper, "coarse")) is None and shipped_budget(FINER) is None
+
+    class OldFile:  # a surrogate saved before meta['error_budget'] was recorded
+        def __init__(self, meta: dict) -> None:
+            self.meta = meta
+
+    old = OldFile({"campaign": {"model": paper.to_dict()}})
+    assert surrogate_error_budget(old)["source"]["model"] == "default"
+    recorded = OldFile({"campaign": {"model": paper.to_dict()}, "error_budget": None})
+    assert surrogate_error_budget(recorded) is None  # recorded as none: kept
+
+
+def _on(spec: ModelSpec, mesh: str) -> ModelSpec:
+    from dataclasses import replace
+
+    return replace(spec, mesh=MeshChoice(mesh))
