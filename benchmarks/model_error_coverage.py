@@ -58,7 +58,8 @@ def main() -> None:
         d = result.to_dict()
         theta = np.array([d["c1"], d["c5"]])
         half = np.array([d["c1_pct"], d["c5_pct"]])
-        inside = np.abs(theta / truth - 1) * 100 <= half
+        # the bounds are theta_hat (1 +- half / 100): half-widths are in percent of the fit
+        inside = np.abs(truth - theta) <= theta * half / 100
         row = {
             "truth": truth.tolist(),
             "fit": theta.tolist(),
