@@ -30,6 +30,7 @@ from ..inference.confirmation import confirm
 from ..inference.experiment_fit import fit_experiment
 from ..inference.experiment_posterior import sample_posterior_for
 from ..inference.experiment_processing import static_forces
+from ..inference.model_error import model_error_scope
 from ..surrogate.persistence import save_surrogate
 from ..surrogate.training import SURROGATE_KINDS, train_surrogate
 from . import figures
@@ -176,7 +177,10 @@ def _example(experiment, mlp, posterior_steps: int, out: Path, spec: ModelSpec, 
     return {
         "fit": {
             "theta": fit.theta.tolist(),
-            "bounds_pct": fit.bounds_pct.tolist(),
+            "bounds_pct": result.bounds_pct.tolist(),  # statistical and, where known, model error
+            "statistical_pct": fit.bounds_pct.tolist(),
+            "model_error": None if result.model_error is None else result.model_error.to_dict(),
+            "bounds_include": model_error_scope(result.model_error),
             "F": fit.F,
             "s": fit.s,
             "surrogate_theta": result.surrogate_fit.theta.tolist(),

@@ -82,8 +82,10 @@ def write_report(out: Path, results: dict, sections: list[tuple[str, str]]) -> P
     parts.append("<h2>The example experiment</h2>")
     parts.append(
         f"<p>Fit (surrogate, then FE with exact sensitivities): c1 = {fit['theta'][0]:.3f} kPa +- "
-        f"{fit['bounds_pct'][0]:.2f} %, c5 = {fit['theta'][1]:.1f} kPa +- {fit['bounds_pct'][1]:.2f} % (eq. 6 with s "
-        f"= {fit['s']:.3g} from eq. 8); F = {fit['F']:.3g}. Synthetic truth: {_fmt(fit['truth'])}. Posterior median "
+        f"{fit['bounds_pct'][0]:.2f} %, c5 = {fit['theta'][1]:.1f} kPa +- {fit['bounds_pct'][1]:.2f} % (95 %; "
+        f"statistical part eq. 6 with s = {fit['s']:.3g} from eq. 8: +- {_fmt(fit.get('statistical_pct', fit['bounds_pct']))} %). "
+        f"These bounds hold: {html.escape(fit.get('bounds_include', 'the statistical part only'))}. "
+        f"F = {fit['F']:.3g}. Synthetic truth: {_fmt(fit['truth'])}. Posterior median "
         f"{_fmt(post['median'])}, 95 % intervals {_fmt(post['ci95'])}, acceptance {post['acceptance_fraction']:.2f}, "
         f"autocorrelation {_fmt(post['autocorrelation_steps'])} steps. FE confirmation: F(theta_hat) = "
         f"{results['confirmation']['F_fe']:.3g}.</p>"
