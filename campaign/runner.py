@@ -51,11 +51,9 @@ def solve_point(
         "error": None,
     }
     try:
-        import numba
-        from threadpoolctl import threadpool_limits
+        from ..forward.solver import thread_limits
 
-        numba.set_num_threads(1)
-        with threadpool_limits(1):
+        with thread_limits(1):  # one worker per core: numba and MKL on one thread each
             spec = ModelSpec.from_dict(model).with_material(**dict(zip(parameters, values, strict=True)))
             if solver == "febio":
                 from ..forward.febio_runner import FebioSolver, require_equilibrium
