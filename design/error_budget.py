@@ -41,6 +41,7 @@ __all__ = [
     "remaining_bias",
     "resolve_model",
     "shipped_budget",
+    "surrogate_error_budget",
 ]
 
 #: A model is good enough for a test when its bias is below this fraction of the test's half-width.
@@ -458,3 +459,14 @@ def shipped_budget(spec, folder: str | Path | None = None) -> dict | None:
         }
         return left
     return None
+
+
+def surrogate_error_budget(surrogate) -> dict | None:
+    """The error budget a surrogate carries: meta['error_budget'] as recorded at training (None:
+    none known then); for a surrogate without that record (an older file, or one being trained),
+    the shipped budget for the FE model it emulates (meta['campaign']['model'])."""
+    meta = getattr(surrogate, "meta", {}) or {}
+    if "error_budget" in meta:
+        return meta["error_budget"]
+    model = (meta.get("campaign") or {}).get("model")
+    return shipped_budget(model) if model else None

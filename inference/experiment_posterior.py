@@ -60,9 +60,7 @@ class ExperimentPosterior:
             "sigma": self.sigma,
             "carried_to_finer_mesh": self.carried,
             "model_error": None if self.model_error is None else self.model_error.to_dict(),
-            "intervals_include": model_error_scope(self.model_error).replace(
-                "statistical (eq. 6 to 8)", "measurement noise"
-            ),
+            "intervals_include": model_error_scope(self.model_error, noise="measurement noise"),
             "inputs": {**self.inputs.sources, "weights": self.inputs.eta.tolist()},
         }
 

@@ -25,6 +25,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from ..design.error_budget import surrogate_error_budget
 from ..design.objective import Objective, check_weights
 from ..forward.predictor import Prediction
 
@@ -61,12 +62,13 @@ class ModelError:
         }
 
 
-def model_error_scope(model: ModelError | None) -> str:
-    """What a fit's bounds (or a posterior's intervals) hold, in words, as fit.json and the CLI
-    say it: a reported bound must always say what it includes."""
+def model_error_scope(model: ModelError | None, noise: str = "statistical (eq. 6 to 8)") -> str:
+    """What a fit's bounds (or, with ``noise="measurement noise"``, a posterior's intervals) hold,
+    in words, as fit.json, posterior.json and the CLI say it: a reported bound must always say what
+    it includes and what it leaves out."""
     if model is None:
         return (
-            "statistical only (eq. 6 to 8): no error budget is known for this surrogate's mesh and test "
+            f"{noise} only: no error budget is known for this surrogate's mesh and test "
             "and it has no high-fidelity level, so these bounds hold no model error (mesh, contact); "
             "train a multi-fidelity surrogate, give the surrogate an error budget or use --check-mesh"
         )
@@ -78,11 +80,11 @@ def model_error_scope(model: ModelError | None) -> str:
         )
     if not model.has_discrepancy:
         return (
-            f"statistical (eq. 6 to 8) and the mesh's error budget{budget}; not the surrogate's own error "
+            f"{noise} and the mesh's error budget{budget}; not the surrogate's own error "
             "nor the contact model's (perfect stick assumed)"
         )
     return (
-        "statistical (eq. 6 to 8) and model error (the discrepancy's uncertainty and the error "
+        f"{noise} and model error (the discrepancy's uncertainty and the error "
         f"budget{budget}); not the contact model's (perfect stick assumed)"
     )
 
@@ -91,18 +93,6 @@ def combined_pct(statistical_pct: np.ndarray, model: ModelError | None) -> np.nd
     """The 95 % half-width of statistical and model parts, root sum of squares."""
     stat = np.asarray(statistical_pct, float)
     return stat if model is None else np.hypot(stat, model.half_width_pct)
-
-
-def surrogate_error_budget(surrogate) -> dict | None:
-    """The error budget a surrogate carries: meta['error_budget'] as recorded at training (None:
-    none known then); for a file older than that record, the shipped budget for its FE model."""
-    meta = getattr(surrogate, "meta", {}) or {}
-    if "error_budget" in meta:
-        return meta["error_budget"]
-    from ..design.error_budget import shipped_budget
-
-    model = (meta.get("campaign") or {}).get("model")
-    return shipped_budget(model) if model else None
 
 
 def has_high_fidelity_level(surrogate) -> bool:

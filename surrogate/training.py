@@ -75,13 +75,12 @@ def train_surrogate(
 
 def _record_error_budget(model: FieldSurrogate, error_budget: dict | None) -> None:
     """meta['error_budget']: the one given, else the shipped one for the FE model the surrogate
-    emulates (meta['campaign']['model']), else None (fits then say their bounds hold no model error)."""
-    from ..design.error_budget import shipped_budget
+    emulates, else None (fits then say their bounds hold no model error)."""
+    from ..design.error_budget import surrogate_error_budget
 
-    if error_budget is None:
-        spec = (model.meta.get("campaign") or {}).get("model")
-        error_budget = shipped_budget(spec) if spec else None
-    model.meta["error_budget"] = None if error_budget is None else dict(error_budget)
+    model.meta.pop("error_budget", None)
+    known = error_budget if error_budget is not None else surrogate_error_budget(model)
+    model.meta["error_budget"] = None if known is None else dict(known)
 
 
 def train_multi_fidelity(

@@ -238,8 +238,11 @@ def test_the_shipped_budget_of_the_paper_test():
     """The studio ships the 9-point budget of the paper's test against 'reference': a surrogate
     on 'default' or 'fine' for that test carries what it leaves (from its rows), other meshes and
     tests none; a surrogate file from before the record takes it at fit time."""
-    from indentation_studio.design.error_budget import shipped_budget, shipped_budgets_folder
-    from indentation_studio.inference.model_error import surrogate_error_budget
+    from indentation_studio.design.error_budget import (
+        shipped_budget,
+        shipped_budgets_folder,
+        surrogate_error_budget,
+    )
 
     path = shipped_budgets_folder() / "paper-test-R4.77.json"
     paper = ModelSpec()  # R = 4.77 mm, 28 x 0.5 mm on 'default'
