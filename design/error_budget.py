@@ -18,6 +18,7 @@ convergence.
 
 from __future__ import annotations
 
+import json
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -58,6 +59,7 @@ class ErrorBudget:
     dic_noise: float
     reference: dict = field(default_factory=dict)  # where the reference came from (provenance)
     fov_mm: float | None = 25.0
+    fe_steps: int | None = None  # Gauss-Newton steps of the FE models' fits
 
     def summary(self) -> pd.DataFrame:
         """Per model: the largest |bias| of c1 and c5, the median half-width, their ratio, and
@@ -77,7 +79,8 @@ class ErrorBudget:
             rows.append(row)
         return pd.DataFrame(rows)
 
-    def to_dict(self) -> dict:
+    def to_dict(self, complete: bool = True) -> dict:
+        """The JSON of error-budget.json; ``complete`` False while rows are still to come."""
         return {
             "weights": self.weights.tolist(),
             "force_noise": self.force_noise,
@@ -87,6 +90,8 @@ class ErrorBudget:
             "reference": self.reference,
             "rows": self.table.to_dict(orient="records"),
             "summary": self.summary().to_dict(orient="records"),
+            "fe_steps": self.fe_steps,
+            "complete": complete,
         }
 
 
@@ -193,10 +198,11 @@ def compute_error_budget(
     fe_models, fe_names = dict(fe_models or {}), dict(fe_names or {})
     rows: list[dict] = []
     previous = {_row_key(r["model"], (r["c1_true"], r["c5_true"])): dict(r) for r in done_rows}
+    known = dict(previous)  # every row at hand, kept or fitted here, by (model, test point)
 
     def budget() -> ErrorBudget:
-        table = pd.DataFrame(rows)
-        return ErrorBudget(table, eta, force_noise, dic_noise, dict(reference_source or {}), fov_mm)
+        source = dict(reference_source or {})
+        return ErrorBudget(pd.DataFrame(rows), eta, force_noise, dic_noise, source, fov_mm, fe_steps)
 
     for name, model in models.items():
         top = None
@@ -228,32 +234,22 @@ def compute_error_budget(
             row |= {"c1_bias_pct": bias[0], "c5_bias_pct": bias[1]}
             row |= {"c1_half_width_pct": half[0], "c5_half_width_pct": half[1]}
             if fe is not None:
-                known = _known_row(rows, previous, fe_names.get(name), theta_t)
-                if known is not None:  # that FE model is in the budget too: its fit is the split
-                    fe_fit = np.array([known["c1_fit"], known["c5_fit"]], float)
+                fe_row = known.get(_row_key(fe_names.get(name), theta_t))
+                if fe_row is not None:  # that FE model is in the budget too: its fit is the split
+                    fe_fit = np.array([fe_row["c1_fit"], fe_row["c5_fit"]], float)
                 else:
                     fe_fit, _ = _fit_bias(fe, objective, eta, theta_t, fe_steps)
                 disc = 100.0 * (fe_fit / theta_t - 1.0)
                 row |= {"c1_discretisation_pct": disc[0], "c5_discretisation_pct": disc[1]}
                 row |= {"c1_surrogate_pct": bias[0] - disc[0], "c5_surrogate_pct": bias[1] - disc[1]}
             rows.append(row)
+            known[key] = row
             if on_row is not None:
                 on_row(budget())
     return budget()
 
 
-def _known_row(rows: list[dict], previous: dict, model: str | None, theta_t) -> dict | None:
-    """The row of ``model`` at ``theta_t`` fitted in this budget or kept from an earlier one."""
-    if model is None:
-        return None
-    key = _row_key(model, theta_t)
-    for row in rows:
-        if _row_key(row["model"], (row["c1_true"], row["c5_true"])) == key:
-            return row
-    return previous.get(key)
-
-
-def _row_key(model: str, theta_t) -> tuple:
+def _row_key(model: str | None, theta_t) -> tuple:
     """A (model, test point) pair, the unit an interrupted budget resumes by."""
     return (str(model), *(round(float(t), 9) for t in theta_t))
 
@@ -302,8 +298,6 @@ def resolve_model(name: str, reference_spec, fe_cache: dict | None = None) -> tu
 
 
 def json_key(payload: dict) -> str:
-    import json
-
     return json.dumps(payload, sort_keys=True)
 
 
@@ -349,7 +343,7 @@ def campaign_error_budget(
     def save(partial: ErrorBudget, complete: bool = False) -> None:
         from ..atomic_write import atomic_write_json
 
-        atomic_write_json(out, partial.to_dict() | {"fe_steps": fe_steps, "complete": complete})
+        atomic_write_json(out, partial.to_dict(complete))
 
     budget = compute_error_budget(
         results,
@@ -374,9 +368,6 @@ def campaign_error_budget(
 def _resumable_rows(out, source: dict, settings: dict) -> list[dict]:
     """Rows of an earlier budget at ``out`` made with the same reference and settings (none if
     the file is absent, unreadable, or was made otherwise)."""
-    import json
-    from pathlib import Path
-
     try:
         payload = json.loads(Path(out).read_text())
     except (OSError, ValueError):
@@ -392,8 +383,6 @@ def remaining_bias(budget_file, model: str) -> dict:
     distance between truth and fit over the test points, in percent of the fit (as a fit's bounds
     are), and never less than in percent of the truth: max(|b|, |1 / (1 + b) - 1|) for a bias b.
     (A fit 18 % below the truth is 22 % of the fit away from it.)"""
-    import json
-
     try:
         payload = json.loads(Path(budget_file).read_text())
         rows = [row for row in payload["rows"] if row["model"] == model]
@@ -430,8 +419,6 @@ def shipped_budget(spec, folder: str | Path | None = None) -> dict | None:
     """What a shipped error budget leaves for ``spec``'s mesh (:func:`remaining_bias`), when one was
     measured for the same test (geometry, indenter, protocol, kappa, fibers) and that mesh preset;
     None otherwise. A surrogate trained on such a campaign carries it in its fits' bounds."""
-    import json
-
     model = spec.to_dict() if hasattr(spec, "to_dict") else dict(spec)
     preset = (model.get("mesh") or {}).get("preset")
     if preset is None:

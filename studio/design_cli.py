@@ -439,7 +439,7 @@ def error_budget_cmd(
         )
     except (SpecError, ValueError, OSError) as exc:
         fail(str(exc), as_json)
-    payload = budget.to_dict() | {"fe_steps": fe_steps, "complete": True}
+    payload = budget.to_dict()
     payload["json_file"] = str(path)
     if as_json:
         print(json.dumps(payload, default=float))
