@@ -15,6 +15,13 @@ __getattr__, __dir__, __all__ = lazy.attach(
         "objective_over_plane": ["ObjectiveMap", "campaign_objective_map", "objective_map"],
         "experiment_choice": ["candidate_grid", "compare_designs"],
         "constituents": ["fit_equibiaxial", "rule_of_mixtures"],
-        "error_budget": ["ErrorBudget", "campaign_error_budget", "compute_error_budget"],
+        "error_budget": [
+            "ErrorBudget",
+            "campaign_error_budget",
+            "compute_error_budget",
+            "remaining_bias",
+            "shipped_budget",
+            "surrogate_error_budget",
+        ],
     },
 )

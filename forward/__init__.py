@@ -19,7 +19,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
             "SpecError",
         ],
         "mesh": ["MESH_PRESETS", "BlockMesh", "build_mesh", "preset_mesh", "structured_block"],
-        "solver": ["EmbeddedSolver", "SimulationError", "simulate"],
+        "solver": ["EmbeddedSolver", "SimulationError", "simulate", "thread_limits"],
         "material": ["InvertedElementError"],
         "result": ["SimulationResult"],
         "predictor": [

@@ -33,6 +33,7 @@ __getattr__, __dir__, _all = lazy.attach(
         "design": [
             "PAPER_WEIGHTS",
             "campaign_error_budget",
+            "shipped_budget",
             "campaign_objective_map",
             "compare_designs",
             "compare_with_paper",

@@ -33,3 +33,12 @@ def test_top_level_reaches_the_everyday_workflows():
     ):
         assert callable(getattr(ins, exported))
     assert callable(ins.figures.corner_figure) and isinstance(ins.__version__, str)
+
+
+def test_model_error_is_reachable_from_a_notebook():
+    """The error budget, what it leaves for a mesh, and the words a bound says it holds."""
+    left = ins.shipped_budget(ins.ModelSpec())  # the paper's test on 'default'
+    assert left["source"]["model"] == "default" and left["c5_pct"] > 20
+    assert callable(ins.design.remaining_bias) and callable(ins.design.surrogate_error_budget)
+    assert "hold no model error" in ins.inference.model_error_scope(None)
+    assert callable(ins.inference.combined_pct) and callable(ins.forward.thread_limits)
