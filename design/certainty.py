@@ -24,6 +24,12 @@ from scipy import stats
 
 from .objective import TERMS, Objective, check_weights
 
+#: What a design-stage bound (eq. 6 at a given noise level s) holds, as the design commands say it.
+DESIGN_BOUNDS_INCLUDE = (
+    "eq. 6 at the noise level s given (design stage): measurement noise only; no model error (mesh, "
+    "contact, surrogate), which `indent-studio design error-budget` measures"
+)
+
 
 def gauss_newton_term_hessians(objective: Objective, prediction, theta_star: np.ndarray) -> np.ndarray:
     """H_k = 2 J_k^T J_k (4, p, p) in theta_bar, from the Jacobians of a one-point Prediction."""

@@ -87,6 +87,8 @@ class ErrorBudget:
             "dic_noise_mm": self.dic_noise,
             "field_of_view_mm": self.fov_mm,
             "converged_fraction": CONVERGED_FRACTION,
+            "half_width_include": "eq. 6 to 8 of a typical experiment: measurement noise only "
+            f"({100 * self.force_noise:g} % force, {self.dic_noise:g} mm DIC)",
             "reference": self.reference,
             "rows": self.table.to_dict(orient="records"),
             "summary": self.summary().to_dict(orient="records"),

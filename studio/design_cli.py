@@ -11,6 +11,7 @@ from rich.console import Console
 from rich.table import Table
 
 from ..atomic_write import atomic_write, atomic_write_json
+from ..design.certainty import DESIGN_BOUNDS_INCLUDE
 from ..forward.spec import SpecError
 from .options import (
     JSON,
@@ -128,11 +129,13 @@ def bounds(
         "method": method,
         "reading": reading,
         "term_hessians": study.term_hessians.tolist(),
+        "bounds_include": DESIGN_BOUNDS_INCLUDE,
     }
     if as_json:
         print(json.dumps(payload))
         return
     Console().print(f"weights {_fmt(eta)}: c1 +-{b[0]:.1f} %, c5 +-{b[1]:.1f} %   (s = {s:g})")
+    Console().print(f"bounds: {DESIGN_BOUNDS_INCLUDE}")
     Console().print(
         f"H(theta*) (normalised) = [[{H[0, 0]:.3g}, {H[0, 1]:.3g}], [{H[1, 0]:.3g}, {H[1, 1]:.3g}]]"
     )
@@ -373,7 +376,8 @@ def compare_cmd(
     png = save_figure(design_comparison_figure(table), out_dir / "design-comparison.png")
     if as_json:
         rows = json.loads(table.to_json(orient="records"))
-        print(json.dumps({"rows": rows, "csv": str(csv), "png": str(png), "theta_star": [c1, c5]}))
+        payload = {"rows": rows, "csv": str(csv), "png": str(png), "theta_star": [c1, c5]}
+        print(json.dumps(payload | {"bounds_include": DESIGN_BOUNDS_INCLUDE}))
         return
     view = Table(
         title=f"candidate designs at theta* = {theta} kPa (fixed weights {weights}; optimised for {criterion})"
@@ -392,6 +396,7 @@ def compare_cmd(
             _fmt(r.optimised_weights),
         )
     Console(width=130).print(view)
+    Console().print(f"bounds: {DESIGN_BOUNDS_INCLUDE}")
     Console().print(f"wrote {csv} and {png}")
 
 

@@ -152,6 +152,7 @@ def posterior(
             f"{name}: median {payload['median'][k]:.4g}, 95 % [{lo:.4g}, {hi:.4g}], sd {payload['std'][k]:.3g} "
             f"(Hessian sd {payload['hessian_sd'][k]:.3g})"
         )
+    Console().print(f"intervals: {payload['intervals_include']}")
     post = result.posterior
     Console().print(
         f"acceptance {post.acceptance_fraction:.2f}, autocorrelation "

@@ -98,3 +98,21 @@ def test_objective_residuals_and_hessians_exact_vs_fd(small_design, reading):
     # bounds of the paper's combined weights (displacements alone are ill-conditioned on 3 steps)
     a, b = combine(Hgn, [0.45, 0.35, 0.2, 0.0]), combine(Hfd, [0.45, 0.35, 0.2, 0.0])
     np.testing.assert_allclose(bounds_pct(a, 0.05), bounds_pct(b, 0.05), rtol=0.02)
+
+
+def test_design_bounds_command_says_what_its_bounds_hold():
+    """The design-stage bounds are eq. 6 at a given s: the command's JSON and text say they hold
+    the measurement noise only, and where the model error is measured."""
+    import json
+
+    from typer.testing import CliRunner
+
+    from indentation_studio.studio.cli import app
+
+    args = ["design", "bounds", "--mesh", "coarse", "--steps", "3", "--weights", "0.45,0.35,0.2,0"]
+    out = CliRunner().invoke(app, [*args, "--json"])
+    assert out.exit_code == 0, out.output
+    payload = json.loads(out.stdout)
+    assert payload["c1_pct"] > 0 and "measurement noise only" in payload["bounds_include"]
+    text = CliRunner().invoke(app, args)
+    assert "no model error" in text.output and "error-budget" in text.output

@@ -91,6 +91,9 @@ def test_error_budget_command(tmp_path):
     payload = json.loads(out.stdout)
     assert [r["c1_true"] for r in payload["rows"]] == [6.0, 12.0]
     assert payload["summary"][0]["model"] == "coarse" and payload["reference"]["points"] == 2
+    assert payload["half_width_include"].startswith(
+        "eq. 6 to 8 of a typical experiment: measurement noise only"
+    )
     assert (tmp_path / "ref" / "error-budget.json").is_file()
     left = remaining_bias(tmp_path / "ref" / "error-budget.json", "coarse")
     # the largest distance between truth and fit, in percent of the fit (and at least of the truth)

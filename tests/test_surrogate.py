@@ -185,6 +185,7 @@ def test_confirm_with_mesh_check_cli(campaigns, tmp_path):
     # the posterior carried there: moved by the shift, spread by the GCI read as a 95 % half-width
     post_args = ["posterior", "--experiment", str(exp), "--surrogate", str(model_file), "--steps", "600"]
     plain = json.loads(CliRunner().invoke(app, [*post_args, "--json"]).stdout)
+    assert plain["intervals_include"].startswith("measurement noise only")  # says what it leaves out
     res = CliRunner().invoke(app, [*post_args, "--mesh-check", str(confirm_file), "--json"])
     assert res.exit_code == 0, res.output
     moved = json.loads(res.stdout)
