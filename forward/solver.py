@@ -73,7 +73,7 @@ SENSITIVITY_RTOL = 1e-11
 SINGLE_PRECISION_DOFS = 20_000
 #: Meshes below this many dofs run on one thread (numba's kernel and MKL's PARDISO alike): their
 #: kernels and back-substitutions last milliseconds, where two thread pools handing the cores to
-#: each other cost more than they share (``default``: 6.0 s -> 2.7 s on 2 cores, README "Speed").
+#: each other cost more than they share (``default``: 6.0 s -> 3.2 s on 2 cores, README "Speed").
 THREADED_DOFS = 20_000
 
 
