@@ -9,6 +9,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
     __name__,
     submod_attrs={
         "spec": [
+            "Contact",
             "Geometry",
             "Indenter",
             "Material",
@@ -19,6 +20,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
             "SpecError",
         ],
         "mesh": ["MESH_PRESETS", "BlockMesh", "build_mesh", "preset_mesh", "structured_block"],
+        "coulomb_contact": ["FrictionContactState", "contact_response", "tributary_areas"],
         "solver": ["EmbeddedSolver", "SimulationError", "simulate", "thread_limits"],
         "material": ["InvertedElementError"],
         "result": ["SimulationResult"],

@@ -316,7 +316,9 @@ def build_feb(
             "tension": "0",
             "minaug": "0",
             "maxaug": "10",
-            "fric_coeff": s.fric_coeff,
+            # the spec's Coulomb coefficient when it has one (0: frictionless), else the paper's
+            # near-perfect stick
+            "fric_coeff": s.fric_coeff if spec.contact.friction is None else spec.contact.friction,
         },
     )
 

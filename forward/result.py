@@ -40,6 +40,9 @@ class SimulationResult:
     # (s,) bool: steps a FEBio run accepted off equilibrium (force NaN there, see
     # forward.febio_equilibrium); None when not checked (the embedded solver, old files)
     off_equilibrium: np.ndarray | None = None
+    # (s, nt) int8: each top node's contact per step, 0 free, 1 stuck, 2 slipping (embedded
+    # solver; None for FEBio runs and old files)
+    contact_status: np.ndarray | None = None
 
     @property
     def force_quarter(self) -> np.ndarray:
@@ -77,6 +80,8 @@ class SimulationResult:
             arrays["full_displacement"] = self.full_displacement
         if self.off_equilibrium is not None:
             arrays["off_equilibrium"] = np.asarray(self.off_equilibrium, bool)
+        if self.contact_status is not None:
+            arrays["contact_status"] = np.asarray(self.contact_status, np.int8)
         if self.force_sensitivity is not None:
             arrays["force_sensitivity"] = self.force_sensitivity
             arrays["displacement_sensitivity"] = self.displacement_sensitivity
@@ -119,6 +124,7 @@ class SimulationResult:
                     parameters=tuple(meta.get("parameters", ("c1", "c5"))),
                     full_displacement=z["full_displacement"] if "full_displacement" in z.files else None,
                     off_equilibrium=z["off_equilibrium"] if "off_equilibrium" in z.files else None,
+                    contact_status=z["contact_status"] if "contact_status" in z.files else None,
                 )
         except (OSError, KeyError, ValueError) as exc:
             raise ValueError(f"{path}: not a readable simulation result ({exc})") from exc

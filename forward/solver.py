@@ -28,6 +28,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from .. import __version__
+from .coulomb_contact import FrictionContactState, tributary_areas
 from .hex8_mean_dilatation import ReferenceGeometry, element_state
 from .linear_solver import ConstrainedSymmetricSolver, LinearSolveError
 from .material import InvertedElementError
@@ -75,6 +76,12 @@ SINGLE_PRECISION_DOFS = 20_000
 #: kernels and back-substitutions last milliseconds, where two thread pools handing the cores to
 #: each other cost more than they share (``default``: 6.0 s -> 3.2 s on 2 cores, README "Speed").
 THREADED_DOFS = 20_000
+#: With Coulomb friction, an increment settles its contact statuses and the slipping nodes'
+#: pressure in at most this many Newton solves.
+FRICTION_PASSES = 40
+#: ... each a damped Newton solve of at most this many steps (EmbeddedSolver._equilibrate_friction).
+FRICTION_NEWTON = 60
+HELD_CONE = False
 
 
 @contextlib.contextmanager
@@ -142,11 +149,14 @@ class EmbeddedSolver:
         fixed[self.mesh.xsym, 0] = True
         fixed[self.mesh.ysym, 1] = True
         self.bc_fixed = fixed
+        #: Coulomb's mu, or None for the exact node-wise stick
+        self.friction = spec.contact.friction
         self.linear = ConstrainedSymmetricSolver(
             self.pattern,
             linear_solver,
             permanent=fixed.ravel(),
             single_precision=self.n_dofs >= SINGLE_PRECISION_DOFS,
+            symmetric=self.friction is None,  # the slip tangent is unsymmetric
         )
         self.linear_solver = self.linear.backend
         self.top = self.mesh.top
@@ -159,6 +169,15 @@ class EmbeddedSolver:
         h = np.sort(np.unique(np.round(top_xy[:, 0], 9)))
         self._force_scale = m.c1 * float(h[1] - h[0]) ** 2 if h.size > 1 else m.c1
         self._sensitivities = False
+        #: the frictional contact's state of the increment being solved (its forces and tangent
+        #: enter :meth:`assemble`), None outside an increment or with the stick contact
+        self._friction_state: FrictionContactState | None = None
+        self._friction_depth = 0.0
+        if self.friction is not None:
+            area = tributary_areas(self.mesh.nodes, self.mesh.elements, self.top)
+            self._contact_eps = spec.contact.penalty * area  # mN/mm per node
+            self._top_block_slots = self._diagonal_block_slots(self.top)
+
         self._full: list[np.ndarray] | None = None  # every node's displacement per step, when asked for
         self.stats = {
             "assemblies": 0,
@@ -174,8 +193,22 @@ class EmbeddedSolver:
         }
 
     # ------------------------------------------------------------------ numerics
+    def _diagonal_block_slots(self, nodes: np.ndarray) -> np.ndarray:
+        """Positions in the CSR data of each node's 3 x 3 diagonal block, (len(nodes), 3, 3)."""
+        p = self.pattern
+        dofs = 3 * nodes[:, None] + np.arange(3)  # (m, 3)
+        rows = np.broadcast_to(dofs[:, :, None], (nodes.size, 3, 3))
+        cols = np.broadcast_to(dofs[:, None, :], (nodes.size, 3, 3))
+        keys = p.row.astype(np.int64) * p.n_dofs + p.indices  # ascending: CSR order
+        slots = np.minimum(np.searchsorted(keys, rows.astype(np.int64) * p.n_dofs + cols), keys.size - 1)
+        if not (np.array_equal(p.indices[slots], cols) and np.array_equal(p.row[slots], rows)):
+            raise RuntimeError("the sparsity pattern lacks a top node's diagonal block")
+        return slots
+
     def assemble(self, u: np.ndarray, tangent: bool = True, parameter_derivatives: bool = False):
-        """Global internal force (3n,), tangent (CSR) and, if asked, dR/dtheta (3n, 2)."""
+        """Global internal force (3n,), tangent (CSR) and, if asked, dR/dtheta (3n, 2). With
+        Coulomb friction, in an increment, the sphere's forces on the top nodes are taken off the
+        internal force and their derivative off the tangent (:mod:`forward.coulomb_contact`)."""
         t = time.perf_counter()
         c1, c5, kappa, a0 = self._mat
         st = element_state(
@@ -186,6 +219,15 @@ class EmbeddedSolver:
         dR = None
         if parameter_derivatives:
             dR = np.stack([self.pattern.vector(st.dforce_dtheta[:, k]) for k in range(2)], axis=1)
+        if self._friction_state is not None:
+            # Newton's law holds the friction cone's pressure; the converged tangent (the one
+            # with the parameter derivatives, for the sensitivities) is the law's own
+            resp = self._friction_state.response(
+                u[self.top], self._friction_depth, HELD_CONE and not parameter_derivatives
+            )
+            R.reshape(-1, 3)[self.top] -= resp.force
+            if K is not None:
+                K.data[self._top_block_slots] -= resp.df_dr
         self.stats["assemblies"] += 1
         self.stats["tangent_assemblies"] += int(tangent)
         self.stats["assembly_s"] += time.perf_counter() - t
@@ -209,7 +251,7 @@ class EmbeddedSolver:
     def _krylov(
         self, K: sp.csr_matrix, cmask: np.ndarray, rhs: np.ndarray, rtol: float, maxiter: int
     ) -> np.ndarray | None:
-        """CG on K x = rhs with the dofs in ``cmask`` eliminated, preconditioned with the
+        """CG (GMRES when K is unsymmetric) on K x = rhs with the dofs in ``cmask`` eliminated, preconditioned with the
         factorisation in hand (with ``cmask``'s extra constraints by its Schur complement);
         None when it does not reach ``rtol`` in ``maxiter`` iterations."""
         t = time.perf_counter()
@@ -227,7 +269,12 @@ class EmbeddedSolver:
         def count(_x: np.ndarray) -> None:
             its[0] += 1
 
-        x, info = spla.cg(A, rhs, rtol=rtol, maxiter=maxiter, M=M, callback=count)
+        if self.linear.symmetric:
+            x, info = spla.cg(A, rhs, rtol=rtol, maxiter=maxiter, M=M, callback=count)
+        else:
+            x, info = spla.gmres(
+                A, rhs, rtol=rtol, restart=maxiter, maxiter=1, M=M, callback=count, callback_type="pr_norm"
+            )
         dt = time.perf_counter() - t
         self.stats["krylov_iterations"] += its[0]
         self.stats["krylov_s"] += dt
@@ -335,6 +382,58 @@ class EmbeddedSolver:
             raise _IncrementFailed(str(exc)) from exc
         raise _IncrementFailed(f"Newton did not converge in {opts.max_newton} iterations")
 
+    def _equilibrate_friction(self, u0: np.ndarray, cmask: np.ndarray) -> _Equilibrium:
+        """Newton-Raphson to equilibrium with the frictional contact's forces in the residual
+        (the supports in ``cmask`` held at zero), damped: every step is a Newton step with the
+        tangent at the current state, shortened so that no slipping node passes its anchor
+        (:meth:`FrictionContactState.step_fraction`) and then halved until the residual falls
+        (a full step can overshoot where a node slides along the indenter, with little but the
+        body's shear stiffness to hold it, against the penalty's stiffness across)."""
+        opts = self.spec.solver
+        c, depth, top = self._friction_state, self._friction_depth, self.top
+        u = u0.reshape(-1).copy()
+        try:
+            R, K, _ = self.assemble(u.reshape(-1, 3))
+        except InvertedElementError as exc:
+            raise _IncrementFailed(str(exc)) from exc
+        last = np.inf
+        for it in range(1, FRICTION_NEWTON + 1):
+            norm = np.linalg.norm(np.where(cmask, 0.0, R))
+            ref = max(np.linalg.norm(R[cmask]), self._force_scale)
+            log.debug("newton %d: residual %.3e of %.3e", it, norm, ref)
+            at_round_off = norm > 0.5 * last and norm <= 1e-6 * ref  # a Newton step gains no more
+            if norm <= opts.residual_tol * ref or at_round_off:
+                K_out = dR = None
+                if self._sensitivities:
+                    _, K_out, dR = self.assemble(u.reshape(-1, 3), parameter_derivatives=True)
+                return _Equilibrium(u.reshape(-1, 3), R, K_out, it, dR)
+            if K is None:
+                _, K, _ = self.assemble(u.reshape(-1, 3))
+            try:
+                du = self._newton_step(K, cmask, np.where(cmask, 0.0, R))
+            except LinearSolveError as exc:
+                raise _IncrementFailed(str(exc)) from exc
+            du *= c.step_fraction(u.reshape(-1, 3)[top], -du.reshape(-1, 3)[top], depth)
+            alpha, best = 1.0, None
+            for _ in range(MAX_HALVINGS + 2):
+                trial = u - alpha * du
+                try:
+                    R_try, _, _ = self.assemble(trial.reshape(-1, 3), tangent=False)
+                except InvertedElementError:
+                    alpha *= 0.5
+                    continue
+                n_try = np.linalg.norm(np.where(cmask, 0.0, R_try))
+                if best is None or n_try < best[0]:
+                    best = (n_try, trial, R_try)
+                if n_try < norm:
+                    break
+                alpha *= 0.5
+            if best is None:
+                raise _IncrementFailed("every Newton step inverted an element")
+            _, u, R = best
+            K, last = None, norm
+        raise _IncrementFailed(f"Newton did not converge in {FRICTION_NEWTON} iterations")
+
     def _reaction_top(self, R: np.ndarray) -> np.ndarray:
         """External force on the top nodes, with the components that symmetry planes carry zeroed."""
         r = R.reshape(-1, 3)[self.top].copy()
@@ -390,6 +489,94 @@ class EmbeddedSolver:
             new = np.flatnonzero(pen & ~released)
             c.attach(new, u_top0, d0, trial[self.top], d1, s0_top, s_top)
         raise _IncrementFailed("the contact set did not settle")
+
+    def _increment_friction(
+        self,
+        u: np.ndarray,
+        u_pred: np.ndarray,
+        d0: float,
+        d1: float,
+        contact: FrictionContactState,
+        du_start: np.ndarray | None,
+        du_pred: np.ndarray | None = None,
+    ) -> tuple[_Equilibrium, FrictionContactState, int, int, np.ndarray | None]:
+        """Solve the increment d0 -> d1 with Coulomb friction: Newton solves with the sphere's
+        penalty forces in the residual and each node's status held, until the statuses the
+        solution calls for are those it was solved with; then the anchors of slipping nodes move
+        (:meth:`FrictionContactState.settle`)."""
+        c = contact.copy()
+        top = self.top
+        s0_top = du_start[top] if du_start is not None else None
+        sp_top = du_pred[top] if du_pred is not None else None
+        c.anchor_newcomers(u[top], d0, u_pred[top], d1, s0_top, sp_top)
+        tol = 1e-9 * self.sphere.radius
+        c.status = c.settled_status(u_pred[top], d1, tol)
+        c.cone_pressure = c.response(u_pred[top], d1).pressure
+        cmask = self.bc_fixed.ravel()
+        trial, iters, seen = u_pred, 0, set()
+        p_tol = self.spec.solver.residual_tol
+        self._friction_state, self._friction_depth = c, d1
+        try:
+            for passes in range(1, FRICTION_PASSES + 1):
+                eq = self._equilibrate_friction(trial, cmask)
+                iters += eq.iterations
+                trial = eq.u
+                wanted = c.settled_status(eq.u[top], d1, tol)
+                live = c.response(eq.u[top], d1)
+                drift = np.abs(np.maximum(live.pressure, 0) - np.maximum(c.cone_pressure, 0))
+                drift = float(drift[live.slipping].max(initial=0.0)) if c.mu > 0 else 0.0
+                c.cone_pressure = live.pressure
+                log.debug(
+                    "friction pass %d: %d in contact, %d slipping, %d statuses change, pressure drift %.3g",
+                    passes,
+                    int(live.active.sum()),
+                    int(live.slipping.sum()),
+                    int((wanted != c.status).sum()),
+                    drift,
+                )
+                if np.array_equal(wanted, c.status):
+                    scale = max(float(live.pressure.max(initial=0.0)), self._force_scale)
+                    if drift <= p_tol * scale:
+                        break
+                    continue
+                seen.add(c.status.tobytes())
+                if wanted.tobytes() in seen:  # the statuses cycle: keep every node in contact
+                    wanted = np.maximum(wanted, c.status)
+                    if np.array_equal(wanted, c.status):
+                        log.debug("friction pass %d: contact set cycles; kept the nodes it holds", passes)
+                        break
+                c.status = wanted
+            else:
+                raise _IncrementFailed("the contact set and the friction cone did not settle")
+            sens = self._friction_sensitivity(eq, cmask, c) if self._sensitivities else None
+        finally:
+            self._friction_state = None
+        c.settle(eq.u[top], d1, sens[top] if sens is not None else None)
+        return eq, c, iters, passes, sens
+
+    def _friction_sensitivity(
+        self, eq: _Equilibrium, cmask: np.ndarray, contact: FrictionContactState
+    ) -> np.ndarray:
+        """d u / d theta (n, 3, 3) for theta = (c1, c5, mu) of a converged frictional state:
+        (K - df/du) du = -dR/dtheta + (d f / d theta at fixed positions: the anchors' history
+        and mu), solved by GMRES on the exact tangent preconditioned with the factorisation in
+        hand, or by factorising it."""
+        resp = contact.response(eq.u[self.top], self._friction_depth)
+        b = np.zeros((self.n_dofs, 3))
+        b[:, :2] = -eq.dR
+        explicit = contact.explicit_force_derivative(resp, 3)  # (nt, 3, 3)
+        b.reshape(-1, 3, 3)[self.top] += explicit
+        b[cmask] = 0.0
+        x = np.zeros_like(b)
+        for k in range(3):
+            col = self._krylov(eq.K, cmask, b[:, k], SENSITIVITY_RTOL, self._krylov_maxiter())
+            if col is None:
+                self._factorize(eq.K, cmask)
+                col = self._krylov(eq.K, cmask, b[:, k], SENSITIVITY_RTOL, 100)
+                if col is None:
+                    raise LinearSolveError("the sensitivity solve did not converge")
+            x[:, k] = col
+        return x.reshape(-1, 3, 3)
 
     def _state_sensitivity(
         self, eq: _Equilibrium, cmask: np.ndarray, contact: StickContactState
@@ -451,10 +638,18 @@ class EmbeddedSolver:
         u = np.zeros((n, 3))
         last_inc = np.zeros((n, 3))
         last_dd = 0.0
-        contact = StickContactState(self.sphere, self.mesh.nodes[self.top])
+        friction = self.friction is not None
+        n_p = 3 if friction else 2  # theta = (c1, c5), and mu with friction
+        contact = (
+            FrictionContactState(self.sphere, self.mesh.nodes[self.top], self._contact_eps, self.friction)
+            if friction
+            else StickContactState(self.sphere, self.mesh.nodes[self.top])
+        )
+        increment = self._increment_friction if friction else self._increment
         depths = [0.0]
         forces = [0.0]
         disp = [np.zeros((nt, 3))]
+        self._status = [np.zeros(nt, np.int8)]
         self._full = [np.zeros((n, 3))] if full_field else None
         conv = {
             k: [0]
@@ -467,10 +662,10 @@ class EmbeddedSolver:
             )
         }
         conv["wall_s"] = [0.0]
-        f_sens = [np.zeros(2)]
-        u_sens = [np.zeros((nt, 3, 2))]
-        du_dtheta = np.zeros((n, 3, 2)) if sensitivities else None
-        last_dinc = np.zeros((n, 3, 2)) if sensitivities else None
+        f_sens = [np.zeros(n_p)]
+        u_sens = [np.zeros((nt, 3, n_p))]
+        du_dtheta = np.zeros((n, 3, n_p)) if sensitivities else None
+        last_dinc = np.zeros((n, 3, n_p)) if sensitivities else None
         d = 0.0
         nominal = proto.step_size / opts.substeps
         for k, d_target in enumerate(proto.depths, start=1):
@@ -486,7 +681,7 @@ class EmbeddedSolver:
                 u_pred = u + ratio * last_inc
                 du_pred = du_dtheta + ratio * last_dinc if sensitivities else None
                 try:
-                    eq, contact_new, its, passes, sens = self._increment(
+                    eq, contact_new, its, passes, sens = increment(
                         u, u_pred, d, d + dd, contact, du_dtheta, du_pred
                     )
                 except _IncrementFailed as exc:
@@ -517,13 +712,19 @@ class EmbeddedSolver:
                 rec["contact_passes"] += passes
                 inc = min(nominal, 2.0 * inc)
             assert eq is not None
-            F_quarter = -float(np.sum(eq.R.reshape(-1, 3)[self.top[contact.attached], 2]))
+            if friction:
+                F_quarter = -float(np.sum(contact.force[:, 2]))
+            else:
+                F_quarter = -float(np.sum(eq.R.reshape(-1, 3)[self.top[contact.attached], 2]))
             depths.append(d_target)
             forces.append(SYMMETRY_FACTOR * F_quarter)
             disp.append(u[self.top].copy())
             if self._full is not None:
                 self._full.append(u.copy())
-            if sensitivities:
+            if sensitivities and friction:
+                f_sens.append(-SYMMETRY_FACTOR * contact.dforce[:, 2].sum(axis=0))
+                u_sens.append(du_dtheta[self.top].copy())
+            elif sensitivities:
                 dRc = eq.dR + eq.K @ du_dtheta.reshape(-1, 2)
                 att = self.top[contact.attached]
                 f_sens.append(-SYMMETRY_FACTOR * dRc.reshape(-1, 3, 2)[att, 2].sum(axis=0))
@@ -531,6 +732,13 @@ class EmbeddedSolver:
             for key, val in rec.items():
                 conv[key].append(val)
             conv["attached_nodes"].append(int(contact.attached.sum()))
+            self._status.append(
+                contact.attached.astype(np.int8) + contact.slipping.astype(np.int8)
+                if friction
+                else contact.attached.astype(np.int8)
+            )
+            if friction:
+                conv.setdefault("slipping_nodes", [0]).append(int(contact.slipping.sum()))
             conv["wall_s"].append(time.perf_counter() - t_step)
             if progress is not None:
                 progress(k, proto.steps, forces[-1])
@@ -550,7 +758,13 @@ class EmbeddedSolver:
                 "name": self.name,
                 "version": __version__,
                 "element": "hex8 three-field (mean dilatation), 2x2x2 Gauss",
-                "contact": "rigid sphere, node-to-surface stick (attach at path crossing, release on tension)",
+                "contact": (
+                    "rigid sphere, node-to-surface stick (attach at path crossing, release on tension)"
+                    if self.friction is None
+                    else f"rigid sphere, node-to-surface penalty ({self.spec.contact.penalty:g} kPa/mm by "
+                    f"tributary area), Coulomb friction mu = {self.friction:g} (return map from anchors)"
+                ),
+                "sensitivity_parameters": ["c1", "c5"] + ([] if self.friction is None else ["mu"]),
                 "linear_solver": self.linear_solver,
                 "factorisation": "single precision" if self.linear.single_precision else "double precision",
                 "mesh": {"source": mesh.source, "nodes": mesh.n_nodes, "elements": mesh.n_elements},
@@ -560,6 +774,8 @@ class EmbeddedSolver:
             wall_s=time.perf_counter() - t_start,
             force_sensitivity=np.asarray(f_sens) if sensitivities else None,
             displacement_sensitivity=np.asarray(u_sens) if sensitivities else None,
+            parameters=("c1", "c5") if self.friction is None else ("c1", "c5", "mu"),
+            contact_status=np.asarray(self._status, np.int8),
         )
 
 

@@ -144,6 +144,49 @@ class MeshChoice:
             raise SpecError("mesh.preset", f"unknown preset {self.preset!r}; use {sorted(MESH_PRESETS)}")
 
 
+#: Penalty of the frictional contact (kPa per mm of penetration) unless the spec says otherwise;
+#: why this value: README, "Friction".
+DEFAULT_CONTACT_PENALTY = 1.0e5
+
+
+@dataclass(frozen=True)
+class Contact:
+    """The indenter's contact with the top face.
+
+    ``friction`` None (the default) is the paper's near-perfect stick, imposed exactly node by
+    node (:mod:`forward.stick_contact`); a number is Coulomb's friction coefficient mu >= 0
+    (0: frictionless), imposed by a penalty of ``penalty`` kPa per mm of penetration
+    (:mod:`forward.coulomb_contact`)."""
+
+    friction: float | None = None
+    penalty: float = DEFAULT_CONTACT_PENALTY
+
+    def __post_init__(self) -> None:
+        if self.friction is not None:
+            try:
+                mu = float(self.friction)
+            except (TypeError, ValueError) as exc:
+                raise SpecError(
+                    "contact.friction", f"must be a number or None (stick), got {self.friction!r}"
+                ) from exc
+            if not math.isfinite(mu) or mu < 0.0:
+                raise SpecError(
+                    "contact.friction",
+                    f"must be finite and >= 0 (0: frictionless; None: perfect stick), got {self.friction!r}",
+                )
+            object.__setattr__(self, "friction", mu)
+        object.__setattr__(self, "penalty", _finite_positive("contact.penalty", self.penalty))
+
+    @property
+    def is_stick(self) -> bool:
+        return self.friction is None
+
+    def describe(self) -> str:
+        if self.friction is None:
+            return "perfect stick"
+        return "frictionless" if self.friction == 0 else f"Coulomb friction mu = {self.friction:g}"
+
+
 @dataclass(frozen=True)
 class SolverOptions:
     """Numerical controls of the embedded solver (forward.solver)."""
@@ -176,6 +219,7 @@ class ModelSpec:
     material: Material = field(default_factory=Material)
     mesh: MeshChoice = field(default_factory=MeshChoice)
     solver: SolverOptions = field(default_factory=SolverOptions)
+    contact: Contact = field(default_factory=Contact)
 
     def __post_init__(self) -> None:
         limit = MAX_DEPTH_FRACTION * self.geometry.height
@@ -190,9 +234,18 @@ class ModelSpec:
         """The same spec with some material fields changed (e.g. ``c1=12``)."""
         return replace(self, material=replace(self.material, **changes))
 
+    def with_friction(self, friction: float | None) -> ModelSpec:
+        """The same spec with another friction coefficient (None: perfect stick)."""
+        return replace(self, contact=replace(self.contact, friction=friction))
+
     def to_dict(self) -> dict[str, Any]:
+        """The spec as plain data. The contact is left out when it is the default (perfect
+        stick), so that specs, campaigns and result files written before friction existed
+        compare equal to today's."""
         d = asdict(self)
         d["material"]["fiber"] = list(self.material.fiber)
+        if self.contact == Contact():
+            del d["contact"]
         return d
 
     @classmethod
@@ -207,4 +260,5 @@ class ModelSpec:
             material=Material(**material),
             mesh=MeshChoice(**d.get("mesh", {})),
             solver=SolverOptions(**d.get("solver", {})),
+            contact=Contact(**(d.get("contact") or {})),
         )

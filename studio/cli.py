@@ -25,6 +25,7 @@ from .inference_cli import register as register_inference
 from .options import (
     C1,
     C5,
+    FRICTION,
     JSON,
     KAPPA,
     MESH,
@@ -77,7 +78,10 @@ def simulate(
     mesh_from: MESH_FROM = None,
     solver: Annotated[SolverName, typer.Option(help="FE solver")] = SolverName.embedded,
     substeps: SUBSTEPS = 1,
-    sensitivities: Annotated[bool, typer.Option(help="also d(force, displacement)/d(c1, c5)")] = False,
+    friction: FRICTION = None,
+    sensitivities: Annotated[
+        bool, typer.Option(help="also d(force, displacement)/d(c1, c5) (and d/d(mu) with --friction)")
+    ] = False,
     out: Annotated[
         Path | None, typer.Option(help="result file (.npz); default under runs/simulations/")
     ] = None,
@@ -119,7 +123,7 @@ def simulate(
     with step_progress(err, f"simulate ({solver.value})", steps) as bar:
         unit = "mm" if solver == SolverName.febio else "mN"
         try:
-            spec = model_spec(c1, c5, kappa, radius, steps, step_size, mesh, mesh_from, substeps)
+            spec = model_spec(c1, c5, kappa, radius, steps, step_size, mesh, mesh_from, substeps, friction)
             run = run_simulation(
                 spec,
                 out,
@@ -175,13 +179,15 @@ def export_feb(
     step_size: STEP_SIZE = 0.5,
     mesh: MESH = "default",
     mesh_from: MESH_FROM = None,
+    friction: FRICTION = None,
     as_json: JSON = False,
 ) -> None:
-    """Write the model as a FEBio 4.0 .feb to run with febio4 or open in FEBio Studio."""
+    """Write the model as a FEBio 4.0 .feb to run with febio4 or open in FEBio Studio
+    (``--friction MU``: sliding-elastic with that friction coefficient, 0 frictionless)."""
     from ..forward.feb_writer import write_feb
 
     try:
-        spec = model_spec(c1, c5, kappa, radius, steps, step_size, mesh, mesh_from, 2)
+        spec = model_spec(c1, c5, kappa, radius, steps, step_size, mesh, mesh_from, 2, friction)
         path = write_feb(spec, out)
     except (SpecError, ValueError, OSError) as exc:
         fail(str(exc), as_json)

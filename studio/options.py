@@ -11,6 +11,7 @@ import typer
 from rich.console import Console
 
 from ..forward.spec import (
+    Contact,
     Geometry,
     Indenter,
     Material,
@@ -40,7 +41,9 @@ def fail(message: str, as_json: bool, code: int = 1) -> None:
     raise typer.Exit(code)
 
 
-def model_spec(c1, c5, kappa, radius, steps, step_size, mesh, mesh_from, substeps) -> ModelSpec:
+def model_spec(
+    c1, c5, kappa, radius, steps, step_size, mesh, mesh_from, substeps, friction: float | None = None
+) -> ModelSpec:
     return ModelSpec(
         geometry=Geometry(),
         indenter=Indenter(radius),
@@ -48,6 +51,7 @@ def model_spec(c1, c5, kappa, radius, steps, step_size, mesh, mesh_from, substep
         material=Material(c1=c1, c5=c5, kappa=kappa),
         mesh=MeshChoice(preset=mesh, feb_file=str(mesh_from) if mesh_from else None),
         solver=SolverOptions(substeps=substeps),
+        contact=Contact(friction=friction),
     )
 
 
@@ -60,4 +64,12 @@ STEP_SIZE = Annotated[float, typer.Option(help="depth per step, mm")]
 MESH = Annotated[str, typer.Option(help="mesh preset: coarse, default, fine, reference")]
 MESH_FROM = Annotated[Path | None, typer.Option(help="run on the hex8 block mesh of this FEBio .feb file")]
 SUBSTEPS = Annotated[int, typer.Option(help="solver increments per step")]
+FRICTION = Annotated[
+    float | None,
+    typer.Option(
+        "--friction",
+        help="Coulomb friction coefficient mu between sphere and block (0: frictionless); "
+        "default: the paper's near-perfect stick",
+    ),
+]
 JSON = Annotated[bool, typer.Option("--json", help="print one JSON object on stdout")]

@@ -1,0 +1,181 @@
+"""Coulomb friction in the embedded contact (forward.coulomb_contact): the law's derivatives,
+its limits (frictionless against Hertz, mu -> infinity against the exact stick), the stick
+zone growing with depth, and the sensitivities, d/dmu included, against whole simulations."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from indentation_studio.forward.coulomb_contact import (
+    CONTACT,
+    FREE,
+    capsule_projection,
+    contact_response,
+    tributary_areas,
+)
+from indentation_studio.forward.mesh import preset_mesh
+from indentation_studio.forward.solver import EmbeddedSolver
+from indentation_studio.forward.spec import (
+    Contact,
+    Material,
+    MeshChoice,
+    ModelSpec,
+    Protocol,
+    SolverOptions,
+    SpecError,
+)
+
+
+def _nodes(seed: int = 0, n: int = 8):
+    """Nodes near the lower hemisphere (and two above the equator), anchors on the surface."""
+    rng = np.random.default_rng(seed)
+    radius = 4.77
+    d = rng.normal(size=(n, 3))
+    d[: n - 2, 2] = -np.abs(d[: n - 2, 2]) - 0.5
+    d[n - 2 :, 2] = np.abs(d[n - 2 :, 2]) + 0.2
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    anchor = capsule_projection(radius * d, radius)[0]
+    r = anchor + 0.02 * rng.normal(size=(n, 3)) - 0.01 * d
+    eps = 1000.0 * (1.0 + rng.random(n))
+    return r, anchor, eps
+
+
+@pytest.mark.parametrize("mu", [0.0, 0.3, 5.0])
+@pytest.mark.parametrize("held", [False, True])
+def test_contact_law_derivatives_match_central_differences(mu, held):
+    r, a, eps = _nodes()
+    status = np.full(r.shape[0], CONTACT, np.int8)
+    status[0] = FREE
+    cone = 3.0 + np.arange(r.shape[0]) if held else None
+    resp = contact_response(r, a, eps, mu, status, cone)
+    assert resp.slipping.any()
+    h = 1e-7
+    for wrt, exact in (("r", resp.df_dr), ("a", resp.df_da)):
+        num = np.zeros_like(exact)
+        for k in range(3):
+            e = np.zeros(3)
+            e[k] = h
+            args_p = (r + e, a) if wrt == "r" else (r, a + e)
+            args_m = (r - e, a) if wrt == "r" else (r, a - e)
+            fp = contact_response(*args_p, eps, mu, status, cone).force
+            fm = contact_response(*args_m, eps, mu, status, cone).force
+            num[:, :, k] = (fp - fm) / (2 * h)
+        assert np.abs(num - exact).max() < 1e-5 * np.abs(exact).max()
+    fp = contact_response(r, a, eps, mu + h, status, cone).force
+    fm = contact_response(r, a, eps, max(mu - h, 0.0), status, cone).force
+    num_mu = (fp - fm) / (h + min(h, mu))
+    assert np.abs(num_mu - resp.dt_dmu).max() < 1e-5 * max(np.abs(resp.dt_dmu).max(), 1.0)
+
+
+def test_stick_is_a_spring_to_the_anchor_and_slip_sits_on_the_cone():
+    r, a, eps = _nodes(1)
+    status = np.full(r.shape[0], CONTACT, np.int8)
+    stuck = contact_response(r, a, eps, 1e9, status)
+    pushed = stuck.pressure > 0  # a pulled node (p < 0) carries no friction
+    assert pushed.sum() >= 5 and not stuck.slipping[pushed].any()
+    assert np.allclose(stuck.force[pushed], -eps[pushed, None] * (r - a)[pushed])
+    slid = contact_response(r, a, eps, 0.2, status)
+    on = slid.slipping & (slid.pressure > 0)
+    assert on.any()
+    size = np.linalg.norm(slid.traction[on], axis=1)
+    assert np.allclose(size, 0.2 * slid.pressure[on])
+    assert np.allclose(np.einsum("ij,ij->i", slid.traction, slid.normal), 0.0, atol=1e-9)
+
+
+def test_tributary_areas_cover_the_top_face():
+    mesh = preset_mesh("coarse")
+    area = tributary_areas(mesh.nodes, mesh.elements, mesh.top)
+    assert area.sum() == pytest.approx(50.0 * 50.0, rel=1e-12)
+    assert np.all(area > 0)
+
+
+def test_friction_in_the_spec():
+    spec = ModelSpec()
+    assert "contact" not in spec.to_dict()  # specs written before friction compare equal
+    frictional = spec.with_friction(0.3)
+    assert frictional.to_dict()["contact"]["friction"] == 0.3
+    assert ModelSpec.from_dict(frictional.to_dict()) == frictional
+    assert frictional.contact.describe() == "Coulomb friction mu = 0.3"
+    assert Contact(friction=0.0).describe() == "frictionless"
+    for bad in (-0.1, float("nan"), float("inf"), "x"):
+        with pytest.raises(SpecError, match=r"contact\.friction"):
+            spec.with_friction(bad)
+    with pytest.raises(SpecError, match=r"contact\.penalty"):
+        Contact(friction=0.3, penalty=0.0)
+
+
+def test_frictionless_indentation_matches_hertz_at_small_depth():
+    """Hertz's contact is frictionless: a neo-Hookean half-space (c5 = 0, mu = 2 c1), R = 4.77 mm,
+    0.5 mm deep, on the ``fine`` mesh: F = 16/3 mu sqrt(R) d^1.5 (incompressible)."""
+    spec = ModelSpec(
+        material=Material(c1=10.0, c5=0.0),
+        protocol=Protocol(step_size=0.5, steps=1),
+        mesh=MeshChoice("fine"),
+    ).with_friction(0.0)
+    r = EmbeddedSolver(spec).run()
+    hertz = 16.0 / 3.0 * 20.0 * np.sqrt(4.77) * 0.5**1.5
+    assert r.force[1] / hertz == pytest.approx(1.0, abs=0.05)
+    # for an incompressible half-space friction does not couple to the normal problem (Hertz's
+    # and Spence's forces agree: the coupling goes with 1 - 2 nu), so the stick force is the same
+    stick = EmbeddedSolver(dataclasses.replace(spec, contact=Contact())).run()
+    assert r.force[1] / stick.force[1] == pytest.approx(1.0, abs=0.005)
+
+
+@pytest.fixture(scope="module")
+def coarse_runs():
+    spec = ModelSpec(mesh=MeshChoice("coarse"), protocol=Protocol(step_size=0.5, steps=5))
+    return {mu: EmbeddedSolver(spec.with_friction(mu)).run() for mu in (None, 0.0, 0.3, 1e6)}
+
+
+def test_limits_of_the_friction_coefficient(coarse_runs):
+    stick, large = coarse_runs[None], coarse_runs[1e6]
+    # mu -> infinity: the penalty spring to the anchor against the exact node-wise stick
+    assert np.abs(large.force[1:] / stick.force[1:] - 1).max() < 2e-3
+    assert np.abs(large.displacement - stick.displacement).max() < 0.01
+    assert not coarse_runs[1e6].contact_status[-1].__eq__(2).any()  # nothing slips
+    free = coarse_runs[0.0]
+    on_axis = np.linalg.norm(free.top_xyz[:, :2], axis=1) < 1e-9  # by symmetry, nothing to slip
+    assert (free.contact_status[1:, ~on_axis] != 1).all()  # frictionless: every other node slips
+    assert np.all(free.force[1:] <= coarse_runs[0.3].force[1:] * (1 + 1e-6))
+    assert np.all(coarse_runs[0.3].force[1:] <= large.force[1:] * (1 + 1e-6))
+    assert free.parameters == ("c1", "c5", "mu") and stick.parameters == ("c1", "c5")
+
+
+def test_stick_zone_grows_with_depth(coarse_runs):
+    r = coarse_runs[0.3]
+    radius = np.linalg.norm(r.top_xyz[:, :2], axis=1)
+    stuck_edge = [radius[s == 1].max(initial=0.0) for s in r.contact_status[1:]]
+    contact_edge = [radius[s > 0].max(initial=0.0) for s in r.contact_status[1:]]
+    assert np.all(np.diff(contact_edge) >= 0) and contact_edge[-1] > contact_edge[0]
+    assert np.all(np.diff(stuck_edge) >= 0) and stuck_edge[-1] > stuck_edge[0]
+    slipping = r.contact_status[-1] == 2
+    assert slipping.any() and radius[slipping].min() > 0.0  # the centre sticks, the rim slips
+
+
+def test_sensitivities_with_friction_match_central_differences():
+    spec = ModelSpec(
+        mesh=MeshChoice("coarse"),
+        protocol=Protocol(step_size=0.5, steps=4),
+        solver=SolverOptions(residual_tol=1e-11),
+    ).with_friction(1.0)
+    r = EmbeddedSolver(spec).run(sensitivities=True)
+    assert r.force_sensitivity.shape == (5, 3) and r.displacement_sensitivity.shape[-1] == 3
+    assert r.convergence["slipping_nodes"].max() > 0  # slip is exercised
+    # measured: relative errors 3e-8 (c1), 3e-7 (c5), 3e-5 (mu) in force, 1e-6 in the field;
+    # a friction history is path dependent, so the three runs must take the same increments
+    cases = (("c1", 10.0, spec.with_material), ("c5", 350.0, spec.with_material), ("mu", 1.0, None))
+    for k, (name, value, vary) in enumerate(cases):
+        h = 1e-4 * value
+
+        def run(v, name=name, vary=vary):
+            s = vary(**{name: v}) if vary else spec.with_friction(v)
+            return EmbeddedSolver(s).run()
+
+        rp, rm = run(value + h), run(value - h)
+        assert np.array_equal(rp.convergence["increments"], r.convergence["increments"])
+        f_fd = (rp.force - rm.force) / (2 * h)
+        assert np.abs(r.force_sensitivity[1:, k] - f_fd[1:]).max() < 1e-4 * np.abs(f_fd[1:]).max(), name
+        u_fd = (rp.displacement - rm.displacement) / (2 * h)
+        err = np.abs(r.displacement_sensitivity[1:, ..., k] - u_fd[1:]).max()
+        assert err < 1e-4 * np.abs(u_fd[1:]).max(), name
