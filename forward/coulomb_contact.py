@@ -29,9 +29,9 @@ nothing for a node that sticks. Above its centre the sphere goes on as a shaft o
 (:func:`capsule_axis_offset`), so that a node that slides up past the equator (deeper than R)
 stays in contact.
 
-Within an increment's Newton solve the contact statuses and the friction cone's pressure are
-held, and no slipping node is stepped past its anchor (:func:`anchor_crossing_step`); between
-solves they are settled until the state is consistent. mu = 0 is frictionless; mu -> infinity is
+Within an increment's Newton solve the contact statuses are held, and no slipping node is stepped
+past its anchor (:func:`anchor_crossing_step`); between solves they are settled until the state
+is consistent. mu = 0 is frictionless; mu -> infinity is
 stick by the penalty spring, which tends to :mod:`forward.stick_contact`'s exact stick as
 ``penalty`` grows (README, "Friction"). Every derivative the solver and its sensitivities need is
 exact: of ``f`` with respect to the node's position, its anchor and mu (:func:`contact_response`),
@@ -73,16 +73,13 @@ def contact_response(
     eps: np.ndarray,
     mu: float,
     status: np.ndarray,
-    cone_pressure: np.ndarray | None = None,
 ) -> ContactResponse:
     """The indenter's force (module docstring) on nodes at ``r`` (nt, 3; relative to the
     sphere's centre) anchored at ``anchor`` (nt, 3, on the indenter's surface), with node
     penalties ``eps`` (nt,), friction coefficient ``mu`` and each node's contact ``status`` held
     (FREE or CONTACT; a node held in contact that has left the plane is pulled back, p < 0:
-    what :func:`settled_status` releases). The cone is mu max(p, 0), or, with ``cone_pressure``
-    (nt,), mu times that pressure held: Newton's law within a pass, since a cone that switches
-    with p where a node leaves the indenter, with its stiffness mu eps, stalls Newton; the
-    passes bring the held pressure to p, where the two laws agree. Vectorised over the nodes."""
+    what :func:`settled_status` releases). The cone is mu max(p, 0): a pulled node carries no
+    friction rather than friction turned round. Vectorised over the nodes."""
     eye = np.eye(3)
     off, D = capsule_axis_offset(anchor)
     rho_a = np.linalg.norm(off, axis=1)
@@ -104,14 +101,13 @@ def contact_response(
     size = np.linalg.norm(tau, axis=1)
     safe_size = np.where(size > 0.0, size, 1.0)
     tau_hat = tau / safe_size[:, None]
-    live = cone_pressure is None
-    pushed = (p > 0.0) & live
-    cone_p = np.where(pushed, p, 0.0) if live else np.maximum(cone_pressure, 0.0)
+    pushed = p > 0.0
+    cone_p = np.where(pushed, p, 0.0)
     cone = mu * cone_p
     slipping = active & (size > cone) & (size > 0.0)
     s3, s33 = slipping[:, None], slipping[:, None, None]
     proj = (cone / safe_size)[:, None, None] * (eye - tau_hat[:, :, None] * tau_hat[:, None, :])
-    grow = (mu * pushed)[:, None, None] * tau_hat[:, :, None]  # d cone enters through p (live law)
+    grow = (mu * pushed)[:, None, None] * tau_hat[:, :, None]  # the cone grows with p
     dt_dr = np.where(s33, proj @ dtau_dr + grow * dp_dr[:, None, :], dtau_dr)
     dt_da = np.where(s33, proj @ dtau_da + grow * dp_da[:, None, :], dtau_da)
     traction = np.where(s3, cone[:, None] * tau_hat, tau)
@@ -208,8 +204,6 @@ class FrictionContactState:
     dforce: np.ndarray | None = field(init=False, default=None)
     #: the nodes slipping at the end of the last increment
     slipping: np.ndarray = field(init=False)
-    #: the pressure the friction cone is held at within a Newton solve (None: p itself)
-    cone_pressure: np.ndarray | None = field(init=False, default=None)
 
     def __post_init__(self) -> None:
         nt = self.top_xyz0.shape[0]
@@ -227,7 +221,6 @@ class FrictionContactState:
         other.force = self.force.copy()
         other.dforce = None if self.dforce is None else self.dforce.copy()
         other.slipping = self.slipping.copy()
-        other.cone_pressure = None if self.cone_pressure is None else self.cone_pressure.copy()
         return other
 
     @property
@@ -269,12 +262,10 @@ class FrictionContactState:
             self.danchor[new] = 0.0
             self.danchor[new, :, : d.shape[2]] = d
 
-    def response(self, u_top: np.ndarray, depth: float, held: bool = False) -> ContactResponse:
-        """The indenter's force on the nodes at ``u_top``, the statuses held
-        (:func:`contact_response`); ``held``: the cone held at ``cone_pressure`` too."""
+    def response(self, u_top: np.ndarray, depth: float) -> ContactResponse:
+        """The indenter's force on the nodes at ``u_top``, the statuses held (:func:`contact_response`)."""
         r = self.relative(u_top, depth)
-        cone = self.cone_pressure if held else None
-        return contact_response(r, self.anchor, self.eps, self.mu, self.status, cone)
+        return contact_response(r, self.anchor, self.eps, self.mu, self.status)
 
     def settled_status(self, u_top: np.ndarray, depth: float, tol: float) -> np.ndarray:
         """The statuses the state at ``u_top`` calls for (:func:`settled_status`)."""
@@ -285,7 +276,7 @@ class FrictionContactState:
         """:func:`anchor_crossing_step` for the top nodes at ``u_top`` moving by ``step_top``."""
         if self.mu == 0.0:  # no friction to turn round
             return 1.0
-        resp = self.response(u_top, depth, held=True)
+        resp = self.response(u_top, depth)
         rubbing = resp.slipping & (np.linalg.norm(resp.traction, axis=1) > 0.0)
         if not rubbing.any():
             return 1.0
