@@ -54,7 +54,7 @@ def solve_point(
         from ..forward.solver import thread_limits
 
         with thread_limits(1):  # one worker per core: numba and MKL on one thread each
-            spec = ModelSpec.from_dict(model).with_material(**dict(zip(parameters, values, strict=True)))
+            spec = ModelSpec.from_dict(model).with_parameters(**dict(zip(parameters, values, strict=True)))
             if solver == "febio":
                 from ..forward.febio_runner import FebioSolver, require_equilibrium
 

@@ -40,17 +40,25 @@ class Prediction:
 
     @classmethod
     def from_results(cls, results: list[SimulationResult], parameters: tuple[str, ...]) -> Prediction:
-        """Stack simulation results (depth 0 dropped) into one Prediction."""
+        """Stack simulation results (depth 0 dropped) into one Prediction; the Jacobians keep the
+        columns of ``parameters`` (a run with friction has d/dmu beside d/d(c1, c5), used when mu
+        is a parameter and left out when it is fixed)."""
         first = results[0]
         sens = all(r.force_sensitivity is not None for r in results)
+        columns = None
+        if sens:
+            missing = [k for k in parameters if k not in first.parameters]
+            if missing:
+                raise ValueError(f"the simulations have no sensitivities with respect to {missing}")
+            columns = [list(first.parameters).index(k) for k in parameters]
         return cls(
             force=np.stack([r.force[1:] for r in results]),
             displacement=np.stack([r.displacement[1:] for r in results]),
             depth=np.asarray(first.depth[1:]),
             top_xyz=np.asarray(first.top_xyz),
             parameters=parameters,
-            force_jacobian=np.stack([r.force_sensitivity[1:] for r in results]) if sens else None,
-            displacement_jacobian=np.stack([r.displacement_sensitivity[1:] for r in results])
+            force_jacobian=np.stack([r.force_sensitivity[1:, columns] for r in results]) if sens else None,
+            displacement_jacobian=np.stack([r.displacement_sensitivity[1:, ..., columns] for r in results])
             if sens
             else None,
         )
@@ -128,8 +136,10 @@ class FESolverPredictor:
             raise ValueError(f"unknown solver {solver!r}; use 'embedded' or 'febio'")
         if sensitivities and solver != "embedded":
             raise ValueError("exact sensitivities come from the embedded solver only")
-        if tuple(parameters) != ("c1", "c5"):
-            raise ValueError(f"the FE solvers take parameters ('c1', 'c5'), got {parameters}")
+        if tuple(parameters) not in (("c1", "c5"), ("c1", "c5", "mu")):
+            raise ValueError(
+                f"the FE solvers take parameters ('c1', 'c5') or ('c1', 'c5', 'mu'), got {parameters}"
+            )
         if solver == "febio":
             from .febio_runner import find_febio
 
@@ -143,7 +153,7 @@ class FESolverPredictor:
 
     def spec_at(self, point: np.ndarray) -> ModelSpec:
         """The model spec at one parameter point (a bad value raises SpecError naming it)."""
-        return self.spec.with_material(**{k: float(v) for k, v in zip(self.parameters, point, strict=True)})
+        return self.spec.with_parameters(**{k: float(v) for k, v in zip(self.parameters, point, strict=True)})
 
     def simulate(self, point: np.ndarray, index: int = 0, sensitivities: bool = False) -> SimulationResult:
         spec = self.spec_at(point)

@@ -234,6 +234,19 @@ class ModelSpec:
         """The same spec with some material fields changed (e.g. ``c1=12``)."""
         return replace(self, material=replace(self.material, **changes))
 
+    def with_parameters(self, **values: float) -> ModelSpec:
+        """The same spec with some identified parameters changed: material fields by name
+        (``c1``, ``c5``, ``kappa``) and ``mu``, the contact's friction coefficient. A campaign's
+        or a predictor's parameter point goes through here, so that mu can be an axis too."""
+        material = {k: v for k, v in values.items() if k != "mu"}
+        unknown = sorted(set(material) - {f.name for f in fields(Material)} - {"fiber"})
+        if unknown:
+            raise SpecError(
+                "parameters", f"unknown parameter(s) {unknown}; use material fields (c1, c5, kappa) or mu"
+            )
+        spec = self.with_material(**material) if material else self
+        return spec.with_friction(float(values["mu"])) if "mu" in values else spec
+
     def with_friction(self, friction: float | None) -> ModelSpec:
         """The same spec with another friction coefficient (None: perfect stick)."""
         return replace(self, contact=replace(self.contact, friction=friction))

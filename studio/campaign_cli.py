@@ -16,6 +16,7 @@ from ..campaign.designs import DesignError
 from ..campaign.store import CampaignError
 from ..forward.spec import SpecError
 from .options import (
+    FRICTION,
     JSON,
     KAPPA,
     MESH,
@@ -52,7 +53,10 @@ def run(
     name: NAME,
     grid: Annotated[
         str,
-        typer.Option(help="paper | FILE.csv | c1=LO:HI:N,c5=LO:HI:N | lhs:N[:SEED] | sobol:N[:SEED]"),
+        typer.Option(
+            help="paper | FILE.csv | c1=LO:HI:N,c5=LO:HI:N | lhs:N[:SEED] | sobol:N[:SEED]; "
+            "mu=LO:HI:N adds friction as a third axis"
+        ),
     ] = "paper",
     kappa: KAPPA = 1000.0,
     radius: RADIUS = 4.77,
@@ -61,6 +65,7 @@ def run(
     mesh: MESH = "default",
     mesh_from: MESH_FROM = None,
     substeps: SUBSTEPS = 1,
+    friction: FRICTION = None,
     solver: Annotated[SolverName, typer.Option(help="FE solver")] = SolverName.embedded,
     jobs: Annotated[int, typer.Option(help="parallel processes (default: all cores)")] = 0,
     scheduler: Annotated[
@@ -85,7 +90,7 @@ def run(
 
         try:
             # the material values of the base spec are placeholders: each point sets its own
-            base = model_spec(1.0, 1.0, kappa, radius, steps, step_size, mesh, mesh_from, substeps)
+            base = model_spec(1.0, 1.0, kappa, radius, steps, step_size, mesh, mesh_from, substeps, friction)
             summary = run_named_campaign(
                 name, grid, base, runs_dir, solver.value, jobs, scheduler, retry_failed, timeout, report
             )

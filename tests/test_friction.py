@@ -15,6 +15,7 @@ from indentation_studio.forward.coulomb_contact import (
     tributary_areas,
 )
 from indentation_studio.forward.mesh import preset_mesh
+from indentation_studio.forward.result import SimulationResult
 from indentation_studio.forward.solver import EmbeddedSolver
 from indentation_studio.forward.spec import (
     Contact,
@@ -177,3 +178,37 @@ def test_sensitivities_with_friction_match_central_differences():
         u_fd = (rp.displacement - rm.displacement) / (2 * h)
         err = np.abs(r.displacement_sensitivity[1:, ..., k] - u_fd[1:]).max()
         assert err < 1e-4 * np.abs(u_fd[1:]).max(), name
+
+
+def test_friction_as_a_campaign_axis(tmp_path):
+    from indentation_studio.campaign.loader import load_campaign
+    from indentation_studio.campaign.runner import run_named_campaign
+
+    base = ModelSpec(mesh=MeshChoice("coarse"), protocol=Protocol(step_size=0.5, steps=2))
+    summary = run_named_campaign("mu", "c1=5:10:2,c5=200:200:1,mu=0.3:3:2", base, tmp_path, jobs=1)
+    assert summary["done"] == 4 and summary["failed"] == 0
+    data = load_campaign("mu", tmp_path)
+    assert data.theta.shape == (4, 3) and data.parameters == ("c1", "c5", "mu")
+    store = tmp_path / "mu" / "points"
+    for point, theta in zip(data.points, data.theta, strict=True):
+        result = SimulationResult.load(store / f"{point:05d}.npz")
+        assert result.spec["contact"]["friction"] == theta[2]
+        assert result.parameters == ("c1", "c5", "mu")
+    # mu changes the response at the same (c1, c5): at 1 mm, 0.3 against 3
+    assert not np.allclose(data.force[0], data.force[1], rtol=1e-4)
+    with pytest.raises(SpecError, match="unknown parameter"):
+        base.with_parameters(c1=5.0, nu=0.4)
+
+
+def test_fe_predictor_with_mu_as_a_parameter():
+    from indentation_studio.forward.predictor import FESolverPredictor
+
+    spec = ModelSpec(mesh=MeshChoice("coarse"), protocol=Protocol(step_size=0.5, steps=2))
+    three = FESolverPredictor(spec, parameters=("c1", "c5", "mu")).predict(
+        np.array([[10.0, 350.0, 1.0]]), True
+    )
+    assert three.force_jacobian.shape == (1, 2, 3) and three.displacement_jacobian.shape[-1] == 3
+    fixed = FESolverPredictor(spec.with_friction(1.0)).predict(np.array([[10.0, 350.0]]), True)
+    assert fixed.force_jacobian.shape == (1, 2, 2)  # mu fixed: its column is left out
+    assert np.array_equal(fixed.force_jacobian, three.force_jacobian[..., :2])
+    assert np.array_equal(fixed.force, three.force)
