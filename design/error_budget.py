@@ -259,7 +259,9 @@ def _row_key(model: str | None, theta_t) -> tuple:
 def resolve_model(name: str, reference_spec, fe_cache: dict | None = None) -> tuple[object, object | None]:
     """A model named on the command line: a mesh preset (the reference's model on that mesh), a
     FEBio .feb file's hex8 mesh, ``richardson:FINE,COARSE[,ORDER]`` (two presets extrapolated,
-    :mod:`forward.richardson`) or a surrogate file. Returns (Predictor, the FE Predictor a
+    :mod:`forward.richardson`) or a surrogate file; ``@stick`` or ``@mu=VALUE`` after a mesh or a
+    .feb gives the model another contact (the bias a contact model causes: a stick model fitted
+    to frictional data). Returns (Predictor, the FE Predictor a
     surrogate emulates, or None). FE models are shared through ``fe_cache`` (mesh -> Predictor),
     so that a mesh is solved once per test point whatever uses it."""
     from dataclasses import replace
@@ -269,6 +271,17 @@ def resolve_model(name: str, reference_spec, fe_cache: dict | None = None) -> tu
     from ..forward.spec import MeshChoice, ModelSpec
 
     cache = {} if fe_cache is None else fe_cache
+    name, _, contact = name.partition("@")
+    if contact:  # the same model with another contact: PRESET@stick or PRESET@mu=0.3
+        if contact == "stick":
+            reference_spec = reference_spec.with_friction(None)
+        elif contact.startswith("mu="):
+            try:
+                reference_spec = reference_spec.with_friction(float(contact[3:]))
+            except ValueError as exc:
+                raise ValueError(f"model {name}@{contact}: {exc}") from exc
+        else:
+            raise ValueError(f"model {name}@{contact}: the contact is @stick or @mu=VALUE")
 
     def fe(spec) -> CachedPredictor:
         key = json_key(spec.to_dict())

@@ -407,7 +407,10 @@ def error_budget_cmd(
     ],
     model: Annotated[
         list[str],
-        typer.Option(help="a mesh preset, a .feb file or a surrogate file; repeat for several"),
+        typer.Option(
+            help="a mesh preset, a .feb file or a surrogate file; repeat for several; PRESET@stick or "
+            "PRESET@mu=VALUE: that mesh with another contact (a stick model fitted to frictional data)"
+        ),
     ],
     weights: Annotated[str, typer.Option(help="eta = force,ux,uy,uz on the simplex")] = "0.45,0.35,0.2,0",
     force_noise: Annotated[float, typer.Option(help="relative force noise per step")] = 0.02,

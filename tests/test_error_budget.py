@@ -270,3 +270,27 @@ def _on(spec: ModelSpec, mesh: str) -> ModelSpec:
     from dataclasses import replace
 
     return replace(spec, mesh=MeshChoice(mesh))
+
+
+def test_contact_model_bias_of_a_stick_fit_to_frictional_data():
+    """``PRESET@stick`` is the reference's model with the perfect stick: its budget row against a
+    frictional reference is the fit the stick assumption causes (a full LM fit agrees)."""
+    from indentation_studio.design.error_budget import resolve_model
+
+    frictional = COARSE.with_friction(0.3)
+    stick, _ = resolve_model("coarse@stick", frictional)
+    assert stick.predictor.spec.contact.friction is None
+    other, _ = resolve_model("coarse@mu=1", frictional)
+    assert other.predictor.spec.contact.friction == 1.0
+    with pytest.raises(ValueError, match="@stick or @mu"):
+        resolve_model("coarse@slip", frictional)
+    reference = _reference(frictional)
+    budget = compute_error_budget([reference], {"coarse@stick": stick}, fe_steps=4, fov_mm=None)
+    row = budget.table.iloc[0]
+    objective = Objective.from_prediction(
+        reference_prediction(reference, model_top_xyz(stick)), radius=COARSE.indenter.radius
+    )
+    lm = fit_parameters(objective, stick, PAPER_WEIGHTS, theta0=THETA)
+    bias = 100 * (lm.theta / np.array(THETA) - 1)
+    assert abs(bias[1]) > 0.1  # friction does move the fit
+    np.testing.assert_allclose([row.c1_bias_pct, row.c5_bias_pct], bias, atol=0.05)
