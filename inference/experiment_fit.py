@@ -49,7 +49,7 @@ class ExperimentFit:
             "c5": float(final.theta[1]),
             "c1_pct": float(self.bounds_pct[0]),
             "c5_pct": float(self.bounds_pct[1]),
-            "bounds_include": model_error_scope(self.model_error),
+            "bounds_include": model_error_scope(self.model_error, contact=inputs.spec.contact.describe()),
             "statistical_pct": final.bounds_pct.tolist(),
             "model_error": None if self.model_error is None else self.model_error.to_dict(),
             "F": final.F,

@@ -60,7 +60,9 @@ class ExperimentPosterior:
             "sigma": self.sigma,
             "carried_to_finer_mesh": self.carried,
             "model_error": None if self.model_error is None else self.model_error.to_dict(),
-            "intervals_include": model_error_scope(self.model_error, noise="measurement noise"),
+            "intervals_include": model_error_scope(
+                self.model_error, noise="measurement noise", contact=self.inputs.spec.contact.describe()
+            ),
             "inputs": {**self.inputs.sources, "weights": self.inputs.eta.tolist()},
         }
 

@@ -58,19 +58,25 @@ class ModelError:
             "error_budget_pct": self.budget_pct.tolist(),
             "model_pct": self.half_width_pct.tolist(),
             "error_budget_source": self.budget_source,
-            "includes": model_error_scope(self),
+            "includes": model_error_scope(self),  # the contact: named by the fit that carries it
         }
 
 
-def model_error_scope(model: ModelError | None, noise: str = "statistical (eq. 6 to 8)") -> str:
+def model_error_scope(
+    model: ModelError | None, noise: str = "statistical (eq. 6 to 8)", contact: str = "perfect stick"
+) -> str:
     """What a fit's bounds (or, with ``noise="measurement noise"``, a posterior's intervals) hold,
     in words, as fit.json, posterior.json and the CLI say it: a reported bound must always say what
-    it includes and what it leaves out."""
+    it includes and what it leaves out. ``contact`` names the contact the model assumes
+    (``Contact.describe()``): no bound holds its error (README, "Friction": a stick fit of data with
+    mu = 0.3 puts c5 about 30 % low)."""
+    assumed = f"the contact model's ({contact} assumed)"
     if model is None:
         return (
             f"{noise} only: no error budget is known for this surrogate's mesh and test "
-            "and it has no high-fidelity level, so these bounds hold no model error (mesh, contact); "
-            "train a multi-fidelity surrogate, give the surrogate an error budget or use --check-mesh"
+            f"and it has no high-fidelity level, so these bounds hold no model error (mesh, contact: "
+            f"{contact} assumed); train a multi-fidelity surrogate, give the surrogate an error budget "
+            "or use --check-mesh"
         )
     budget = ""
     src = model.budget_source
@@ -79,13 +85,9 @@ def model_error_scope(model: ModelError | None, noise: str = "statistical (eq. 6
             f" ({src.get('model')}'s largest bias at {src.get('points')} test points of {src.get('file')})"
         )
     if not model.has_discrepancy:
-        return (
-            f"{noise} and the mesh's error budget{budget}; not the surrogate's own error "
-            "nor the contact model's (perfect stick assumed)"
-        )
+        return f"{noise} and the mesh's error budget{budget}; not the surrogate's own error nor {assumed}"
     return (
-        f"{noise} and model error (the discrepancy's uncertainty and the error "
-        f"budget{budget}); not the contact model's (perfect stick assumed)"
+        f"{noise} and model error (the discrepancy's uncertainty and the error budget{budget}); not {assumed}"
     )
 
 

@@ -180,7 +180,9 @@ def _example(experiment, mlp, posterior_steps: int, out: Path, spec: ModelSpec, 
             "bounds_pct": result.bounds_pct.tolist(),  # statistical and, where known, model error
             "statistical_pct": fit.bounds_pct.tolist(),
             "model_error": None if result.model_error is None else result.model_error.to_dict(),
-            "bounds_include": model_error_scope(result.model_error),
+            "bounds_include": model_error_scope(
+                result.model_error, contact=result.inputs.spec.contact.describe()
+            ),
             "F": fit.F,
             "s": fit.s,
             "surrogate_theta": result.surrogate_fit.theta.tolist(),

@@ -212,3 +212,11 @@ def test_fe_predictor_with_mu_as_a_parameter():
     assert fixed.force_jacobian.shape == (1, 2, 2)  # mu fixed: its column is left out
     assert np.array_equal(fixed.force_jacobian, three.force_jacobian[..., :2])
     assert np.array_equal(fixed.force, three.force)
+
+
+def test_bounds_name_the_contact_they_assume():
+    from indentation_studio.inference.model_error import model_error_scope
+
+    assert "perfect stick assumed" in model_error_scope(None)
+    said = model_error_scope(None, contact=ModelSpec().with_friction(0.3).contact.describe())
+    assert "Coulomb friction mu = 0.3 assumed" in said and "hold no model error" in said
