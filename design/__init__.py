@@ -20,6 +20,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
             "campaign_error_budget",
             "compute_error_budget",
             "remaining_bias",
+            "resolve_model",
             "shipped_budget",
             "surrogate_error_budget",
         ],

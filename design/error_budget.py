@@ -425,9 +425,10 @@ def shipped_budgets_folder() -> Path:
 
 def _test_of(model: dict) -> dict:
     """What makes two specs the same test for an error budget: everything but the mesh, the
-    solver's options and the parameters (c1, c5)."""
+    solver's options and the parameters (c1, c5); the contact included (absent: the perfect
+    stick), since a mesh's error measured with one contact is not that mesh's error with another."""
     material = {k: v for k, v in (model.get("material") or {}).items() if k not in ("c1", "c5")}
-    return {k: model.get(k) for k in ("geometry", "indenter", "protocol")} | {"material": material}
+    return {k: model.get(k) for k in ("geometry", "indenter", "protocol", "contact")} | {"material": material}
 
 
 def shipped_budget(spec, folder: str | Path | None = None) -> dict | None:

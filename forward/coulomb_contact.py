@@ -303,28 +303,28 @@ class FrictionContactState:
         self.anchor[slip] = moved
         self.slipping = slip.copy()
 
+    def _chain(self, d_dr: np.ndarray, d_da: np.ndarray, d_dmu: np.ndarray, du_top: np.ndarray) -> np.ndarray:
+        """d (force or traction) / d theta (nt, 3, p) from its derivatives in the node's position,
+        its anchor and mu, for node derivatives ``du_top`` (nt, 3, p); theta's last column is mu
+        when p == 3."""
+        p = du_top.shape[2]
+        d = d_dr @ du_top + d_da @ self.danchor[:, :, :p]
+        if p == 3:
+            d[:, :, 2] += d_dmu
+        return d
+
     def traction_derivative(self, resp: ContactResponse, du_top: np.ndarray) -> np.ndarray:
-        """d t / d theta (nt, 3, p) for node derivatives ``du_top`` (nt, 3, p); theta's last
-        column is mu when p == 3."""
-        dt = resp.dt_dr @ du_top + resp.dt_da @ self.danchor[:, :, : du_top.shape[2]]
-        if du_top.shape[2] == 3:
-            dt[:, :, 2] += resp.dt_dmu
-        return dt
+        """d t / d theta (nt, 3, p) for node derivatives ``du_top`` (nt, 3, p)."""
+        return self._chain(resp.dt_dr, resp.dt_da, resp.dt_dmu, du_top)
 
     def force_derivative(self, resp: ContactResponse, du_top: np.ndarray) -> np.ndarray:
-        """d f / d theta (nt, 3, p), as :meth:`traction_derivative` for the whole force."""
-        df = resp.df_dr @ du_top + resp.df_da @ self.danchor[:, :, : du_top.shape[2]]
-        if du_top.shape[2] == 3:
-            df[:, :, 2] += resp.dt_dmu
-        return df
+        """d f / d theta (nt, 3, p) for node derivatives ``du_top`` (nt, 3, p)."""
+        return self._chain(resp.df_dr, resp.df_da, resp.dt_dmu, du_top)
 
     def explicit_force_derivative(self, resp: ContactResponse, n_params: int) -> np.ndarray:
         """The part of d f / d theta at fixed node positions (anchors' derivatives and mu),
         (nt, 3, p): the right-hand side's contact part in the sensitivity solve."""
-        df = resp.df_da @ self.danchor[:, :, :n_params]
-        if n_params == 3:
-            df[:, :, 2] += resp.dt_dmu
-        return df
+        return self.force_derivative(resp, np.zeros((resp.force.shape[0], 3, n_params)))
 
 
 def tributary_areas(nodes: np.ndarray, elements: np.ndarray, top: np.ndarray) -> np.ndarray:

@@ -210,15 +210,11 @@ class ConstrainedSymmetricSolver:
         if self._pardiso is None:
             self._pardiso = _new_pardiso(self.symmetric)
             self._pardiso.set_iparm(28, int(self.single_precision))
-        part = "_upper" if self.symmetric else "_full"
-        A = sp.csr_matrix(
-            (
-                data[getattr(self, part + "_slots")],
-                getattr(self, part + "_indices"),
-                getattr(self, part + "_indptr"),
-            ),
-            shape=(self.m, self.m),
-        )
+        if self.symmetric:  # PARDISO reads the upper triangle of a symmetric matrix
+            slots, indices, indptr = self._upper_slots, self._upper_indices, self._upper_indptr
+        else:
+            slots, indices, indptr = self._full_slots, self._full_indices, self._full_indptr
+        A = sp.csr_matrix((data[slots], indices, indptr), shape=(self.m, self.m))
         self._pardiso._check_A(A)  # pypardiso's checks want float64; PARDISO reads float32 if iparm 28
         if self.single_precision:
             A.data = A.data.astype(np.float32)

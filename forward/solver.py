@@ -217,8 +217,6 @@ class EmbeddedSolver:
         if parameter_derivatives:
             dR = np.stack([self.pattern.vector(st.dforce_dtheta[:, k]) for k in range(2)], axis=1)
         if self._friction_state is not None:
-            # Newton's law holds the friction cone's pressure; the converged tangent (the one
-            # with the parameter derivatives, for the sensitivities) is the law's own
             resp = self._friction_state.response(u[self.top], self._friction_depth)
             R.reshape(-1, 3)[self.top] -= resp.force
             if K is not None:
@@ -711,11 +709,8 @@ class EmbeddedSolver:
             for key, val in rec.items():
                 conv[key].append(val)
             conv["attached_nodes"].append(int(contact.attached.sum()))
-            self._status.append(
-                contact.attached.astype(np.int8) + contact.slipping.astype(np.int8)
-                if friction
-                else contact.attached.astype(np.int8)
-            )
+            slipping = contact.slipping if friction else False  # the stick contact has no slip
+            self._status.append(contact.attached.astype(np.int8) + slipping)
             if friction:
                 conv.setdefault("slipping_nodes", [0]).append(int(contact.slipping.sum()))
             conv["wall_s"].append(time.perf_counter() - t_step)

@@ -177,10 +177,6 @@ class Contact:
             object.__setattr__(self, "friction", mu)
         object.__setattr__(self, "penalty", _finite_positive("contact.penalty", self.penalty))
 
-    @property
-    def is_stick(self) -> bool:
-        return self.friction is None
-
     def describe(self) -> str:
         if self.friction is None:
             return "perfect stick"
@@ -239,7 +235,8 @@ class ModelSpec:
         (``c1``, ``c5``, ``kappa``) and ``mu``, the contact's friction coefficient. A campaign's
         or a predictor's parameter point goes through here, so that mu can be an axis too."""
         material = {k: v for k, v in values.items() if k != "mu"}
-        unknown = sorted(set(material) - {f.name for f in fields(Material)} - {"fiber"})
+        scalar = {f.name for f in fields(Material)} - {"fiber"}  # a direction is no parameter
+        unknown = sorted(set(material) - scalar)
         if unknown:
             raise SpecError(
                 "parameters", f"unknown parameter(s) {unknown}; use material fields (c1, c5, kappa) or mu"

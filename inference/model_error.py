@@ -43,6 +43,7 @@ class ModelError:
     covariance_log: np.ndarray  # (p, p) the discrepancy part's covariance of log theta
     budget_source: dict | None = None  # what the budget part was read from
     has_discrepancy: bool = True  # False: a single-level surrogate, the mesh's error budget only
+    contact: str = "perfect stick"  # the contact the surrogate's model assumes (Contact.describe())
 
     @property
     def half_width_pct(self) -> np.ndarray:
@@ -58,18 +59,19 @@ class ModelError:
             "error_budget_pct": self.budget_pct.tolist(),
             "model_pct": self.half_width_pct.tolist(),
             "error_budget_source": self.budget_source,
-            "includes": model_error_scope(self),  # the contact: named by the fit that carries it
+            "includes": model_error_scope(self),
         }
 
 
 def model_error_scope(
-    model: ModelError | None, noise: str = "statistical (eq. 6 to 8)", contact: str = "perfect stick"
+    model: ModelError | None, noise: str = "statistical (eq. 6 to 8)", contact: str | None = None
 ) -> str:
     """What a fit's bounds (or, with ``noise="measurement noise"``, a posterior's intervals) hold,
     in words, as fit.json, posterior.json and the CLI say it: a reported bound must always say what
     it includes and what it leaves out. ``contact`` names the contact the model assumes
     (``Contact.describe()``): no bound holds its error (README, "Friction": a stick fit of data with
-    mu = 0.3 puts c5 about 30 % low)."""
+    mu = 0.3 puts c5 about 30 % low); by default the model error's own, or the perfect stick."""
+    contact = contact or (model.contact if model is not None else "perfect stick")
     assumed = f"the contact model's ({contact} assumed)"
     if model is None:
         return (
@@ -113,17 +115,27 @@ def _perturbed(prediction: Prediction, force_log: np.ndarray, field: np.ndarray)
     )
 
 
+def _contact_of(surrogate) -> str:
+    """The contact of the FE model a surrogate emulates, in words (the perfect stick when its
+    file does not say)."""
+    from ..forward.spec import ModelSpec
+
+    model = (getattr(surrogate, "meta", None) or {}).get("campaign", {}).get("model")
+    return ModelSpec.from_dict(model).contact.describe() if model else "perfect stick"
+
+
 def model_error_at(objective: Objective, eta, surrogate, theta: np.ndarray) -> ModelError | None:
     """The model-error parts at the fit ``theta`` on ``surrogate``. A single-level surrogate with an
     error budget of its mesh (``meta['error_budget']``) carries that budget alone; one with
     neither gives None (its bounds then hold no model error, and say so)."""
     budget = surrogate_error_budget(surrogate) or {}
+    contact = _contact_of(surrogate)
     budget_pct = np.array([float(budget.get(f"{name}_pct", 0.0)) for name in surrogate.parameters])
     if not has_high_fidelity_level(surrogate):
         if not budget:
             return None
         p = len(surrogate.parameters)
-        return ModelError(np.zeros(p), budget_pct, np.zeros((p, p)), budget.get("source"), False)
+        return ModelError(np.zeros(p), budget_pct, np.zeros((p, p)), budget.get("source"), False, contact)
     e = check_weights(eta)
     theta = np.asarray(theta, float)
     pred = surrogate.predict(theta[None, :], jacobian=True)
@@ -146,6 +158,7 @@ def model_error_at(objective: Objective, eta, surrogate, theta: np.ndarray) -> M
         budget_pct=budget_pct,
         covariance_log=cov,
         budget_source=budget.get("source") if budget else None,
+        contact=contact,
     )
 
 

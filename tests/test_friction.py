@@ -196,8 +196,9 @@ def test_friction_as_a_campaign_axis(tmp_path):
         assert result.parameters == ("c1", "c5", "mu")
     # mu changes the response at the same (c1, c5): at 1 mm, 0.3 against 3
     assert not np.allclose(data.force[0], data.force[1], rtol=1e-4)
-    with pytest.raises(SpecError, match="unknown parameter"):
-        base.with_parameters(c1=5.0, nu=0.4)
+    for bad in ({"c1": 5.0, "nu": 0.4}, {"fiber": 1.0}):
+        with pytest.raises(SpecError, match="unknown parameter"):
+            base.with_parameters(**bad)
 
 
 def test_fe_predictor_with_mu_as_a_parameter():
@@ -220,3 +221,7 @@ def test_bounds_name_the_contact_they_assume():
     assert "perfect stick assumed" in model_error_scope(None)
     said = model_error_scope(None, contact=ModelSpec().with_friction(0.3).contact.describe())
     assert "Coulomb friction mu = 0.3 assumed" in said and "hold no model error" in said
+    from indentation_studio.inference.model_error import ModelError
+
+    carried = ModelError(np.zeros(2), np.ones(2), np.zeros((2, 2)), None, False, "frictionless")
+    assert "frictionless assumed" in carried.to_dict()["includes"]

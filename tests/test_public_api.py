@@ -42,3 +42,18 @@ def test_model_error_is_reachable_from_a_notebook():
     assert callable(ins.design.remaining_bias) and callable(ins.design.surrogate_error_budget)
     assert "hold no model error" in ins.inference.model_error_scope(None)
     assert callable(ins.inference.combined_pct) and callable(ins.forward.thread_limits)
+
+
+def test_friction_is_reachable_from_a_notebook():
+    """The contact in a spec, as a parameter, in the error budget and in the words of a bound."""
+    spec = ins.ModelSpec().with_friction(0.3)
+    assert spec.contact == ins.forward.Contact(friction=0.3)
+    assert spec.with_parameters(mu=1.0).contact.friction == 1.0
+    stick, _ = ins.design.resolve_model("coarse@stick", spec)
+    assert stick.predictor.spec.contact.friction is None
+    assert "Coulomb friction mu = 0.3 assumed" in ins.inference.model_error_scope(
+        None, contact=spec.contact.describe()
+    )
+    assert callable(ins.forward.contact_response) and callable(ins.forward.tributary_areas)
+    # the shipped budget was measured with the perfect stick: it is not a frictional model's
+    assert ins.shipped_budget(ins.ModelSpec()) is not None and ins.shipped_budget(spec) is None
