@@ -38,8 +38,15 @@ class Design:
         object.__setattr__(self, "points", pts)
 
 
-def grid(bounds: dict[str, tuple[float, float]], counts: dict[str, int], description: str) -> Design:
-    """Full factorial grid, evenly spaced per parameter (ends included), first parameter slowest."""
+def grid(
+    bounds: dict[str, tuple[float, float]],
+    counts: dict[str, int],
+    description: str,
+    log_axes: frozenset[str] = frozenset(),
+) -> Design:
+    """Full factorial grid, evenly spaced per parameter (ends included), first parameter slowest;
+    the parameters in ``log_axes`` evenly spaced in log (a friction coefficient, whose effect
+    fades as it grows: README, "Friction")."""
     names = tuple(bounds)
     axes = []
     for k in names:
@@ -47,7 +54,10 @@ def grid(bounds: dict[str, tuple[float, float]], counts: dict[str, int], descrip
         n = counts[k]
         if not (np.isfinite(lo) and np.isfinite(hi)) or n < 1 or (n > 1 and hi <= lo):
             raise DesignError(f"{k}: need finite LO < HI and N >= 1, got {lo}:{hi}:{n}")
-        axes.append(np.linspace(lo, hi, n) if n > 1 else np.array([lo]))
+        if k in log_axes and lo <= 0:
+            raise DesignError(f"{k}: a log-spaced axis needs LO > 0, got {lo}:{hi}:{n}:log")
+        spaced = np.geomspace if k in log_axes else np.linspace
+        axes.append(spaced(lo, hi, n) if n > 1 else np.array([lo]))
     mesh = np.meshgrid(*axes, indexing="ij")
     return Design(np.column_stack([m.ravel() for m in mesh]), names, description)
 
@@ -57,23 +67,26 @@ def paper_grid() -> Design:
     return grid(PAPER_BOUNDS, PAPER_COUNTS, "paper")
 
 
-_RANGE = re.compile(r"^\s*(\w+)\s*=\s*([^:]+):([^:]+):(\d+)\s*$")
+_RANGE = re.compile(r"^\s*(\w+)\s*=\s*([^:]+):([^:]+):(\d+)(:log)?\s*$")
 
 
 def parse_grid(text: str) -> Design:
-    """A grid from ``c1=LO:HI:N,c5=LO:HI:N``."""
-    bounds, counts = {}, {}
+    """A grid from ``c1=LO:HI:N,c5=LO:HI:N`` (a third axis such as ``mu=0.25:4:5:log`` too; ``:log``
+    spaces that axis evenly in log)."""
+    bounds, counts, log_axes = {}, {}, set()
     for part in text.split(","):
         m = _RANGE.match(part)
         if not m:
-            raise DesignError(f"grid part {part!r}: expected NAME=LO:HI:N, e.g. c1=1:21:25")
+            raise DesignError(f"grid part {part!r}: expected NAME=LO:HI:N[:log], e.g. c1=1:21:25")
         name = m.group(1)
         try:
             bounds[name] = (float(m.group(2)), float(m.group(3)))
         except ValueError as exc:
             raise DesignError(f"grid part {part!r}: LO and HI must be numbers") from exc
         counts[name] = int(m.group(4))
-    return grid(bounds, counts, text.replace(" ", ""))
+        if m.group(5):
+            log_axes.add(name)
+    return grid(bounds, counts, text.replace(" ", ""), frozenset(log_axes))
 
 
 def points_from_csv(path: str | Path, parameters: tuple[str, ...] = ("c1", "c5")) -> Design:

@@ -55,7 +55,7 @@ def run(
         str,
         typer.Option(
             help="paper | FILE.csv | c1=LO:HI:N,c5=LO:HI:N | lhs:N[:SEED] | sobol:N[:SEED]; "
-            "mu=LO:HI:N adds friction as a third axis"
+            "mu=LO:HI:N[:log] adds friction as a third axis (:log spaces it in log)"
         ),
     ] = "paper",
     kappa: KAPPA = 1000.0,

@@ -48,6 +48,12 @@ def test_user_grids_csv_and_space_filling_designs(tmp_path):
     np.testing.assert_allclose(g.points, [[2, 100], [2, 200], [3, 100], [3, 200], [4, 100], [4, 200]])
     with pytest.raises(DesignError, match="NAME=LO:HI:N"):
         parse_grid("c1=2:4")
+    f = parse_grid("c1=2:4:2,c5=100:100:1,mu=0.25:4:5:log")  # friction as a third, log-spaced axis
+    assert f.parameters == ("c1", "c5", "mu") and f.points.shape == (10, 3)
+    np.testing.assert_allclose(f.points[:5, 2], [0.25, 0.5, 1, 2, 4])  # ratio (4/0.25)**(1/4) = 2
+    np.testing.assert_allclose(f.points[5:, 0], 4)
+    with pytest.raises(DesignError, match="LO > 0"):
+        parse_grid("c1=2:4:2,mu=0:4:5:log")
     csv = tmp_path / "pts.csv"
     csv.write_text("c1,c5,note\n3,200,a\n4,x,b\n")
     with pytest.raises(DesignError, match=r"row 3, column 'c5'"):
