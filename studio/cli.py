@@ -118,7 +118,11 @@ def simulate(
                 as_json,
             )
     tag = Path(mesh_from).stem if mesh_from else mesh
-    out = out or Path("runs/simulations") / f"c1={c1:g}_c5={c5:g}_R={radius:g}_{tag}_{solver.value}.npz"
+    contact = "" if friction is None else f"_mu={friction:g}"  # runs with other contacts kept apart
+    out = (
+        out
+        or Path("runs/simulations") / f"c1={c1:g}_c5={c5:g}_R={radius:g}{contact}_{tag}_{solver.value}.npz"
+    )
     t0 = time.perf_counter()
     with step_progress(err, f"simulate ({solver.value})", steps) as bar:
         unit = "mm" if solver == SolverName.febio else "mN"
