@@ -5,7 +5,7 @@ at the fit (:mod:`inference.mesh_check`) and the fit carried to the finer mesh."
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -16,7 +16,13 @@ from ..forward.predictor import FESolverPredictor
 from ..surrogate.base import FieldSurrogate
 from .experiment_data import ExperimentData
 from .fit_inputs import FitInputs, prepare_fit
-from .inverse_fit import PAPER_F_STOP, FitResult, fit_parameters, gauss_newton_refine
+from .friction_treatment import (
+    DEFAULT_MU_RANGE,
+    FixedParameter,
+    FrictionTreatment,
+    friction_bounds,
+)
+from .inverse_fit import PAPER_F_STOP, PAPER_START, FitResult, fit_parameters, gauss_newton_refine
 from .mesh_check import MeshCheck, check_mesh_at
 from .model_error import ModelError, combined_pct, has_high_fidelity_level, model_error_at, model_error_scope
 
@@ -34,11 +40,33 @@ class ExperimentFit:
     mesh_check: MeshCheck | None = None
     check_mesh: str | None = None  # the preset the mesh check solved on
     model_error: ModelError | None = None  # with a high-fidelity level: the model-error parts
+    friction: FrictionTreatment = field(default_factory=FrictionTreatment)
+    mu_range: tuple[float, float] | None = None  # identify / marginalise: mu kept inside
+
+    @property
+    def friction_bounds(self) -> dict | None:
+        """With mu fitted: (c1, c5)'s bounds, mu's, the conditional ones and mu's share
+        (:func:`inference.friction_treatment.friction_bounds`)."""
+        if not self.friction.fits_mu:
+            return None
+        f = self.fit
+        return friction_bounds(f.hessian, f.s, f.residual_sd, self.friction, self.mu_range)
+
+    @property
+    def statistical_pct(self) -> np.ndarray:
+        """Eq. 6's half-widths of (c1, c5): with mu fitted, those with mu's uncertainty in them."""
+        fb = self.friction_bounds
+        return self.fit.bounds_pct[:2] if fb is None else np.array(fb["bounds_pct"])
 
     @property
     def bounds_pct(self) -> np.ndarray:
         """The reported 95 % half-width: statistical and, where known, model error combined."""
-        return combined_pct(self.fit.bounds_pct, self.model_error)
+        return combined_pct(self.statistical_pct, self.model_error)
+
+    @property
+    def contact(self) -> str:
+        """What the bounds assume of the contact, in words."""
+        return self.friction.describe(self.inputs.spec.contact.describe(), self.mu_range)
 
     def to_dict(self) -> dict:
         """fit.json: theta, bounds (statistical only unless a mesh check is present), provenance."""
@@ -49,8 +77,9 @@ class ExperimentFit:
             "c5": float(final.theta[1]),
             "c1_pct": float(self.bounds_pct[0]),
             "c5_pct": float(self.bounds_pct[1]),
-            "bounds_include": model_error_scope(self.model_error, contact=inputs.spec.contact.describe()),
-            "statistical_pct": final.bounds_pct.tolist(),
+            "bounds_include": model_error_scope(self.model_error, contact=self.contact),
+            "statistical_pct": self.statistical_pct.tolist(),
+            "friction": self._friction_dict(),
             "model_error": None if self.model_error is None else self.model_error.to_dict(),
             "F": final.F,
             "s": final.s,
@@ -70,6 +99,25 @@ class ExperimentFit:
             "inputs": {**inputs.sources, "model": inputs.spec.to_dict()},
         }
 
+    def _friction_dict(self) -> dict:
+        """fit.json's 'friction': the treatment and, with mu fitted, mu with its bounds, whether it
+        ended on its range's limit, the bounds of (c1, c5) with mu known and mu's share."""
+        out = {"treatment": self.friction.mode, "contact": self.contact}
+        if self.friction.mode == "known":
+            out["mu"] = self.friction.value
+        fb = self.friction_bounds
+        if fb is not None:
+            mu, (lo, hi) = float(self.fit.theta[2]), self.mu_range
+            out |= {
+                "mu": mu,
+                "mu_pct": fb["mu_pct"],
+                "mu_range": [lo, hi],
+                "mu_at_limit": "lower" if mu <= lo * 1.001 else "upper" if mu >= hi * 0.999 else None,
+                "conditional_pct": fb["conditional_pct"],
+                "mu_share_pct": fb["mu_share_pct"],
+            }
+        return out
+
     def save(self, folder: str | Path) -> Path:
         """Write ``folder/fit.json`` atomically and return its path."""
         return atomic_write_json(Path(folder) / "fit.json", self.to_dict())
@@ -84,16 +132,26 @@ def fit_experiment(
     check_mesh: str | None = None,
     exclude_steps=(),
     say: Callable[[str], None] | None = None,
+    friction: FrictionTreatment | str | float | None = None,
 ) -> ExperimentFit:
     """Fit (c1, c5) to a measured experiment: LM from {6, 300} kPa on the surrogate, then (``refine``)
     on the FE model the surrogate was trained on, with its exact sensitivities; eq. 6 to 8 bounds
     with s from the data. ``paper_stop`` stops as soon as F < 3e-2 (the paper's rule).
     ``check_mesh`` (a finer mesh preset) adds the mesh check at the fit: the fit carried to that
     mesh with bounds that hold its discretisation uncertainty. ``exclude_steps`` (1..N) are left
-    out of the fit beside those the experiment excludes; the result lists them all."""
+    out of the fit beside those the experiment excludes; the result lists them all.
+
+    ``friction`` (:class:`inference.friction_treatment.FrictionTreatment`, or its text: a value,
+    'identify', 'marginalise[:LO:HI]') says how the fit treats the indenter's friction coefficient
+    mu; by default it takes the surrogate's contact. On a surrogate trained with mu as a parameter
+    (a campaign with a mu axis) the surrogate stage fits or holds mu too; on one without, that
+    stage fits (c1, c5) with its contact as a start, and the FE stage (needed then) brings mu in."""
     say = say or (lambda message: None)
+    treatment = FrictionTreatment.parse(friction)
     inputs = prepare_fit(experiment, surrogate, weights, exclude_steps)
     f_stop = PAPER_F_STOP if paper_stop else None
+    if treatment.mode != "assumed" or "mu" in inputs.surrogate.parameters:
+        return _fit_with_friction(inputs, treatment, refine, f_stop, check_mesh, say)
     say(f"fitting on the {inputs.surrogate.kind} surrogate ...")
     first = fit_parameters(inputs.objective, inputs.surrogate, inputs.eta, f_stop=f_stop)
     final = first
@@ -117,3 +175,71 @@ def fit_experiment(
         say("the model error at the fit (discrepancy and error budget) ...")
     model_error = model_error_at(inputs.objective, inputs.eta, inputs.surrogate, final.theta)
     return ExperimentFit(inputs, first, final, refine, check, check_mesh, model_error)
+
+
+def _mu_range(treatment: FrictionTreatment, surrogate) -> tuple[float, float] | None:
+    """The range mu is kept in (identify) or the prior's (marginalise): the treatment's, else the
+    surrogate's training range when mu is one of its parameters, else DEFAULT_MU_RANGE; a range
+    or a known mu outside the surrogate's training range is refused (it would extrapolate)."""
+    if "mu" not in surrogate.parameters:
+        return (treatment.mu_range or DEFAULT_MU_RANGE) if treatment.fits_mu else None
+    j = surrogate.parameters.index("mu")
+    lo, hi = float(surrogate.scaler.lo[j]), float(surrogate.scaler.hi[j])
+    wanted = treatment.mu_range or (lo, hi)
+    if treatment.mode == "known":
+        wanted = (treatment.value, treatment.value)
+    if wanted[0] < lo * (1 - 1e-9) or wanted[1] > hi * (1 + 1e-9):
+        raise ValueError(
+            f"friction: mu {wanted[0]:g}..{wanted[1]:g} lies outside the range the surrogate was trained "
+            f"on ({lo:g}..{hi:g}); fit with the FE stage on a surrogate without mu, or train one wider"
+        )
+    return wanted if treatment.fits_mu else None
+
+
+def _fit_with_friction(
+    inputs: FitInputs,
+    treatment: FrictionTreatment,
+    refine: bool,
+    f_stop: float | None,
+    check_mesh: str | None,
+    say: Callable[[str], None],
+) -> ExperimentFit:
+    """fit_experiment with mu known, identified or marginalised (or a surrogate with mu)."""
+    model, spec = inputs.surrogate, inputs.spec
+    with_mu = "mu" in model.parameters
+    if with_mu and treatment.mode == "assumed":
+        raise ValueError(
+            "friction: this surrogate was trained with mu as a parameter; say how the fit treats it "
+            "(a value, 'identify' or 'marginalise')"
+        )
+    if check_mesh is not None:
+        raise ValueError("friction: the mesh check is made with the perfect stick; fit without --check-mesh")
+    mu_range = _mu_range(treatment, model)
+    if not with_mu and not refine:
+        raise ValueError(
+            f"friction {treatment.mode}: the surrogate has no mu, so only the FE stage can bring it in; "
+            "fit with the FE refinement"
+        )
+    obj, eta = inputs.objective, inputs.eta
+    box = None
+    if treatment.fits_mu:
+        box = (np.array([0.0, 0.0, mu_range[0]]), np.array([np.inf, np.inf, mu_range[1]]))
+        mu0 = float(np.sqrt(mu_range[0] * mu_range[1]))
+    say(f"fitting on the {model.kind} surrogate ({treatment.describe(spec.contact.describe())}) ...")
+    if with_mu and treatment.mode == "known":
+        first = fit_parameters(obj, FixedParameter(model, "mu", treatment.value), eta, f_stop=f_stop)
+    elif with_mu:
+        first = fit_parameters(obj, model, eta, theta0=(*PAPER_START, mu0), f_stop=f_stop, box=box)
+    else:  # (c1, c5) with the surrogate's contact: the FE stage's start
+        first = fit_parameters(obj, model, eta, f_stop=f_stop)
+    final = first
+    if refine:
+        if treatment.mode == "known":
+            fe = FESolverPredictor(spec.with_friction(treatment.value))
+            start = first.theta
+        else:
+            fe = FESolverPredictor(spec, parameters=("c1", "c5", "mu"))
+            start = first.theta if with_mu else np.append(first.theta, mu0)
+        say(f"refining on the FE solver from {np.round(start, 3).tolist()} ...")
+        final = fit_parameters(obj, fe, eta, theta0=start, f_stop=f_stop, box=box)
+    return ExperimentFit(inputs, first, final, refine, None, None, None, treatment, mu_range)

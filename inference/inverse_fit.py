@@ -66,9 +66,12 @@ def fit_parameters(
     alpha: float = 0.05,
     s: float | None = None,
     max_evaluations: int = 60,
+    box: tuple | None = None,
 ) -> FitResult:
     """Minimise F(theta) (eq. 5) by Levenberg-Marquardt from ``theta0``; bounds from eq. 6 with s
-    from eq. 8 (n residuals, p parameters, ``alpha``) unless ``s`` is given."""
+    from eq. 8 (n residuals, p parameters, ``alpha``) unless ``s`` is given. ``box`` = (lo, hi)
+    (0 and inf for no limit) keeps theta inside (a trust-region reflective fit then: scipy's
+    'lm' takes no bounds); e.g. mu within the range a surrogate was trained on."""
     eta = check_weights(eta)
     theta0 = np.asarray(theta0, float)
     if theta0.ndim != 1 or not np.all(np.isfinite(theta0)) or np.any(theta0 <= 0):
@@ -87,15 +90,23 @@ def fit_parameters(
         return last["r"], last["J"]
 
     z = np.log(theta0)
+    limits: dict = {"method": "lm"}
+    if box is not None:
+        with np.errstate(divide="ignore"):
+            z_lo, z_hi = (np.broadcast_to(np.log(np.asarray(b, float)), z.shape) for b in box)
+        if np.any(z_lo >= z_hi):
+            raise ValueError(f"the box's lower limits must lie below its upper ones, got {box}")
+        z = np.clip(z, z_lo, z_hi)  # scipy moves a start on a limit just inside
+        limits = {"method": "trf", "bounds": (z_lo, z_hi)}
     message = ""
     try:
         sol = least_squares(
             lambda z: evaluate(z)[0],
             z,
             jac=lambda z: evaluate(z)[1],
-            method="lm",
             x_scale=1.0,
             max_nfev=max_evaluations,
+            **limits,
         )
         z, message = sol.x, sol.message
     except _EarlyStop:

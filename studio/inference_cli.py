@@ -28,6 +28,15 @@ CHECK_MESH = Annotated[
     ),
 ]
 
+FIT_FRICTION = Annotated[
+    str | None,
+    typer.Option(
+        help="the indenter's friction coefficient mu: a value (known), identify (fitted with c1, c5) or "
+        "marginalise (a log-uniform prior; :LO:HI sets its range, default the surrogate's or 0.1..3); "
+        "default: the surrogate's contact"
+    ),
+]
+
 
 def _weights(text: str) -> list[float]:
     return [float(v) for v in text.split(",")]
@@ -45,12 +54,15 @@ def fit(
     paper_stop: Annotated[bool, typer.Option(help="stop as soon as F < 3e-2 (the paper's rule)")] = False,
     check_mesh: CHECK_MESH = None,
     exclude_steps: EXCLUDE = "",
+    friction: FIT_FRICTION = None,
     out: OUT = None,
     as_json: JSON = False,
 ) -> None:
     """Inverse fit (2.8.2): Levenberg-Marquardt from {6, 300} kPa on the surrogate, then on the FE
     solver with its exact sensitivities; bounds from eq. 6 to 8 with s from the data. With
-    --check-mesh, the fit carried to the finer mesh (``posterior --mesh-check`` reads fit.json then)."""
+    --check-mesh, the fit carried to the finer mesh (``posterior --mesh-check`` reads fit.json then).
+    ``--friction`` holds the indenter's friction coefficient mu at a value, or identifies or
+    marginalises it with (c1, c5) (README, "Friction")."""
     from ..inference.experiment_fit import fit_experiment
 
     try:
@@ -63,6 +75,7 @@ def fit(
             check_mesh,
             _steps(exclude_steps),
             say,
+            friction,
         )
         path = result.save(out or Path(experiment) / "results")
     except (ValueError, OSError, RuntimeError) as exc:
@@ -85,6 +98,14 @@ def fit(
             f"  statistical +- {stat[0]:.2f} % / {stat[1]:.2f} %; model error +- {m['model_pct'][0]:.2f} % / "
             f"{m['model_pct'][1]:.2f} % (discrepancy {m['discrepancy_pct'][0]:.2f} / {m['discrepancy_pct'][1]:.2f}, "
             f"error budget {m['error_budget_pct'][0]:.2f} / {m['error_budget_pct'][1]:.2f})"
+        )
+    fr = payload["friction"]
+    if "mu_pct" in fr:
+        limit = f" (on its range's {fr['mu_at_limit']} limit)" if fr["mu_at_limit"] else ""
+        share = fr["mu_share_pct"]
+        Console().print(
+            f"  mu = {fr['mu']:.3g} +- {fr['mu_pct']:.0f} %{limit}; mu's share of the bounds +- {share[0]:.2f} % / "
+            f"{share[1]:.2f} % (with mu known: +- {fr['conditional_pct'][0]:.2f} % / {fr['conditional_pct'][1]:.2f} %)"
         )
     Console().print(f"  bounds: {payload['bounds_include']}")
     check = payload["mesh_check"]

@@ -1,0 +1,131 @@
+"""Fits that hold, identify or marginalise the friction coefficient mu (inference.friction_treatment):
+the treatments' text, eq. 6's bounds with mu (Schur complement, the prior, mu's share), a surrogate
+with mu as its third parameter (p = 3 through the Predictor seam), and fit_experiment with it."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from indentation_studio.design.certainty import bounds_pct
+from indentation_studio.inference.friction_treatment import (
+    FixedParameter,
+    FrictionTreatment,
+    friction_bounds,
+    log_prior_sd,
+)
+
+
+def test_treatments_from_text():
+    assert FrictionTreatment.parse(None).mode == "assumed"
+    assert FrictionTreatment.parse("0.3") == FrictionTreatment("known", 0.3)
+    assert FrictionTreatment.parse(0) == FrictionTreatment("known", 0.0)
+    assert FrictionTreatment.parse("identify") == FrictionTreatment("identify")
+    assert FrictionTreatment.parse("marginalize:0.2:2") == FrictionTreatment(
+        "marginalise", mu_range=(0.2, 2.0)
+    )
+    for bad, match in (
+        ("-1", ">= 0"),
+        ("often", "give mu"),
+        ("identify:2:0.2", "0 < LO < HI"),
+        ("nan", ">= 0"),
+    ):
+        with pytest.raises(ValueError, match=match):
+            FrictionTreatment.parse(bad)
+    said = FrictionTreatment("marginalise").describe("perfect stick")
+    assert "log-uniform prior on [0.1, 3]" in said
+    assert FrictionTreatment().describe("perfect stick") == "perfect stick"
+
+
+def test_bounds_with_mu_are_the_schur_complement_and_the_prior_sits_between():
+    rng = np.random.default_rng(4)
+    J = rng.normal(size=(200, 3))
+    H, s, sigma = 2.0 * J.T @ J, 0.05, 0.02
+    ident = friction_bounds(H, s, sigma, FrictionTreatment("identify"), (0.1, 3.0))
+    # identified: the (c1, c5) bounds of the whole 3 x 3 inverse, mu's too
+    np.testing.assert_allclose(ident["bounds_pct"], bounds_pct(H, s)[:2], rtol=1e-10)
+    assert ident["mu_pct"] == pytest.approx(bounds_pct(H, s)[2], rel=1e-10)
+    np.testing.assert_allclose(ident["conditional_pct"], bounds_pct(H[:2, :2], s), rtol=1e-12)
+    np.testing.assert_allclose(
+        np.square(ident["bounds_pct"]), np.square(ident["conditional_pct"]) + np.square(ident["mu_share_pct"])
+    )
+    marg = friction_bounds(H, s, sigma, FrictionTreatment("marginalise"), (0.1, 3.0))
+    Hp = H.copy()
+    Hp[2, 2] += 2 * sigma**2 / log_prior_sd((0.1, 3.0)) ** 2
+    np.testing.assert_allclose(marg["bounds_pct"], bounds_pct(Hp, s)[:2], rtol=1e-10)
+    assert np.all(np.array(ident["conditional_pct"]) <= np.array(marg["bounds_pct"]))
+    assert np.all(np.array(marg["bounds_pct"]) <= np.array(ident["bounds_pct"]))
+    # 95 % of the normal stand-in's mass spans the range in log mu
+    assert log_prior_sd((0.1, 3.0)) * 2 * 1.959964 == pytest.approx(np.log(30.0), rel=1e-6)
+    # data that hold nothing on mu (everything sticks): mu unbounded, (c1, c5) the conditional ones
+    J[:, 2] = 0.0
+    flat = friction_bounds(2.0 * J.T @ J, s, sigma, FrictionTreatment("identify"), (0.1, 3.0))
+    assert flat["mu_pct"] == np.inf
+    np.testing.assert_allclose(flat["bounds_pct"], flat["conditional_pct"])
+    assert flat["mu_share_pct"] == [0.0, 0.0]
+
+
+@pytest.fixture(scope="module")
+def mu_surrogate(tmp_path_factory):
+    """A GP over (c1, c5, mu) trained on a 2 x 2 x 3 coarse campaign (3 steps of 0.5 mm)."""
+    from indentation_studio.campaign.runner import run_named_campaign
+    from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
+    from indentation_studio.surrogate.training import train_surrogate
+
+    runs = tmp_path_factory.mktemp("runs")
+    base = ModelSpec(mesh=MeshChoice("coarse"), protocol=Protocol(step_size=0.5, steps=3))
+    summary = run_named_campaign("mu", "c1=6:12:2,c5=250:450:2,mu=0.2:2:3:log", base, runs, jobs=1)
+    assert summary["done"] == 12
+    return train_surrogate("mu", "gp", runs_dir=runs)
+
+
+def test_a_surrogate_with_mu_is_a_three_parameter_predictor(mu_surrogate):
+    model = mu_surrogate
+    assert model.parameters == ("c1", "c5", "mu")
+    np.testing.assert_allclose([model.scaler.lo[2], model.scaler.hi[2]], [0.2, 2.0])
+    theta = np.array([[8.0, 300.0, 0.5]])
+    pred = model.predict(theta, jacobian=True)
+    assert pred.force_jacobian.shape == (1, 3, 3) and pred.displacement_jacobian.shape[-1] == 3
+    h = 1e-5
+    for k in range(3):  # its Jacobian, d/dmu included, against its own central differences
+        e = np.zeros(3)
+        e[k] = h * theta[0, k]
+        fd = (model.predict(theta + e).force - model.predict(theta - e).force) / (2 * e[k])
+        np.testing.assert_allclose(pred.force_jacobian[0, :, k], fd[0], rtol=1e-4, atol=1e-9)
+    held = FixedParameter(model, "mu", 0.5).predict(theta[:, :2], jacobian=True)
+    assert held.parameters == ("c1", "c5")
+    np.testing.assert_array_equal(held.force, pred.force)
+    np.testing.assert_array_equal(held.force_jacobian, pred.force_jacobian[..., :2])
+    with pytest.raises(ValueError, match="no parameter 'kappa'"):
+        FixedParameter(model, "kappa", 1.0)
+
+
+def test_fit_identifies_mu_with_c1_c5_on_a_surrogate_with_mu(mu_surrogate, tmp_path):
+    from indentation_studio.inference.experiment_fit import fit_experiment
+    from indentation_studio.inference.synthetic_experiment import write_synthetic_experiment
+
+    model = mu_surrogate
+    truth = np.array([9.0, 330.0, 0.35])
+    exp = write_synthetic_experiment(
+        model, truth, tmp_path / "e", radius=4.77, step_size=0.5, u_noise_mm=0.002, f_noise=0.002, seed=1
+    )
+    with pytest.raises(ValueError, match="trained with mu as a parameter"):
+        fit_experiment(exp, model, refine=False)
+    with pytest.raises(ValueError, match="outside the range the surrogate was trained"):
+        fit_experiment(exp, model, refine=False, friction=5.0)
+    ident = fit_experiment(exp, model, refine=False, friction="identify")
+    d = ident.to_dict()
+    np.testing.assert_allclose(ident.fit.theta[:2], truth[:2], rtol=0.03)
+    fr = d["friction"]
+    assert fr["treatment"] == "identify" and fr["mu_range"] == [0.2, 2.0] and fr["mu_at_limit"] is None
+    assert abs(fr["mu"] - truth[2]) <= fr["mu"] * fr["mu_pct"] / 100  # mu's bound holds its truth
+    assert "mu identified with (c1, c5) within [0.2, 2]" in d["bounds_include"]
+    assert np.all(np.array(d["statistical_pct"]) >= np.array(fr["conditional_pct"]))
+    known = fit_experiment(exp, model, refine=False, friction=0.35).to_dict()
+    assert known["friction"] == {
+        "treatment": "known",
+        "contact": "Coulomb friction mu = 0.35 (known)",
+        "mu": 0.35,
+    }
+    np.testing.assert_allclose([known["c1"], known["c5"]], truth[:2], rtol=0.03)
+    assert known["statistical_pct"][1] <= d["statistical_pct"][1]  # mu known: narrower c5 bounds
