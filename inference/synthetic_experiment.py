@@ -38,11 +38,15 @@ def write_synthetic_experiment(
     seed: int = 0,
     u_noise_mm: float | None = None,
     misregistration_mm: float = 0.0,
+    source: dict | None = None,
 ) -> Path:
     """Simulate ``theta`` with ``predictor`` and write an experiment folder; returns its path.
     Displacement noise is ``u_noise`` x max |u| per direction, or ``u_noise_mm`` mm when given;
     ``misregistration_mm`` moves the indenter's cap by that much in a random in-plane direction, so
-    that the registration (the sphere fit) puts the indentation point that far from the truth."""
+    that the registration (the sphere fit) puts the indentation point that far from the truth.
+    A step whose force the predictor gives as NaN (a recorded FEBio step off equilibrium) gets no
+    force readings and is listed in experiment.json's 'excluded_steps'; ``source`` (e.g. the FEBio
+    run it was made from) is recorded under 'synthetic'."""
     rng = np.random.default_rng(seed)
     out = Path(out_dir)
     pred = predictor.predict(np.asarray(theta, float)[None, :])
@@ -59,7 +63,9 @@ def write_synthetic_experiment(
     u = np.moveaxis(u, 0, 1)
     u[..., 0] *= np.sign(xy[:, 0])
     u[..., 1] *= np.sign(xy[:, 1])
-    scale = np.abs(u).max(axis=(0, 1)) * u_noise if u_noise_mm is None else np.full(3, float(u_noise_mm))
+    scale = (
+        np.nanmax(np.abs(u), axis=(0, 1)) * u_noise if u_noise_mm is None else np.full(3, float(u_noise_mm))
+    )
     u = u + scale * rng.standard_normal(u.shape)
     xyz_model = np.column_stack([xy, np.zeros(len(xy))])
     # the DIC frame: fibers (model +y) at fiber_angle_deg from its x axis, origin shifted
@@ -78,7 +84,10 @@ def write_synthetic_experiment(
     # relaxation during each hold (eq. 9): f(t) = f_inf (1 + 0.3 exp(-t / 8 s)), readings every second
     t = np.arange(0.0, hold_s + 1e-9, 1.0)
     rows = []
+    unknown = [s + 1 for s in range(steps) if not np.isfinite(force[s])]
     for s in range(steps):
+        if s + 1 in unknown:
+            continue
         f = force[s] * (1.0 + 0.3 * np.exp(-t / 8.0))
         f = f + f_noise * force[s] * rng.standard_normal(t.size)
         rows.append(pd.DataFrame({"step": s + 1, "time_s": t, "force_mN": f}))
@@ -93,6 +102,7 @@ def write_synthetic_experiment(
         "steps": steps,
         "fiber_angle_deg": fiber_angle_deg if write_fiber_angle else None,
         "description": "synthetic",
+        **({"excluded_steps": unknown} if unknown else {}),
         "synthetic": {
             "theta": [float(v) for v in np.ravel(theta)],
             "u_noise": u_noise if u_noise_mm is None else None,
@@ -105,6 +115,7 @@ def write_synthetic_experiment(
             "frame_offset": offset.tolist(),
             "seed": seed,
             "model": getattr(predictor, "spec", None).to_dict() if hasattr(predictor, "spec") else None,
+            **({"source": source} if source else {}),
         },
     }
     atomic_write_json(out / "experiment.json", meta)  # last: a folder without it is no experiment

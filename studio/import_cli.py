@@ -1,4 +1,4 @@
-"""``indent-studio import matchid | duodic | csv | load-frame`` and ``indent-studio check``: a lab's
+"""``indent-studio import matchid | duodic | csv | load-frame | febio`` and ``indent-studio check``: a lab's
 files into the experiment format, and the data check before any fit. Each command parses its
 options, calls one library function (inference/experiment_import.py, studio/check_report.py) and
 prints one JSON object with ``--json``."""
@@ -288,6 +288,66 @@ def import_load_frame_command(
         result = import_load_frame(record, out, protocol, ForceSource(columns=columns, min_hold_s=min_hold))
     except (ValueError, OSError) as exc:
         fail(str(exc), as_json)
+    _report(result, as_json)
+
+
+@import_app.command("febio")
+def import_febio_command(
+    log: Annotated[Path, typer.Option(help="the FEBio 4 run's log file (its material echoed in it)")],
+    out: OUT,
+    feb: Annotated[Path | None, typer.Option(help="the run's .feb (default: beside the log)")] = None,
+    radius: Annotated[float, typer.Option(help="the run's indenter radius, mm")] = 4.77,
+    steps: Annotated[int, typer.Option(help="the run's number of steps")] = 28,
+    step_size: Annotated[float, typer.Option(help="the run's depth per step, mm")] = 0.5,
+    dic_noise: Annotated[float, typer.Option(help="DIC displacement noise (sd), mm")] = 0.02,
+    force_noise: Annotated[float, typer.Option(help="force noise (sd) relative to the force")] = 0.02,
+    misregistration: Annotated[
+        float, typer.Option(help="registration error of the indentation point, mm")
+    ] = 0.1,
+    fov: Annotated[float, typer.Option(help="DIC field of view (radius from the indenter), mm")] = 25.0,
+    points: Annotated[int, typer.Option(help="DIC points over the field of view")] = 6000,
+    fiber_angle: Annotated[float, typer.Option(help="fiber direction in the DIC frame, degrees")] = 60.0,
+    seed: Annotated[int, typer.Option(help="random seed of the noise and the DIC points")] = 0,
+    overwrite: OVERWRITE = False,
+    as_json: JSON = False,
+) -> None:
+    """A real FEBio run as a DIC-like experiment: its force and top-node field seen by DIC points
+    (the indenter's shadow, noise, a registration error); steps FEBio accepted off equilibrium left
+    out. For checking a fit against a solver the studio shares no code with."""
+    from ..forward.febio_log import FebioLogError
+    from ..forward.febio_readback import FebioRunError
+    from ..inference.febio_experiment import experiment_from_febio_run
+
+    try:
+        path = experiment_from_febio_run(
+            log,
+            out,
+            feb,
+            radius,
+            steps,
+            step_size,
+            dic_noise,
+            force_noise,
+            misregistration,
+            fov,
+            points,
+            fiber_angle,
+            seed,
+            overwrite,
+        )
+    except (FebioLogError, FebioRunError, ValueError, OSError) as exc:
+        fail(str(exc), as_json)
+    meta = json.loads((path / "experiment.json").read_text())
+    src = meta["synthetic"]["source"]
+    result = {
+        "experiment": str(path),
+        "theta": [src["c1"], src["c5"]],
+        "excluded_steps": meta.get("excluded_steps", []),
+        "off_equilibrium_depths_mm": src["off_equilibrium_depths_mm"],
+        "warnings": [f"steps FEBio accepted off equilibrium left out: {meta['excluded_steps']}"]
+        if meta.get("excluded_steps")
+        else [],
+    }
     _report(result, as_json)
 
 

@@ -236,3 +236,44 @@ def test_loader_leaves_out_points_with_nan_forces_and_rechecks_old_febio_files(t
     table = force_table(store)  # the export shows the old file's 12.5 mm as NaN too
     assert table.loc[(table.point == 2) & (table.step == 25), "force_mN"].isna().all()
     assert table.loc[(table.point == 0) & (table.step == 25), "force_mN"].notna().all()
+
+
+def test_febio_run_as_a_dic_like_experiment_leaves_out_the_step_off_equilibrium(tmp_path, febio_baseline):
+    from indentation_studio.forward.predictor import Prediction
+    from indentation_studio.inference.experiment_data import load_experiment
+    from indentation_studio.inference.experiment_processing import static_forces
+    from indentation_studio.inference.febio_experiment import RecordedRun, experiment_from_febio_run
+
+    out = experiment_from_febio_run(febio_baseline / "baseline.log", tmp_path / "e", f_noise=0.001, seed=5)
+    meta = json.loads((out / "experiment.json").read_text())
+    assert meta["excluded_steps"] == [25]  # 12.5 mm, FEBio's step off equilibrium
+    src = meta["synthetic"]["source"]
+    assert (src["c1"], src["c5"], src["kappa"]) == (10.0, 350.0, 1000.0)
+    assert src["off_equilibrium_depths_mm"] == [12.5]
+    exp = load_experiment(out)
+    f_inf, _ = static_forces(exp)
+    assert np.isnan(f_inf[24])
+    spec = ModelSpec(mesh=MeshChoice(feb_file=str(febio_baseline / "baseline.feb")))
+    logged = read_febio_run(febio_baseline / "baseline.log", spec)
+    used = np.arange(28) != 24
+    np.testing.assert_allclose(f_inf[used], logged.force[1:][used], rtol=3e-3)  # FEBio's forces, relaxed
+    with pytest.raises(FileExistsError, match="already there"):
+        experiment_from_febio_run(febio_baseline / "baseline.log", tmp_path / "e")
+    recorded = RecordedRun(Prediction.from_results([logged], ("c1", "c5")), np.array([10.0, 350.0]), spec)
+    with pytest.raises(ValueError, match="recorded run is at"):
+        recorded.predict(np.array([10.0, 300.0]))
+    res = CliRunner().invoke(
+        app,
+        [
+            "import",
+            "febio",
+            "--log",
+            str(febio_baseline / "baseline.log"),
+            "--out",
+            str(tmp_path / "c"),
+            "--json",
+        ],
+    )
+    assert res.exit_code == 0, res.output
+    said = json.loads(res.stdout.strip().splitlines()[-1])
+    assert said["excluded_steps"] == [25] and said["off_equilibrium_depths_mm"] == [12.5]

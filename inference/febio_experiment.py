@@ -1,0 +1,109 @@
+"""A DIC-like experiment made from a real FEBio run: its indenter force and top-node field, as a
+lab's DIC system and load cell would record them (points over a field of view with the
+indenter's shadow, noise, a registration error; :func:`inference.synthetic_experiment.write_synthetic_experiment`).
+
+This is how the studio is checked against a solver it does not share code with: an experiment
+made by FEBio 4 (its sliding-elastic contact, its three-field element) is fitted by the studio's
+surrogate and FE model, as a measured one would be. Steps FEBio accepted off equilibrium
+(:mod:`forward.febio_equilibrium`) have no force and are left out of the experiment."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..forward.febio_readback import logged_block_material, read_febio_run
+from ..forward.predictor import Prediction, as_theta
+from ..forward.spec import Indenter, Material, MeshChoice, ModelSpec, Protocol
+from .synthetic_experiment import write_synthetic_experiment
+
+__all__ = ["RecordedRun", "experiment_from_febio_run"]
+
+
+class RecordedRun:
+    """A Predictor that knows one parameter point: a recorded simulation (its force NaN at steps
+    off equilibrium). Asked anything else, it says so."""
+
+    def __init__(self, prediction: Prediction, theta: np.ndarray, spec: ModelSpec) -> None:
+        self.prediction = prediction
+        self.theta = np.asarray(theta, float)
+        self.parameters = prediction.parameters
+        self.spec = spec
+
+    def predict(self, theta, jacobian: bool = False) -> Prediction:
+        t = as_theta(theta, len(self.parameters))
+        if jacobian:
+            raise ValueError("a recorded run has no sensitivities")
+        if len(t) != 1 or not np.allclose(t[0], self.theta, rtol=1e-9):
+            raise ValueError(f"the recorded run is at {self.theta.tolist()}, not {t.tolist()}")
+        return self.prediction
+
+
+def experiment_from_febio_run(
+    log_path: str | Path,
+    out_dir: str | Path,
+    feb_file: str | Path | None = None,
+    radius: float = 4.77,
+    steps: int = 28,
+    step_size: float = 0.5,
+    u_noise_mm: float = 0.02,
+    f_noise: float = 0.02,
+    misregistration_mm: float = 0.1,
+    fov: float = 25.0,
+    points: int = 6000,
+    fiber_angle_deg: float = 60.0,
+    seed: int = 0,
+    overwrite: bool = False,
+) -> Path:
+    """Write an experiment folder from the FEBio run logged in ``log_path`` (its model on the
+    hex8 block of ``feb_file``, default the .feb beside the log; c1, c5 and kappa as the log
+    echoes them; ``radius``, ``steps`` and ``step_size`` the run's). Returns the folder; its
+    experiment.json records the run (log, .feb, parameters) and excludes the steps FEBio
+    accepted off equilibrium. Raises FebioLogError / FebioRunError naming what is wrong, and
+    FileExistsError for an experiment folder already there (unless ``overwrite``)."""
+    from ..forward.febio_log import FebioLogError
+
+    if (Path(out_dir) / "experiment.json").exists() and not overwrite:
+        raise FileExistsError(f"{out_dir}: an experiment is already there (overwrite=True, or --overwrite, replaces it)")
+    log_path = Path(log_path)
+    feb = Path(feb_file) if feb_file is not None else log_path.with_suffix(".feb")
+    if not feb.is_file():
+        raise FebioLogError(f"{log_path}: no model file {feb} (give the run's .feb)")
+    logged = logged_block_material(log_path.read_text(encoding="latin-1"))
+    missing = [k for k in ("c1", "c5", "k") if k not in logged]
+    if missing:
+        raise FebioLogError(f"{log_path}: the log echoes no block material parameter(s) {missing}")
+    spec = ModelSpec(
+        indenter=Indenter(radius),
+        protocol=Protocol(step_size=step_size, steps=steps),
+        material=Material(c1=logged["c1"], c5=logged["c5"], kappa=logged["k"]),
+        mesh=MeshChoice(feb_file=str(feb)),
+    )
+    result = read_febio_run(log_path, spec, feb)
+    prediction = Prediction.from_results([result], ("c1", "c5"))
+    theta = np.array([logged["c1"], logged["c5"]])
+    source = {
+        "solver": "febio",
+        "log": str(log_path),
+        "feb": str(feb),
+        "c1": logged["c1"],
+        "c5": logged["c5"],
+        "kappa": logged["k"],
+        "off_equilibrium_depths_mm": result.off_equilibrium_depths,
+    }
+    return write_synthetic_experiment(
+        RecordedRun(prediction, theta, spec),
+        theta,
+        out_dir,
+        radius=radius,
+        step_size=step_size,
+        u_noise_mm=u_noise_mm,
+        f_noise=f_noise,
+        points=points,
+        fov=fov,
+        fiber_angle_deg=fiber_angle_deg,
+        seed=seed,
+        misregistration_mm=misregistration_mm,
+        source=source,
+    )
