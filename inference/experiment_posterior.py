@@ -5,7 +5,7 @@ mesh check (:func:`inference.posterior.carried_to_finer_mesh`)."""
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -16,7 +16,8 @@ from ..design.objective import PAPER_WEIGHTS
 from ..surrogate.base import FieldSurrogate
 from .experiment_data import ExperimentData
 from .fit_inputs import FitInputs, prepare_fit
-from .inverse_fit import FitResult, fit_parameters
+from .friction_treatment import FixedParameter, FrictionTreatment, friction_bounds
+from .inverse_fit import PAPER_START, FitResult, fit_parameters
 from .mesh_check import load_mesh_check
 from .model_error import ModelError, model_error_at, model_error_scope, with_model_error
 from .posterior import Posterior, carried_to_finer_mesh, sample_posterior
@@ -34,6 +35,32 @@ class ExperimentPosterior:
     sigma: float  # the likelihood's residual sd, fit.residual_sd
     carried: dict | None = None  # the mesh check read by inference.mesh_check.load_mesh_check
     model_error: ModelError | None = None  # spread into the samples (multi-fidelity surrogate)
+    friction: FrictionTreatment = field(default_factory=FrictionTreatment)
+    mu_range: tuple[float, float] | None = None  # the prior's range when mu is sampled
+
+    @property
+    def contact(self) -> str:
+        """What the intervals assume of the contact, in words."""
+        return self.friction.describe(self.inputs.spec.contact.describe(), self.mu_range)
+
+    def _friction_dict(self) -> dict:
+        """posterior.json's 'friction': the treatment; with mu sampled, its interval and the Laplace
+        parts at the fit (the bounds of (c1, c5) with mu known there, and mu's share)."""
+        out = {"treatment": self.friction.mode, "contact": self.contact}
+        if self.friction.mode == "known":
+            out["mu"] = self.friction.value
+        if self.friction.fits_mu:
+            k = self.posterior.parameters.index("mu")
+            fb = friction_bounds(self.fit.hessian, self.fit.s, self.sigma, self.friction, self.mu_range)
+            out |= {
+                "mu_range": list(self.mu_range),
+                "prior": "log-uniform" if self.friction.mode == "marginalise" else "uniform",
+                "mu_median": float(np.median(self.posterior.samples[:, k])),
+                "mu_ci95": self.posterior.interval(0.95)[k].tolist(),
+                "laplace_conditional_pct": fb["conditional_pct"],
+                "laplace_mu_share_pct": fb["mu_share_pct"],
+            }
+        return out
 
     @property
     def marker(self) -> np.ndarray:
@@ -61,8 +88,9 @@ class ExperimentPosterior:
             "carried_to_finer_mesh": self.carried,
             "model_error": None if self.model_error is None else self.model_error.to_dict(),
             "intervals_include": model_error_scope(
-                self.model_error, noise="measurement noise", contact=self.inputs.spec.contact.describe()
+                self.model_error, noise="measurement noise", contact=self.contact
             ),
+            "friction": self._friction_dict(),
             "inputs": {**self.inputs.sources, "weights": self.inputs.eta.tolist()},
         }
 
@@ -82,22 +110,74 @@ def sample_posterior_for(
     fit: FitResult | None = None,
     exclude_steps=(),
     say: Callable[[str], None] | None = None,
+    friction: FrictionTreatment | str | float | None = None,
 ) -> ExperimentPosterior:
     """emcee posterior of (c1, c5) on the surrogate: log L = -F / (2 sigma^2) with sigma the fit's
     residual sd (:attr:`FitResult.residual_sd`), uniform prior on the surrogate's training box,
     walkers started at the surrogate fit (``fit``, computed when not given). ``mesh_check`` is a
     fit.json or confirm.json made with a mesh check: the samples are carried to that finer mesh. On a
     multi-fidelity surrogate each sample is spread by the model error at the fit
-    (:func:`inference.model_error.with_model_error`)."""
+    (:func:`inference.model_error.with_model_error`).
+
+    On a surrogate trained with mu as a parameter, ``friction`` (:class:`FrictionTreatment` or its
+    text) is a known mu (held), 'marginalise[:LO:HI]' (mu sampled with a log-uniform prior and
+    marginalised: the intervals of (c1, c5) hold its uncertainty) or 'identify' (the same with a
+    uniform prior)."""
     say = say or (lambda message: None)
+    treatment = FrictionTreatment.parse(friction)
     inputs = prepare_fit(experiment, surrogate, weights, exclude_steps)
     model = inputs.surrogate
-    fit = fit if fit is not None else fit_parameters(inputs.objective, model, inputs.eta)
+    if mesh_check is not None and "mu" in model.parameters:
+        raise ValueError("friction: the mesh check is made with the perfect stick; sample without it")
+    box = (np.asarray(model.scaler.lo, float), np.asarray(model.scaler.hi, float))
+    predictor, mu_range, log_uniform, start = model, None, (), None
+    if treatment.mode != "assumed" or "mu" in model.parameters:
+        if "mu" not in model.parameters:
+            raise ValueError(
+                "friction: a posterior samples the surrogate, and this one has no mu; train one on a "
+                "campaign with a mu axis (campaign run --grid ...,mu=LO:HI:N:log) or fit with --friction"
+            )
+        from .experiment_fit import _mu_range
+
+        if treatment.mode == "assumed":
+            raise ValueError(
+                "friction: this surrogate was trained with mu as a parameter; say how the posterior "
+                "treats it (a value, 'marginalise' or 'identify')"
+            )
+        j = model.parameters.index("mu")
+        if treatment.mode == "known":
+            _mu_range(treatment, model)  # inside the training range
+            predictor = FixedParameter(model, "mu", treatment.value)
+            box = (np.delete(box[0], j), np.delete(box[1], j))
+        else:
+            mu_range = _mu_range(treatment, model)
+            box[0][j], box[1][j] = mu_range
+            log_uniform = (j,) if treatment.mode == "marginalise" else ()
+            start = (*PAPER_START, float(np.sqrt(mu_range[0] * mu_range[1])))
+    if fit is None:
+        fit = (
+            fit_parameters(inputs.objective, predictor, inputs.eta, theta0=start, box=box)
+            if start is not None
+            else fit_parameters(inputs.objective, predictor, inputs.eta)
+        )
     sigma = fit.residual_sd
     say(f"sampling with {walkers} walkers x {steps} steps (sigma = {sigma:.3g}) ...")
-    box = (model.scaler.lo, model.scaler.hi)
-    post = sample_posterior(inputs.objective, model, inputs.eta, sigma, box, fit.theta, walkers, steps, seed)
-    model_error = model_error_at(inputs.objective, inputs.eta, model, fit.theta)
+    centre = np.clip(fit.theta, box[0] + 1e-6 * (box[1] - box[0]), box[1] - 1e-6 * (box[1] - box[0]))
+    post = sample_posterior(
+        inputs.objective,
+        predictor,
+        inputs.eta,
+        sigma,
+        box,
+        centre,
+        walkers,
+        steps,
+        seed,
+        log_uniform=log_uniform,
+    )
+    # a mesh's error budget is measured with the perfect stick: not carried into a frictional model
+    with_mu = "mu" in model.parameters
+    model_error = None if with_mu else model_error_at(inputs.objective, inputs.eta, model, fit.theta)
     if model_error is not None:
         post = replace(post, samples=with_model_error(post.samples, model_error, seed))
     carried = None
@@ -106,4 +186,4 @@ def sample_posterior_for(
         post = carried_to_finer_mesh(
             post, carried["theta"], carried["shift_pct"], carried["corrected_uncertainty_pct"], seed
         )
-    return ExperimentPosterior(inputs, post, fit, sigma, carried, model_error)
+    return ExperimentPosterior(inputs, post, fit, sigma, carried, model_error, treatment, mu_range)

@@ -65,7 +65,9 @@ def experiment_from_febio_run(
     from ..forward.febio_log import FebioLogError
 
     if (Path(out_dir) / "experiment.json").exists() and not overwrite:
-        raise FileExistsError(f"{out_dir}: an experiment is already there (overwrite=True, or --overwrite, replaces it)")
+        raise FileExistsError(
+            f"{out_dir}: an experiment is already there (overwrite=True, or --overwrite, replaces it)"
+        )
     log_path = Path(log_path)
     feb = Path(feb_file) if feb_file is not None else log_path.with_suffix(".feb")
     if not feb.is_file():

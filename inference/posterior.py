@@ -77,8 +77,11 @@ def sample_posterior(
     progress: bool = False,
     *,
     reduced: bool | None = None,
+    log_uniform: tuple[int, ...] = (),
 ) -> Posterior:
-    """emcee posterior of theta for log L = -F / (2 s^2), uniform on ``box`` = (lo, hi).
+    """emcee posterior of theta for log L = -F / (2 s^2), uniform on ``box`` = (lo, hi); the
+    parameters at the indices ``log_uniform`` log-uniform on theirs instead (a friction
+    coefficient, whose scale is unknown: density 1 / mu).
 
     ``reduced``: evaluate F in the predictor's reduced space (its ``reduced_basis()``); ``None``
     (default) does so whenever the predictor offers one, ``False`` rebuilds the fields and calls
@@ -104,6 +107,8 @@ def sample_posterior(
         inside = np.all((thetas > lo) & (thetas < hi), axis=1)
         if inside.any():
             out[inside] = -F_of_theta.value(thetas[inside]) / (2.0 * s**2)
+            if log_uniform:
+                out[inside] -= np.log(thetas[inside][:, list(log_uniform)]).sum(axis=1)
         return out
 
     rng = np.random.default_rng(seed)

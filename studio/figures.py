@@ -82,7 +82,7 @@ def corner_figure(posterior, fit_theta=None, fit_hessian=None, s: float | None =
     experiment when it is known."""
     import corner
 
-    labels = [f"{name} (kPa)" for name in posterior.parameters]
+    labels = [name if name == "mu" else f"{name} (kPa)" for name in posterior.parameters]  # mu: no unit
     span = np.percentile(posterior.samples, [0.5, 99.5], axis=0).T  # corner's own default range
     if truth is not None:  # widened so that a truth far from the samples is seen, not clipped
         span = np.column_stack([np.minimum(span[:, 0], truth), np.maximum(span[:, 1], truth)])

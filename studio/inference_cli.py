@@ -37,6 +37,14 @@ FIT_FRICTION = Annotated[
     ),
 ]
 
+POSTERIOR_FRICTION = Annotated[
+    str | None,
+    typer.Option(
+        help="on a surrogate trained with mu: a value (known), marginalise (sampled, log-uniform prior; "
+        ":LO:HI its range) or identify (sampled, uniform prior)"
+    ),
+]
+
 
 def _weights(text: str) -> list[float]:
     return [float(v) for v in text.split(",")]
@@ -133,12 +141,14 @@ def posterior(
         ),
     ] = None,
     exclude_steps: EXCLUDE = "",
+    friction: POSTERIOR_FRICTION = None,
     out: OUT = None,
     as_json: JSON = False,
 ) -> None:
     """Posterior of (c1, c5) with emcee on the surrogate: log L = -F / (2 sigma^2), sigma^2 =
     F(theta_hat) / (n - p) of the surrogate fit; uniform prior on the surrogate's training box;
-    corner plot with the eq. 6 ellipse."""
+    corner plot with the eq. 6 ellipse. On a surrogate trained with mu as a parameter,
+    ``--friction`` holds mu or samples it (marginalise: log-uniform prior) with (c1, c5)."""
     from ..inference.experiment_posterior import sample_posterior_for
     from .figures import corner_figure, save_figure
 
@@ -155,6 +165,7 @@ def posterior(
             None,
             _steps(exclude_steps),
             say,
+            friction,
         )
         fit_ = result.fit
         png = save_figure(

@@ -129,3 +129,29 @@ def test_fit_identifies_mu_with_c1_c5_on_a_surrogate_with_mu(mu_surrogate, tmp_p
     }
     np.testing.assert_allclose([known["c1"], known["c5"]], truth[:2], rtol=0.03)
     assert known["statistical_pct"][1] <= d["statistical_pct"][1]  # mu known: narrower c5 bounds
+
+
+def test_posterior_marginalises_mu_with_its_log_uniform_prior(mu_surrogate, tmp_path):
+    from indentation_studio.inference.experiment_posterior import sample_posterior_for
+    from indentation_studio.inference.synthetic_experiment import write_synthetic_experiment
+
+    model = mu_surrogate
+    truth = np.array([9.0, 330.0, 0.35])
+    exp = write_synthetic_experiment(
+        model, truth, tmp_path / "e", radius=4.77, step_size=0.5, u_noise_mm=0.002, f_noise=0.002, seed=1
+    )
+    with pytest.raises(ValueError, match="trained with mu as a parameter"):
+        sample_posterior_for(exp, model, walkers=8, steps=10)
+    marg = sample_posterior_for(exp, model, walkers=16, steps=1500, seed=2, friction="marginalise")
+    d = marg.to_dict()
+    assert marg.posterior.parameters == ("c1", "c5", "mu")
+    lo, hi = np.array(d["ci95"]).T
+    assert np.all((lo <= truth) & (truth <= hi)), (d["ci95"], truth)  # the truth, mu's too, inside
+    assert 0.2 <= lo[2] and hi[2] <= 2.0  # the prior's support
+    fr = d["friction"]
+    assert fr["prior"] == "log-uniform" and fr["mu_range"] == [0.2, 2.0]
+    assert "marginalised over a log-uniform prior on [0.2, 2]" in d["intervals_include"]
+    known = sample_posterior_for(exp, model, walkers=16, steps=1500, seed=2, friction=0.35)
+    assert known.posterior.parameters == ("c1", "c5")
+    width = lambda p: np.diff(p.posterior.interval(0.95)[1])[0]  # noqa: E731
+    assert width(known) < width(marg)  # c5's interval without mu's uncertainty is narrower
