@@ -23,12 +23,19 @@ class DesignStudy:
     reading: str
     spec: dict
     baseline: Prediction | None = field(default=None, repr=False)
+    objective: Objective | None = field(default=None, repr=False)
 
     def hessian(self, eta) -> np.ndarray:
         return combine(self.term_hessians, eta)
 
     def bounds(self, eta, s: float = 0.05) -> np.ndarray:
         return bounds_pct(self.hessian(eta), s)
+
+    def objective_points(self, eta) -> int:
+        """n, the data points the objective weighs with ``eta`` (eq. 8)."""
+        if self.objective is None:
+            raise ValueError("the study keeps no objective (made without fe_design_study)")
+        return self.objective.data_points(eta)
 
 
 def fe_design_study(
@@ -39,16 +46,52 @@ def fe_design_study(
     step: int | None = None,
     h: float | tuple[float, ...] = 0.02,
     n_jobs: int = 1,
+    parameters: tuple[str, ...] = ("c1", "c5"),
 ) -> DesignStudy:
     """Hessians from the embedded FE solver: ``exact`` (Gauss-Newton with its sensitivities, one
-    simulation) or ``fd`` (central differences of F_k over a 3^p stencil of step ``h``)."""
+    simulation) or ``fd`` (central differences of F_k over a 3^p stencil of step ``h``).
+    ``parameters`` ('c1', 'c5', 'mu') with theta* = (c1, c5, mu) gives 3 x 3 Hessians, the friction
+    coefficient's row and column beside (c1, c5)'s (:func:`design.study.friction_design_bounds`)."""
     theta_star = np.asarray(theta_star, float)
-    base = FESolverPredictor(spec, sensitivities=(method == "exact")).predict(theta_star)
+    if theta_star.shape != (len(parameters),):
+        raise ValueError(f"theta* must give {parameters}, got {theta_star.tolist()}")
+    base = FESolverPredictor(spec, sensitivities=(method == "exact"), parameters=parameters).predict(
+        theta_star
+    )
     objective = Objective.from_prediction(base, radius=spec.indenter.radius, reading=reading, step=step)
     if method == "exact":
         H = gauss_newton_term_hessians(objective, base, theta_star)
     elif method == "fd":
-        H = finite_difference_term_hessians(objective, FESolverPredictor(spec, n_jobs=n_jobs), theta_star, h)
+        fe = FESolverPredictor(spec, n_jobs=n_jobs, parameters=parameters)
+        H = finite_difference_term_hessians(objective, fe, theta_star, h)
     else:
         raise ValueError(f"unknown Hessian method {method!r}; use 'exact' or 'fd'")
-    return DesignStudy(theta_star, H, method, reading, spec.to_dict(), base)
+    return DesignStudy(theta_star, H, method, reading, spec.to_dict(), base, objective)
+
+
+def friction_design_bounds(study: DesignStudy, eta, s: float, mu_prior: tuple[float, float]) -> dict:
+    """The bounds (percent) of c1 and c5 of a study with mu (3 x 3 Hessians) when mu is known,
+    identified with them, or a nuisance with a log-uniform prior on ``mu_prior`` (the Laplace
+    stand-in of :func:`inference.friction_treatment.friction_bounds`), and mu's own bound when
+    identified. The residual sd the prior is weighed against is s / sqrt(p F_{p, n-p}^0.95) (eq. 8
+    read backwards, n the objective's data points)."""
+    from scipy import stats
+
+    from ..inference.friction_treatment import FrictionTreatment, friction_bounds
+
+    H = study.hessian(eta)
+    if H.shape != (3, 3):
+        raise ValueError("the study has no mu: run it with parameters ('c1', 'c5', 'mu')")
+    n = study.objective_points(eta)
+    sigma = s / np.sqrt(3 * stats.f.ppf(0.95, 3, n - 3))
+    ident = friction_bounds(H, s, sigma, FrictionTreatment("identify"), mu_prior)
+    nuisance = friction_bounds(H, s, sigma, FrictionTreatment("marginalise"), mu_prior)
+    return {
+        "mu": float(study.theta_star[2]),
+        "known_pct": ident["conditional_pct"],
+        "identified_pct": ident["bounds_pct"],
+        "identified_mu_pct": ident["mu_pct"],
+        "nuisance_pct": nuisance["bounds_pct"],
+        "nuisance_mu_share_pct": nuisance["mu_share_pct"],
+        "mu_prior": list(mu_prior),
+    }

@@ -6,6 +6,7 @@ import json
 from pathlib import Path
 from typing import Annotated
 
+import numpy as np
 import typer
 from rich.console import Console
 from rich.table import Table
@@ -14,6 +15,7 @@ from ..atomic_write import atomic_write, atomic_write_json
 from ..design.certainty import DESIGN_BOUNDS_INCLUDE
 from ..forward.spec import SpecError
 from .options import (
+    FRICTION,
     JSON,
     KAPPA,
     MESH,
@@ -55,16 +57,36 @@ def _fd_step(text: str):
 
 
 def _study(
-    theta, kappa, radius, steps, step_size, mesh, mesh_from, substeps, method, reading, as_json, fd_step, jobs
+    theta,
+    kappa,
+    radius,
+    steps,
+    step_size,
+    mesh,
+    mesh_from,
+    substeps,
+    method,
+    reading,
+    as_json,
+    fd_step,
+    jobs,
+    friction: float | None = None,
 ):
     from ..design.study import fe_design_study
 
     try:
         c1, c5 = (float(v) for v in theta.split(","))
-        spec = model_spec(c1, c5, kappa, radius, steps, step_size, mesh, mesh_from, substeps)
+        spec = model_spec(c1, c5, kappa, radius, steps, step_size, mesh, mesh_from, substeps, friction)
         err.print(f"design study at theta* = ({c1:g}, {c5:g}) kPa, R = {radius:g} mm, {method} Hessian ...")
+        with_mu = friction is not None
         return fe_design_study(
-            spec, (c1, c5), method=method, reading=reading, h=_fd_step(fd_step), n_jobs=jobs
+            spec,
+            (c1, c5, friction) if with_mu else (c1, c5),
+            method=method,
+            reading=reading,
+            h=_fd_step(fd_step),
+            n_jobs=jobs,
+            parameters=("c1", "c5", "mu") if with_mu else ("c1", "c5"),
         )
     except (SpecError, ValueError) as exc:
         fail(str(exc), as_json)
@@ -94,13 +116,22 @@ def bounds(
     reading: READING = "paper",
     fd_step: FD_STEP = "0.02",
     jobs: JOBS = 1,
+    friction: FRICTION = None,
+    mu_prior: Annotated[
+        str, typer.Option(help="with --friction: the range LO:HI of mu's log-uniform prior as a nuisance")
+    ] = "0.1:3",
     as_json: JSON = False,
 ) -> None:
-    """Certainty bounds of c1 and c5 (eq. 6) for one set of objective weights."""
+    """Certainty bounds of c1 and c5 (eq. 6) for one set of objective weights. With ``--friction
+    MU`` the model has Coulomb friction mu and the bounds are given three ways: mu known,
+    identified with (c1, c5), and a nuisance with a log-uniform prior (``--mu-prior``)."""
     from ..design.objective import check_weights
 
     try:
         eta = check_weights([float(v) for v in weights.split(",")])
+        prior = tuple(float(v) for v in mu_prior.split(":"))
+        if len(prior) != 2 or not 0 < prior[0] < prior[1]:
+            raise ValueError(f"--mu-prior {mu_prior!r}: expected LO:HI with 0 < LO < HI")
     except ValueError as exc:
         fail(str(exc), as_json)
     study = _study(
@@ -117,12 +148,20 @@ def bounds(
         as_json,
         fd_step,
         jobs,
+        friction,
     )
     H = study.hessian(eta)
-    b = study.bounds(eta, s)
+    b = study.bounds(eta, s) if friction is None else None
+    with_mu = None
+    if friction is not None:
+        from ..design.study import friction_design_bounds
+
+        with_mu = friction_design_bounds(study, eta, s, prior)
+        b = np.array(with_mu["known_pct"])
     payload = {
         "c1_pct": float(b[0]),
         "c5_pct": float(b[1]),
+        "friction": with_mu,
         "hessian": H.tolist(),
         "weights": eta.tolist(),
         "s": s,
@@ -135,10 +174,15 @@ def bounds(
         print(json.dumps(payload))
         return
     Console().print(f"weights {_fmt(eta)}: c1 +-{b[0]:.1f} %, c5 +-{b[1]:.1f} %   (s = {s:g})")
+    if with_mu is not None:
+        i, n = with_mu["identified_pct"], with_mu["nuisance_pct"]
+        Console().print(
+            f"  mu = {friction:g} known: the above; identified with them: c1 +-{i[0]:.1f} %, c5 +-{i[1]:.1f} %, "
+            f"mu +-{with_mu['identified_mu_pct']:.0f} %; a nuisance (log-uniform on {mu_prior}): "
+            f"c1 +-{n[0]:.1f} %, c5 +-{n[1]:.1f} %"
+        )
     Console().print(f"bounds: {DESIGN_BOUNDS_INCLUDE}")
-    Console().print(
-        f"H(theta*) (normalised) = [[{H[0, 0]:.3g}, {H[0, 1]:.3g}], [{H[1, 0]:.3g}, {H[1, 1]:.3g}]]"
-    )
+    Console().print(f"H(theta*) (normalised) = {np.array2string(H, precision=3)}")
 
 
 @design_app.command("weights")

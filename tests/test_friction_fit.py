@@ -155,3 +155,22 @@ def test_posterior_marginalises_mu_with_its_log_uniform_prior(mu_surrogate, tmp_
     assert known.posterior.parameters == ("c1", "c5")
     width = lambda p: np.diff(p.posterior.interval(0.95)[1])[0]  # noqa: E731
     assert width(known) < width(marg)  # c5's interval without mu's uncertainty is narrower
+
+
+def test_design_bounds_with_mu_known_identified_and_a_nuisance():
+    from indentation_studio.design.objective import PAPER_WEIGHTS
+    from indentation_studio.design.study import fe_design_study, friction_design_bounds
+    from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
+
+    spec = ModelSpec(mesh=MeshChoice("coarse"), protocol=Protocol(step_size=0.5, steps=4)).with_friction(0.3)
+    study = fe_design_study(spec, (10.0, 350.0, 0.3), parameters=("c1", "c5", "mu"))
+    assert study.term_hessians.shape == (4, 3, 3)
+    b = friction_design_bounds(study, PAPER_WEIGHTS, 0.05, (0.1, 3.0))
+    H = study.hessian(PAPER_WEIGHTS)
+    np.testing.assert_allclose(b["known_pct"], bounds_pct(H[:2, :2], 0.05), rtol=1e-12)
+    np.testing.assert_allclose(b["identified_pct"], bounds_pct(H, 0.05)[:2], rtol=1e-9)
+    known, nuisance, ident = (np.array(b[k]) for k in ("known_pct", "nuisance_pct", "identified_pct"))
+    assert np.all(known < nuisance) and np.all(nuisance <= ident)  # a prior lies between
+    # mu known: the same bounds as the two-parameter study of the same frictional model
+    two = fe_design_study(spec, (10.0, 350.0))
+    np.testing.assert_allclose(two.bounds(PAPER_WEIGHTS, 0.05), known, rtol=1e-9)
