@@ -10,7 +10,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
         "objective": ["PAPER_WEIGHTS", "Objective", "check_weights"],
         "reduced_objective": ["FieldObjective", "ReducedObjective", "objective_function"],
         "certainty": ["bounds_pct", "combine", "s_from_data"],
-        "study": ["DesignStudy", "fe_design_study"],
+        "study": ["DesignStudy", "fe_design_study", "friction_design_bounds"],
         "weights": ["PAPER_HESSIAN", "compare_with_paper", "optimise_weights", "table1"],
         "objective_over_plane": ["ObjectiveMap", "campaign_objective_map", "objective_map"],
         "experiment_choice": ["candidate_grid", "compare_designs"],

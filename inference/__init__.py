@@ -32,5 +32,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
             "import_matchid",
         ],
         "data_check": ["check_experiment"],
+        "friction_treatment": ["FixedParameter", "FrictionTreatment", "friction_bounds"],
+        "febio_experiment": ["RecordedRun", "experiment_from_febio_run"],
     },
 )
