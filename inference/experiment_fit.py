@@ -167,7 +167,9 @@ def fit_experiment(
             final = gauss_newton_refine(inputs.objective, fe, inputs.eta, first.theta)
         else:
             say(f"refining on the FE solver from {first.theta.round(3).tolist()} kPa ...")
-            final = fit_parameters(inputs.objective, fe, inputs.eta, theta0=first.theta, f_stop=f_stop)
+            final = fit_parameters(
+                inputs.objective, fe, inputs.eta, theta0=first.theta, f_stop=f_stop, progress=_told(say)
+            )
     check = None
     if check_mesh is not None:
         check, _ = check_mesh_at(inputs.spec, inputs.objective, inputs.eta, final.theta, check_mesh, say)
@@ -241,5 +243,10 @@ def _fit_with_friction(
             fe = FESolverPredictor(spec, parameters=("c1", "c5", "mu"))
             start = first.theta if with_mu else np.append(first.theta, mu0)
         say(f"refining on the FE solver from {np.round(start, 3).tolist()} ...")
-        final = fit_parameters(obj, fe, eta, theta0=start, f_stop=f_stop, box=box)
+        final = fit_parameters(obj, fe, eta, theta0=start, f_stop=f_stop, box=box, progress=_told(say))
     return ExperimentFit(inputs, first, final, refine, None, None, None, treatment, mu_range)
+
+
+def _told(say: Callable[[str], None]) -> Callable[[int, np.ndarray, float], None]:
+    """An FE fit's evaluations, one line each, for ``say``."""
+    return lambda k, theta, F: say(f"  FE evaluation {k}: {np.round(theta, 4).tolist()}, F = {F:.4g}")

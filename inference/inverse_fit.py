@@ -12,6 +12,7 @@ default the fit runs to LM's own convergence, because F < 3e-2 can hold well bef
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -67,11 +68,13 @@ def fit_parameters(
     s: float | None = None,
     max_evaluations: int = 60,
     box: tuple | None = None,
+    progress: Callable[[int, np.ndarray, float], None] | None = None,
 ) -> FitResult:
     """Minimise F(theta) (eq. 5) by Levenberg-Marquardt from ``theta0``; bounds from eq. 6 with s
     from eq. 8 (n residuals, p parameters, ``alpha``) unless ``s`` is given. ``box`` = (lo, hi)
     (0 and inf for no limit) keeps theta inside (a trust-region reflective fit then: scipy's
-    'lm' takes no bounds); e.g. mu within the range a surrogate was trained on."""
+    'lm' takes no bounds); e.g. mu within the range a surrogate was trained on. ``progress(k,
+    theta, F)`` is told of every evaluation (an FE model's take minutes)."""
     eta = check_weights(eta)
     theta0 = np.asarray(theta0, float)
     if theta0.ndim != 1 or not np.all(np.isfinite(theta0)) or np.any(theta0 <= 0):
@@ -85,6 +88,8 @@ def fit_parameters(
             r, J = _residuals_at(objective, predictor, eta, np.exp(z))
             last.update(z=z.copy(), r=r, J=J)
             history.append((np.exp(z).tolist(), float(r @ r)))
+            if progress is not None:
+                progress(len(history), np.exp(z), float(r @ r))
             if f_stop is not None and r @ r < f_stop:
                 raise _EarlyStop
         return last["r"], last["J"]
