@@ -175,9 +175,22 @@ def sample_posterior_for(
         seed,
         log_uniform=log_uniform,
     )
-    # a mesh's error budget is measured with the perfect stick: not carried into a frictional model
-    with_mu = "mu" in model.parameters
-    model_error = None if with_mu else model_error_at(inputs.objective, inputs.eta, model, fit.theta)
+    if (
+        "mu" in model.parameters
+    ):  # the stick-measured mesh budget of (c1, c5) (experiment_fit._stick_mesh_budget)
+        from .experiment_fit import _stick_mesh_budget
+
+        contact = treatment.describe(inputs.spec.contact.describe(), mu_range)
+        model_error = _stick_mesh_budget(model, contact)
+        if model_error is not None and fit.theta.size == 3:  # mu sampled: no budget of its own
+            model_error = replace(
+                model_error,
+                discrepancy_pct=np.zeros(3),
+                budget_pct=np.append(model_error.budget_pct, 0.0),
+                covariance_log=np.zeros((3, 3)),
+            )
+    else:
+        model_error = model_error_at(inputs.objective, inputs.eta, model, fit.theta)
     if model_error is not None:
         post = replace(post, samples=with_model_error(post.samples, model_error, seed))
     carried = None

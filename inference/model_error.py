@@ -83,8 +83,10 @@ def model_error_scope(
     budget = ""
     src = model.budget_source
     if isinstance(src, dict) and src.get("model"):
+        measured = f", measured with the {src['measured_with']}" if src.get("measured_with") else ""
         budget = (
-            f" ({src.get('model')}'s largest bias at {src.get('points')} test points of {src.get('file')})"
+            f" ({src.get('model')}'s largest bias at {src.get('points')} test points of {src.get('file')}"
+            f"{measured})"
         )
     if not model.has_discrepancy:
         return f"{noise} and the mesh's error budget{budget}; not the surrogate's own error nor {assumed}"

@@ -174,3 +174,30 @@ def test_design_bounds_with_mu_known_identified_and_a_nuisance():
     # mu known: the same bounds as the two-parameter study of the same frictional model
     two = fe_design_study(spec, (10.0, 350.0))
     np.testing.assert_allclose(two.bounds(PAPER_WEIGHTS, 0.05), known, rtol=1e-9)
+
+
+def test_a_fit_with_mu_keeps_the_stick_measured_mesh_budget_and_says_so(mu_surrogate, tmp_path):
+    import copy
+
+    from indentation_studio.inference.experiment_fit import fit_experiment
+    from indentation_studio.inference.synthetic_experiment import write_synthetic_experiment
+
+    model = copy.copy(mu_surrogate)
+    model.meta = dict(model.meta) | {
+        "error_budget": {
+            "c1_pct": 3.0,
+            "c5_pct": 30.0,
+            "source": {"model": "coarse", "points": 9, "file": "b.json"},
+        }
+    }
+    exp = write_synthetic_experiment(
+        model, [9.0, 330.0, 0.5], tmp_path / "e", radius=4.77, step_size=0.5, seed=2
+    )
+    d = fit_experiment(exp, model, refine=False, friction="marginalise").to_dict()
+    stat = np.array(d["statistical_pct"])
+    np.testing.assert_allclose([d["c1_pct"], d["c5_pct"]], np.hypot(stat, [3.0, 30.0]))
+    assert (
+        "error budget (coarse's largest bias at 9 test points of b.json, measured with the perfect stick)"
+        in (d["bounds_include"])
+    )
+    assert "mu marginalised over a log-uniform prior on [0.2, 2]" in d["bounds_include"]
