@@ -42,6 +42,7 @@ class ExperimentFit:
     model_error: ModelError | None = None  # with a high-fidelity level: the model-error parts
     friction: FrictionTreatment = field(default_factory=FrictionTreatment)
     mu_range: tuple[float, float] | None = None  # identify / marginalise: mu kept inside
+    mu_reach: dict[str, bool] | None = None  # does mu's certainty region reach the range's ends
 
     @property
     def friction_bounds(self) -> dict | None:
@@ -100,17 +101,28 @@ class ExperimentFit:
         }
 
     def _friction_dict(self) -> dict:
-        """fit.json's 'friction': the treatment and, with mu fitted, mu with its bounds, whether it
-        ended on its range's limit, the bounds of (c1, c5) with mu known and mu's share."""
+        """fit.json's 'friction': the treatment and, with mu fitted, mu with its bound (eq. 6) and its
+        95 % interval within the range (an end the certainty region reaches taken as the interval's:
+        :func:`_mu_reach`), whether it ended on its range's limit, the bounds of (c1, c5) with mu
+        known and mu's share."""
         out = {"treatment": self.friction.mode, "contact": self.contact}
         if self.friction.mode == "known":
             out["mu"] = self.friction.value
         fb = self.friction_bounds
         if fb is not None:
             mu, (lo, hi) = float(self.fit.theta[2]), self.mu_range
+            half = mu * fb["mu_pct"] / 100.0
+            laplace = [max(mu - half, lo), min(mu + half, hi)]  # nothing is known outside the range
+            reach = self.mu_reach or {}
+            interval = [lo if reach.get("lower") else laplace[0], hi if reach.get("upper") else laplace[1]]
             out |= {
                 "mu": mu,
                 "mu_pct": fb["mu_pct"],
+                "mu_interval": interval,
+                "mu_reaches_range_end": reach,
+                "mu_identified": bool(
+                    not (reach.get("lower") and reach.get("upper")) and np.isfinite(fb["mu_pct"])
+                ),
                 "mu_range": [lo, hi],
                 "mu_at_limit": "lower" if mu <= lo * 1.001 else "upper" if mu >= hi * 0.999 else None,
                 "conditional_pct": fb["conditional_pct"],
@@ -256,7 +268,28 @@ def _fit_with_friction(
         final = fit_parameters(obj, fe, eta, theta0=start, f_stop=f_stop, box=box, progress=_told(say))
     fit = ExperimentFit(inputs, first, final, refine, None, None, None, treatment, mu_range)
     fit.model_error = _stick_mesh_budget(model, fit.contact)
+    if treatment.fits_mu:
+        fitted_on = fe if refine else model
+        say("checking mu's certainty region up to its range's ends ...")
+        fit.mu_reach = _mu_reach(obj, fitted_on, eta, final, mu_range)
     return fit
+
+
+def _mu_reach(objective, predictor, eta, fit: FitResult, mu_range: tuple[float, float]) -> dict[str, bool]:
+    """Whether eq. 6's certainty region of the fit, F(theta) - F(theta_hat) <= s^2, reaches each end
+    of mu's range: F at (c1, c5, mu end) with c1, c5 held at the fit (one evaluation each; a fit on
+    the end counts as reaching it). Where nothing slips the data say nothing of mu and F is flat
+    above some mu: the Hessian's bound of mu (local) would then be a confident wrong answer, and mu
+    is only bounded on one side."""
+    reach = {}
+    for side, end in zip(("lower", "upper"), mu_range, strict=True):
+        if abs(np.log(fit.theta[2] / end)) < 1e-3:
+            reach[side] = True
+            continue
+        theta = np.array([fit.theta[0], fit.theta[1], end])
+        F_end = float(objective.value(predictor.predict(theta[None, :]), eta)[0])
+        reach[side] = bool(F_end - fit.F <= fit.s**2)
+    return reach
 
 
 def _stick_mesh_budget(surrogate, contact: str) -> ModelError | None:

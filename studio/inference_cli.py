@@ -111,9 +111,13 @@ def fit(
     if "mu_pct" in fr:
         limit = f" (on its range's {fr['mu_at_limit']} limit)" if fr["mu_at_limit"] else ""
         share = fr["mu_share_pct"]
+        lo, hi = fr["mu_interval"]
+        ends = [side for side, reached in fr["mu_reaches_range_end"].items() if reached]
+        open_ = f"; the data do not bound it at the range's {' and '.join(ends)} end" if ends else ""
         Console().print(
-            f"  mu = {fr['mu']:.3g} +- {fr['mu_pct']:.0f} %{limit}; mu's share of the bounds +- {share[0]:.2f} % / "
-            f"{share[1]:.2f} % (with mu known: +- {fr['conditional_pct'][0]:.2f} % / {fr['conditional_pct'][1]:.2f} %)"
+            f"  mu = {fr['mu']:.3g}{limit}, 95 % within [{lo:.3g}, {hi:.3g}]{open_}; mu's share of the bounds "
+            f"+- {share[0]:.2f} % / {share[1]:.2f} % (with mu known: +- {fr['conditional_pct'][0]:.2f} % / "
+            f"{fr['conditional_pct'][1]:.2f} %)"
         )
     Console().print(f"  bounds: {payload['bounds_include']}")
     check = payload["mesh_check"]

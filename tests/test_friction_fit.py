@@ -119,6 +119,16 @@ def test_fit_identifies_mu_with_c1_c5_on_a_surrogate_with_mu(mu_surrogate, tmp_p
     fr = d["friction"]
     assert fr["treatment"] == "identify" and fr["mu_range"] == [0.2, 2.0] and fr["mu_at_limit"] is None
     assert abs(fr["mu"] - truth[2]) <= fr["mu"] * fr["mu_pct"] / 100  # mu's bound holds its truth
+    assert fr["mu_identified"] and fr["mu_reaches_range_end"] == {"lower": False, "upper": False}
+    assert 0.2 <= fr["mu_interval"][0] <= truth[2] <= fr["mu_interval"][1] <= 2.0
+    # the certainty region F - F_hat <= s^2 reaches both ends with a huge s, neither with a tiny one
+    from dataclasses import replace
+
+    from indentation_studio.inference.experiment_fit import _mu_reach
+
+    args = (ident.inputs.objective, model, ident.inputs.eta)
+    assert _mu_reach(*args, replace(ident.fit, s=1e3), (0.2, 2.0)) == {"lower": True, "upper": True}
+    assert _mu_reach(*args, replace(ident.fit, s=1e-9), (0.2, 2.0)) == {"lower": False, "upper": False}
     assert "mu identified with (c1, c5) within [0.2, 2]" in d["bounds_include"]
     assert np.all(np.array(d["statistical_pct"]) >= np.array(fr["conditional_pct"]))
     known = fit_experiment(exp, model, refine=False, friction=0.35).to_dict()
