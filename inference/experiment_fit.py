@@ -191,10 +191,12 @@ def fit_experiment(
     return ExperimentFit(inputs, first, final, refine, check, check_mesh, model_error)
 
 
-def _mu_range(treatment: FrictionTreatment, surrogate) -> tuple[float, float] | None:
+def _mu_range(treatment: FrictionTreatment, surrogate, fe_stage: bool = False) -> tuple[float, float] | None:
     """The range mu is kept in (identify) or the prior's (marginalise): the treatment's, else the
-    surrogate's training range when mu is one of its parameters, else DEFAULT_MU_RANGE; a range
-    or a known mu outside the surrogate's training range is refused (it would extrapolate)."""
+    surrogate's training range when mu is one of its parameters, else DEFAULT_MU_RANGE. A range
+    or a known mu outside the surrogate's training range is refused (the surrogate would
+    extrapolate) unless an FE stage follows (``fe_stage``: the surrogate stage then keeps to its
+    own range and the FE stage takes the one asked for)."""
     if "mu" not in surrogate.parameters:
         return (treatment.mu_range or DEFAULT_MU_RANGE) if treatment.fits_mu else None
     j = surrogate.parameters.index("mu")
@@ -202,7 +204,7 @@ def _mu_range(treatment: FrictionTreatment, surrogate) -> tuple[float, float] | 
     wanted = treatment.mu_range or (lo, hi)
     if treatment.mode == "known":
         wanted = (treatment.value, treatment.value)
-    if wanted[0] < lo * (1 - 1e-9) or wanted[1] > hi * (1 + 1e-9):
+    if not fe_stage and (wanted[0] < lo * (1 - 1e-9) or wanted[1] > hi * (1 + 1e-9)):
         raise ValueError(
             f"friction: mu {wanted[0]:g}..{wanted[1]:g} lies outside the range the surrogate was trained "
             f"on ({lo:g}..{hi:g}); fit with the FE stage on a surrogate without mu, or train one wider"
@@ -228,7 +230,7 @@ def _fit_with_friction(
         )
     if check_mesh is not None:
         raise ValueError("friction: the mesh check is made with the perfect stick; fit without --check-mesh")
-    mu_range = _mu_range(treatment, model)
+    mu_range = _mu_range(treatment, model, fe_stage=refine)
     if not with_mu and not refine:
         raise ValueError(
             f"friction {treatment.mode}: the surrogate has no mu, so only the FE stage can bring it in; "
@@ -240,18 +242,26 @@ def _fit_with_friction(
         box = (np.array([0.0, 0.0, mu_range[0]]), np.array([np.inf, np.inf, mu_range[1]]))
         mu0 = float(np.sqrt(mu_range[0] * mu_range[1]))
     # on the surrogate, theta stays in the box it was trained on (outside it a GP falls back to its mean)
-    inside = (np.asarray(model.scaler.lo, float), np.asarray(model.scaler.hi, float))
-    if with_mu and treatment.fits_mu:
-        inside[0][2], inside[1][2] = mu_range
+    inside = (np.array(model.scaler.lo, float), np.array(model.scaler.hi, float))  # copies
+    if with_mu and treatment.fits_mu:  # the asked range where it lies within the training range
+        inside[0][2] = np.clip(mu_range[0], inside[0][2], inside[1][2])
+        inside[1][2] = np.clip(mu_range[1], inside[0][2], inside[1][2])
+        if inside[1][2] <= inside[0][2]:
+            raise ValueError(
+                f"friction: mu's range {mu_range} misses the surrogate's ({model.scaler.lo[2]:g}..)"
+            )
     say(
         f"fitting on the {model.kind} surrogate ({treatment.describe(spec.contact.describe(), mu_range)}) ..."
     )
     if with_mu and treatment.mode == "known":
-        held = FixedParameter(model, "mu", treatment.value)
+        j = model.parameters.index("mu")  # a known mu outside the training range: its nearest end
+        held = FixedParameter(
+            model, "mu", float(np.clip(treatment.value, model.scaler.lo[j], model.scaler.hi[j]))
+        )
         two = (np.delete(inside[0], 2), np.delete(inside[1], 2))
         first = fit_parameters(obj, held, eta, f_stop=f_stop, box=two)
     elif with_mu:  # from the paper's start at three mu: where nothing slips, d/dmu = 0 holds a fit still
-        starts = np.geomspace(mu_range[0], mu_range[1], 3)
+        starts = np.geomspace(inside[0][2], inside[1][2], 3)
         fits = [fit_parameters(obj, model, eta, (*PAPER_START, m), f_stop, box=inside) for m in starts]
         first = min(fits, key=lambda fit: fit.F)
     else:  # (c1, c5) with the surrogate's contact: the FE stage's start

@@ -129,7 +129,7 @@ def sample_posterior_for(
     model = inputs.surrogate
     if mesh_check is not None and "mu" in model.parameters:
         raise ValueError("friction: the mesh check is made with the perfect stick; sample without it")
-    box = (np.asarray(model.scaler.lo, float), np.asarray(model.scaler.hi, float))
+    box = (np.array(model.scaler.lo, float), np.array(model.scaler.hi, float))  # copies: changed below
     predictor, mu_range, log_uniform, start = model, None, (), None
     if treatment.mode != "assumed" or "mu" in model.parameters:
         if "mu" not in model.parameters:

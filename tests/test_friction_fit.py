@@ -131,6 +131,9 @@ def test_fit_identifies_mu_with_c1_c5_on_a_surrogate_with_mu(mu_surrogate, tmp_p
     assert _mu_reach(*args, replace(ident.fit, s=1e-9), (0.2, 2.0)) == {"lower": False, "upper": False}
     assert "mu identified with (c1, c5) within [0.2, 2]" in d["bounds_include"]
     assert np.all(np.array(d["statistical_pct"]) >= np.array(fr["conditional_pct"]))
+    narrow = fit_experiment(exp, model, refine=False, friction="identify:0.3:1").to_dict()["friction"]
+    assert narrow["mu_range"] == [0.3, 1.0] and 0.3 <= narrow["mu"] <= 1.0
+    np.testing.assert_allclose([model.scaler.lo[2], model.scaler.hi[2]], [0.2, 2.0])  # the model untouched
     known = fit_experiment(exp, model, refine=False, friction=0.35).to_dict()
     assert known["friction"] == {
         "treatment": "known",
