@@ -20,6 +20,7 @@ from scipy.optimize import least_squares
 
 from ..design.certainty import bounds_pct, s_from_data
 from ..design.objective import Objective, check_weights
+from ..forward.solver import SimulationError
 
 PAPER_START = (6.0, 300.0)
 PAPER_F_STOP = 3e-2
@@ -83,10 +84,29 @@ def fit_parameters(
     history: list[tuple[list[float], float]] = []
     last: dict[str, np.ndarray] = {}  # the last evaluated point: LM asks for r and J there in turn
 
+    good: dict[str, np.ndarray] = {}  # the last point whose model ran to the end
+    failed: list[str] = []
+    failed_at: set[bytes] = set()
+
     def evaluate(z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if "z" not in last or not np.array_equal(last["z"], z):
-            r, J = _residuals_at(objective, predictor, eta, np.exp(z))
+            try:
+                r, J = _residuals_at(objective, predictor, eta, np.exp(z))
+            except SimulationError as exc:
+                if not good:  # nowhere to step back to
+                    raise
+                # a trial point whose simulation failed (an FE model that does not converge there):
+                # answered as ten times worse than the last good point, so that the step is refused
+                # and the trust region shrinks, instead of the fit and all it computed being lost
+                failed.append(f"{np.round(np.exp(z), 4).tolist()}: {exc}")
+                failed_at.add(z.tobytes())
+                last.update(z=z.copy(), r=np.sqrt(10.0) * good["r"], J=good["J"])
+                history.append((np.exp(z).tolist(), float("inf")))
+                if progress is not None:
+                    progress(len(history), np.exp(z), float("inf"))
+                return last["r"], last["J"]
             last.update(z=z.copy(), r=r, J=J)
+            good.update(z=z.copy(), r=r, J=J)
             history.append((np.exp(z).tolist(), float(r @ r)))
             if progress is not None:
                 progress(len(history), np.exp(z), float(r @ r))
@@ -117,8 +137,14 @@ def fit_parameters(
     except _EarlyStop:
         z = last["z"]
         message = f"F < {f_stop:g} (the paper's stopping rule)"
+    if z.tobytes() in failed_at:
+        z = good["z"]  # never report a point whose model did not run
     theta = np.exp(z)
     r, J = evaluate(z)
+    if failed:
+        message += f"; {len(failed)} trial point(s) whose simulation failed were refused: " + "; ".join(
+            failed
+        )
     return _fit_result(objective, eta, theta, r, J, s, alpha, history, t0, message)
 
 

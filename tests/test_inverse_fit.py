@@ -104,3 +104,31 @@ def test_gauss_newton_refine_reaches_the_levenberg_marquardt_minimum(target):
     assert gn.evaluations <= 3 and "within" in gn.message
     assert np.all(np.abs(gn.theta / lm.theta - 1) <= lm.bounds_pct / 100 / 3)
     np.testing.assert_allclose(gn.bounds_pct, lm.bounds_pct, rtol=0.05)
+
+
+class _FailsOnce:
+    """The FE model, but its second simulation does not converge (as one at a trial point far
+    from the data may not): a fit must refuse that step and go on, not lose what it computed."""
+
+    def __init__(self, predictor) -> None:
+        self.predictor, self.parameters, self.calls = predictor, predictor.parameters, 0
+
+    def predict(self, theta, jacobian=False):
+        from indentation_studio.forward.solver import SimulationError
+
+        self.calls += 1
+        if self.calls == 2:
+            raise SimulationError("simulation failed at depth 0.9 mm (last converged 0.5 mm of 1)", 0.5)
+        return self.predictor.predict(theta, jacobian)
+
+
+def test_a_trial_point_whose_simulation_fails_is_refused_and_the_fit_goes_on(target):
+    objective = Objective.from_prediction(target, radius=4.77)
+    fit = fit_parameters(objective, _FailsOnce(FESolverPredictor(SPEC)), ETA)
+    np.testing.assert_allclose(fit.theta, TRUE, rtol=1e-4)
+    assert "1 trial point(s) whose simulation failed were refused" in fit.message
+    assert "failed at depth 0.9 mm" in fit.message and np.isinf(fit.history[1][1])
+    with pytest.raises(RuntimeError, match="failed at depth"):  # the start itself: nothing to step back to
+        failing = _FailsOnce(FESolverPredictor(SPEC))
+        failing.calls = 1
+        fit_parameters(objective, failing, ETA)
