@@ -5,13 +5,14 @@ file (or none) and a ``*.tmp`` the stores clean up, never a truncated result."""
 from __future__ import annotations
 
 import json
+import math
 import os
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-__all__ = ["atomic_write", "atomic_write_json"]
+__all__ = ["atomic_write", "atomic_write_json", "strict_json"]
 
 
 def atomic_write(path: str | Path, content: str | bytes | Callable[[Path], Any]) -> Path:
@@ -48,6 +49,31 @@ def _umask() -> int:
     return mask
 
 
+def strict_json(payload: Any, indent: int | None = None) -> str:
+    """``payload`` as standard JSON: numpy scalars and arrays as numbers and lists, and a number
+    that is not finite (an unbounded parameter's inf bound, a failed step's NaN force) as null,
+    since 'Infinity' and 'NaN' are not JSON and a strict reader (JavaScript, jq, a database)
+    refuses them."""
+    return json.dumps(_finite(payload), indent=indent, allow_nan=False)
+
+
+def _finite(value: Any) -> Any:
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite(v) for v in value]
+    if hasattr(value, "tolist") and not isinstance(value, (str, bytes)):  # numpy array or scalar
+        return _finite(value.tolist())
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, (str, int, bool)) or value is None:
+        return value
+    if isinstance(value, Path):
+        return str(value)
+    return _finite(float(value))
+
+
 def atomic_write_json(path: str | Path, payload: Any, indent: int | None = 1) -> Path:
-    """``payload`` as JSON at ``path``, atomically (numpy scalars written as floats)."""
-    return atomic_write(path, json.dumps(payload, indent=indent, default=float))
+    """``payload`` as JSON at ``path``, atomically (:func:`strict_json`: numpy as numbers, a
+    number that is not finite as null)."""
+    return atomic_write(path, strict_json(payload, indent=indent))

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import time
 from pathlib import Path
 from typing import Annotated, Any
@@ -11,7 +10,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from ..atomic_write import atomic_write
+from ..atomic_write import atomic_write, strict_json
 from ..campaign.designs import DesignError
 from ..campaign.store import CampaignError
 from ..forward.spec import SpecError
@@ -97,7 +96,7 @@ def run(
         except (DesignError, CampaignError, SpecError, ValueError, FileNotFoundError, OSError) as exc:
             fail(f"campaign {name}: {exc} (finished points are kept in {Path(runs_dir) / name})", as_json)
     if as_json:
-        print(json.dumps(summary))
+        print(strict_json(summary))
         return
     _print_summary(summary, f"campaign {name}: {summary['wall_s']:.1f} s")
 
@@ -113,7 +112,7 @@ def status(name: NAME, runs_dir: RUNS_DIR = Path("runs"), as_json: JSON = False)
         fail(str(exc), as_json)
     summary = store.summary()
     if as_json:
-        print(json.dumps(summary))
+        print(strict_json(summary))
         return
     _print_summary(summary, f"campaign {name} ({store.root})")
 
@@ -145,6 +144,6 @@ def export(
         "points": int(table["point"].nunique()) if len(table) else 0,
     }
     if as_json:
-        print(json.dumps(payload))
+        print(strict_json(payload))
     else:
         Console().print(f"wrote {payload['rows']} rows ({payload['points']} points) to {out}")

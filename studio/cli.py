@@ -6,7 +6,6 @@ on stdout; progress and logs go to stderr.
 
 from __future__ import annotations
 
-import json
 import math
 import sys
 import time
@@ -17,6 +16,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from ..atomic_write import strict_json
 from ..forward.spec import SpecError
 from .campaign_cli import campaign_app
 from .design_cli import design_app
@@ -157,7 +157,7 @@ def simulate(
         "febio_rerun": result.solver.get("rerun"),
     }
     if as_json:
-        print(json.dumps(payload))
+        print(strict_json(payload))
         return
     table = Table(
         title=f"c1 = {c1:g} kPa, c5 = {c5:g} kPa, R = {radius:g} mm, {solver.value}, mesh {payload['mesh']['source']}"
@@ -196,7 +196,7 @@ def export_feb(
     except (SpecError, ValueError, OSError) as exc:
         fail(str(exc), as_json)
     if as_json:
-        print(json.dumps({"feb_file": str(path), "log_file": str(path.with_suffix(".log"))}))
+        print(strict_json({"feb_file": str(path), "log_file": str(path.with_suffix(".log"))}))
     else:
         Console().print(
             f"wrote {path}: run it with  febio4 -i {path.name}  (data log: {path.with_suffix('.log').name})"
@@ -246,7 +246,7 @@ def mesh_study(
             fail(str(exc), as_json)
     if as_json:
         print(
-            json.dumps(
+            strict_json(
                 {
                     "reference": reference,
                     "reference_nodes": MESH_PRESETS[reference].node_count(),
@@ -301,7 +301,7 @@ def demo(
     except (ValueError, OSError, RuntimeError) as exc:
         fail(str(exc), as_json)
     if as_json:
-        print(json.dumps({"report": str(report), "wall_s": time.perf_counter() - t0}))
+        print(strict_json({"report": str(report), "wall_s": time.perf_counter() - t0}))
         return
     Console().print(f"report: {report} ({time.perf_counter() - t0:.0f} s)")
 

@@ -11,7 +11,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from ..atomic_write import atomic_write, atomic_write_json
+from ..atomic_write import atomic_write, atomic_write_json, strict_json
 from ..design.certainty import DESIGN_BOUNDS_INCLUDE
 from ..forward.spec import SpecError
 from .options import (
@@ -78,7 +78,7 @@ def _study(
         c1, c5 = (float(v) for v in theta.split(","))
         spec = model_spec(c1, c5, kappa, radius, steps, step_size, mesh, mesh_from, substeps, friction)
         err.print(f"design study at theta* = ({c1:g}, {c5:g}) kPa, R = {radius:g} mm, {method} Hessian ...")
-        with_mu = friction is not None
+        with_mu = friction is not None and friction > 0  # mu = 0: frictionless, no d/d(log mu)
         return fe_design_study(
             spec,
             (c1, c5, friction) if with_mu else (c1, c5),
@@ -151,12 +151,18 @@ def bounds(
         friction,
     )
     H = study.hessian(eta)
-    b = study.bounds(eta, s) if friction is None else None
+    b = study.bounds(eta, s) if not friction else None
     with_mu = None
-    if friction is not None:
+    if friction == 0:  # the end of mu's range, where mu has no log: the frictionless bounds alone
+        with_mu = {"mu": 0.0, "known_pct": b.tolist(), "identified_pct": None, "nuisance_pct": None}
+        with_mu["note"] = "mu = 0 (frictionless): only the bounds with mu known; give mu > 0 for the others"
+    elif friction is not None:
         from ..design.study import friction_design_bounds
 
-        with_mu = friction_design_bounds(study, eta, s, prior)
+        try:
+            with_mu = friction_design_bounds(study, eta, s, prior)
+        except ValueError as exc:
+            fail(str(exc), as_json)
         b = np.array(with_mu["known_pct"])
     payload = {
         "c1_pct": float(b[0]),
@@ -171,10 +177,12 @@ def bounds(
         "bounds_include": DESIGN_BOUNDS_INCLUDE,
     }
     if as_json:
-        print(json.dumps(payload))
+        print(strict_json(payload))
         return
     Console().print(f"weights {_fmt(eta)}: c1 +-{b[0]:.1f} %, c5 +-{b[1]:.1f} %   (s = {s:g})")
-    if with_mu is not None:
+    if with_mu is not None and "note" in with_mu:
+        Console().print(f"  {with_mu['note']}")
+    elif with_mu is not None:
         i, n = with_mu["identified_pct"], with_mu["nuisance_pct"]
         Console().print(
             f"  mu = {friction:g} known: the above; identified with them: c1 +-{i[0]:.1f} %, c5 +-{i[1]:.1f} %, "
@@ -250,7 +258,7 @@ def weights_cmd(
     if out is not None:
         atomic_write_json(out, payload)
     if as_json:
-        print(json.dumps(payload))
+        print(strict_json(payload))
         return
     table = Table(title=f"Table 1 at theta* = {theta} kPa, s = {s:g} ({method} Hessian, {reading} reading)")
     for col in (
@@ -316,7 +324,7 @@ def baseline_cmd(
     except (OSError, ValueError, RuntimeError) as exc:
         fail(str(exc), as_json)
     if as_json:
-        print(json.dumps(payload))
+        print(strict_json(payload))
         return
     Console().print(f"eq. 11: c1 = {c1:.2f} kPa, c5 = {c5:.1f} kPa (FVF {fvf:g})")
     if "equibiaxial_fit" in payload:
@@ -361,7 +369,7 @@ def map_cmd(
         "c5_pct": float(b[1]),
     }
     if as_json:
-        print(json.dumps(payload))
+        print(strict_json(payload))
         return
     Console().print(f"wrote {path} ({len(omap.F)} points); bounds c1 +-{b[0]:.1f} %, c5 +-{b[1]:.1f} %")
 
@@ -421,7 +429,7 @@ def compare_cmd(
     if as_json:
         rows = json.loads(table.to_json(orient="records"))
         payload = {"rows": rows, "csv": str(csv), "png": str(png), "theta_star": [c1, c5]}
-        print(json.dumps(payload | {"bounds_include": DESIGN_BOUNDS_INCLUDE}))
+        print(strict_json(payload | {"bounds_include": DESIGN_BOUNDS_INCLUDE}))
         return
     view = Table(
         title=f"candidate designs at theta* = {theta} kPa (fixed weights {weights}; optimised for {criterion})"
@@ -494,7 +502,7 @@ def error_budget_cmd(
     payload = budget.to_dict()
     payload["json_file"] = str(path)
     if as_json:
-        print(json.dumps(payload, default=float))
+        print(strict_json(payload))
         return
     view = Table(title=f"error budget against {reference} ({budget.reference['points']} test points)")
     for col in (

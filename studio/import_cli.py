@@ -11,6 +11,7 @@ from typing import Annotated
 
 import typer
 
+from ..atomic_write import strict_json
 from .options import JSON, err, fail
 
 import_app = typer.Typer(help="Import a lab's files (DIC export, load-frame record) as an experiment folder.")
@@ -102,7 +103,7 @@ def _sources(o: dict):
 
 def _report(result: dict, as_json: bool) -> None:
     if as_json:
-        print(json.dumps(result, default=float))
+        print(strict_json(result))
     else:
         err.print(
             f"[green]wrote[/] {result.get('experiment') or result.get('force_csv') or result.get('report')}"

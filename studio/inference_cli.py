@@ -4,13 +4,13 @@ posterior and an FE confirmation (paper 2.7, 2.8, 3.4). Each command calls one w
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Annotated
 
 import typer
 from rich.console import Console
 
+from ..atomic_write import strict_json
 from .options import JSON, fail, say
 
 EXPERIMENT = Annotated[Path, typer.Option(help="experiment folder (README: experiment data format)")]
@@ -90,7 +90,7 @@ def fit(
         fail(str(exc), as_json)
     payload = result.to_dict() | {"result_file": str(path)}
     if as_json:
-        print(json.dumps(payload))
+        print(strict_json(payload))
         return
     if payload["excluded_steps"]:
         Console().print(f"steps left out of the fit: {payload['excluded_steps']}")
@@ -119,6 +119,9 @@ def fit(
             f"+- {share[0]:.2f} % / {share[1]:.2f} % (with mu known: +- {fr['conditional_pct'][0]:.2f} % / "
             f"{fr['conditional_pct'][1]:.2f} %)"
         )
+        for side, note in fr["mu_reach_notes"].items():
+            if note.startswith("taken as reached"):
+                Console().print(f"  mu's {side} end {note}")
     Console().print(f"  bounds: {payload['bounds_include']}")
     check = payload["mesh_check"]
     if check is not None:
@@ -180,7 +183,7 @@ def posterior(
         fail(str(exc), as_json)
     payload = result.to_dict() | {"corner_png": str(png)}
     if as_json:
-        print(json.dumps(payload))
+        print(strict_json(payload))
         return
     for k, name in enumerate(result.posterior.parameters):
         lo, hi = payload["ci95"][k]
@@ -230,7 +233,7 @@ def confirm(
         fail(str(exc), as_json)
     payload = result.to_dict() | {"result_file": str(path)}
     if as_json:
-        print(json.dumps(payload))
+        print(strict_json(payload))
         return
     Console().print(
         f"F(theta_hat) on {solver}: {payload['F_fe']:.4g} (surrogate {payload['F_surrogate']:.4g}); surrogate vs "

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from enum import StrEnum
 from pathlib import Path
 from typing import Annotated
@@ -10,6 +9,7 @@ from typing import Annotated
 import typer
 from rich.console import Console
 
+from ..atomic_write import strict_json
 from ..forward.spec import (
     Contact,
     Geometry,
@@ -36,7 +36,7 @@ class SolverName(StrEnum):
 
 def fail(message: str, as_json: bool, code: int = 1) -> None:
     if as_json:
-        print(json.dumps({"error": message}))
+        print(strict_json({"error": message}))
     err.print(f"[bold red]error:[/] {message}", soft_wrap=True, highlight=False)
     raise typer.Exit(code)
 

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import time
 from enum import StrEnum
 from pathlib import Path
@@ -12,6 +11,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from ..atomic_write import strict_json
 from .options import JSON, err, fail
 
 surrogate_app = typer.Typer(
@@ -119,7 +119,7 @@ def train_mf(
         "error_budget": model.meta.get("error_budget"),
     }
     if as_json:
-        print(json.dumps(payload, default=float))
+        print(strict_json(payload))
         return
     _errors_table(f"multi-fidelity surrogate {path}", model.meta["validation"])
     budget = model.meta.get("error_budget")
@@ -174,7 +174,7 @@ def train(
         **{f"{name}_errors": e for name, e in validation.items()},
     }
     if as_json:
-        print(json.dumps(payload))
+        print(strict_json(payload))
         return
     _errors_table(f"{kind.value} surrogate of {campaign!r}: errors (percent)", validation)
     Console().print(f"saved {path} (fit {model.meta['fit_s']:.1f} s)")
@@ -217,7 +217,7 @@ def evaluate(
     except (ValueError, OSError) as exc:
         fail(str(exc), as_json)
     if as_json:
-        print(json.dumps(payload))
+        print(strict_json(payload))
         return
     if "errors" in payload:
         _errors_table(f"{model.kind} surrogate on {campaign!r} (percent)", {campaign: payload["errors"]})
@@ -245,6 +245,6 @@ def convert(
     except (ValueError, OSError) as exc:
         fail(str(exc), as_json)
     if as_json:
-        print(json.dumps({"model_file": str(path), "converted_from": str(model_file)}))
+        print(strict_json({"model_file": str(path), "converted_from": str(model_file)}))
         return
     Console().print(f"converted {model_file} -> {path}")

@@ -36,3 +36,18 @@ def test_permissions_are_those_of_an_ordinary_file(tmp_path):
     ordinary.write_text("x")
     written = atomic_write(tmp_path / "atomic.txt", "x")
     assert stat.S_IMODE(os.stat(written).st_mode) == stat.S_IMODE(os.stat(ordinary).st_mode)
+
+
+def test_json_is_strict_json_an_unbounded_number_null(tmp_path):
+    import json
+
+    import numpy as np
+
+    from indentation_studio.atomic_write import atomic_write_json, strict_json
+
+    payload = {"mu_pct": np.inf, "force": np.array([1.5, np.nan]), "n": np.int64(3), "ok": True}
+    text = strict_json(payload)
+    assert "Infinity" not in text and "NaN" not in text
+    assert json.loads(text) == {"mu_pct": None, "force": [1.5, None], "n": 3, "ok": True}
+    path = atomic_write_json(tmp_path / "r.json", payload | {"where": tmp_path})
+    assert json.loads(path.read_text(), parse_constant=pytest.fail)["where"] == str(tmp_path)
