@@ -59,6 +59,8 @@ def finite_difference_term_hessians(
     step ``h`` (one for all parameters, or one per parameter, e.g. :data:`PAPER_GRID_STEP`)."""
     theta_star = np.asarray(theta_star, float)
     p = len(theta_star)
+    if np.size(h) not in (1, p):
+        raise ValueError(f"finite-difference steps: give one, or one per parameter ({p}), got {np.size(h)}")
     steps = np.broadcast_to(np.asarray(h, float), (p,))
     if np.any(~np.isfinite(steps)) or np.any(steps <= 0) or np.any(steps >= 1):
         raise ValueError(f"finite-difference steps must lie in (0, 1) in theta/theta*, got {steps.tolist()}")
@@ -110,6 +112,19 @@ def s_from_data(F_hat: float, n: int, p: int = 2, alpha: float = 0.05) -> float:
     if n <= p:
         raise ValueError(f"eq. 8 needs more data points than parameters (n = {n}, p = {p})")
     return float(np.sqrt(p / (n - p) * stats.f.ppf(1.0 - alpha, p, n - p) * F_hat))
+
+
+def s_for_parameters(s: float, n: int, p_from: int, p_to: int, alpha: float = 0.05) -> float:
+    """Eq. 8's s of a fit with ``p_from`` parameters read for ``p_to`` of them (the same F_hat and
+    n): s sqrt(p_to F_{p_to, n-p_to} (n - p_from) / (p_from F_{p_from, n-p_from} (n - p_to))).
+    The bounds of (c1, c5) with mu known at a fit of (c1, c5, mu) are the projection of a 2-D
+    region, not of the 3-D one: with p = 3's s they would be about 14 % too wide."""
+    if n <= max(p_from, p_to):
+        raise ValueError(f"eq. 8 needs more data points than parameters (n = {n}, p = {p_from}, {p_to})")
+    ratio = (p_to / (n - p_to) * stats.f.ppf(1.0 - alpha, p_to, n - p_to)) / (
+        p_from / (n - p_from) * stats.f.ppf(1.0 - alpha, p_from, n - p_from)
+    )
+    return float(s * np.sqrt(ratio))
 
 
 def term_names() -> tuple[str, ...]:

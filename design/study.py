@@ -73,21 +73,29 @@ def friction_design_bounds(study: DesignStudy, eta, s: float, mu_prior: tuple[fl
     """The bounds (percent) of c1 and c5 of a study with mu (3 x 3 Hessians) when mu is known,
     identified with them, or a nuisance with a log-uniform prior on ``mu_prior`` (the Laplace
     stand-in of :func:`inference.friction_treatment.friction_bounds`), and mu's own bound when
-    identified. The residual sd the prior is weighed against is s / sqrt(p F_{p, n-p}^0.95) (eq. 8
-    read backwards, n the objective's data points)."""
+    identified. ``s`` is the design's noise level for (c1, c5) as without friction (eq. 8 with
+    p = 2), so that the bounds with mu known are those of ``design bounds`` on that contact; with
+    mu fitted too the region is 3-D and s is read for p = 3 (eq. 8, n the objective's data
+    points), and the residual sd the prior is weighed against is s / sqrt(2 F_{2, n-2}^0.95)."""
     from scipy import stats
 
     from ..inference.friction_treatment import FrictionTreatment, friction_bounds
+    from .certainty import s_for_parameters
 
     H = study.hessian(eta)
     if H.shape != (3, 3):
         raise ValueError("the study has no mu: run it with parameters ('c1', 'c5', 'mu')")
+    if not (np.isfinite(s) and s > 0):
+        raise ValueError(f"s must be a positive number, got {s!r}")
     n = study.objective_points(eta)
-    sigma = s / np.sqrt(3 * stats.f.ppf(0.95, 3, n - 3))
-    ident = friction_bounds(H, s, sigma, FrictionTreatment("identify"), mu_prior)
-    nuisance = friction_bounds(H, s, sigma, FrictionTreatment("marginalise"), mu_prior)
+    sigma = s / np.sqrt(2 * stats.f.ppf(0.95, 2, n - 2))
+    s3 = s_for_parameters(s, n, 2, 3)
+    ident = friction_bounds(H, s3, sigma, FrictionTreatment("identify"), mu_prior, n)
+    nuisance = friction_bounds(H, s3, sigma, FrictionTreatment("marginalise"), mu_prior, n)
     return {
         "mu": float(study.theta_star[2]),
+        "s": s,
+        "s_with_mu": s3,
         "known_pct": ident["conditional_pct"],
         "identified_pct": ident["bounds_pct"],
         "identified_mu_pct": ident["mu_pct"],

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-from ..design.certainty import bounds_pct
+from ..design.certainty import bounds_pct, s_for_parameters
 from ..forward.predictor import Prediction, as_theta
 
 __all__ = [
@@ -154,21 +154,29 @@ def log_prior_sd(mu_range: tuple[float, float]) -> float:
 
 
 def friction_bounds(
-    hessian: np.ndarray, s: float, sigma: float, treatment: FrictionTreatment, mu_range: tuple[float, float]
+    hessian: np.ndarray,
+    s: float,
+    sigma: float,
+    treatment: FrictionTreatment,
+    mu_range: tuple[float, float],
+    n: int,
 ) -> dict:
     """Eq. 6's bounds (percent) of (c1, c5, mu) from the 3 x 3 Hessian (in log theta, H = 2 J^T J)
     of a fit with mu, for ``treatment`` identify or marginalise: 'bounds_pct' of (c1, c5) with mu
     fitted too (its Schur complement; for marginalise the prior's precision 1 / sd^2 in log mu
     added as 2 sigma^2 / sd^2 to H, ``sigma`` the residual sd), 'mu_pct' (inf when the data hold
     nothing on mu and it is identified alone), 'conditional_pct' (mu known at the fit: the 2 x 2
-    block) and 'mu_share_pct' sqrt(bounds^2 - conditional^2), mu's share of each bound."""
+    block, with eq. 8's s read for p = 2 of the ``n`` data points, as a fit with mu known would
+    have it) and 'mu_share_pct', mu's share of each bound: sqrt(bounds^2 - block^2), the 2 x 2
+    block's bounds at the same s (so the share is the correlation with mu, 0 where the data hold
+    nothing on mu; the rest of the difference to 'conditional_pct' is the third parameter's s)."""
     H = np.array(hessian, float)
     if H.shape != (3, 3):
         raise ValueError(f"a fit with mu has a 3 x 3 Hessian, got {H.shape}")
     if treatment.mode == "marginalise":
         H[2, 2] += 2.0 * sigma**2 / log_prior_sd(mu_range) ** 2
     A, b, c = H[:2, :2], H[:2, 2], H[2, 2]
-    conditional = bounds_pct(A, s)
+    conditional = bounds_pct(A, s_for_parameters(s, n, 3, 2))
     # (c1, c5) with mu fitted too: the Schur complement A - b b^T / c (Cauchy-Schwarz: b -> 0 with c,
     # so that where the data hold nothing on mu the bounds are the conditional ones, not inf)
     informative = c > 1e-12 * np.trace(A)
@@ -176,7 +184,8 @@ def friction_bounds(
     marginal = bounds_pct(schur, s)
     mu_info = c - b @ np.linalg.solve(A, b) if informative else 0.0
     mu_pct = 100.0 * s * np.sqrt(2.0 / mu_info) if mu_info > 1e-12 * c else np.inf
-    share = np.sqrt(np.maximum(marginal**2 - conditional**2, 0.0))
+    # mu's share: what its uncertainty adds at the same s (the extra parameter's wider s apart)
+    share = np.sqrt(np.maximum(marginal**2 - bounds_pct(A, s) ** 2, 0.0))
     return {
         "bounds_pct": marginal.tolist(),
         "mu_pct": float(mu_pct),

@@ -116,3 +116,28 @@ def test_design_bounds_command_says_what_its_bounds_hold():
     assert payload["c1_pct"] > 0 and "measurement noise only" in payload["bounds_include"]
     text = CliRunner().invoke(app, args)
     assert "no model error" in text.output and "error-budget" in text.output
+
+
+def test_design_bounds_with_friction_zero_one_and_a_bad_step():
+    """``--friction 0`` gives the frictionless bounds with mu known (mu has no log there), a
+    positive mu all three readings as strict JSON (mu's bound null where nothing slips), and a
+    finite-difference step per parameter that misses mu is named."""
+    import json
+
+    from typer.testing import CliRunner
+
+    from indentation_studio.studio.cli import app
+
+    args = ["design", "bounds", "--mesh", "coarse", "--steps", "3", "--json"]
+    zero = CliRunner().invoke(app, [*args, "--friction", "0"])
+    assert zero.exit_code == 0, zero.output
+    payload = json.loads(zero.stdout)
+    assert payload["friction"]["identified_pct"] is None and "frictionless" in payload["friction"]["note"]
+    stick = json.loads(CliRunner().invoke(app, args).stdout)
+    assert payload["c5_pct"] > 0 and abs(payload["c5_pct"] / stick["c5_pct"] - 1) > 0.01  # another contact
+    with_mu = CliRunner().invoke(app, [*args, "--friction", "0.5"])
+    assert with_mu.exit_code == 0, with_mu.output
+    fr = json.loads(with_mu.stdout, parse_constant=lambda c: pytest.fail(f"not JSON: {c}"))["friction"]
+    assert fr["known_pct"][1] <= fr["nuisance_pct"][1] <= fr["identified_pct"][1]
+    bad = CliRunner().invoke(app, [*args, "--friction", "0.5", "--method", "fd", "--fd-step", "0.02,0.02"])
+    assert bad.exit_code != 0 and "one per parameter (3)" in bad.stdout
