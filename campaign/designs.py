@@ -79,6 +79,8 @@ def parse_grid(text: str) -> Design:
         if not m:
             raise DesignError(f"grid part {part!r}: expected NAME=LO:HI:N[:log], e.g. c1=1:21:25")
         name = m.group(1)
+        if name in bounds:
+            raise DesignError(f"grid part {part!r}: {name} is given twice")
         try:
             bounds[name] = (float(m.group(2)), float(m.group(3)))
         except ValueError as exc:
@@ -86,7 +88,14 @@ def parse_grid(text: str) -> Design:
         counts[name] = int(m.group(4))
         if m.group(5):
             log_axes.add(name)
+    # the parameters in the model's order (c1, c5, then mu), whatever the order written: a
+    # surrogate's parameters are its campaign's, and the fits read theta as (c1, c5, mu)
+    order = sorted(bounds, key=lambda k: _CANONICAL.index(k) if k in _CANONICAL else len(_CANONICAL))
+    bounds = {k: bounds[k] for k in order}
     return grid(bounds, counts, text.replace(" ", ""), frozenset(log_axes))
+
+
+_CANONICAL = ("c1", "c5", "mu")
 
 
 def points_from_csv(path: str | Path, parameters: tuple[str, ...] = ("c1", "c5")) -> Design:

@@ -13,6 +13,7 @@ import numpy as np
 from ..atomic_write import atomic_write_json
 from ..design.objective import PAPER_WEIGHTS
 from ..forward.predictor import FESolverPredictor
+from ..forward.solver import SimulationError
 from ..surrogate.base import FieldSurrogate
 from .experiment_data import ExperimentData
 from .fit_inputs import FitInputs, prepare_fit
@@ -22,11 +23,24 @@ from .friction_treatment import (
     FrictionTreatment,
     friction_bounds,
 )
-from .inverse_fit import PAPER_F_STOP, PAPER_START, FitResult, fit_parameters, gauss_newton_refine
+from .inverse_fit import (
+    PAPER_F_STOP,
+    PAPER_START,
+    FitResult,
+    fit_parameters,
+    gauss_newton_refine,
+    residuals_at,
+)
 from .mesh_check import MeshCheck, check_mesh_at
 from .model_error import ModelError, combined_pct, has_high_fidelity_level, model_error_at, model_error_scope
 
-__all__ = ["ExperimentFit", "fit_experiment"]
+__all__ = [
+    "ExperimentFit",
+    "check_parameter_order",
+    "fit_experiment",
+    "fit_on_surrogate_with_mu",
+    "surrogate_with_mu",
+]
 
 
 @dataclass
@@ -43,6 +57,7 @@ class ExperimentFit:
     friction: FrictionTreatment = field(default_factory=FrictionTreatment)
     mu_range: tuple[float, float] | None = None  # identify / marginalise: mu kept inside
     mu_reach: dict[str, bool] | None = None  # does mu's certainty region reach the range's ends
+    mu_reach_notes: dict[str, str] = field(default_factory=dict)  # an end not checked, and why
 
     @property
     def friction_bounds(self) -> dict | None:
@@ -51,7 +66,7 @@ class ExperimentFit:
         if not self.friction.fits_mu:
             return None
         f = self.fit
-        return friction_bounds(f.hessian, f.s, f.residual_sd, self.friction, self.mu_range)
+        return friction_bounds(f.hessian, f.s, f.residual_sd, self.friction, self.mu_range, f.n_residuals)
 
     @property
     def statistical_pct(self) -> np.ndarray:
@@ -104,7 +119,8 @@ class ExperimentFit:
         """fit.json's 'friction': the treatment and, with mu fitted, mu with its bound (eq. 6) and its
         95 % interval within the range (an end the certainty region reaches taken as the interval's:
         :func:`_mu_reach`), whether it ended on its range's limit, the bounds of (c1, c5) with mu
-        known and mu's share."""
+        known and mu's share. mu counts as identified only where its certainty region reaches
+        neither end: bounded on one side only, the data fix no value of it."""
         out = {"treatment": self.friction.mode, "contact": self.contact}
         if self.friction.mode == "known":
             out["mu"] = self.friction.value
@@ -120,8 +136,9 @@ class ExperimentFit:
                 "mu_pct": fb["mu_pct"],
                 "mu_interval": interval,
                 "mu_reaches_range_end": reach,
+                "mu_reach_notes": self.mu_reach_notes,
                 "mu_identified": bool(
-                    not (reach.get("lower") and reach.get("upper")) and np.isfinite(fb["mu_pct"])
+                    not (reach.get("lower") or reach.get("upper")) and np.isfinite(fb["mu_pct"])
                 ),
                 "mu_range": [lo, hi],
                 "mu_at_limit": "lower" if mu <= lo * 1.001 else "upper" if mu >= hi * 0.999 else None,
@@ -212,6 +229,59 @@ def _mu_range(treatment: FrictionTreatment, surrogate, fe_stage: bool = False) -
     return wanted if treatment.fits_mu else None
 
 
+def check_parameter_order(model) -> None:
+    """A surrogate with mu must take theta as (c1, c5, mu): the fits, the bounds and the posterior
+    read mu as the third parameter. Campaign grids are put in that order whatever the order
+    written (:func:`campaign.designs.parse_grid`); a surrogate of another order is refused here."""
+    names = tuple(model.parameters)
+    if "mu" in names and names != ("c1", "c5", "mu"):
+        raise ValueError(
+            f"friction: this surrogate's parameters are {names}; a fit with mu needs them as "
+            "('c1', 'c5', 'mu'): train it again on a campaign whose grid gives c1, c5, mu"
+        )
+
+
+def surrogate_with_mu(
+    model, treatment: FrictionTreatment, mu_range: tuple[float, float] | None
+) -> tuple[object, tuple[np.ndarray, np.ndarray]]:
+    """The Predictor a fit or a posterior on a surrogate trained with mu (its third parameter) works
+    on, and the box theta stays in: mu held (``known``: a FixedParameter over (c1, c5), mu at the
+    training range's nearest end if outside it) or fitted within ``mu_range`` (identify,
+    marginalise), inside the box the surrogate was trained on (outside it a GP falls back to its
+    mean)."""
+    check_parameter_order(model)
+    inside = (np.array(model.scaler.lo, float), np.array(model.scaler.hi, float))  # copies
+    lo, hi = inside[0][2], inside[1][2]
+    if treatment.mode == "known":
+        held = FixedParameter(model, "mu", float(np.clip(treatment.value, lo, hi)))
+        return held, (inside[0][:2], inside[1][:2])
+    if not treatment.fits_mu:
+        raise ValueError(f"friction {treatment.mode}: a surrogate with mu needs mu held or fitted")
+    inside[0][2], inside[1][2] = np.clip(mu_range[0], lo, hi), np.clip(mu_range[1], lo, hi)
+    if inside[1][2] <= inside[0][2]:
+        raise ValueError(f"friction: mu's range {mu_range} misses the surrogate's ({lo:g}..{hi:g})")
+    return model, inside
+
+
+def fit_on_surrogate_with_mu(
+    objective,
+    model,
+    eta,
+    treatment: FrictionTreatment,
+    mu_range: tuple[float, float] | None,
+    f_stop: float | None = None,
+) -> FitResult:
+    """The surrogate stage of a fit on a surrogate trained with mu (:func:`surrogate_with_mu`):
+    with mu fitted, from the paper's start at three mu spread in log over the range (where nothing
+    slips d/dmu = 0 holds a single start still), the best kept."""
+    predictor, box = surrogate_with_mu(model, treatment, mu_range)
+    if treatment.mode == "known":
+        return fit_parameters(objective, predictor, eta, f_stop=f_stop, box=box)
+    starts = np.geomspace(box[0][2], box[1][2], 3)
+    fits = [fit_parameters(objective, model, eta, (*PAPER_START, m), f_stop, box=box) for m in starts]
+    return min(fits, key=lambda fit: fit.F)
+
+
 def _fit_with_friction(
     inputs: FitInputs,
     treatment: FrictionTreatment,
@@ -228,6 +298,8 @@ def _fit_with_friction(
             "friction: this surrogate was trained with mu as a parameter; say how the fit treats it "
             "(a value, 'identify' or 'marginalise')"
         )
+    if with_mu:
+        check_parameter_order(model)
     if check_mesh is not None:
         raise ValueError("friction: the mesh check is made with the perfect stick; fit without --check-mesh")
     mu_range = _mu_range(treatment, model, fe_stage=refine)
@@ -237,83 +309,97 @@ def _fit_with_friction(
             "fit with the FE refinement"
         )
     obj, eta = inputs.objective, inputs.eta
-    box = None
-    if treatment.fits_mu:
-        box = (np.array([0.0, 0.0, mu_range[0]]), np.array([np.inf, np.inf, mu_range[1]]))
-        mu0 = float(np.sqrt(mu_range[0] * mu_range[1]))
-    # on the surrogate, theta stays in the box it was trained on (outside it a GP falls back to its mean)
-    inside = (np.array(model.scaler.lo, float), np.array(model.scaler.hi, float))  # copies
-    if with_mu and treatment.fits_mu:  # the asked range where it lies within the training range
-        inside[0][2] = np.clip(mu_range[0], inside[0][2], inside[1][2])
-        inside[1][2] = np.clip(mu_range[1], inside[0][2], inside[1][2])
-        if inside[1][2] <= inside[0][2]:
-            raise ValueError(
-                f"friction: mu's range {mu_range} misses the surrogate's ({model.scaler.lo[2]:g}..)"
-            )
     say(
         f"fitting on the {model.kind} surrogate ({treatment.describe(spec.contact.describe(), mu_range)}) ..."
     )
-    if with_mu and treatment.mode == "known":
-        j = model.parameters.index("mu")  # a known mu outside the training range: its nearest end
-        held = FixedParameter(
-            model, "mu", float(np.clip(treatment.value, model.scaler.lo[j], model.scaler.hi[j]))
-        )
-        two = (np.delete(inside[0], 2), np.delete(inside[1], 2))
-        first = fit_parameters(obj, held, eta, f_stop=f_stop, box=two)
-    elif with_mu:  # from the paper's start at three mu: where nothing slips, d/dmu = 0 holds a fit still
-        starts = np.geomspace(inside[0][2], inside[1][2], 3)
-        fits = [fit_parameters(obj, model, eta, (*PAPER_START, m), f_stop, box=inside) for m in starts]
-        first = min(fits, key=lambda fit: fit.F)
+    if with_mu:
+        first = fit_on_surrogate_with_mu(obj, model, eta, treatment, mu_range, f_stop)
+        inside = surrogate_with_mu(model, treatment, mu_range)[1]
     else:  # (c1, c5) with the surrogate's contact: the FE stage's start
         first = fit_parameters(obj, model, eta, f_stop=f_stop)
+        inside = None
     final = first
+    fitted_on = model
     if refine:
+        box = None
         if treatment.mode == "known":
             fe = FESolverPredictor(spec.with_friction(treatment.value))
             start = first.theta
         else:
             fe = FESolverPredictor(spec, parameters=("c1", "c5", "mu"))
+            box = (np.array([0.0, 0.0, mu_range[0]]), np.array([np.inf, np.inf, mu_range[1]]))
+            mu0 = float(np.sqrt(mu_range[0] * mu_range[1]))
             start = first.theta if with_mu else np.append(first.theta, mu0)
         say(f"refining on the FE solver from {np.round(start, 3).tolist()} ...")
         final = fit_parameters(obj, fe, eta, theta0=start, f_stop=f_stop, box=box, progress=_told(say))
+        fitted_on, inside = fe, None
     fit = ExperimentFit(inputs, first, final, refine, None, None, None, treatment, mu_range)
-    fit.model_error = _stick_mesh_budget(model, fit.contact)
+    fit.model_error = _stick_mesh_budget(model, fit.contact, spec.contact.describe())
     if treatment.fits_mu:
-        fitted_on = fe if refine else model
-        say("checking mu's certainty region up to its range's ends ...")
-        fit.mu_reach = _mu_reach(obj, fitted_on, eta, final, mu_range)
+        say("checking mu's certainty region up to its range's ends (c1, c5 fitted again there) ...")
+        fit.mu_reach, fit.mu_reach_notes = _mu_reach(obj, fitted_on, eta, final, mu_range, inside)
     return fit
 
 
-def _mu_reach(objective, predictor, eta, fit: FitResult, mu_range: tuple[float, float]) -> dict[str, bool]:
+def _mu_reach(
+    objective,
+    predictor,
+    eta,
+    fit: FitResult,
+    mu_range: tuple[float, float],
+    box: tuple[np.ndarray, np.ndarray] | None = None,
+) -> tuple[dict[str, bool], dict[str, str]]:
     """Whether eq. 6's certainty region of the fit, F(theta) - F(theta_hat) <= s^2, reaches each end
-    of mu's range: F at (c1, c5, mu end) with c1, c5 held at the fit (one evaluation each; a fit on
-    the end counts as reaching it). Where nothing slips the data say nothing of mu and F is flat
-    above some mu: the Hessian's bound of mu (local) would then be a confident wrong answer, and mu
-    is only bounded on one side."""
-    reach = {}
+    of mu's range: the profile of F at the end, (c1, c5) fitted again with mu held there (on a
+    surrogate a fit within ``box``; on the FE model, where a run takes minutes, one Gauss-Newton
+    step from the fit's (c1, c5): the linearised least squares ||r - J (J^T J)^-1 J^T r||^2 of the
+    (c1, c5) columns, one run with sensitivities). Holding (c1, c5) at the fit instead would
+    overstate F there, as (c1, c5) move with mu, and call mu bounded where it is not. A fit on an
+    end counts as reaching it; an end whose simulation fails counts as reached (nothing known there),
+    the reason in the notes. Where nothing slips the data say nothing of mu and F is flat above
+    some mu: the Hessian's bound of mu (local) would then be a confident wrong answer."""
+    reach, notes = {}, {}
     for side, end in zip(("lower", "upper"), mu_range, strict=True):
         if abs(np.log(fit.theta[2] / end)) < 1e-3:
-            reach[side] = True
+            reach[side], notes[side] = True, "the fit ends on it"
             continue
-        theta = np.array([fit.theta[0], fit.theta[1], end])
-        F_end = float(objective.value(predictor.predict(theta[None, :]), eta)[0])
+        try:
+            F_end = _profile_at(objective, predictor, eta, fit.theta[:2], end, box)
+        except SimulationError as exc:
+            reach[side] = True
+            notes[side] = f"taken as reached: the simulation at mu = {end:g} failed ({exc})"
+            continue
         reach[side] = bool(F_end - fit.F <= fit.s**2)
-    return reach
+    return reach, notes
 
 
-def _stick_mesh_budget(surrogate, contact: str) -> ModelError | None:
+def _profile_at(objective, predictor, eta, c1_c5: np.ndarray, mu: float, box) -> float:
+    """min over (c1, c5) of F(c1, c5, mu): a fit of (c1, c5) with mu held (cheap predictors), or on
+    the FE model one Gauss-Newton step's linearised value from ``c1_c5``."""
+    if isinstance(predictor, FESolverPredictor):
+        r, J = residuals_at(objective, predictor, eta, np.array([c1_c5[0], c1_c5[1], mu]))
+        step, *_ = np.linalg.lstsq(J[:, :2], -r, rcond=None)
+        left = r + J[:, :2] @ step
+        return float(left @ left)
+    held = FixedParameter(predictor, "mu", mu)
+    two = None if box is None else (box[0][:2], box[1][:2])
+    start = c1_c5 if two is None else np.clip(c1_c5, two[0], two[1])
+    return fit_parameters(objective, held, eta, theta0=start, box=two).F
+
+
+def _stick_mesh_budget(surrogate, contact: str, measured_with: str = "perfect stick") -> ModelError | None:
     """The mesh's error budget of the surrogate's (c1, c5), measured with the perfect stick, for a
     fit with friction: that mesh's error does not vanish when mu is held or fitted, and no budget
     measured with friction is shipped; leaving it out would leave bounds of noise alone (a fit of
     FEBio's baseline with mu identified: c5 +34 % outside +-3.9 %). Its source says which contact
-    it was measured with."""
+    it was measured with (``measured_with``: the surrogate's campaign's contact, which the shipped
+    budget was matched on)."""
     from ..design.error_budget import surrogate_error_budget
 
     budget = surrogate_error_budget(surrogate)
     if not budget:
         return None
-    source = dict(budget.get("source") or {}) | {"measured_with": "perfect stick"}
+    source = dict(budget.get("source") or {}) | {"measured_with": measured_with}
     pct = np.array([float(budget.get("c1_pct", 0.0)), float(budget.get("c5_pct", 0.0))])
     return ModelError(np.zeros(2), pct, np.zeros((2, 2)), source, False, contact)
 

@@ -16,8 +16,8 @@ from ..design.objective import PAPER_WEIGHTS
 from ..surrogate.base import FieldSurrogate
 from .experiment_data import ExperimentData
 from .fit_inputs import FitInputs, prepare_fit
-from .friction_treatment import FixedParameter, FrictionTreatment, friction_bounds
-from .inverse_fit import PAPER_START, FitResult, fit_parameters
+from .friction_treatment import FrictionTreatment, friction_bounds
+from .inverse_fit import FitResult, fit_parameters
 from .mesh_check import load_mesh_check
 from .model_error import ModelError, model_error_at, model_error_scope, with_model_error
 from .posterior import Posterior, carried_to_finer_mesh, sample_posterior
@@ -51,7 +51,8 @@ class ExperimentPosterior:
             out["mu"] = self.friction.value
         if self.friction.fits_mu:
             k = self.posterior.parameters.index("mu")
-            fb = friction_bounds(self.fit.hessian, self.fit.s, self.sigma, self.friction, self.mu_range)
+            f = self.fit
+            fb = friction_bounds(f.hessian, f.s, self.sigma, self.friction, self.mu_range, f.n_residuals)
             out |= {
                 "mu_range": list(self.mu_range),
                 "prior": "log-uniform" if self.friction.mode == "marginalise" else "uniform",
@@ -71,10 +72,20 @@ class ExperimentPosterior:
             self.fit.theta + np.asarray(self.carried["theta"]) * np.asarray(self.carried["shift_pct"]) / 100.0
         )
 
+    def _laplace_pct(self, s: float) -> np.ndarray:
+        """Eq. 6's half-widths (percent) at the fit for ``s``; with mu sampled, those of
+        :func:`friction_bounds` (mu's prior in them when marginalised, (c1, c5) finite where the
+        data hold nothing on mu), mu's last."""
+        if not self.friction.fits_mu:
+            return bounds_pct(self.fit.hessian, s)
+        f = self.fit
+        fb = friction_bounds(f.hessian, s, self.sigma, self.friction, self.mu_range, f.n_residuals)
+        return np.append(fb["bounds_pct"], fb["mu_pct"])
+
     @property
     def hessian_sd(self) -> np.ndarray:
         """The Gaussian approximation's sd at the fit: cov = 2 sigma^2 H^-1 (H in theta_bar)."""
-        return self.fit.theta * bounds_pct(self.fit.hessian, self.sigma) / 100.0
+        return self.fit.theta * self._laplace_pct(self.sigma) / 100.0
 
     def to_dict(self) -> dict:
         """posterior.json: the summary (median, sd, 68 % and 95 % intervals, chain diagnostics)."""
@@ -83,7 +94,7 @@ class ExperimentPosterior:
             "parameters": list(self.posterior.parameters),
             "fit": self.fit.theta.tolist(),
             "hessian_sd": self.hessian_sd.tolist(),
-            "hessian_bounds_pct": bounds_pct(self.fit.hessian, self.fit.s).tolist(),
+            "hessian_bounds_pct": self._laplace_pct(self.fit.s).tolist(),
             "sigma": self.sigma,
             "carried_to_finer_mesh": self.carried,
             "model_error": None if self.model_error is None else self.model_error.to_dict(),
@@ -129,37 +140,28 @@ def sample_posterior_for(
     model = inputs.surrogate
     if mesh_check is not None and "mu" in model.parameters:
         raise ValueError("friction: the mesh check is made with the perfect stick; sample without it")
-    box = (np.array(model.scaler.lo, float), np.array(model.scaler.hi, float))  # copies: changed below
-    predictor, mu_range, log_uniform, start = model, None, (), None
+    predictor, mu_range, log_uniform = model, None, ()
+    box = (np.array(model.scaler.lo, float), np.array(model.scaler.hi, float))
     if treatment.mode != "assumed" or "mu" in model.parameters:
         if "mu" not in model.parameters:
             raise ValueError(
                 "friction: a posterior samples the surrogate, and this one has no mu; train one on a "
                 "campaign with a mu axis (campaign run --grid ...,mu=LO:HI:N:log) or fit with --friction"
             )
-        from .experiment_fit import _mu_range
+        from .experiment_fit import _mu_range, fit_on_surrogate_with_mu, surrogate_with_mu
 
         if treatment.mode == "assumed":
             raise ValueError(
                 "friction: this surrogate was trained with mu as a parameter; say how the posterior "
                 "treats it (a value, 'marginalise' or 'identify')"
             )
-        j = model.parameters.index("mu")
-        if treatment.mode == "known":
-            _mu_range(treatment, model)  # inside the training range
-            predictor = FixedParameter(model, "mu", treatment.value)
-            box = (np.delete(box[0], j), np.delete(box[1], j))
-        else:
-            mu_range = _mu_range(treatment, model)
-            box[0][j], box[1][j] = mu_range
-            log_uniform = (j,) if treatment.mode == "marginalise" else ()
-            start = (*PAPER_START, float(np.sqrt(mu_range[0] * mu_range[1])))
+        mu_range = _mu_range(treatment, model)  # inside the training range
+        predictor, box = surrogate_with_mu(model, treatment, mu_range)
+        if fit is None:  # where the walkers start: fit_experiment's multi-start surrogate stage
+            fit = fit_on_surrogate_with_mu(inputs.objective, model, inputs.eta, treatment, mu_range)
+        log_uniform = (2,) if treatment.mode == "marginalise" else ()
     if fit is None:
-        fit = (
-            fit_parameters(inputs.objective, predictor, inputs.eta, theta0=start, box=box)
-            if start is not None
-            else fit_parameters(inputs.objective, predictor, inputs.eta)
-        )
+        fit = fit_parameters(inputs.objective, predictor, inputs.eta)
     sigma = fit.residual_sd
     say(f"sampling with {walkers} walkers x {steps} steps (sigma = {sigma:.3g}) ...")
     centre = np.clip(fit.theta, box[0] + 1e-6 * (box[1] - box[0]), box[1] - 1e-6 * (box[1] - box[0]))
@@ -181,7 +183,7 @@ def sample_posterior_for(
         from .experiment_fit import _stick_mesh_budget
 
         contact = treatment.describe(inputs.spec.contact.describe(), mu_range)
-        model_error = _stick_mesh_budget(model, contact)
+        model_error = _stick_mesh_budget(model, contact, inputs.spec.contact.describe())
         if model_error is not None and fit.theta.size == 3:  # mu sampled: no budget of its own
             model_error = replace(
                 model_error,

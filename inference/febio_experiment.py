@@ -18,7 +18,7 @@ from ..forward.predictor import Prediction, as_theta
 from ..forward.spec import Indenter, Material, MeshChoice, ModelSpec, Protocol
 from .synthetic_experiment import write_synthetic_experiment
 
-__all__ = ["RecordedRun", "experiment_from_febio_run"]
+__all__ = ["RecordedRun", "experiment_from_febio_run", "febio_contact"]
 
 
 class RecordedRun:
@@ -38,6 +38,32 @@ class RecordedRun:
         if len(t) != 1 or not np.allclose(t[0], self.theta, rtol=1e-9):
             raise ValueError(f"the recorded run is at {self.theta.tolist()}, not {t.tolist()}")
         return self.prediction
+
+
+def febio_contact(feb_file: str | Path) -> dict:
+    """The contact of a FEBio 4 model as its .feb states it: each <contact>'s type, its friction
+    coefficient and penalty where given (FEBio's sliding-elastic with fric_coeff 1e8 is its
+    'stick', which renews the stick point every increment: not the studio's perfect stick)."""
+    import xml.etree.ElementTree as ET
+
+    try:
+        root = ET.parse(feb_file).getroot()
+    except (OSError, ET.ParseError) as exc:
+        raise ValueError(f"{feb_file}: cannot read the model's contact ({exc})") from exc
+    found = []
+    for c in root.iter("contact"):
+        entry = {"type": c.get("type"), "name": c.get("name")}
+        for key in ("fric_coeff", "penalty", "laugon"):
+            node = c.find(key)
+            if node is not None and node.text is not None:
+                try:
+                    entry[key] = float(node.text)
+                except ValueError:
+                    entry[key] = node.text.strip()
+        found.append(entry)
+    if not found:
+        return {"febio": None, "note": "the .feb states no contact"}
+    return {"febio": found[0] if len(found) == 1 else found}
 
 
 def experiment_from_febio_run(
@@ -93,6 +119,7 @@ def experiment_from_febio_run(
         "c5": logged["c5"],
         "kappa": logged["k"],
         "off_equilibrium_depths_mm": result.off_equilibrium_depths,
+        "contact": febio_contact(feb),
     }
     return write_synthetic_experiment(
         RecordedRun(prediction, theta, spec),

@@ -85,13 +85,14 @@ def fit_parameters(
     last: dict[str, np.ndarray] = {}  # the last evaluated point: LM asks for r and J there in turn
 
     good: dict[str, np.ndarray] = {}  # the last point whose model ran to the end
+    best: dict[str, np.ndarray] = {}  # the lowest F among those
     failed: list[str] = []
     failed_at: set[bytes] = set()
 
     def evaluate(z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if "z" not in last or not np.array_equal(last["z"], z):
             try:
-                r, J = _residuals_at(objective, predictor, eta, np.exp(z))
+                r, J = residuals_at(objective, predictor, eta, np.exp(z))
             except SimulationError as exc:
                 if not good:  # nowhere to step back to
                     raise
@@ -107,6 +108,8 @@ def fit_parameters(
                 return last["r"], last["J"]
             last.update(z=z.copy(), r=r, J=J)
             good.update(z=z.copy(), r=r, J=J)
+            if not best or r @ r < best["r"] @ best["r"]:
+                best.update(z=z.copy(), r=r, J=J)
             history.append((np.exp(z).tolist(), float(r @ r)))
             if progress is not None:
                 progress(len(history), np.exp(z), float(r @ r))
@@ -138,9 +141,9 @@ def fit_parameters(
         z = last["z"]
         message = f"F < {f_stop:g} (the paper's stopping rule)"
     if z.tobytes() in failed_at:
-        z = good["z"]  # never report a point whose model did not run
+        z = best["z"]  # never report a point whose model did not run: the best one that did
     theta = np.exp(z)
-    r, J = evaluate(z)
+    r, J = (best["r"], best["J"]) if best and np.array_equal(z, best["z"]) else evaluate(z)
     if failed:
         message += f"; {len(failed)} trial point(s) whose simulation failed were refused: " + "; ".join(
             failed
@@ -169,7 +172,7 @@ def _fit_result(objective, eta, theta, r, J, s, alpha, history, t0, message) -> 
     )
 
 
-def _residuals_at(objective: Objective, predictor, eta, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def residuals_at(objective: Objective, predictor, eta, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Residuals (m,) at ``theta`` and their Jacobian with respect to log(theta) (m, p)."""
     pred = predictor.predict(theta[None, :], jacobian=True)
     return objective.residuals(pred, eta)[0], objective.jacobian(pred, eta)[0] * theta
@@ -197,7 +200,7 @@ def gauss_newton_refine(
     n, p = objective.data_points(eta), theta.size
     message = f"Gauss-Newton: {max_steps} steps without reaching the tolerance"
     for _ in range(max_steps):
-        r, J = _residuals_at(objective, predictor, eta, theta)
+        r, J = residuals_at(objective, predictor, eta, theta)
         history.append((theta.tolist(), float(r @ r)))
         delta, *_ = np.linalg.lstsq(J, -r, rcond=None)
         half = bounds_pct(2.0 * J.T @ J, s_from_data(float(r @ r), n, p, alpha)) / 100.0

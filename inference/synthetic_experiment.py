@@ -114,12 +114,22 @@ def write_synthetic_experiment(
             "true_fiber_angle_deg": fiber_angle_deg,
             "frame_offset": offset.tolist(),
             "seed": seed,
-            "model": getattr(predictor, "spec", None).to_dict() if hasattr(predictor, "spec") else None,
+            "model": _model_of(predictor, source),
             **({"source": source} if source else {}),
         },
     }
     atomic_write_json(out / "experiment.json", meta)  # last: a folder without it is no experiment
     return out
+
+
+def _model_of(predictor, source: dict | None) -> dict | None:
+    """The spec of the model that made the data; its contact the one the source names when it has
+    one the studio's spec cannot say (FEBio's sliding-elastic contact of a recorded run)."""
+    spec = getattr(predictor, "spec", None)
+    model = spec.to_dict() if spec is not None else None
+    if model is not None and source and "contact" in source:
+        model["contact"] = source["contact"]
+    return model
 
 
 def _write_npz(path: Path, **arrays: np.ndarray) -> None:

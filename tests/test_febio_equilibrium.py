@@ -250,6 +250,10 @@ def test_febio_run_as_a_dic_like_experiment_leaves_out_the_step_off_equilibrium(
     src = meta["synthetic"]["source"]
     assert (src["c1"], src["c5"], src["kappa"]) == (10.0, 350.0, 1000.0)
     assert src["off_equilibrium_depths_mm"] == [12.5]
+    # the contact FEBio ran with, as its .feb states it (not the studio's perfect stick)
+    assert src["contact"]["febio"]["type"] == "sliding-elastic"
+    assert src["contact"]["febio"]["fric_coeff"] == 1e8
+    assert meta["synthetic"]["model"]["contact"] == src["contact"]
     exp = load_experiment(out)
     f_inf, _ = static_forces(exp)
     assert np.isnan(f_inf[24])

@@ -6,8 +6,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from scipy import stats
 
-from indentation_studio.design.certainty import bounds_pct
+from indentation_studio.design.certainty import bounds_pct, s_for_parameters
 from indentation_studio.inference.friction_treatment import (
     FixedParameter,
     FrictionTreatment,
@@ -39,29 +40,50 @@ def test_treatments_from_text():
 
 def test_bounds_with_mu_are_the_schur_complement_and_the_prior_sits_between():
     rng = np.random.default_rng(4)
-    J = rng.normal(size=(200, 3))
+    n = 200
+    J = rng.normal(size=(n, 3))
     H, s, sigma = 2.0 * J.T @ J, 0.05, 0.02
-    ident = friction_bounds(H, s, sigma, FrictionTreatment("identify"), (0.1, 3.0))
+    ident = friction_bounds(H, s, sigma, FrictionTreatment("identify"), (0.1, 3.0), n)
     # identified: the (c1, c5) bounds of the whole 3 x 3 inverse, mu's too
     np.testing.assert_allclose(ident["bounds_pct"], bounds_pct(H, s)[:2], rtol=1e-10)
     assert ident["mu_pct"] == pytest.approx(bounds_pct(H, s)[2], rel=1e-10)
-    np.testing.assert_allclose(ident["conditional_pct"], bounds_pct(H[:2, :2], s), rtol=1e-12)
-    np.testing.assert_allclose(
-        np.square(ident["bounds_pct"]), np.square(ident["conditional_pct"]) + np.square(ident["mu_share_pct"])
+    # mu known: the 2 x 2 block with eq. 8's s for p = 2 (a 2-D region, not the 3-D one's shadow)
+    s2 = s * np.sqrt(
+        (2 / (n - 2) * stats.f.ppf(0.95, 2, n - 2)) / (3 / (n - 3) * stats.f.ppf(0.95, 3, n - 3))
     )
-    marg = friction_bounds(H, s, sigma, FrictionTreatment("marginalise"), (0.1, 3.0))
-    Hp = H.copy()
-    Hp[2, 2] += 2 * sigma**2 / log_prior_sd((0.1, 3.0)) ** 2
-    np.testing.assert_allclose(marg["bounds_pct"], bounds_pct(Hp, s)[:2], rtol=1e-10)
+    assert s_for_parameters(s, n, 3, 2) == pytest.approx(s2, rel=1e-12)
+    assert s2 / s == pytest.approx(0.877, abs=0.005)  # p = 3's s would make them 14 % too wide
+    np.testing.assert_allclose(ident["conditional_pct"], bounds_pct(H[:2, :2], s2), rtol=1e-12)
+    assert s_for_parameters(s2, n, 2, 3) == pytest.approx(s, rel=1e-12)
+    np.testing.assert_allclose(  # mu's share: what its correlation adds at the same s
+        np.square(ident["bounds_pct"]),
+        np.square(bounds_pct(H[:2, :2], s)) + np.square(ident["mu_share_pct"]),
+    )
+    # marginalised: the Laplace approximation of F + the log-normal prior's -2 sigma^2 log density,
+    # its Hessian taken here by central differences of that sum (not by the formula in the code)
+    sd, m = log_prior_sd((0.1, 3.0)), np.log(np.sqrt(0.3))
+
+    def G(z: np.ndarray) -> float:
+        return float(np.sum((J @ z) ** 2) + sigma**2 * (z[2] - m) ** 2 / sd**2)
+
+    h, Hg = 1e-3, np.zeros((3, 3))
+    for i in range(3):
+        for j in range(3):
+            e_i, e_j = np.eye(3)[i] * h, np.eye(3)[j] * h
+            Hg[i, j] = (G(e_i + e_j) - G(e_i - e_j) - G(e_j - e_i) + G(-e_i - e_j)) / (4 * h * h)
+    marg = friction_bounds(H, s, sigma, FrictionTreatment("marginalise"), (0.1, 3.0), n)
+    np.testing.assert_allclose(marg["bounds_pct"], bounds_pct(Hg, s)[:2], rtol=1e-6)
     assert np.all(np.array(ident["conditional_pct"]) <= np.array(marg["bounds_pct"]))
     assert np.all(np.array(marg["bounds_pct"]) <= np.array(ident["bounds_pct"]))
     # 95 % of the normal stand-in's mass spans the range in log mu
-    assert log_prior_sd((0.1, 3.0)) * 2 * 1.959964 == pytest.approx(np.log(30.0), rel=1e-6)
-    # data that hold nothing on mu (everything sticks): mu unbounded, (c1, c5) the conditional ones
+    assert stats.norm.cdf(np.log(3.0), m, sd) - stats.norm.cdf(np.log(0.1), m, sd) == pytest.approx(0.95)
+    # data that hold nothing on mu (everything sticks): mu unbounded, (c1, c5) those of mu fitted
+    # with nothing to fit: the 2 x 2 block, read with p = 3's s
     J[:, 2] = 0.0
-    flat = friction_bounds(2.0 * J.T @ J, s, sigma, FrictionTreatment("identify"), (0.1, 3.0))
+    flat = friction_bounds(2.0 * J.T @ J, s, sigma, FrictionTreatment("identify"), (0.1, 3.0), n)
     assert flat["mu_pct"] == np.inf
-    np.testing.assert_allclose(flat["bounds_pct"], flat["conditional_pct"])
+    np.testing.assert_allclose(flat["bounds_pct"], bounds_pct(2.0 * J[:, :2].T @ J[:, :2], s), rtol=1e-12)
+    np.testing.assert_allclose(np.array(flat["conditional_pct"]) / flat["bounds_pct"], s2 / s, rtol=1e-12)
     assert flat["mu_share_pct"] == [0.0, 0.0]
 
 
@@ -124,13 +146,36 @@ def test_fit_identifies_mu_with_c1_c5_on_a_surrogate_with_mu(mu_surrogate, tmp_p
     # the certainty region F - F_hat <= s^2 reaches both ends with a huge s, neither with a tiny one
     from dataclasses import replace
 
-    from indentation_studio.inference.experiment_fit import _mu_reach
+    from indentation_studio.inference.experiment_fit import _mu_reach, _profile_at
 
     args = (ident.inputs.objective, model, ident.inputs.eta)
-    assert _mu_reach(*args, replace(ident.fit, s=1e3), (0.2, 2.0)) == {"lower": True, "upper": True}
-    assert _mu_reach(*args, replace(ident.fit, s=1e-9), (0.2, 2.0)) == {"lower": False, "upper": False}
+    box = (model.scaler.lo, model.scaler.hi)
+    both, neither = {"lower": True, "upper": True}, {"lower": False, "upper": False}
+    assert _mu_reach(*args, replace(ident.fit, s=1e3), (0.2, 2.0), box)[0] == both
+    assert _mu_reach(*args, replace(ident.fit, s=1e-9), (0.2, 2.0), box)[0] == neither
+    # at an end, F's profile (c1, c5 fitted again) lies below F with them held at the fit
+    obj, eta = ident.inputs.objective, ident.inputs.eta
+    held = float(obj.value(model.predict(np.append(ident.fit.theta[:2], 2.0)[None, :]), eta)[0])
+    profile = _profile_at(obj, model, eta, ident.fit.theta[:2], 2.0, box)
+    assert ident.fit.F < profile < held
+    # an end whose simulation fails is taken as reached, and the notes say why
+    from indentation_studio.forward.solver import SimulationError
+
+    class FailsAtTwo:
+        parameters = model.parameters
+
+        def predict(self, theta, jacobian=False):
+            if np.any(np.isclose(np.atleast_2d(theta)[:, 2], 2.0)):
+                raise SimulationError("Newton did not converge at 1.5 mm", 1.0)
+            return model.predict(theta, jacobian=jacobian)
+
+    reach, notes = _mu_reach(obj, FailsAtTwo(), eta, replace(ident.fit, s=1e-9), (0.2, 2.0), box)
+    assert reach == {"lower": False, "upper": True} and "Newton did not converge" in notes["upper"]
+    assert fr["mu_reach_notes"] == {}
+    # mu known at the fit: a fit with it held gives the conditional bounds (p = 2's s, not p = 3's)
+    at_fit = fit_experiment(exp, model, refine=False, friction=float(ident.fit.theta[2]))
+    np.testing.assert_allclose(at_fit.statistical_pct, fr["conditional_pct"], rtol=0.05)
     assert "mu identified with (c1, c5) within [0.2, 2]" in d["bounds_include"]
-    assert np.all(np.array(d["statistical_pct"]) >= np.array(fr["conditional_pct"]))
     narrow = fit_experiment(exp, model, refine=False, friction="identify:0.3:1").to_dict()["friction"]
     assert narrow["mu_range"] == [0.3, 1.0] and 0.3 <= narrow["mu"] <= 1.0
     np.testing.assert_allclose([model.scaler.lo[2], model.scaler.hi[2]], [0.2, 2.0])  # the model untouched
@@ -181,7 +226,10 @@ def test_design_bounds_with_mu_known_identified_and_a_nuisance():
     b = friction_design_bounds(study, PAPER_WEIGHTS, 0.05, (0.1, 3.0))
     H = study.hessian(PAPER_WEIGHTS)
     np.testing.assert_allclose(b["known_pct"], bounds_pct(H[:2, :2], 0.05), rtol=1e-12)
-    np.testing.assert_allclose(b["identified_pct"], bounds_pct(H, 0.05)[:2], rtol=1e-9)
+    # mu fitted too: the 3-D region's s (eq. 8 with p = 3 of the same n data points)
+    s3 = s_for_parameters(0.05, study.objective_points(PAPER_WEIGHTS), 2, 3)
+    assert b["s_with_mu"] == pytest.approx(s3) and 1.1 < s3 / 0.05 < 1.2
+    np.testing.assert_allclose(b["identified_pct"], bounds_pct(H, s3)[:2], rtol=1e-9)
     known, nuisance, ident = (np.array(b[k]) for k in ("known_pct", "nuisance_pct", "identified_pct"))
     assert np.all(known < nuisance) and np.all(nuisance <= ident)  # a prior lies between
     # mu known: the same bounds as the two-parameter study of the same frictional model
@@ -214,3 +262,47 @@ def test_a_fit_with_mu_keeps_the_stick_measured_mesh_budget_and_says_so(mu_surro
         in (d["bounds_include"])
     )
     assert "mu marginalised over a log-uniform prior on [0.2, 2]" in d["bounds_include"]
+
+
+def test_parameters_are_put_and_kept_in_the_order_c1_c5_mu():
+    from types import SimpleNamespace
+
+    from indentation_studio.campaign.designs import DesignError, parse_grid
+    from indentation_studio.inference.experiment_fit import check_parameter_order
+
+    grid = parse_grid("mu=0.2:2:2:log,c5=250:450:2,c1=6:12:2")  # written in any order
+    assert grid.parameters == ("c1", "c5", "mu")
+    np.testing.assert_allclose(grid.points[:2], [[6.0, 250.0, 0.2], [6.0, 250.0, 2.0]])
+    with pytest.raises(DesignError, match="c1 is given twice"):
+        parse_grid("c1=1:2:2,c5=1:2:2,c1=3:4:2")
+    check_parameter_order(SimpleNamespace(parameters=("c1", "c5", "mu")))
+    check_parameter_order(SimpleNamespace(parameters=("c1", "c5")))
+    with pytest.raises(ValueError, match=r"\('mu', 'c1', 'c5'\).*needs them as"):
+        check_parameter_order(SimpleNamespace(parameters=("mu", "c1", "c5")))
+
+
+def test_the_fe_stage_identifies_mu_on_data_of_the_fe_model(mu_surrogate, tmp_path):
+    """The FE stage with mu (exact d/d(mu) from the embedded solver): data made by the coarse FE
+    model at mu = 0.35, fitted from the surrogate's estimate; the truth inside every bound, mu's
+    interval from the FE profile at the range's ends (one Gauss-Newton step each)."""
+    from indentation_studio.forward.predictor import FESolverPredictor
+    from indentation_studio.forward.spec import ModelSpec
+    from indentation_studio.inference.experiment_fit import fit_experiment
+    from indentation_studio.inference.synthetic_experiment import write_synthetic_experiment
+
+    spec = ModelSpec.from_dict(mu_surrogate.meta["campaign"]["model"])  # the model it emulates
+    fe = FESolverPredictor(spec, parameters=("c1", "c5", "mu"))
+    truth = np.array([9.0, 330.0, 0.35])
+    exp = write_synthetic_experiment(
+        fe, truth, tmp_path / "e", radius=4.77, step_size=0.5, u_noise_mm=0.002, f_noise=0.002, seed=1
+    )
+    said: list[str] = []
+    fit = fit_experiment(exp, mu_surrogate, friction="identify", say=said.append)
+    d = fit.to_dict()
+    assert fit.refined and d["fe_fit"]["evaluations"] >= 3
+    assert any("FE evaluation" in line for line in said)
+    theta = np.array([d["c1"], d["c5"]])
+    assert np.all(np.abs(theta / truth[:2] - 1) * 100 <= d["statistical_pct"]), (theta, d["statistical_pct"])
+    fr = d["friction"]
+    assert fr["mu_identified"] and fr["mu_interval"][0] <= truth[2] <= fr["mu_interval"][1]
+    assert fr["mu_interval"][1] < 1.0  # bounded well inside [0.2, 2]: this mu slips
