@@ -19,13 +19,13 @@ already under --out is reused, not simulated again.
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
+from indentation_studio.atomic_write import atomic_write_json, strict_json
 from indentation_studio.forward.predictor import FESolverPredictor
 from indentation_studio.forward.spec import MeshChoice, ModelSpec
 from indentation_studio.inference.experiment_fit import fit_experiment
@@ -44,7 +44,21 @@ def _row(fit, truth) -> dict:
         "half_width_pct": half.tolist(),
         "inside": (np.abs(truth - theta) <= theta * half / 100).tolist(),
         "bounds_include": d["bounds_include"],
-        **{k: fr[k] for k in ("mu", "mu_pct", "mu_at_limit", "conditional_pct", "mu_share_pct") if k in fr},
+        "statistical_pct": d["statistical_pct"],
+        **{
+            k: fr[k]
+            for k in (
+                "mu",
+                "mu_pct",
+                "mu_interval",
+                "mu_identified",
+                "mu_reaches_range_end",
+                "mu_at_limit",
+                "conditional_pct",
+                "mu_share_pct",
+            )
+            if k in fr
+        },
     }
 
 
@@ -93,9 +107,8 @@ def main() -> None:
                 marg = replace(ident, friction=FrictionTreatment("marginalise", mu_range=ident.mu_range))
                 row["marginalise"] = _row(marg, truth)
             table.append(row)
-            print(json.dumps(row), flush=True)
-    args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "friction-bias.json").write_text(json.dumps(table, indent=1))
+            print(strict_json(row), flush=True)
+    atomic_write_json(args.out / "friction-bias.json", table)
 
 
 if __name__ == "__main__":

@@ -33,6 +33,6 @@ __getattr__, __dir__, __all__ = lazy.attach(
         ],
         "data_check": ["check_experiment"],
         "friction_treatment": ["FixedParameter", "FrictionTreatment", "friction_bounds"],
-        "febio_experiment": ["RecordedRun", "experiment_from_febio_run"],
+        "febio_experiment": ["RecordedRun", "experiment_from_febio_run", "febio_contact"],
     },
 )
