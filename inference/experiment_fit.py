@@ -58,6 +58,7 @@ class ExperimentFit:
     mu_range: tuple[float, float] | None = None  # identify / marginalise: mu kept inside
     mu_reach: dict[str, bool] | None = None  # does mu's certainty region reach the range's ends
     mu_reach_notes: dict[str, str] = field(default_factory=dict)  # an end not checked, and why
+    restarts: list[dict] = field(default_factory=list)  # fits again from a better point found at an end
 
     @property
     def friction_bounds(self) -> dict | None:
@@ -137,6 +138,7 @@ class ExperimentFit:
                 "mu_interval": interval,
                 "mu_reaches_range_end": reach,
                 "mu_reach_notes": self.mu_reach_notes,
+                "restarts": self.restarts,
                 "mu_identified": bool(
                     not (reach.get("lower") or reach.get("upper")) and np.isfinite(fb["mu_pct"])
                 ),
@@ -319,7 +321,7 @@ def _fit_with_friction(
         first = fit_parameters(obj, model, eta, f_stop=f_stop)
         inside = None
     final = first
-    fitted_on = model
+    fitted_on, fit_box = model, inside
     if refine:
         box = None
         if treatment.mode == "known":
@@ -332,13 +334,43 @@ def _fit_with_friction(
             start = first.theta if with_mu else np.append(first.theta, mu0)
         say(f"refining on the FE solver from {np.round(start, 3).tolist()} ...")
         final = fit_parameters(obj, fe, eta, theta0=start, f_stop=f_stop, box=box, progress=_told(say))
-        fitted_on, inside = fe, None
-    fit = ExperimentFit(inputs, first, final, refine, None, None, None, treatment, mu_range)
-    fit.model_error = _stick_mesh_budget(model, fit.contact, spec.contact.describe())
+        fitted_on, inside, fit_box = fe, None, box
+    reach, notes, restarts = None, {}, []
     if treatment.fits_mu:
         say("checking mu's certainty region up to its range's ends (c1, c5 fitted again there) ...")
-        fit.mu_reach, fit.mu_reach_notes = _mu_reach(obj, fitted_on, eta, final, mu_range, inside)
+        reach, notes, better = _mu_reach(obj, fitted_on, eta, final, mu_range, inside)
+        # a point at a range end with F below the fit's certainty region: the fit is a local
+        # minimum (a poor surrogate stage can start the FE stage in another basin), so fit again
+        while better is not None and len(restarts) < MAX_RESTARTS:
+            theta_b, F_b = better
+            say(
+                f"F = {F_b:.4g} at {np.round(theta_b, 3).tolist()} lies below the fit's F = {final.F:.4g}: "
+                "the fit was a local minimum; fitting again from there ..."
+            )
+            again = fit_parameters(
+                obj,
+                fitted_on,
+                eta,
+                theta0=theta_b,
+                f_stop=f_stop,
+                box=fit_box,
+                progress=_told(say) if refine else None,
+            )
+            restarts.append(
+                {"from": theta_b.tolist(), "F_there": F_b, "F_before": final.F, "F_after": again.F}
+            )
+            if again.F >= final.F:
+                break
+            final = again
+            reach, notes, better = _mu_reach(obj, fitted_on, eta, final, mu_range, inside)
+    fit = ExperimentFit(inputs, first, final, refine, None, None, None, treatment, mu_range)
+    fit.model_error = _stick_mesh_budget(model, fit.contact, spec.contact.describe())
+    fit.mu_reach, fit.mu_reach_notes, fit.restarts = reach, notes, restarts
     return fit
+
+
+#: How often a fit with mu starts again from a better point its range-end check found.
+MAX_RESTARTS = 2
 
 
 def _mu_reach(
@@ -348,7 +380,7 @@ def _mu_reach(
     fit: FitResult,
     mu_range: tuple[float, float],
     box: tuple[np.ndarray, np.ndarray] | None = None,
-) -> tuple[dict[str, bool], dict[str, str]]:
+) -> tuple[dict[str, bool], dict[str, str], tuple[np.ndarray, float] | None]:
     """Whether eq. 6's certainty region of the fit, F(theta) - F(theta_hat) <= s^2, reaches each end
     of mu's range: the profile of F at the end, (c1, c5) fitted again with mu held there (on a
     surrogate a fit within ``box``; on the FE model, where a run takes minutes, one Gauss-Newton
@@ -357,34 +389,55 @@ def _mu_reach(
     overstate F there, as (c1, c5) move with mu, and call mu bounded where it is not. A fit on an
     end counts as reaching it; an end whose simulation fails counts as reached (nothing known there),
     the reason in the notes. Where nothing slips the data say nothing of mu and F is flat above
-    some mu: the Hessian's bound of mu (local) would then be a confident wrong answer."""
-    reach, notes = {}, {}
+    some mu: the Hessian's bound of mu (local) would then be a confident wrong answer.
+
+    Also returns a better point, (theta, F), where one was found with F below F(theta_hat) - s^2
+    (on the FE model the Gauss-Newton step's point, run once more when its linearised F is that
+    low): then the fit is not the minimum (None otherwise)."""
+    reach, notes, better = {}, {}, None
     for side, end in zip(("lower", "upper"), mu_range, strict=True):
         if abs(np.log(fit.theta[2] / end)) < 1e-3:
             reach[side], notes[side] = True, "the fit ends on it"
             continue
         try:
-            F_end = _profile_at(objective, predictor, eta, fit.theta[:2], end, box)
+            F_end, theta_end, F_there = _profile_at(
+                objective, predictor, eta, fit.theta[:2], end, box, fit.F - fit.s**2
+            )
         except SimulationError as exc:
             reach[side] = True
             notes[side] = f"taken as reached: the simulation at mu = {end:g} failed ({exc})"
             continue
         reach[side] = bool(F_end - fit.F <= fit.s**2)
-    return reach, notes
+        if F_there is not None and F_there < fit.F - fit.s**2 and (better is None or F_there < better[1]):
+            better = (theta_end, F_there)
+    return reach, notes, better
 
 
-def _profile_at(objective, predictor, eta, c1_c5: np.ndarray, mu: float, box) -> float:
+def _profile_at(
+    objective, predictor, eta, c1_c5: np.ndarray, mu: float, box, below: float
+) -> tuple[float, np.ndarray, float | None]:
     """min over (c1, c5) of F(c1, c5, mu): a fit of (c1, c5) with mu held (cheap predictors), or on
-    the FE model one Gauss-Newton step's linearised value from ``c1_c5``."""
+    the FE model one Gauss-Newton step's linearised value from ``c1_c5``. Returns that value, the
+    point (c1, c5, mu) it is at, and F there as evaluated (on the FE model only when the
+    linearised value is ``below``, one run more; else None)."""
     if isinstance(predictor, FESolverPredictor):
-        r, J = residuals_at(objective, predictor, eta, np.array([c1_c5[0], c1_c5[1], mu]))
+        theta = np.array([c1_c5[0], c1_c5[1], mu])
+        r, J = residuals_at(objective, predictor, eta, theta)
         step, *_ = np.linalg.lstsq(J[:, :2], -r, rcond=None)
         left = r + J[:, :2] @ step
-        return float(left @ left)
+        stepped = theta * np.exp(np.append(step, 0.0))
+        F_there = None
+        if float(left @ left) < below:
+            try:
+                F_there = float(objective.value(predictor.predict(stepped[None, :]), eta)[0])
+            except SimulationError:
+                F_there = None
+        return float(left @ left), stepped, F_there
     held = FixedParameter(predictor, "mu", mu)
     two = None if box is None else (box[0][:2], box[1][:2])
     start = c1_c5 if two is None else np.clip(c1_c5, two[0], two[1])
-    return fit_parameters(objective, held, eta, theta0=start, box=two).F
+    profile = fit_parameters(objective, held, eta, theta0=start, box=two)
+    return profile.F, np.append(profile.theta, mu), profile.F
 
 
 def _stick_mesh_budget(surrogate, contact: str, measured_with: str = "perfect stick") -> ModelError | None:

@@ -156,8 +156,16 @@ def test_fit_identifies_mu_with_c1_c5_on_a_surrogate_with_mu(mu_surrogate, tmp_p
     # at an end, F's profile (c1, c5 fitted again) lies below F with them held at the fit
     obj, eta = ident.inputs.objective, ident.inputs.eta
     held = float(obj.value(model.predict(np.append(ident.fit.theta[:2], 2.0)[None, :]), eta)[0])
-    profile = _profile_at(obj, model, eta, ident.fit.theta[:2], 2.0, box)
-    assert ident.fit.F < profile < held
+    profile, at, F_there = _profile_at(obj, model, eta, ident.fit.theta[:2], 2.0, box, 0.0)
+    assert ident.fit.F < profile < held and at[2] == 2.0 and F_there == profile
+    assert _mu_reach(*args, ident.fit, (0.2, 2.0), box)[2] is None  # the fit is the minimum
+    # a fit stuck away from the minimum (F far above its certainty region): the end's profile
+    # finds a point below it, from which the fit starts again
+    theta_off = np.array([7.0, 420.0, 0.6])
+    F_off = float(obj.value(model.predict(theta_off[None, :]), eta)[0])
+    stuck = replace(ident.fit, theta=theta_off, F=F_off)
+    better = _mu_reach(*args, stuck, (0.2, 2.0), box)[2]
+    assert better is not None and better[1] < F_off - stuck.s**2 and better[0][2] in (0.2, 2.0)
     # an end whose simulation fails is taken as reached, and the notes say why
     from indentation_studio.forward.solver import SimulationError
 
@@ -169,9 +177,9 @@ def test_fit_identifies_mu_with_c1_c5_on_a_surrogate_with_mu(mu_surrogate, tmp_p
                 raise SimulationError("Newton did not converge at 1.5 mm", 1.0)
             return model.predict(theta, jacobian=jacobian)
 
-    reach, notes = _mu_reach(obj, FailsAtTwo(), eta, replace(ident.fit, s=1e-9), (0.2, 2.0), box)
+    reach, notes, _ = _mu_reach(obj, FailsAtTwo(), eta, replace(ident.fit, s=1e-9), (0.2, 2.0), box)
     assert reach == {"lower": False, "upper": True} and "Newton did not converge" in notes["upper"]
-    assert fr["mu_reach_notes"] == {}
+    assert fr["mu_reach_notes"] == {} and fr["restarts"] == []
     # mu known at the fit: a fit with it held gives the conditional bounds (p = 2's s, not p = 3's)
     at_fit = fit_experiment(exp, model, refine=False, friction=float(ident.fit.theta[2]))
     np.testing.assert_allclose(at_fit.statistical_pct, fr["conditional_pct"], rtol=0.05)
