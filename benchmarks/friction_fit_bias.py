@@ -53,6 +53,7 @@ def _row(fit, truth) -> dict:
                 "mu_interval",
                 "mu_identified",
                 "mu_reaches_range_end",
+                "restarts",
                 "mu_at_limit",
                 "conditional_pct",
                 "mu_share_pct",
