@@ -85,6 +85,21 @@ class ExperimentFit:
         """What the bounds assume of the contact, in words."""
         return self.friction.describe(self.inputs.spec.contact.describe(), self.mu_range)
 
+    @property
+    def warnings(self) -> list[str]:
+        """What the fit found wrong with its own inputs: a surrogate stage that ended far above the FE
+        fit of the same model (F more than :data:`SURROGATE_MISS_RATIO` times the FE fit's) misses
+        these data, and a surrogate-only fit or a posterior on it would be wrong here."""
+        first, final = self.surrogate_fit, self.fit
+        same_model = "mu" in self.inputs.surrogate.parameters or self.friction.mode == "assumed"
+        if self.refined and same_model and final.F > 0 and first.F > SURROGATE_MISS_RATIO * final.F:
+            return [
+                f"the {self.inputs.surrogate.kind} surrogate's fit ended at F = {first.F:.4g}, the FE fit at "
+                f"F = {final.F:.4g}: the surrogate misses these data (a fit on it alone, or a posterior "
+                "sampled on it, would be wrong here); train it on a denser campaign around the fit"
+            ]
+        return []
+
     def to_dict(self) -> dict:
         """fit.json: theta, bounds (statistical only unless a mesh check is present), provenance."""
         final, inputs = self.fit, self.inputs
@@ -97,6 +112,7 @@ class ExperimentFit:
             "bounds_include": model_error_scope(self.model_error, contact=self.contact),
             "statistical_pct": self.statistical_pct.tolist(),
             "friction": self._friction_dict(),
+            "warnings": self.warnings,
             "model_error": None if self.model_error is None else self.model_error.to_dict(),
             "F": final.F,
             "s": final.s,
@@ -368,6 +384,9 @@ def _fit_with_friction(
     fit.mu_reach, fit.mu_reach_notes, fit.restarts = reach, notes, restarts
     return fit
 
+
+#: A surrogate stage whose F ends more than this many times the FE fit's (the same model) misses the data.
+SURROGATE_MISS_RATIO = 3.0
 
 #: How often a fit with mu starts again from a better point its range-end check found.
 MAX_RESTARTS = 2

@@ -11,7 +11,7 @@ import typer
 from rich.console import Console
 
 from ..atomic_write import strict_json
-from .options import JSON, fail, say
+from .options import JSON, err, fail, say
 
 EXPERIMENT = Annotated[Path, typer.Option(help="experiment folder (README: experiment data format)")]
 SURROGATE = Annotated[Path, typer.Option(help="a trained surrogate file (indent-studio surrogate train)")]
@@ -107,6 +107,8 @@ def fit(
             f"{m['model_pct'][1]:.2f} % (discrepancy {m['discrepancy_pct'][0]:.2f} / {m['discrepancy_pct'][1]:.2f}, "
             f"error budget {m['error_budget_pct'][0]:.2f} / {m['error_budget_pct'][1]:.2f})"
         )
+    for warning in payload["warnings"]:
+        err.print(f"[yellow]warning:[/yellow] {warning}")
     fr = payload["friction"]
     if "mu_pct" in fr:
         limit = f" (on its range's {fr['mu_at_limit']} limit)" if fr["mu_at_limit"] else ""

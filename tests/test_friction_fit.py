@@ -314,3 +314,9 @@ def test_the_fe_stage_identifies_mu_on_data_of_the_fe_model(mu_surrogate, tmp_pa
     fr = d["friction"]
     assert fr["mu_identified"] and fr["mu_interval"][0] <= truth[2] <= fr["mu_interval"][1]
     assert fr["mu_interval"][1] < 1.0  # bounded well inside [0.2, 2]: this mu slips
+    # a surrogate stage that ends far above the FE fit misses the data, and the fit says so
+    from dataclasses import replace
+
+    assert d["warnings"] == [], (fit.surrogate_fit.F, fit.fit.F)
+    missed = replace(fit, surrogate_fit=replace(fit.surrogate_fit, F=5.0 * fit.fit.F))
+    assert "the gp surrogate's fit ended at F" in missed.to_dict()["warnings"][0]
