@@ -32,6 +32,28 @@ import scipy.sparse.linalg as spla
 from .sparse_assembly import SparsePattern
 
 
+class LowRankUpdate:
+    """The inverse of a factorised matrix A changed on a few dofs, A + E D E^T (E's columns pick
+    ``dofs``, D (k, k) any change there, symmetric or not), by the Sherman-Morrison-Woodbury
+    identity:
+
+        (A + E D E^T)^-1 r = y - W D S^-1 y_E,   y = A^-1 r,  W = A^-1 E,  S = I + W_E D,
+
+    W from :meth:`ConstrainedSymmetricSolver.inverse_columns` (kept per factorisation), S
+    factorised once here; each application then costs a k x k solve and an n x k product."""
+
+    def __init__(self, solver: ConstrainedSymmetricSolver, dofs: np.ndarray, D: np.ndarray) -> None:
+        self.dofs = np.asarray(dofs, dtype=np.int64)
+        self.D = np.asarray(D, dtype=float)
+        self.W = solver.inverse_columns(self.dofs)
+        S = np.eye(self.dofs.size) + self.W[self.dofs] @ self.D
+        self._lu = sla.lu_factor(S)
+
+    def apply(self, y: np.ndarray) -> np.ndarray:
+        """(A + E D E^T)^-1 r from y = A^-1 r (n,)."""
+        return y - self.W @ (self.D @ sla.lu_solve(self._lu, y[self.dofs]))
+
+
 class LinearSolveError(RuntimeError):
     """The stiffness matrix could not be factorised (singular)."""
 
@@ -190,13 +212,7 @@ class ConstrainedSymmetricSolver:
         r = np.array(rhs, dtype=float)
         r[extra] = 0.0
         y = self.solve(r)
-        missing = extra[self._column_of[extra] < 0]
-        if missing.size:
-            unit = np.zeros((self.pattern.n_dofs, missing.size))
-            unit[missing, np.arange(missing.size)] = 1.0
-            self._column_of[missing] = self._W.shape[1] + np.arange(missing.size)
-            self._W = np.hstack([self._W, self.solve(unit).reshape(-1, missing.size)])
-        W = self._W[:, self._column_of[extra]]
+        W = self.inverse_columns(extra)
         key = extra.tobytes()
         if self._schur is None or self._schur[0] != key:
             S = W[extra]
@@ -205,6 +221,20 @@ class ConstrainedSymmetricSolver:
         y = y - W @ lam
         y[extra] = 0.0
         return y
+
+    def inverse_columns(self, dofs: np.ndarray) -> np.ndarray:
+        """The columns ``dofs`` of the factorised matrix's inverse, A^-1 E (n, len(dofs)), each
+        computed once per factorisation (one multi-right-hand-side back-substitution for those
+        not in hand yet). A column of a dof the factorisation constrains is zero."""
+        dofs = np.asarray(dofs, dtype=np.int64)
+        missing = np.unique(dofs[self._column_of[dofs] < 0])
+        if missing.size:
+            unit = np.zeros((self.pattern.n_dofs, missing.size))
+            unit[missing, np.arange(missing.size)] = 1.0
+            unit[self.factor_mask] = 0.0
+            self._column_of[missing] = self._W.shape[1] + np.arange(missing.size)
+            self._W = np.hstack([self._W, self.solve(unit).reshape(-1, missing.size)])
+        return self._W[:, self._column_of[dofs]]
 
     def _factorize_pardiso(self, data: np.ndarray) -> None:
         if self._pardiso is None:

@@ -30,7 +30,7 @@ import scipy.sparse.linalg as spla
 from .. import __version__
 from .coulomb_contact import FrictionContactState, tributary_areas
 from .hex8_mean_dilatation import ReferenceGeometry, element_state
-from .linear_solver import ConstrainedSymmetricSolver, LinearSolveError
+from .linear_solver import ConstrainedSymmetricSolver, LinearSolveError, LowRankUpdate
 from .material import InvertedElementError
 from .mesh import BlockMesh, build_mesh
 from .result import SYMMETRY_FACTOR, SimulationResult
@@ -79,6 +79,10 @@ THREADED_DOFS = 20_000
 #: With Coulomb friction, each Newton solve takes at most this many damped steps
 #: (EmbeddedSolver._equilibrate_friction).
 FRICTION_NEWTON = 60
+#: A top node's contact block (its 3 x 3 share of the tangent) counts as changed since the
+#: factorisation when it moved by more than this fraction of the node's penalty: a node that came
+#: into contact, left it, or slips (EmbeddedSolver._contact_correction).
+CONTACT_BLOCK_CHANGE = 1e-3
 
 
 @contextlib.contextmanager
@@ -153,8 +157,16 @@ class EmbeddedSolver:
             linear_solver,
             permanent=fixed.ravel(),
             single_precision=self.n_dofs >= SINGLE_PRECISION_DOFS,
-            symmetric=self.friction is None,  # the slip tangent is unsymmetric
+            # with friction the factorisation is of the tangent's symmetric part; the contact
+            # blocks' changes since (slip, nodes in or out) are put back by _contact_correction
+            symmetric=True,
         )
+        #: whether the tangent is symmetric (CG) or not (GMRES): the slip tangent is unsymmetric
+        self._tangent_symmetric = self.friction is None
+        #: with friction, the top nodes' contact blocks in the tangent (nt, 3, 3) at the last
+        #: assembly, and (symmetrised) in the factorisation in hand
+        self._contact_blocks: np.ndarray | None = None
+        self._factored_contact_blocks: np.ndarray | None = None
         self.linear_solver = self.linear.backend
         self.top = self.mesh.top
         top_z = float(self.mesh.nodes[:, 2].max())
@@ -219,6 +231,7 @@ class EmbeddedSolver:
         if self._friction_state is not None:
             resp = self._friction_state.response(u[self.top], self._friction_depth)
             R.reshape(-1, 3)[self.top] -= resp.force
+            self._contact_blocks = -resp.df_dr
             if K is not None:
                 K.data[self._top_block_slots] -= resp.df_dr
         self.stats["assemblies"] += 1
@@ -227,7 +240,15 @@ class EmbeddedSolver:
         return R, K, dR
 
     def _factorize(self, K: sp.csr_matrix, constrained: np.ndarray) -> None:
+        """Factorise K; with friction, its symmetric part (the contact blocks of slipping nodes
+        are K's only unsymmetric entries; :meth:`_contact_correction` puts them back)."""
         t = time.perf_counter()
+        if not self._tangent_symmetric:
+            K = K.copy()
+            blocks = K.data[self._top_block_slots]
+            K.data[self._top_block_slots] = 0.5 * (blocks + blocks.transpose(0, 2, 1))
+            contact = self._contact_blocks
+            self._factored_contact_blocks = 0.5 * (contact + contact.transpose(0, 2, 1))
         self.linear.factorize(K, constrained)
         dt = time.perf_counter() - t
         self.stats["factorizations"] += 1
@@ -256,13 +277,16 @@ class EmbeddedSolver:
 
         n = self.n_dofs
         A = spla.LinearOperator((n, n), matvec=matvec, dtype=float)
-        M = spla.LinearOperator((n, n), matvec=lambda r: self.linear.solve_constrained(r, cmask), dtype=float)
+        correction = self._contact_correction(cmask)
+        M = spla.LinearOperator(
+            (n, n), matvec=lambda r: self._precondition(r, cmask, correction), dtype=float
+        )
         its = [0]
 
         def count(_x: np.ndarray) -> None:
             its[0] += 1
 
-        if self.linear.symmetric:
+        if self._tangent_symmetric:
             x, info = spla.cg(A, rhs, rtol=rtol, maxiter=maxiter, M=M, callback=count)
         else:
             x, info = spla.gmres(
@@ -277,14 +301,17 @@ class EmbeddedSolver:
         self.stats["krylov_steps"] += 1
         return np.where(cmask, 0.0, x)
 
-    def _newton_step(self, K: sp.csr_matrix, cmask: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-        """Solve K x = rhs with the dofs in ``cmask`` eliminated: by conjugate gradients
-        preconditioned with the factorisation in hand (``KRYLOV_RTOL``; a tangent assembly and a
-        few back-substitutions instead of a factorisation) when that factorisation covers the
-        constraints (its own plus nodes attached since, :meth:`ConstrainedSymmetricSolver.covers`),
-        else, or when CG does not get there, by factorising K."""
+    def _newton_step(
+        self, K: sp.csr_matrix, cmask: np.ndarray, rhs: np.ndarray, rtol: float = KRYLOV_RTOL
+    ) -> np.ndarray:
+        """Solve K x = rhs with the dofs in ``cmask`` eliminated: by conjugate gradients (GMRES
+        with friction) preconditioned with the factorisation in hand (to ``rtol``; a tangent
+        assembly and a few back-substitutions instead of a factorisation) when that factorisation
+        covers the constraints (its own plus nodes attached since,
+        :meth:`ConstrainedSymmetricSolver.covers`), else, or when it does not get there, by
+        factorising K."""
         if self.linear.covers(cmask):
-            x = self._krylov(K, cmask, rhs, KRYLOV_RTOL, self._krylov_maxiter())
+            x = self._krylov(K, cmask, rhs, rtol, self._krylov_maxiter())
             if x is not None:
                 return x
         self._factorize(K, cmask)
@@ -293,10 +320,52 @@ class EmbeddedSolver:
     def _solve(self, rhs: np.ndarray, cmask: np.ndarray) -> np.ndarray:
         """One back-substitution with the factorisation in hand, ``cmask``'s dofs held at zero."""
         t = time.perf_counter()
-        x = self.linear.solve_constrained(rhs, cmask)
+        x = self._precondition(rhs, cmask, self._contact_correction(cmask))
         self.stats["solves"] += 1
         self.stats["solve_s"] += time.perf_counter() - t
         return x
+
+    def _contact_correction(self, cmask: np.ndarray) -> LowRankUpdate | None:
+        """With friction, what turns the factorisation in hand (of the tangent's symmetric part
+        when it was made) into the tangent now as far as the top nodes' contact blocks go: the
+        blocks that changed by more than ``CONTACT_BLOCK_CHANGE`` of their node's penalty since
+        (nodes that came into contact or left it, slipping nodes, whose blocks are unsymmetric),
+        by :class:`LowRankUpdate`. None when nothing changed (or without friction). At most as
+        many nodes as the factorisation keeps columns for (``max_extra``), the largest changes
+        first."""
+        if (
+            self._tangent_symmetric
+            or self._factored_contact_blocks is None
+            or self.linear.factor_mask is None
+        ):
+            return None
+        change = self._contact_blocks - self._factored_contact_blocks
+        size = np.abs(change).max(axis=(1, 2)) / self._contact_eps
+        nodes = np.flatnonzero(size > CONTACT_BLOCK_CHANGE)
+        if nodes.size == 0:
+            return None
+        cap = max(1, self.linear.max_extra // 3)
+        if nodes.size > cap:
+            nodes = nodes[np.argsort(-size[nodes], kind="stable")[:cap]]
+        dofs = (3 * self.top[nodes][:, None] + np.arange(3)).ravel()
+        m = nodes.size
+        D = np.zeros((m, 3, m, 3))  # block diagonal, node by node
+        D[np.arange(m), :, np.arange(m), :] = change[nodes]
+        D = D.reshape(dofs.size, dofs.size)
+        held = cmask[dofs]  # supports and symmetry planes stay eliminated
+        D[held, :] = 0.0
+        D[:, held] = 0.0
+        return LowRankUpdate(self.linear, dofs, D)
+
+    def _precondition(self, r: np.ndarray, cmask: np.ndarray, correction: LowRankUpdate | None) -> np.ndarray:
+        """The factorisation in hand applied to ``r`` (``cmask``'s dofs held at zero), with the
+        contact blocks' ``correction`` (:meth:`_contact_correction`)."""
+        y = self.linear.solve_constrained(r, cmask)
+        if correction is None:
+            return y
+        y = correction.apply(y)
+        y[cmask] = 0.0
+        return y
 
     def _constraints(self, contact: StickContactState, depth: float) -> tuple[np.ndarray, np.ndarray]:
         """Mask of constrained dofs (3n,) and their prescribed displacement values."""
@@ -377,55 +446,88 @@ class EmbeddedSolver:
 
     def _equilibrate_friction(self, u0: np.ndarray, cmask: np.ndarray) -> _Equilibrium:
         """Newton-Raphson to equilibrium with the frictional contact's forces in the residual
-        (the supports in ``cmask`` held at zero), damped: every step is a Newton step with the
-        tangent at the current state, shortened so that no slipping node passes its anchor
-        (:meth:`FrictionContactState.step_fraction`) and then halved until the residual falls
-        (a full step can overshoot where a node slides along the indenter, with little but the
-        body's shear stiffness to hold it, against the penalty's stiffness across)."""
+        (the supports in ``cmask`` held at zero), damped. As in :meth:`equilibrate`, corrections
+        reuse the factorisation in hand while the residual contracts by at least
+        ``REFACTOR_RATIO`` (``MAX_STALE_STEPS`` in a row at most), and take a Newton step with
+        the tangent at the current state otherwise (:meth:`_newton_step`). Every step is
+        shortened so that no slipping node passes its anchor
+        (:meth:`FrictionContactState.step_fraction`); a Newton step is then halved until the
+        residual falls (a full step can overshoot where a node slides along the indenter, with
+        little but the body's shear stiffness to hold it, against the penalty's stiffness
+        across), and a correction that does not lower it is replaced by a Newton step."""
         opts = self.spec.solver
-        c, depth, top = self._friction_state, self._friction_depth, self.top
         u = u0.reshape(-1).copy()
         try:
             R, K, _ = self.assemble(u.reshape(-1, 3))
         except InvertedElementError as exc:
             raise _IncrementFailed(str(exc)) from exc
-        last = np.inf
+        last, stale_steps, fresh_step, exact = np.inf, MAX_STALE_STEPS, True, False
         for it in range(1, FRICTION_NEWTON + 1):
             norm = np.linalg.norm(np.where(cmask, 0.0, R))
             ref = max(np.linalg.norm(R[cmask]), self._force_scale)
             log.debug("newton %d: residual %.3e of %.3e", it, norm, ref)
-            at_round_off = norm > 0.5 * last and norm <= 1e-6 * ref  # a Newton step gains no more
+            at_round_off = fresh_step and norm > 0.5 * last and norm <= 1e-6 * ref  # no more to gain
             if norm <= opts.residual_tol * ref or at_round_off:
                 K_out = dR = None
                 if self._sensitivities:
                     _, K_out, dR = self.assemble(u.reshape(-1, 3), parameter_derivatives=True)
                 return _Equilibrium(u.reshape(-1, 3), R, K_out, it, dR)
-            if K is None:
-                _, K, _ = self.assemble(u.reshape(-1, 3))
-            try:
-                du = self._newton_step(K, cmask, np.where(cmask, 0.0, R))
-            except LinearSolveError as exc:
-                raise _IncrementFailed(str(exc)) from exc
-            du *= c.step_fraction(u.reshape(-1, 3)[top], -du.reshape(-1, 3)[top], depth)
-            alpha, best = 1.0, None
-            for _ in range(MAX_HALVINGS + 2):
-                trial = u - alpha * du
+            r_free = np.where(cmask, 0.0, R)
+            step = None
+            worn = norm > REFACTOR_RATIO * last or stale_steps >= MAX_STALE_STEPS
+            if not worn and self.linear.covers(cmask):  # a correction with the factorisation in hand
                 try:
-                    R_try, _, _ = self.assemble(trial.reshape(-1, 3), tangent=False)
-                except InvertedElementError:
-                    alpha *= 0.5
-                    continue
-                n_try = np.linalg.norm(np.where(cmask, 0.0, R_try))
-                if best is None or n_try < best[0]:
-                    best = (n_try, trial, R_try)
-                if n_try < norm:
-                    break
-                alpha *= 0.5
-            if best is None:
-                raise _IncrementFailed("every Newton step inverted an element")
-            _, u, R = best
+                    step = self._damped_step(u, self._solve(r_free, cmask), norm, cmask, halve=False)
+                except LinearSolveError:
+                    step = None
+                stale_steps += 1
+            fresh_step = step is None
+            if fresh_step:  # a Newton step with the tangent here
+                if K is None:
+                    _, K, _ = self.assemble(u.reshape(-1, 3))
+                try:
+                    if exact:  # the last step did not lower the residual: a factorisation here
+                        self._factorize(K, cmask)
+                        du = self._solve(r_free, cmask)
+                    else:  # an inexact Newton step, as exact as the residual is far above the reactions
+                        du = self._newton_step(K, cmask, r_free, KRYLOV_RTOL * min(1.0, ref / norm))
+                except LinearSolveError as exc:
+                    raise _IncrementFailed(str(exc)) from exc
+                step = self._damped_step(u, du, norm, cmask, halve=True)
+                stale_steps = 0
+            u, R = step
+            exact = np.linalg.norm(np.where(cmask, 0.0, R)) >= norm
             K, last = None, norm
         raise _IncrementFailed(f"Newton did not converge in {FRICTION_NEWTON} iterations")
+
+    def _damped_step(
+        self, u: np.ndarray, du: np.ndarray, norm: float, cmask: np.ndarray, halve: bool
+    ) -> tuple[np.ndarray, np.ndarray] | None:
+        """The state ``u - alpha du`` and its residual, ``du`` first shortened so that no
+        slipping node passes its anchor (:meth:`FrictionContactState.step_fraction`): with
+        ``halve``, alpha halved until the residual falls below ``norm`` (else the best trial);
+        without, the whole step if it lowers the residual, else None."""
+        c, top = self._friction_state, self.top
+        du = du * c.step_fraction(u.reshape(-1, 3)[top], -du.reshape(-1, 3)[top], self._friction_depth)
+        alpha, best = 1.0, None
+        for _ in range(MAX_HALVINGS + 2 if halve else 1):
+            trial = u - alpha * du
+            try:
+                R_try, _, _ = self.assemble(trial.reshape(-1, 3), tangent=False)
+            except InvertedElementError:
+                alpha *= 0.5
+                continue
+            n_try = np.linalg.norm(np.where(cmask, 0.0, R_try))
+            if best is None or n_try < best[0]:
+                best = (n_try, trial, R_try)
+            if n_try < norm:
+                return trial, R_try
+            alpha *= 0.5
+        if not halve:
+            return None
+        if best is None:
+            raise _IncrementFailed("every Newton step inverted an element")
+        return best[1], best[2]
 
     def _reaction_top(self, R: np.ndarray) -> np.ndarray:
         """External force on the top nodes, with the components that symmetry planes carry zeroed."""
@@ -547,7 +649,7 @@ class EmbeddedSolver:
         x = np.zeros_like(b)
         for k in range(3):
             col = self._krylov(eq.K, cmask, b[:, k], SENSITIVITY_RTOL, self._krylov_maxiter())
-            if col is None:
+            if col is None:  # factorise: with the contact correction GMRES converges at once
                 self._factorize(eq.K, cmask)
                 col = self._krylov(eq.K, cmask, b[:, k], SENSITIVITY_RTOL, 100)
                 if col is None:

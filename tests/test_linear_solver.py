@@ -6,7 +6,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from indentation_studio.forward.linear_solver import ConstrainedSymmetricSolver, default_backend
+from indentation_studio.forward.linear_solver import (
+    ConstrainedSymmetricSolver,
+    LowRankUpdate,
+    default_backend,
+)
 from indentation_studio.forward.solver import EmbeddedSolver
 from indentation_studio.forward.spec import MeshChoice, ModelSpec
 
@@ -49,6 +53,37 @@ def test_schur_complement_holds_extra_constraints_exactly(system, backend):
     released = attached.copy()
     released[free[0]] = False  # a dof the factorisation held is free again: a new one is needed
     assert solver.covers(attached) and not solver.covers(released)
+
+
+@pytest.mark.parametrize("backend", sorted({"superlu", default_backend()}))
+def test_low_rank_update_inverts_the_changed_matrix(system, backend):
+    """Friction's tangent is its factorised symmetric part plus unsymmetric 3 x 3 changes at a few
+    nodes (slip, nodes that came into contact): Woodbury gives its exact inverse."""
+    pattern, K, permanent = system
+    rng = np.random.default_rng(2)
+    n = pattern.n_dofs
+    solver = ConstrainedSymmetricSolver(pattern, backend, permanent=permanent)
+    solver.factorize(K, permanent)
+    free_nodes = np.flatnonzero(~permanent.reshape(-1, 3).any(axis=1))
+    nodes = rng.choice(free_nodes, 7, replace=False)
+    dofs = (3 * nodes[:, None] + np.arange(3)).ravel()
+    scale = np.abs(K.diagonal()).max()
+    D = np.zeros((dofs.size, dofs.size))
+    for i in range(nodes.size):  # unsymmetric blocks as large as the penalty's
+        D[3 * i : 3 * i + 3, 3 * i : 3 * i + 3] = scale * rng.standard_normal((3, 3))
+    update = LowRankUpdate(solver, dofs, D)
+    rhs = np.where(permanent, 0.0, rng.standard_normal(n))
+    x = update.apply(solver.solve(rhs))
+    changed = K.toarray()
+    changed[np.ix_(dofs, dofs)] += D
+    kept = ~permanent
+    expected = np.zeros(n)
+    expected[kept] = np.linalg.solve(changed[np.ix_(kept, kept)], rhs[kept])
+    np.testing.assert_allclose(x, expected, rtol=0, atol=1e-9 * np.abs(expected).max())
+    # the columns of A^-1 are kept: a second update on some of the same dofs solves no new ones
+    width = solver._W.shape[1]
+    LowRankUpdate(solver, dofs[:6], D[:6, :6])
+    assert solver._W.shape[1] == width
 
 
 @pytest.mark.skipif(default_backend() != "pardiso", reason="single precision is a PARDISO option")
