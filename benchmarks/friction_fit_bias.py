@@ -8,12 +8,14 @@ error is left out and what remains is the contact's. The table gives the bias of
 whether the truth lies inside the fit's bounds. With ``--mu-surrogate`` (a surrogate trained with
 mu as a parameter) each is fitted again with mu identified and with mu marginalised (the same fit,
 bounds of eq. 6 from the 3 x 3 Hessian without and with the log-uniform prior over the surrogate's
-mu range); ``--fe-stage`` adds the FE refinement on (c1, c5, mu) to those fits. An experiment folder
-already under --out is reused, not simulated again.
+mu range); ``--fe-stage`` adds the FE refinement on (c1, c5, mu) to those fits. With
+``--stick-fe-mu`` each is also fitted from the perfect-stick surrogate with mu brought in by the FE
+stage alone (``fit --friction marginalise`` on a surrogate without mu), identified and
+marginalised. An experiment folder already under --out is reused, not simulated again.
 
     .venv/bin/python benchmarks/friction_fit_bias.py --surrogate runs/demo-s5/surrogate-gp.safetensors \\
         [--mu-surrogate runs/fricmu/surrogate-gp.safetensors] [--fe-stage] \\
-        [--truth 10,350] [--mu 0.3,1,3,stick] [--mesh default] [--out runs/friction-bias]
+        [--stick-fe-mu] [--truth 10,350] [--mu 0.3,1,3,stick] [--mesh default] [--out runs/friction-bias]
 """
 
 from __future__ import annotations
@@ -68,6 +70,9 @@ def main() -> None:
     ap.add_argument("--surrogate", required=True, type=Path, help="a perfect-stick surrogate")
     ap.add_argument("--mu-surrogate", type=Path, help="a surrogate trained with mu as a parameter")
     ap.add_argument("--fe-stage", action="store_true", help="refine the fits with mu on the FE model")
+    ap.add_argument(
+        "--stick-fe-mu", action="store_true", help="also fit mu from the stick surrogate by the FE stage"
+    )
     ap.add_argument("--truth", default="10,350", help="c1,c5 (kPa); several as 10,350;3,540")
     ap.add_argument("--mu", default="0.3,1,3,stick", help="friction coefficients ('stick': perfect)")
     ap.add_argument("--mesh", default="default")
@@ -107,6 +112,12 @@ def main() -> None:
                 # the same fit; the bounds with the prior on mu (marginalise: log-uniform over the range)
                 marg = replace(ident, friction=FrictionTreatment("marginalise", mu_range=ident.mu_range))
                 row["marginalise"] = _row(marg, truth)
+            if args.stick_fe_mu:
+                t0 = time.perf_counter()
+                marg = fit_experiment(exp, args.surrogate, friction="marginalise")
+                row["fe_marginalise"] = _row(marg, truth) | {"fit_s": time.perf_counter() - t0}
+                ident = replace(marg, friction=FrictionTreatment("identify", mu_range=marg.mu_range))
+                row["fe_identify"] = _row(ident, truth)
             table.append(row)
             print(strict_json(row), flush=True)
     atomic_write_json(args.out / "friction-bias.json", table)

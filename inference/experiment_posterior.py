@@ -135,9 +135,14 @@ def sample_posterior_for(
     marginalised: the intervals of (c1, c5) hold its uncertainty) or 'identify' (the same with a
     uniform prior)."""
     say = say or (lambda message: None)
-    treatment = FrictionTreatment.parse(friction)
     inputs = prepare_fit(experiment, surrogate, weights, exclude_steps)
     model = inputs.surrogate
+    # by default mu is marginalised where the surrogate has it (as fit_experiment does)
+    treatment = (
+        FrictionTreatment("marginalise" if "mu" in model.parameters else "assumed")
+        if friction is None
+        else FrictionTreatment.parse(friction)
+    )
     if mesh_check is not None and "mu" in model.parameters:
         raise ValueError("friction: the mesh check is made with the perfect stick; sample without it")
     predictor, mu_range, log_uniform = model, None, ()

@@ -131,8 +131,8 @@ def test_fit_identifies_mu_with_c1_c5_on_a_surrogate_with_mu(mu_surrogate, tmp_p
     exp = write_synthetic_experiment(
         model, truth, tmp_path / "e", radius=4.77, step_size=0.5, u_noise_mm=0.002, f_noise=0.002, seed=1
     )
-    with pytest.raises(ValueError, match="trained with mu as a parameter"):
-        fit_experiment(exp, model, refine=False)
+    default = fit_experiment(exp, model, refine=False)  # not told: mu marginalised on a surrogate with mu
+    assert default.friction.mode == "marginalise" and default.to_dict()["warnings"] == []
     with pytest.raises(ValueError, match="outside the range the surrogate was trained"):
         fit_experiment(exp, model, refine=False, friction=5.0)
     ident = fit_experiment(exp, model, refine=False, friction="identify")
@@ -206,10 +206,9 @@ def test_posterior_marginalises_mu_with_its_log_uniform_prior(mu_surrogate, tmp_
     exp = write_synthetic_experiment(
         model, truth, tmp_path / "e", radius=4.77, step_size=0.5, u_noise_mm=0.002, f_noise=0.002, seed=1
     )
-    with pytest.raises(ValueError, match="trained with mu as a parameter"):
-        sample_posterior_for(exp, model, walkers=8, steps=10)
-    marg = sample_posterior_for(exp, model, walkers=16, steps=1500, seed=2, friction="marginalise")
+    marg = sample_posterior_for(exp, model, walkers=16, steps=1500, seed=2)  # not told: marginalised
     d = marg.to_dict()
+    assert d["friction"]["treatment"] == "marginalise"
     assert marg.posterior.parameters == ("c1", "c5", "mu")
     lo, hi = np.array(d["ci95"]).T
     assert np.all((lo <= truth) & (truth <= hi)), (d["ci95"], truth)  # the truth, mu's too, inside
