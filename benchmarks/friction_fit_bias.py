@@ -21,6 +21,7 @@ marginalised. An experiment folder already under --out is reused, not simulated 
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -33,6 +34,10 @@ from indentation_studio.forward.spec import MeshChoice, ModelSpec
 from indentation_studio.inference.experiment_fit import fit_experiment
 from indentation_studio.inference.friction_treatment import FrictionTreatment
 from indentation_studio.inference.synthetic_experiment import write_synthetic_experiment
+
+
+def _say(message: str) -> None:
+    print(message, file=sys.stderr, flush=True)
 
 
 def _row(fit, truth) -> dict:
@@ -102,7 +107,7 @@ def main() -> None:
                 )
             row = {"truth": truth.tolist(), "mu": mu, "simulation_s": time.perf_counter() - t0}
             t0 = time.perf_counter()
-            row["stick"] = _row(fit_experiment(exp, args.surrogate), truth) | {
+            row["stick"] = _row(fit_experiment(exp, args.surrogate, friction="assumed"), truth) | {
                 "fit_s": time.perf_counter() - t0
             }
             if args.mu_surrogate is not None:
@@ -114,7 +119,7 @@ def main() -> None:
                 row["marginalise"] = _row(marg, truth)
             if args.stick_fe_mu:
                 t0 = time.perf_counter()
-                marg = fit_experiment(exp, args.surrogate, friction="marginalise")
+                marg = fit_experiment(exp, args.surrogate, friction="marginalise", say=_say)
                 row["fe_marginalise"] = _row(marg, truth) | {"fit_s": time.perf_counter() - t0}
                 ident = replace(marg, friction=FrictionTreatment("identify", mu_range=marg.mu_range))
                 row["fe_identify"] = _row(ident, truth)
