@@ -3,6 +3,11 @@
 
 It is the default, about ten times faster than the numpy version (README, "Solver choices"); the
 numpy version stays as the readable reference and is tested equal to it.
+
+The moduli c1, c2, c5, kappa are arrays with one value per element (a composite's element sets,
+paper 2.4.2). The Mooney-Rivlin term c2 (I2~ - 3) is evaluated only in elements where c2 is not
+0, in a block of its own, so that the homogeneous model (c2 = 0) does exactly the arithmetic it
+did before.
 """
 
 from __future__ import annotations
@@ -18,7 +23,7 @@ _FOUR_NINTHS = 4.0 / 9.0
 
 @njit(cache=True, nogil=True, parallel=True)
 def hex8_three_field_kernel(
-    dNdX, w, vol, ue, c1, c5, kappa, a0, want_K, want_dtheta, force, K, energy, dforce
+    dNdX, w, vol, ue, c1, c2, c5, kappa, a0, want_K, want_dtheta, force, K, energy, dforce
 ):  # pragma: no cover - compiled
     """Fill ``force`` (ne, 24), ``K`` (ne, 24, 24), ``energy`` (ne,), ``dforce`` (ne, 2, 24).
 
@@ -32,14 +37,14 @@ def hex8_three_field_kernel(
         lo = ch * ne // n_chunks
         hi = (ch + 1) * ne // n_chunks
         chunk_min[ch] = _elements(
-            lo, hi, dNdX, w, vol, ue, c1, c5, kappa, a0, want_K, want_dtheta, force, K, energy, dforce
+            lo, hi, dNdX, w, vol, ue, c1, c2, c5, kappa, a0, want_K, want_dtheta, force, K, energy, dforce
         )
     return chunk_min.min()
 
 
 @njit(cache=True, nogil=True)
 def _elements(
-    lo, hi, dNdX, w, vol, ue, c1, c5, kappa, a0, want_K, want_dtheta, force, K, energy, dforce
+    lo, hi, dNdX, w, vol, ue, c1_e, c2_e, c5_e, kappa_e, a0, want_K, want_dtheta, force, K, energy, dforce
 ):  # pragma: no cover - compiled
     """Elements lo..hi-1 of :func:`hex8_three_field_kernel`; returns their smallest det F."""
     minJ = np.inf
@@ -54,7 +59,17 @@ def _elements(
     na = np.empty(8)
     gv = np.empty(24)
     Fa = np.empty(3)
+    C = np.empty((3, 3))
+    B = np.empty((3, 3))
+    S2 = np.empty((3, 3))
+    fx = np.empty((8, 3))
+    s2x = np.empty((8, 3))
+    cdn = np.empty((8, 3))
     for e in range(lo, hi):
+        c1 = c1_e[e]
+        c2 = c2_e[e]
+        c5 = c5_e[e]
+        kappa = kappa_e[e]
         v = 0.0
         for g in range(8):
             for i in range(3):
@@ -147,6 +162,10 @@ def _elements(
                     dx[a, i] = sd
                     force[e, 3 * a + i] += wg * (ss + cP * sg)
                     gv[3 * a + i] += wg * J * sg
+            if c2 != 0.0:
+                en += _mooney_rivlin_term(
+                    e, g, wg, Fg, J, I1, c2, dNdX, gx, want_K, C, B, S2, fx, s2x, cdn, force, K
+                )
             if want_dtheta:
                 for a in range(8):
                     for i in range(3):
@@ -191,3 +210,76 @@ def _elements(
                 for c in range(r // 3 * 3):
                     K[e, r, c] = K[e, c, r]
     return minJ
+
+
+@njit(cache=True, nogil=True)
+def _mooney_rivlin_term(
+    e, g, wg, Fg, J, I1, c2, dNdX, gx, want_K, C, B, S2, fx, s2x, cdn, force, K
+):  # pragma: no cover - compiled
+    """Add the Mooney-Rivlin term c2 (I2~ - 3), I2~ = J^(-4/3) I2, of Gauss point ``g`` of
+    element ``e`` to its forces and tangent and return its energy (the closed form of
+    :func:`forward.hex8_mean_dilatation.element_state_numpy`)."""
+    n = J ** (-2.0 * _TWO_THIRDS)
+    a2 = c2 * n
+    for i in range(3):
+        for j in range(3):
+            sc = 0.0
+            sb = 0.0
+            for k in range(3):
+                sc += Fg[k, i] * Fg[k, j]
+                sb += Fg[i, k] * Fg[j, k]
+            C[i, j] = sc
+            B[i, j] = sb
+    cc = 0.0
+    for i in range(3):
+        for j in range(3):
+            cc += C[i, j] * C[i, j]
+    I2 = 0.5 * (I1 * I1 - cc)
+    en = wg * c2 * (n * I2 - 3.0)
+    beta2 = 2.0 * a2 * I2
+    for i in range(3):
+        for j in range(3):
+            fc = 0.0
+            for k in range(3):
+                fc += Fg[i, k] * C[k, j]
+            S2[i, j] = 2.0 * a2 * (I1 * Fg[i, j] - fc)
+    for a in range(8):
+        for i in range(3):
+            sf = 0.0
+            ss = 0.0
+            sc = 0.0
+            for j in range(3):
+                dn = dNdX[e, g, a, j]
+                sf += Fg[i, j] * dn
+                ss += S2[i, j] * dn
+                sc += C[i, j] * dn
+            fx[a, i] = sf
+            s2x[a, i] = ss
+            cdn[a, i] = sc
+            force[e, 3 * a + i] += wg * (ss - _TWO_THIRDS * beta2 * gx[a, i])
+    if not want_K:
+        return en
+    c3 = wg * 2.0 * _FOUR_NINTHS * beta2
+    c4 = wg * _TWO_THIRDS * beta2
+    cs = wg * 2.0 * _TWO_THIRDS
+    c8 = 2.0 * wg * a2
+    for a in range(8):
+        for b in range(a, 8):
+            qab = 0.0
+            cab = 0.0
+            for j in range(3):
+                qab += dNdX[e, g, a, j] * dNdX[e, g, b, j]
+                cab += dNdX[e, g, a, j] * cdn[b, j]
+            for i in range(3):
+                r = 3 * a + i
+                for k in range(3):
+                    val = (
+                        c3 * gx[a, i] * gx[b, k]
+                        - cs * (gx[a, i] * s2x[b, k] + s2x[a, i] * gx[b, k])
+                        + c4 * gx[a, k] * gx[b, i]
+                        + c8 * (2.0 * fx[a, i] * fx[b, k] - fx[b, i] * fx[a, k] - B[i, k] * qab)
+                    )
+                    if i == k:
+                        val += c8 * (I1 * qab - cab)
+                    K[e, r, 3 * b + k] += val
+    return en

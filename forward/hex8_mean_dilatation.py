@@ -11,6 +11,10 @@ form (Simo, Taylor & Pister 1985):
 Internal forces and the exact tangent are the first and second derivatives of Pi; the tangent
 is symmetric. Plain hex8 (U at every Gauss point) locks for kappa / c1 = 100.
 
+The moduli (c1, c2, c5, kappa) are scalars (the homogeneous model, eq. 3) or arrays with one
+value per element (the composite phantom's element sets, 2.4.2); c2 is the Mooney-Rivlin
+modulus of FEBio's uncoupled Mooney-Rivlin, 0 in eq. 3.
+
 Everything is vectorised over elements and Gauss points; there is no loop over elements.
 """
 
@@ -88,18 +92,37 @@ class ElementState:
     min_jacobian: float
 
 
+Modulus = float | np.ndarray
+
+
+def per_element(value: Modulus, ne: int, name: str) -> np.ndarray:
+    """A modulus as a contiguous float array of one value per element (a scalar is repeated);
+    a wrong length or a NaN raises a ValueError naming it."""
+    v = np.asarray(value, dtype=float)
+    if v.ndim == 0:
+        v = np.full(ne, float(v))
+    if v.shape != (ne,):
+        raise ValueError(f"{name}: expected a scalar or {ne} values (one per element), got shape {v.shape}")
+    if not np.all(np.isfinite(v)):
+        raise ValueError(f"{name}: holds NaN or infinite values")
+    return np.ascontiguousarray(v)
+
+
 def element_state(
     geometry: ReferenceGeometry,
     u_e: np.ndarray,
-    c1: float,
-    c5: float,
-    kappa: float,
+    c1: Modulus,
+    c5: Modulus,
+    kappa: Modulus,
     fiber: np.ndarray,
     tangent: bool = True,
     parameter_derivatives: bool = False,
+    c2: Modulus = 0.0,
 ) -> ElementState:
     """Energy, internal forces and exact tangent of every element at element displacements
-    ``u_e`` (ne, 8, 3), by the compiled kernel (:mod:`forward.hex8_kernel_numba`)."""
+    ``u_e`` (ne, 8, 3), by the compiled kernel (:mod:`forward.hex8_kernel_numba`). The moduli
+    are scalars or one value per element; ``dforce_dtheta`` is d(force)/d(c1, c5) of a change
+    of c1 or c5 in every element alike."""
     ne = u_e.shape[0]
     force = np.empty((ne, 24))
     K = np.empty((ne, 24, 24)) if tangent else np.empty((1, 24, 24))
@@ -110,9 +133,10 @@ def element_state(
         geometry.wdetJ0,
         geometry.volume,
         np.ascontiguousarray(u_e, dtype=float),
-        float(c1),
-        float(c5),
-        float(kappa),
+        per_element(c1, ne, "c1"),
+        per_element(c2, ne, "c2"),
+        per_element(c5, ne, "c5"),
+        per_element(kappa, ne, "kappa"),
         np.asarray(fiber, dtype=float),
         tangent,
         parameter_derivatives,
@@ -135,12 +159,13 @@ def element_state(
 def element_state_numpy(
     geometry: ReferenceGeometry,
     u_e: np.ndarray,
-    c1: float,
-    c5: float,
-    kappa: float,
+    c1: Modulus,
+    c5: Modulus,
+    kappa: Modulus,
     fiber: np.ndarray,
     tangent: bool = True,
     parameter_derivatives: bool = False,
+    c2: Modulus = 0.0,
 ) -> ElementState:
     """Reference numpy implementation of :func:`element_state` (same closed form).
 
@@ -155,8 +180,22 @@ def element_state_numpy(
                   + U''(J_bar) / V_e (dv/du_ai)(dv/du_bk),
 
     with s_a = S dN_a, d_a = D dN_a; h(I4~) is the fiber energy per unit c5 (forward.material).
+
+    The Mooney-Rivlin term c2 (I2~ - 3), with n = J^(-4/3), a2 = c2 n, S2 = 2 a2 (I1 F - F C),
+    beta2 = 2 a2 I2 and f_a = F dN_a, adds S2 - 2/3 beta2 H to P and
+
+        sum_g w [ 8/9 beta2 g_ai g_bk - 4/3 (g_ai s2_bk + s2_ai g_bk) + 2/3 beta2 g_ak g_bi
+                  + 2 a2 (2 f_ai f_bk - f_bi f_ak - B_ik dN_a.dN_b
+                          + delta_ik (I1 dN_a.dN_b - dN_a.C dN_b)) ]
+
+    to K.
     """
     dNdX, w = geometry.dNdX, geometry.wdetJ0
+    ne_all = u_e.shape[0]
+    c1 = per_element(c1, ne_all, "c1")[:, None]
+    c2 = per_element(c2, ne_all, "c2")[:, None]
+    c5 = per_element(c5, ne_all, "c5")[:, None]
+    kappa = per_element(kappa, ne_all, "kappa")
     a0 = np.asarray(fiber, dtype=float)
     F = np.eye(3) + np.einsum("eai,egaJ->egiJ", u_e, dNdX)
     J = np.linalg.det(F)
@@ -222,6 +261,9 @@ def element_state_numpy(
         g = np.einsum("eg,egai->eai", w * J, gx).reshape(-1, 24)  # dv_e / du
         K += (dp / geometry.volume)[:, None, None] * g[:, :, None] * g[:, None, :]
 
+    if np.any(c2 != 0.0):
+        energy, force, K = _mooney_rivlin_numpy(geometry, F, J, I1, H, c2, energy, force, K)
+
     dforce = None
     if parameter_derivatives:
         dI1t = m[..., None, None] * (2.0 * F - (2.0 / 3.0) * I1[..., None, None] * H)
@@ -229,3 +271,51 @@ def element_state_numpy(
         dP = np.stack([dI1t, dh[..., None, None] * dI4t], axis=2)
         dforce = np.einsum("eg,egpiJ,egaJ->epai", w, dP, dNdX).reshape(-1, 2, 24)
     return ElementState(energy, force, K, dforce, min_j)
+
+
+def _mooney_rivlin_numpy(
+    geometry: ReferenceGeometry,
+    F: np.ndarray,
+    J: np.ndarray,
+    I1: np.ndarray,
+    H: np.ndarray,
+    c2: np.ndarray,
+    energy: float,
+    force: np.ndarray,
+    K: np.ndarray | None,
+) -> tuple[float, np.ndarray, np.ndarray | None]:
+    """Add the Mooney-Rivlin term c2 (I2~ - 3) to the energy, forces and tangent of
+    :func:`element_state_numpy` (the closed form in its docstring)."""
+    dNdX, w = geometry.dNdX, geometry.wdetJ0
+    n = J ** (-4.0 / 3.0)
+    a2 = c2 * n
+    C = np.swapaxes(F, -1, -2) @ F
+    B = F @ np.swapaxes(F, -1, -2)
+    I2 = 0.5 * (I1**2 - np.einsum("egIJ,egIJ->eg", C, C))
+    beta2 = 2.0 * a2 * I2
+    S2 = 2.0 * a2[..., None, None] * (I1[..., None, None] * F - F @ C)
+    P2 = S2 - (2.0 / 3.0) * beta2[..., None, None] * H
+    force = force + np.einsum("eg,egiJ,egaJ->eai", w, P2, dNdX).reshape(-1, 24)
+    energy = energy + float(np.einsum("eg,eg->", w, c2 * (n * I2 - 3.0)))
+    if K is None:
+        return energy, force, None
+    ne = J.shape[0]
+    gx = np.einsum("egiJ,egaJ->egai", H, dNdX)
+    s2 = np.einsum("egiJ,egaJ->egai", S2, dNdX)
+    fx = np.einsum("egiJ,egaJ->egai", F, dNdX)
+    q = np.einsum("egaJ,egbJ->egab", dNdX, dNdX)
+    cq = np.einsum("egaJ,egJL,egbL->egab", dNdX, C, dNdX)
+    wb = w * beta2
+    w2 = 2.0 * w * a2
+    K2 = (
+        np.einsum("eg,egai,egbk->eaibk", (8.0 / 9.0) * wb, gx, gx)
+        - np.einsum("eg,egai,egbk->eaibk", (4.0 / 3.0) * w, gx, s2)
+        - np.einsum("eg,egai,egbk->eaibk", (4.0 / 3.0) * w, s2, gx)
+        + np.einsum("eg,egak,egbi->eaibk", (2.0 / 3.0) * wb, gx, gx)
+        + np.einsum("eg,egai,egbk->eaibk", 2.0 * w2, fx, fx)
+        - np.einsum("eg,egbi,egak->eaibk", w2, fx, fx)
+        - np.einsum("eg,egik,egab->eaibk", w2, B, q)
+    )
+    diag = np.einsum("eg,egab->eab", w2, I1[..., None, None] * q - cq)
+    K2 += np.einsum("eab,ik->eaibk", diag, np.eye(3))
+    return energy, force, K + K2.reshape(ne, 24, 24)

@@ -1,11 +1,14 @@
-"""Uncoupled fiber-reinforced neo-Hookean material (paper eq. 2, 3; Appendix A).
+"""Uncoupled fiber-reinforced Mooney-Rivlin material (paper eq. 2, 3; Appendix A; 2.4.2).
 
-FEBio's ``trans iso Mooney-Rivlin`` with c2 = 0 and lam_max = 1 (Appendix A, eq. A.3):
+FEBio's ``trans iso Mooney-Rivlin`` with lam_max = 1 (Appendix A, eq. A.3):
 
-    W = c1 (I1~ - 3) + W_f(lam~) + kappa/2 (ln J)^2,
+    W = c1 (I1~ - 3) + c2 (I2~ - 3) + W_f(lam~) + kappa/2 (ln J)^2,
     W_f = c5 (lam~ - 1) - c5 ln lam~  for lam~ > 1, else 0,       lam~^2 = I4~ = a0 . C~ a0,
 
-with C~ = J^(-2/3) C. Everything is written in the total-Lagrangian pair (F, P = dW/dF,
+with C~ = J^(-2/3) C, I2~ = J^(-4/3) I2. The homogeneous model of eq. 3 is c2 = 0; the composite
+phantom's constituents (2.4.2) are the neo-Hookean matrix (c2 = c5 = 0) and the Mooney-Rivlin
+fibers (c5 = 0), FEBio's uncoupled ``Mooney-Rivlin``. The moduli may be arrays broadcast over
+the points' leading axes (one value per element: a composite). Everything is written in the total-Lagrangian pair (F, P = dW/dF,
 A = d2W/dF dF), vectorised over any leading axes (elements, Gauss points). The volumetric term
 is kept separate because the element applies it to the element's mean dilatation (three-field
 hex8, :mod:`forward.hex8_mean_dilatation`).
@@ -43,21 +46,29 @@ def _isochoric_invariant(
     H: np.ndarray,
     HH: np.ndarray | None,
     HxH: np.ndarray | None,
+    a: float = -2.0 / 3.0,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-    """I~ = J^(-2/3) I with its first and second derivatives with respect to F.
+    """I~ = J^a I with its first and second derivatives with respect to F (a = -2/3 for I1 and
+    I4, -4/3 for I2).
 
-    ``G`` = dI/dF, ``GG`` = d2I/dF2, ``m`` = J^(-2/3), ``H`` = F^-T, ``HH`` = H_iJ H_kL,
+    ``G`` = dI/dF, ``GG`` = d2I/dF2, ``m`` = J^a, ``H`` = F^-T, ``HH`` = H_iJ H_kL,
     ``HxH`` = H_kJ H_iL (from d F^-T / dF).
     """
     It = m * I
-    dIt = m[..., None, None] * (G - (2.0 / 3.0) * I[..., None, None] * H)
+    dIt = m[..., None, None] * (G + a * I[..., None, None] * H)
     if GG is None:
         return It, dIt, None
     HG = H[..., :, :, None, None] * G[..., None, None, :, :]
     GH = G[..., :, :, None, None] * H[..., None, None, :, :]
     I4 = I[..., None, None, None, None]
-    d2 = GG - (2.0 / 3.0) * (HG + GH) + (4.0 / 9.0) * I4 * HH + (2.0 / 3.0) * I4 * HxH
+    d2 = GG + a * (HG + GH) + (a * a) * I4 * HH - a * I4 * HxH
     return It, dIt, m[..., None, None, None, None] * d2
+
+
+def _per_point(value: np.ndarray | float, extra: int) -> np.ndarray:
+    """A modulus (scalar or one per point) with ``extra`` trailing axes to broadcast with."""
+    v = np.asarray(value, dtype=float)
+    return v.reshape(v.shape + (1,) * extra)
 
 
 class InvertedElementError(ArithmeticError):
@@ -70,13 +81,16 @@ class InvertedElementError(ArithmeticError):
 
 def deviatoric_response(
     F: np.ndarray,
-    c1: float,
-    c5: float,
+    c1: np.ndarray | float,
+    c5: np.ndarray | float,
     fiber: np.ndarray,
     tangent: bool = True,
     parameter_derivatives: bool = False,
+    c2: np.ndarray | float = 0.0,
 ) -> DeviatoricResponse:
-    """Isochoric part of eq. 3 at deformation gradients ``F`` (..., 3, 3)."""
+    """Isochoric part of eq. 3 (with the Mooney-Rivlin term c2 (I2~ - 3) where ``c2`` is not 0)
+    at deformation gradients ``F`` (..., 3, 3); the moduli are scalars or arrays of F's leading
+    shape (or broadcastable to it)."""
     F = np.asarray(F, dtype=float)
     a0 = np.asarray(fiber, dtype=float)
     J = np.linalg.det(F)
@@ -110,23 +124,44 @@ def deviatoric_response(
     d2h = np.where(on, (2.0 - lam_on) / (4.0 * lam_on**4), 0.0)
 
     energy = c1 * (I1t - 3.0) + c5 * h
-    P = c1 * dI1t + (c5 * dh)[..., None, None] * dI4t
+    P = _per_point(c1, 2) * dI1t + (c5 * dh)[..., None, None] * dI4t
     A = None
     if tangent:
         A = (
-            c1 * d2I1t
+            _per_point(c1, 4) * d2I1t
             + (c5 * dh)[..., None, None, None, None] * d2I4t
             + (c5 * d2h)[..., None, None, None, None]
             * dI4t[..., :, :, None, None]
             * dI4t[..., None, None, :, :]
         )
+    if np.any(np.asarray(c2) != 0.0):
+        # I2 = (I1^2 - C:C) / 2, dI2/dF = 2 (I1 F - F C),
+        # d2I2 = 2 [2 F_iJ F_kL + I1 d_ik d_JL - d_ik C_LJ - F_iL F_kJ - B_ik d_JL]
+        C = np.swapaxes(F, -1, -2) @ F
+        I2 = 0.5 * (I1**2 - np.einsum("...IJ,...IJ->...", C, C))
+        G2 = 2.0 * (I1[..., None, None] * F - F @ C)
+        GG2 = None
+        if tangent:
+            B = F @ np.swapaxes(F, -1, -2)
+            GG2 = 2.0 * (
+                2.0 * F[..., :, :, None, None] * F[..., None, None, :, :]
+                + I1[..., None, None, None, None] * np.einsum("ik,JL->iJkL", _I3, _I3)
+                - np.einsum("ik,...LJ->...iJkL", _I3, C)
+                - np.einsum("...iL,...kJ->...iJkL", F, F)
+                - np.einsum("...ik,JL->...iJkL", B, _I3)
+            )
+        I2t, dI2t, d2I2t = _isochoric_invariant(I2, G2, GG2, m * m, H, HH, HxH, a=-4.0 / 3.0)
+        energy = energy + c2 * (I2t - 3.0)
+        P = P + _per_point(c2, 2) * dI2t
+        if tangent:
+            A = A + _per_point(c2, 4) * d2I2t
     dP = None
     if parameter_derivatives:
         dP = np.stack([dI1t, dh[..., None, None] * dI4t], axis=-3)
     return DeviatoricResponse(energy, P, A, dP)
 
 
-def volumetric_energy(J: np.ndarray | float, kappa: float) -> np.ndarray:
+def volumetric_energy(J: np.ndarray | float, kappa: np.ndarray | float) -> np.ndarray:
     """U(J) = kappa/2 (ln J)^2 and its first two derivatives (U, U', U'')."""
     J = np.asarray(J, dtype=float)
     lnJ = np.log(J)
@@ -134,8 +169,13 @@ def volumetric_energy(J: np.ndarray | float, kappa: float) -> np.ndarray:
 
 
 def full_response(F: np.ndarray, material: Material) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Energy, PK1 stress and tangent of the whole of eq. 3 at a point (volumetric term at J)."""
-    dev = deviatoric_response(F, material.c1, material.c5, np.asarray(material.fiber))
+    """Energy, PK1 stress and tangent of the whole of eq. 3 at a point (volumetric term at J).
+
+    ``material`` is a :class:`Material` or anything with ``c1``, ``c5``, ``kappa`` and optionally
+    ``c2`` and ``fiber`` (a composite's :class:`~forward.spec.Constituent`: c2, the fibers along y)."""
+    c2 = getattr(material, "c2", 0.0)
+    fiber = np.asarray(getattr(material, "fiber", (0.0, 1.0, 0.0)), dtype=float)
+    dev = deviatoric_response(F, material.c1, material.c5, fiber, c2=c2)
     J = np.linalg.det(F)
     H = np.linalg.inv(F).swapaxes(-1, -2)
     U, dU, d2U = volumetric_energy(J, material.kappa)
@@ -179,3 +219,10 @@ def uniaxial_stress_incompressible(lam: np.ndarray, c1: float, c5: float, along_
     if along_fiber:
         s = s + c5 * np.where(lam > 1.0, lam - 1.0, 0.0)
     return s
+
+
+def uniaxial_stress_mooney_rivlin(lam: np.ndarray, c1: float, c2: float) -> np.ndarray:
+    """Cauchy stress of the incompressible Mooney-Rivlin solid under uniaxial stretch ``lam``:
+    2 (lam^2 - 1/lam)(c1 + c2/lam) (supplement S3; the phantom's fibers, 2.4.2)."""
+    lam = np.asarray(lam, dtype=float)
+    return 2.0 * (lam**2 - 1.0 / lam) * (c1 + c2 / lam)

@@ -58,3 +58,24 @@ MESH_PRESETS: dict[str, MeshPreset] = {
     "fine": MeshPreset(GradedAxis(0.4, 10, 10), GradedAxis(0.4, 10, 12)),
     "reference": MeshPreset(GradedAxis(0.35, 12, 20), GradedAxis(0.35, 8, 18)),
 }
+
+
+@dataclass(frozen=True)
+class CompositeMeshPreset:
+    """Grading of a composite phantom mesh (:mod:`forward.composite_mesh`): cell size
+    ``h0 + growth * t`` at distance t from the indenter's axis (x, y) or from the top (z), mm;
+    ``fiber_cells`` cells across each fiber in x and z."""
+
+    h0: float
+    growth: float
+    fiber_cells: int
+    h0_y: float
+    growth_y: float
+
+
+#: Composite phantom meshes: ``composite`` near the paper's 86,400 hex8 (2.4.2), ``composite-coarse``
+#: a few thousand nodes for tests.
+COMPOSITE_MESH_PRESETS: dict[str, CompositeMeshPreset] = {
+    "composite-coarse": CompositeMeshPreset(3.0, 0.15, 1, 3.0, 0.3),
+    "composite": CompositeMeshPreset(0.7, 0.03, 2, 0.5, 0.07),
+}

@@ -29,6 +29,7 @@ import scipy.sparse.linalg as spla
 
 from .. import __version__
 from .coulomb_contact import FrictionContactState, tributary_areas
+from .element_moduli import element_moduli
 from .hex8_mean_dilatation import ReferenceGeometry, element_state
 from .linear_solver import ConstrainedSymmetricSolver, LinearSolveError, LowRankUpdate
 from .material import InvertedElementError
@@ -171,12 +172,13 @@ class EmbeddedSolver:
         self.top = self.mesh.top
         top_z = float(self.mesh.nodes[:, 2].max())
         self.sphere = RigidSphere(spec.indenter.radius, top_z)
-        m = spec.material
-        self._mat = (m.c1, m.c5, m.kappa, np.asarray(m.fiber, dtype=float))
-        # scale of forces for tolerances: c1 * (first top cell size)^2
+        #: per-element moduli (the composite's two materials, or the spec's one)
+        self._mat = element_moduli(spec, self.mesh)
+        # scale of forces for tolerances: c1 * (first top cell size)^2 (the matrix's c1 in a composite)
+        c1 = spec.composite.matrix.c1 if spec.composite is not None else spec.material.c1
         top_xy = self.mesh.nodes[self.top, :2]
         h = np.sort(np.unique(np.round(top_xy[:, 0], 9)))
-        self._force_scale = m.c1 * float(h[1] - h[0]) ** 2 if h.size > 1 else m.c1
+        self._force_scale = c1 * float(h[1] - h[0]) ** 2 if h.size > 1 else c1
         self._sensitivities = False
         #: the frictional contact's state of the increment being solved (its forces and tangent
         #: enter :meth:`assemble`), None outside an increment or with the stick contact
@@ -219,9 +221,17 @@ class EmbeddedSolver:
         Coulomb friction, in an increment, the sphere's forces on the top nodes are taken off the
         internal force and their derivative off the tangent (:mod:`forward.coulomb_contact`)."""
         t = time.perf_counter()
-        c1, c5, kappa, a0 = self._mat
+        m = self._mat
         st = element_state(
-            self.geometry, u[self.mesh.elements], c1, c5, kappa, a0, tangent, parameter_derivatives
+            self.geometry,
+            u[self.mesh.elements],
+            m.c1,
+            m.c5,
+            m.kappa,
+            m.fiber,
+            tangent,
+            parameter_derivatives,
+            m.c2,
         )
         R = self.pattern.vector(st.force)
         K = self.pattern.matrix(st.stiffness) if tangent else None
@@ -697,6 +707,10 @@ class EmbeddedSolver:
         """Run the protocol; ``progress(step, steps, force)`` is called after each step;
         ``full_field`` keeps every node's displacement per step (for VTU export). The linear
         solver's memory (PARDISO keeps its factors outside Python) is freed at the end."""
+        if sensitivities and not self._mat.homogeneous:
+            raise ValueError(
+                "sensitivities are those of the homogeneous model's (c1, c5); a composite has none"
+            )
         try:
             with thread_limits(1 if self.n_dofs < THREADED_DOFS else None):
                 result = self._run(sensitivities, progress, full_field)

@@ -13,7 +13,7 @@ import math
 from dataclasses import asdict, dataclass, field, fields, replace
 from typing import Any
 
-from .mesh_presets import MESH_PRESETS
+from .mesh_presets import COMPOSITE_MESH_PRESETS, MESH_PRESETS
 
 #: Indenter radii of the paper's two spheres (9.5 mm and 16 mm diameter), mm.
 INDENTER_PRESETS: dict[str, float] = {"small": 4.77, "large": 8.0}
@@ -132,16 +132,105 @@ class Material:
         return {"c1": self.c1, "c5": self.c5}
 
 
+#: Bulk modulus of a composite's constituent, as a multiple of its initial shear modulus
+#: 2 (c1 + c2), unless the spec gives kappa (why: README, "The composite phantom").
+BULK_TO_SHEAR = 1000.0
+
+
+def _finite(name: str, value: float) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError) as exc:
+        raise SpecError(name, f"must be a number, got {value!r}") from exc
+    if not math.isfinite(v):
+        raise SpecError(name, f"must be finite, got {value!r}")
+    return v
+
+
+@dataclass(frozen=True)
+class Constituent:
+    """One material of the composite phantom (paper 2.4.2, 3.1): FEBio's uncoupled Mooney-Rivlin,
+    W = c1 (I1~ - 3) + c2 (I2~ - 3) + kappa/2 (ln J)^2, plus eq. 2's fiber term c5 along
+    ``Material.fiber`` where c5 > 0. A neo-Hookean solid of shear modulus mu is c1 = mu / 2,
+    c2 = 0. c1 may be negative (the TPU fibers' c1 = -1227 kPa) as long as the initial shear
+    modulus 2 (c1 + c2) is positive. ``kappa`` None: ``BULK_TO_SHEAR`` x 2 (c1 + c2). kPa."""
+
+    name: str
+    c1: float
+    c2: float = 0.0
+    c5: float = 0.0
+    kappa: float | None = None
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not self.name.isidentifier():
+            raise SpecError("composite.name", f"a constituent's name must be a plain word, got {self.name!r}")
+        for f in ("c1", "c2", "c5"):
+            object.__setattr__(self, f, _finite(f"composite.{self.name}.{f}", getattr(self, f)))
+        if self.c5 < 0.0:
+            raise SpecError(f"composite.{self.name}.c5", f"must be >= 0, got {self.c5!r}")
+        if not self.shear_modulus > 0.0:
+            raise SpecError(
+                f"composite.{self.name}.c1",
+                f"the initial shear modulus 2 (c1 + c2) must be positive, got 2 ({self.c1!r} + {self.c2!r})",
+            )
+        kappa = BULK_TO_SHEAR * self.shear_modulus if self.kappa is None else self.kappa
+        object.__setattr__(self, "kappa", _finite_positive(f"composite.{self.name}.kappa", kappa))
+
+    @property
+    def shear_modulus(self) -> float:
+        """Initial shear modulus 2 (c1 + c2), kPa."""
+        return 2.0 * (self.c1 + self.c2)
+
+
+#: The phantom's constituents (paper 3.1, supplement S3): the Ecoflex matrix, neo-Hookean with
+#: mu = 19.4 kPa, and the TPU fibers, Mooney-Rivlin with {c1, c2} = {-1227, 5945} kPa.
+PHANTOM_MATRIX = Constituent("matrix", 9.7)
+PHANTOM_FIBERS = Constituent("fibers", -1227.0, 5945.0)
+
+
+@dataclass(frozen=True)
+class CompositeMaterial:
+    """The composite phantom's two materials (2.4.2): element set 0 is the matrix, set 1 the
+    fibers (:mod:`forward.composite_mesh`)."""
+
+    matrix: Constituent = PHANTOM_MATRIX
+    fibers: Constituent = PHANTOM_FIBERS
+
+    def __post_init__(self) -> None:
+        for f in ("matrix", "fibers"):
+            c = getattr(self, f)
+            if isinstance(c, dict):
+                c = Constituent(**{"name": f, **c})
+                object.__setattr__(self, f, c)
+            if not isinstance(c, Constituent):
+                raise SpecError(f"composite.{f}", f"must be a Constituent, got {c!r}")
+        if self.matrix.name == self.fibers.name:
+            raise SpecError(
+                "composite.fibers.name", f"the two constituents share the name {self.matrix.name!r}"
+            )
+
+    @property
+    def constituents(self) -> tuple[Constituent, Constituent]:
+        """(matrix, fibers), in element-set order."""
+        return (self.matrix, self.fibers)
+
+
 @dataclass(frozen=True)
 class MeshChoice:
-    """Which block mesh: a named preset of :mod:`forward.mesh`, or the hex8 block of a FEBio file."""
+    """Which block mesh: a named preset of :mod:`forward.mesh` (or of the composite phantom,
+    :data:`COMPOSITE_MESH_PRESETS`), or the hex8 block of a FEBio file."""
 
     preset: str = "default"
     feb_file: str | None = None
 
     def __post_init__(self) -> None:
-        if self.feb_file is None and self.preset not in MESH_PRESETS:
-            raise SpecError("mesh.preset", f"unknown preset {self.preset!r}; use {sorted(MESH_PRESETS)}")
+        known = {**MESH_PRESETS, **COMPOSITE_MESH_PRESETS}
+        if self.feb_file is None and self.preset not in known:
+            raise SpecError("mesh.preset", f"unknown preset {self.preset!r}; use {sorted(known)}")
+
+    @property
+    def is_composite(self) -> bool:
+        return self.feb_file is None and self.preset in COMPOSITE_MESH_PRESETS
 
 
 #: Penalty of the frictional contact (kPa per mm of penetration) unless the spec says otherwise;
@@ -216,8 +305,22 @@ class ModelSpec:
     mesh: MeshChoice = field(default_factory=MeshChoice)
     solver: SolverOptions = field(default_factory=SolverOptions)
     contact: Contact = field(default_factory=Contact)
+    #: the composite phantom's two materials (2.4.2) on a composite mesh; None: the homogeneous
+    #: ``material`` everywhere
+    composite: CompositeMaterial | None = None
 
     def __post_init__(self) -> None:
+        if self.composite is None and self.mesh.is_composite:
+            raise SpecError(
+                "mesh.preset",
+                f"the composite mesh {self.mesh.preset!r} needs a composite material (composite=...)",
+            )
+        if self.composite is not None and not (self.mesh.is_composite or self.mesh.feb_file):
+            raise SpecError(
+                "mesh.preset",
+                f"a composite needs a composite mesh ({sorted(COMPOSITE_MESH_PRESETS)}) or a .feb file "
+                f"with its element sets, got {self.mesh.preset!r}",
+            )
         limit = MAX_DEPTH_FRACTION * self.geometry.height
         if self.protocol.max_depth > limit:
             raise SpecError(
@@ -256,6 +359,8 @@ class ModelSpec:
         d["material"]["fiber"] = list(self.material.fiber)
         if self.contact == Contact():
             del d["contact"]
+        if self.composite is None:
+            del d["composite"]
         return d
 
     @classmethod
@@ -271,4 +376,12 @@ class ModelSpec:
             mesh=MeshChoice(**d.get("mesh", {})),
             solver=SolverOptions(**d.get("solver", {})),
             contact=Contact(**(d.get("contact") or {})),
+            composite=CompositeMaterial(**d["composite"]) if d.get("composite") else None,
         )
+
+    @classmethod
+    def composite_phantom(cls, preset: str = "composite", **fields_: Any) -> ModelSpec:
+        """The composite phantom's spec (2.4.2): its constituents on the composite mesh ``preset``;
+        other fields (indenter, protocol, ...) as keywords."""
+        composite = fields_.pop("composite", CompositeMaterial())
+        return cls(mesh=MeshChoice(preset=preset), composite=composite, **fields_)

@@ -75,3 +75,41 @@ def test_uniaxial_closed_form_along_and_across_fibers():
     along = uniaxial_stress_incompressible(lam, 10.0, 350.0, True)
     across = uniaxial_stress_incompressible(lam, 10.0, 350.0, False)
     assert np.allclose(along - across, 350.0 * (lam - 1.0))
+
+
+def test_mooney_rivlin_stress_and_tangent_match_finite_differences(deformations):
+    """The c2 (I2~ - 3) term (the composite's fibers, 2.4.2), with a fiber term and per-point moduli."""
+    from types import SimpleNamespace
+
+    c1 = np.array([-1227.0, 9.7, 3.0, -2.0, 10.0, 0.5])
+    c2 = np.array([5945.0, 0.0, 4.0, 6.0, 0.0, 1.0])
+    mat = SimpleNamespace(c1=c1, c2=c2, c5=50.0, kappa=2.0e4, fiber=(0.3, 1.0, 0.2))
+    _, P, A = full_response(deformations, mat)
+    h = 1e-6
+    for k, L in ((0, 0), (1, 2), (2, 1)):
+        Fp, Fm = deformations.copy(), deformations.copy()
+        Fp[:, k, L] += h
+        Fm[:, k, L] -= h
+        Wp, Pp, _ = full_response(Fp, mat)
+        Wm, Pm, _ = full_response(Fm, mat)
+        assert np.abs(P[:, k, L] - (Wp - Wm) / (2 * h)).max() < 1e-6 * np.abs(P).max()
+        assert np.abs(A[..., k, L] - (Pp - Pm) / (2 * h)).max() < 1e-6 * np.abs(A).max()
+    assert np.allclose(A, A.transpose(0, 3, 4, 1, 2), atol=1e-9 * np.abs(A).max())
+
+
+@pytest.mark.parametrize("lam", [0.8, 1.1, 1.3, 1.6])
+def test_mooney_rivlin_uniaxial_against_its_closed_form(lam):
+    """sigma = 2 (lam^2 - 1/lam)(c1 + c2/lam), incompressible; the fibers' constants (S3)."""
+    from indentation_studio.forward.material import uniaxial_stress_mooney_rivlin
+    from indentation_studio.forward.spec import Constituent
+
+    fibers = Constituent("fibers", -1227.0, 5945.0, kappa=1.0e6 * 9436.0)
+
+    def s22(lt: float) -> float:
+        return cauchy_stress(np.diag([lam, lt, lt]), fibers)[1, 1]
+
+    lt = brentq(s22, 0.5 / np.sqrt(lam), 2.0 / np.sqrt(lam), xtol=1e-15, rtol=1e-15)
+    sigma = cauchy_stress(np.diag([lam, lt, lt]), fibers)
+    expected = uniaxial_stress_mooney_rivlin(lam, -1227.0, 5945.0)
+    assert sigma[0, 0] == pytest.approx(expected, rel=1e-5)
+    assert lt**2 * lam == pytest.approx(1.0, abs=1e-5)
