@@ -14,6 +14,10 @@ class BlockMesh:
     ``nodes`` (n, 3) reference coordinates, mm; ``elements`` (ne, 8) zero-based node indices in
     FEBio's hex8 order; ``node_ids`` (n,) external ids (FEBio's, 1-based); node sets are
     zero-based index arrays. ``top`` is ordered by node id.
+
+    A composite mesh (paper 2.4.2) has element sets: ``element_material`` (ne,) the index of each
+    element's material in ``material_names`` (the composite phantom: 0 matrix, 1 fibers); None
+    for a homogeneous mesh.
     """
 
     nodes: np.ndarray
@@ -24,6 +28,8 @@ class BlockMesh:
     bottom: np.ndarray
     top: np.ndarray
     source: str
+    element_material: np.ndarray | None = None
+    material_names: tuple[str, ...] = ()
 
     @property
     def n_nodes(self) -> int:
@@ -37,9 +43,21 @@ class BlockMesh:
     def top_xyz(self) -> np.ndarray:
         return self.nodes[self.top]
 
+    def element_set(self, name: str) -> np.ndarray:
+        """Zero-based indices of the elements of material ``name``."""
+        if self.element_material is None or name not in self.material_names:
+            raise KeyError(f"{self.source}: no element set {name!r} (sets: {list(self.material_names)})")
+        return np.flatnonzero(self.element_material == self.material_names.index(name))
+
     @classmethod
     def from_arrays(
-        cls, nodes: np.ndarray, elements: np.ndarray, node_ids: np.ndarray, source: str
+        cls,
+        nodes: np.ndarray,
+        elements: np.ndarray,
+        node_ids: np.ndarray,
+        source: str,
+        element_material: np.ndarray | None = None,
+        material_names: tuple[str, ...] = (),
     ) -> BlockMesh:
         """Derive the node sets from the coordinates of a quarter block (x, y >= 0)."""
         nodes = np.asarray(nodes, dtype=float)
@@ -58,10 +76,57 @@ class BlockMesh:
         }
         order = np.argsort(node_ids[sets["top"]], kind="stable")
         sets["top"] = sets["top"][order]
+        if element_material is not None:
+            element_material = np.asarray(element_material, dtype=np.int64)
+            if element_material.shape != (len(elements),):
+                raise ValueError(f"{source}: element_material needs one entry per element")
+            if element_material.min() < 0 or element_material.max() >= len(material_names):
+                raise ValueError(f"{source}: element_material refers to materials outside {material_names}")
         return cls(
             nodes=nodes,
             elements=np.asarray(elements, dtype=np.int64),
             node_ids=np.asarray(node_ids, dtype=np.int64),
             source=source,
+            element_material=element_material,
+            material_names=tuple(material_names),
             **sets,
         )
+
+
+def grid_block(
+    x: np.ndarray,
+    y: np.ndarray,
+    z: np.ndarray,
+    source: str,
+    element_material: np.ndarray | None = None,
+    material_names: tuple[str, ...] = (),
+) -> BlockMesh:
+    """The structured hex8 mesh of the grid x[i], y[j], z[k] (ascending node coordinates), node
+    id = 1 + k + nz * (j + ny * i) (FEBio's baseline numbering), elements in the order of their
+    (i, j, k) cells."""
+    nx, ny, nz = len(x), len(y), len(z)
+    ii, jj, kk = np.meshgrid(np.arange(nx), np.arange(ny), np.arange(nz), indexing="ij")
+    nodes = np.stack([x[ii], y[jj], z[kk]], axis=-1).reshape(-1, 3)  # index = k + nz*(j + ny*i)
+
+    def idx(i: np.ndarray, j: np.ndarray, k: np.ndarray) -> np.ndarray:
+        return k + nz * (j + ny * i)
+
+    ci, cj, ck = (
+        a.ravel() for a in np.meshgrid(np.arange(nx - 1), np.arange(ny - 1), np.arange(nz - 1), indexing="ij")
+    )
+    elements = np.stack(
+        [
+            idx(ci, cj, ck),
+            idx(ci + 1, cj, ck),
+            idx(ci + 1, cj + 1, ck),
+            idx(ci, cj + 1, ck),
+            idx(ci, cj, ck + 1),
+            idx(ci + 1, cj, ck + 1),
+            idx(ci + 1, cj + 1, ck + 1),
+            idx(ci, cj + 1, ck + 1),
+        ],
+        axis=1,
+    )
+    return BlockMesh.from_arrays(
+        nodes, elements, np.arange(1, len(nodes) + 1), source, element_material, material_names
+    )

@@ -9,9 +9,7 @@ of our meshes and of FEBio's coincide when the grids do.
 
 from __future__ import annotations
 
-import numpy as np
-
-from .block_mesh import BlockMesh
+from .block_mesh import BlockMesh, grid_block
 from .feb_mesh import read_feb_block_mesh
 from .mesh_presets import MESH_PRESETS, GradedAxis, MeshPreset
 from .spec import Geometry, ModelSpec
@@ -22,6 +20,7 @@ __all__ = [
     "GradedAxis",
     "MeshPreset",
     "build_mesh",
+    "grid_block",
     "preset_mesh",
     "structured_block",
 ]
@@ -32,30 +31,7 @@ def structured_block(geometry: Geometry, preset: MeshPreset, name: str = "custom
     x = preset.xy.coordinates(geometry.half_x)
     y = preset.xy.coordinates(geometry.half_y)
     z = geometry.height - preset.z.coordinates(geometry.height)[::-1]
-    nx, ny, nz = len(x), len(y), len(z)
-    ii, jj, kk = np.meshgrid(np.arange(nx), np.arange(ny), np.arange(nz), indexing="ij")
-    nodes = np.stack([x[ii], y[jj], z[kk]], axis=-1).reshape(-1, 3)  # index = k + nz*(j + ny*i)
-
-    def idx(i: np.ndarray, j: np.ndarray, k: np.ndarray) -> np.ndarray:
-        return k + nz * (j + ny * i)
-
-    ci, cj, ck = (
-        a.ravel() for a in np.meshgrid(np.arange(nx - 1), np.arange(ny - 1), np.arange(nz - 1), indexing="ij")
-    )
-    elements = np.stack(
-        [
-            idx(ci, cj, ck),
-            idx(ci + 1, cj, ck),
-            idx(ci + 1, cj + 1, ck),
-            idx(ci, cj + 1, ck),
-            idx(ci, cj, ck + 1),
-            idx(ci + 1, cj, ck + 1),
-            idx(ci + 1, cj + 1, ck + 1),
-            idx(ci, cj + 1, ck + 1),
-        ],
-        axis=1,
-    )
-    return BlockMesh.from_arrays(nodes, elements, np.arange(1, len(nodes) + 1), f"preset:{name}")
+    return grid_block(x, y, z, f"preset:{name}")
 
 
 def preset_mesh(name: str, geometry: Geometry | None = None) -> BlockMesh:
@@ -66,7 +42,12 @@ def preset_mesh(name: str, geometry: Geometry | None = None) -> BlockMesh:
 
 
 def build_mesh(spec: ModelSpec) -> BlockMesh:
-    """The block mesh a spec asks for: a preset, or the hex8 block of a FEBio file."""
+    """The block mesh a spec asks for: a preset (of the composite phantom too), or the hex8 block
+    of a FEBio file."""
     if spec.mesh.feb_file:
         return read_feb_block_mesh(spec.mesh.feb_file)
+    if spec.mesh.is_composite:
+        from .composite_mesh import composite_mesh
+
+        return composite_mesh(spec.mesh.preset, spec.geometry)
     return preset_mesh(spec.mesh.preset, spec.geometry)

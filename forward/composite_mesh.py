@@ -1,0 +1,184 @@
+"""The composite phantom's geometry and its conforming hex8 quarter mesh (paper 2.4.2, supplement S1).
+
+S1: the 100 x 100 x 60 mm block is cast in a mold of stacked layers, each 4.17 mm high with 12
+uniformly spaced fibers of 1.6 x 1.6 mm cross-section running the block's full length along y;
+a bottom plate brings the mold to 60 mm. The layout chosen here (S1 does not give every detail):
+
+- 14 layers (168 fibers / 12), stacked on the bottom plate: the layers fill the top
+  14 x 4.17 = 58.38 mm and the lowest 1.62 mm is matrix only;
+- each fiber sits at the centre of its layer (its centre 2.085 mm above the layer's bottom);
+- across x the 12 fibers are at the centres of 12 equal cells of the block's width (pitch
+  100 / 12 = 8.33 mm, outermost fiber centres 4.17 mm from the faces), so that the layout is
+  symmetric about the block's centre plane x = 0 and no fiber lies on it: the quarter
+  (x >= 0) holds 6 whole fibers per layer, 84 in all; the fibers are aligned from layer to layer;
+- the fiber volume fraction is 168 x 1.6^2 / (100 x 60) = 7.17 % (the block's cross-section).
+
+The mesh is a structured grid whose x and z lines include every fiber boundary, so each element
+is either matrix or fiber (``BlockMesh.element_material``: 0 matrix, 1 fibers). Between fiber
+boundaries cells are sized ``h0 + growth * t`` with t the distance from the indenter's axis
+(x, y) or from the top face (z), graded toward the indenter like the homogeneous meshes
+(:mod:`forward.mesh`).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .block_mesh import BlockMesh, grid_block
+from .mesh_presets import COMPOSITE_MESH_PRESETS, CompositeMeshPreset
+from .spec import Geometry
+
+#: Element-set names of a composite mesh, in the order of ``BlockMesh.element_material``.
+COMPOSITE_SETS: tuple[str, str] = ("matrix", "fibers")
+MATRIX, FIBERS = 0, 1
+
+
+@dataclass(frozen=True)
+class PhantomLayout:
+    """The fibers of the composite phantom (supplement S1), mm."""
+
+    fiber_size: float = 1.6
+    layer_height: float = 4.17
+    layers: int = 14
+    fibers_per_layer: int = 12
+
+    def __post_init__(self) -> None:
+        for f in ("fiber_size", "layer_height"):
+            v = getattr(self, f)
+            if not (math.isfinite(v) and v > 0):
+                raise ValueError(f"PhantomLayout.{f} must be a positive number, got {v!r}")
+        for f in ("layers", "fibers_per_layer"):
+            if int(getattr(self, f)) != getattr(self, f) or getattr(self, f) < 1:
+                raise ValueError(f"PhantomLayout.{f} must be a whole number >= 1, got {getattr(self, f)!r}")
+        if self.fiber_size >= self.layer_height:
+            raise ValueError("PhantomLayout: a fiber must be thinner than its layer")
+
+    @property
+    def fibers(self) -> int:
+        """Fibers in the full block."""
+        return self.layers * self.fibers_per_layer
+
+    def x_centres(self, width: float) -> np.ndarray:
+        """Fiber centres across the full block, x in [-width/2, width/2]."""
+        pitch = width / self.fibers_per_layer
+        if self.fiber_size >= pitch:
+            raise ValueError(
+                f"{self.fibers_per_layer} fibers of {self.fiber_size} mm do not fit in {width} mm"
+            )
+        return -width / 2 + pitch * (np.arange(self.fibers_per_layer) + 0.5)
+
+    def z_centres(self, height: float) -> np.ndarray:
+        """Fiber centres from the bottom (z = 0): one per layer, the layers on the bottom plate."""
+        plate = self.bottom_plate(height)
+        return plate + self.layer_height * (np.arange(self.layers) + 0.5)
+
+    def bottom_plate(self, height: float) -> float:
+        """Matrix below the lowest layer, mm (S1's bottom plate)."""
+        plate = height - self.layers * self.layer_height
+        if plate < -1e-9:
+            raise ValueError(
+                f"{self.layers} layers of {self.layer_height} mm do not fit in a {height} mm block"
+            )
+        return max(plate, 0.0)
+
+    def fiber_volume_fraction(self, width: float, height: float) -> float:
+        """Fibers' share of the block's volume (they run its full length)."""
+        return self.fibers * self.fiber_size**2 / (width * height)
+
+
+#: The paper's phantom (S1).
+PHANTOM = PhantomLayout()
+
+
+def _intervals(centres: np.ndarray, size: float, length: float) -> list[tuple[float, float]]:
+    """The fibers' [lo, hi] along an axis of the quarter, clipped to [0, length]."""
+    out = []
+    for c in centres:
+        lo, hi = max(c - size / 2, 0.0), min(c + size / 2, length)
+        if hi > lo:
+            out.append((lo, hi))
+    return out
+
+
+def conforming_axis(
+    length: float,
+    fibers: list[tuple[float, float]],
+    fiber_cells: int,
+    h0: float,
+    growth: float,
+    from_end: bool = False,
+) -> np.ndarray:
+    """Node coordinates on [0, length] through every fiber boundary: ``fiber_cells`` equal cells
+    across each fiber, and between them cells of about h(t) = h0 + growth t, t the distance from
+    0 (or from ``length`` with ``from_end``), spaced so that 1/h is integrated equally (cells grow
+    smoothly within a gap)."""
+    if h0 <= 0 or growth < 0 or fiber_cells < 1:
+        raise ValueError("conforming_axis: h0 > 0, growth >= 0 and fiber_cells >= 1 are needed")
+    breaks = sorted({0.0, length, *(v for f in fibers for v in f)})
+    inside = {(round(lo, 12), round(hi, 12)) for lo, hi in fibers}
+
+    def phi(t: np.ndarray) -> np.ndarray:  # integral of 1/h from 0 to t
+        return t / h0 if growth == 0 else np.log1p(growth * t / h0) / growth
+
+    def phi_inv(p: np.ndarray) -> np.ndarray:
+        return p * h0 if growth == 0 else h0 * np.expm1(growth * p) / growth
+
+    coords = [0.0]
+    for a, b in itertools.pairwise(breaks):
+        if (round(a, 12), round(b, 12)) in inside:
+            pts = np.linspace(a, b, fiber_cells + 1)[1:]
+        else:
+            ta, tb = (length - a, length - b) if from_end else (a, b)
+            pa, pb = phi(np.asarray(ta)), phi(np.asarray(tb))
+            n = max(1, math.ceil(abs(pb - pa) - 1e-9))
+            t = phi_inv(pa + (pb - pa) * np.arange(1, n + 1) / n)
+            pts = length - t if from_end else t
+            pts[-1] = b
+        coords.extend(pts.tolist())
+    return np.asarray(coords)
+
+
+def phantom_mesh(
+    geometry: Geometry, preset: CompositeMeshPreset, layout: PhantomLayout = PHANTOM, name: str = "custom"
+) -> BlockMesh:
+    """The conforming hex8 mesh of the phantom's quarter block (x, y >= 0 from the block's
+    centre axis, the indenter at the top centre) with its element sets (module docstring)."""
+    xf = _intervals(layout.x_centres(2 * geometry.half_x), layout.fiber_size, geometry.half_x)
+    zf = _intervals(layout.z_centres(geometry.height), layout.fiber_size, geometry.height)
+    x = conforming_axis(geometry.half_x, xf, preset.fiber_cells, preset.h0, preset.growth)
+    z = conforming_axis(geometry.height, zf, preset.fiber_cells, preset.h0, preset.growth, from_end=True)
+    y = conforming_axis(geometry.half_y, [], 1, preset.h0_y, preset.growth_y)
+    xc, zc = 0.5 * (x[1:] + x[:-1]), 0.5 * (z[1:] + z[:-1])
+    in_x = np.zeros(xc.size, bool)
+    for lo, hi in xf:
+        in_x |= (xc > lo) & (xc < hi)
+    in_z = np.zeros(zc.size, bool)
+    for lo, hi in zf:
+        in_z |= (zc > lo) & (zc < hi)
+    # cells in grid_block's order: i (x) slowest, then j (y), then k (z)
+    fiber = in_x[:, None, None] & np.ones(y.size - 1, bool)[None, :, None] & in_z[None, None, :]
+    material = np.where(fiber.ravel(), FIBERS, MATRIX)
+    return grid_block(x, y, z, f"composite:{name}", material, COMPOSITE_SETS)
+
+
+def composite_mesh(name: str, geometry: Geometry | None = None) -> BlockMesh:
+    """The named composite phantom mesh of :data:`COMPOSITE_MESH_PRESETS`."""
+    if name not in COMPOSITE_MESH_PRESETS:
+        raise ValueError(
+            f"unknown composite mesh preset {name!r}; use one of {sorted(COMPOSITE_MESH_PRESETS)}"
+        )
+    return phantom_mesh(geometry or Geometry(), COMPOSITE_MESH_PRESETS[name], name=name)
+
+
+def fiber_volume_fraction(mesh: BlockMesh) -> float:
+    """Volume of the fiber elements over the mesh's volume."""
+    from .hex8_mean_dilatation import ReferenceGeometry
+
+    if mesh.element_material is None:
+        raise ValueError(f"{mesh.source}: not a composite mesh (no element sets)")
+    vol = ReferenceGeometry.of(mesh).volume
+    return float(vol[mesh.element_material == FIBERS].sum() / vol.sum())

@@ -1,0 +1,133 @@
+"""The composite phantom (paper 2.4.2, supplement S1): its mesh (fiber count, volume fraction,
+conformity, element sets), its spec, and a two-material patch test of the solver's per-element
+materials."""
+
+import numpy as np
+import pytest
+
+from indentation_studio.forward.composite_mesh import (
+    FIBERS,
+    MATRIX,
+    PHANTOM,
+    composite_mesh,
+    fiber_volume_fraction,
+)
+from indentation_studio.forward.spec import (
+    CompositeMaterial,
+    Constituent,
+    Geometry,
+    ModelSpec,
+    SpecError,
+)
+
+
+@pytest.fixture(scope="module")
+def coarse():
+    return composite_mesh("composite-coarse")
+
+
+def _fiber_rectangles(geometry: Geometry | None = None) -> list[tuple[float, float, float, float]]:
+    geometry = geometry or Geometry()
+    s = PHANTOM.fiber_size / 2
+    xs = [c for c in PHANTOM.x_centres(2 * geometry.half_x) if c > 0]
+    zs = PHANTOM.z_centres(geometry.height)
+    return [(x - s, x + s, z - s, z + s) for x in xs for z in zs]
+
+
+def test_layout_of_s1():
+    assert PHANTOM.fibers == 168
+    assert PHANTOM.bottom_plate(60.0) == pytest.approx(60.0 - 14 * 4.17)
+    assert PHANTOM.fiber_volume_fraction(100.0, 60.0) == pytest.approx(168 * 1.6**2 / 6000.0)
+    assert PHANTOM.fiber_volume_fraction(100.0, 60.0) == pytest.approx(0.0717, abs=5e-5)
+    x = PHANTOM.x_centres(100.0)
+    assert np.allclose(x, -x[::-1]) and np.all(np.abs(x) > 0.8)  # symmetric, none on x = 0
+    assert (x > 0).sum() == 6
+
+
+def test_coarse_mesh_fiber_count_volume_fraction_and_sets(coarse):
+    assert 2000 < coarse.n_nodes < 6000
+    assert coarse.material_names == ("matrix", "fibers")
+    assert set(np.unique(coarse.element_material)) == {MATRIX, FIBERS}
+    assert fiber_volume_fraction(coarse) == pytest.approx(84 * 1.6**2 * 50.0 / (50 * 50 * 60), rel=1e-12)
+    fib = coarse.element_set("fibers")
+    assert np.array_equal(
+        np.sort(np.concatenate([fib, coarse.element_set("matrix")])), np.arange(coarse.n_elements)
+    )
+    # every fiber element lies in exactly one fiber's cross-section: 84 fibers in the quarter
+    X = coarse.nodes[coarse.elements[fib]]  # (nf, 8, 3)
+    which = np.full(fib.size, -1)
+    tol = 1e-9
+    for r, (x0, x1, z0, z1) in enumerate(_fiber_rectangles()):
+        inside = (
+            (X[..., 0] >= x0 - tol).all(1)
+            & (X[..., 0] <= x1 + tol).all(1)
+            & (X[..., 2] >= z0 - tol).all(1)
+            & (X[..., 2] <= z1 + tol).all(1)
+        )
+        assert not (inside & (which >= 0)).any()
+        which[inside] = r
+    assert (which >= 0).all()
+    assert np.unique(which).size == 84
+
+
+def test_mesh_conforms_to_every_fiber_boundary(coarse):
+    x, z = np.unique(coarse.nodes[:, 0]), np.unique(coarse.nodes[:, 2])
+    for x0, x1, z0, z1 in _fiber_rectangles():
+        for v, grid in ((x0, x), (x1, x), (z0, z), (z1, z)):
+            assert np.abs(grid - v).min() < 1e-9
+    # no matrix element reaches into a fiber: matrix centroids lie outside every fiber
+    c = coarse.nodes[coarse.elements[coarse.element_set("matrix")]].mean(axis=1)
+    for x0, x1, z0, z1 in _fiber_rectangles():
+        assert not ((c[:, 0] > x0) & (c[:, 0] < x1) & (c[:, 2] > z0) & (c[:, 2] < z1)).any()
+
+
+def test_mesh_is_graded_towards_the_indenter(coarse):
+    y = np.unique(coarse.nodes[:, 1])
+    assert np.all(np.diff(np.diff(y)) > 0)
+
+
+def test_paper_size_preset_is_near_the_papers_mesh():
+    """2.4.2: 97,163 nodes and 86,400 hex8 in the paper's quarter."""
+    mesh = composite_mesh("composite")
+    assert (mesh.n_nodes, mesh.n_elements) == (93248, 86940)
+    assert fiber_volume_fraction(mesh) == pytest.approx(0.07168, rel=1e-12)
+
+
+def test_composite_spec_round_trips_and_homogeneous_specs_are_unchanged():
+    spec = ModelSpec.composite_phantom("composite-coarse")
+    d = spec.to_dict()
+    assert d["composite"]["fibers"] == {
+        "name": "fibers",
+        "c1": -1227.0,
+        "c2": 5945.0,
+        "c5": 0.0,
+        "kappa": 9436000.0,
+    }
+    assert d["composite"]["matrix"]["kappa"] == pytest.approx(19400.0)
+    assert ModelSpec.from_dict(d) == spec
+    assert "composite" not in ModelSpec().to_dict()
+    assert spec.composite.fibers.shear_modulus == pytest.approx(9436.0)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "field"),
+    [
+        ({"c1": float("nan")}, "composite.fibers.c1"),
+        ({"c1": -6000.0}, "composite.fibers.c1"),
+        ({"c5": -1.0}, "composite.fibers.c5"),
+        ({"kappa": -5.0}, "composite.fibers.kappa"),
+    ],
+)
+def test_bad_constituents_are_refused_by_name(kwargs, field):
+    args = {"name": "fibers", "c1": -1227.0, "c2": 5945.0, **kwargs}
+    with pytest.raises(SpecError, match=field.replace(".", r"\.")):
+        Constituent(**args)
+
+
+def test_composite_needs_a_composite_mesh_and_vice_versa():
+    from indentation_studio.forward.spec import MeshChoice
+
+    with pytest.raises(SpecError, match=r"mesh\.preset"):
+        ModelSpec(composite=CompositeMaterial())
+    with pytest.raises(SpecError, match=r"mesh\.preset"):
+        ModelSpec(mesh=MeshChoice("composite-coarse"))
