@@ -133,8 +133,10 @@ class Material:
 
 
 #: Bulk modulus of a composite's constituent, as a multiple of its initial shear modulus
-#: 2 (c1 + c2), unless the spec gives kappa (why: README, "The composite phantom").
-BULK_TO_SHEAR = 1000.0
+#: 2 (c1 + c2), unless the spec gives kappa: the ratio of the paper's homogeneous model
+#: (kappa = 1000 kPa, mu = 2 c1 = 20 kPa; Poisson's ratio 0.49), so that the composite and the
+#: model fitted to it are equally compressible.
+BULK_TO_SHEAR = 50.0
 
 
 def _finite(name: str, value: float) -> float:
