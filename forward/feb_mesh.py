@@ -18,7 +18,9 @@ def read_feb_block_mesh(path: str | Path) -> BlockMesh:
     """Nodes and hex8 elements of the block in a FEBio 4 ``.feb`` file.
 
     Only nodes referenced by ``hex8`` elements are kept (the indenter's shells are dropped);
-    FEBio's node ids are kept in ``node_ids``. Node sets are derived from the coordinates.
+    FEBio's node ids are kept in ``node_ids``. Node sets are derived from the coordinates. A file
+    with several hex8 parts (the composite phantom, 2.4.2) gives a mesh with one element set per
+    part, named after it (``BlockMesh.element_material``, ``material_names``).
     """
     path = Path(path)
     if not path.is_file():
@@ -42,10 +44,14 @@ def read_feb_block_mesh(path: str | Path) -> BlockMesh:
             raise FebMeshError(f"{path}: node {node.attrib.get('id')} has {len(xyz)} coordinates")
 
     conn: list[list[int]] = []
+    part_of: list[int] = []
+    parts: list[str] = []
     for block in mesh.iterfind("Elements"):
         if block.attrib.get("type") != "hex8":
             continue
+        parts.append(block.attrib.get("name", f"part{len(parts) + 1}"))
         for elem in block.iterfind("elem"):
+            part_of.append(len(parts) - 1)
             try:
                 ids = [int(v) for v in (elem.text or "").split(",")]
             except ValueError as exc:
@@ -63,7 +69,12 @@ def read_feb_block_mesh(path: str | Path) -> BlockMesh:
         raise FebMeshError(f"{path}: hex8 elements refer to undefined nodes {missing[:5]}")
     nodes = np.array([coords[int(i)] for i in node_ids])
     elements = np.searchsorted(node_ids, ext)
+    sets: dict = {}
+    if len(parts) > 1:
+        if len(set(parts)) != len(parts):
+            raise FebMeshError(f"{path}: hex8 parts share a name ({parts})")
+        sets = {"element_material": np.asarray(part_of), "material_names": tuple(parts)}
     try:
-        return BlockMesh.from_arrays(nodes, elements, node_ids, f"feb:{path}")
+        return BlockMesh.from_arrays(nodes, elements, node_ids, f"feb:{path}", **sets)
     except ValueError as exc:
         raise FebMeshError(str(exc)) from exc

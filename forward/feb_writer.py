@@ -1,7 +1,8 @@
 """Write a model spec as a FEBio 4.0 input file (``.feb``) that real FEBio runs to the end.
 
 The model is the paper's (2.4, 2.5): the quarter block of hex8 elements with FEBio's ``trans iso
-Mooney-Rivlin`` (eq. 3: c2 = 0, lam_max = 1), symmetry and bottom boundary conditions, the
+Mooney-Rivlin`` (eq. 3: c2 = 0, lam_max = 1) or, for the composite phantom (2.4.2), one hex8 part,
+solid domain and uncoupled ``Mooney-Rivlin`` material per element set (matrix, fibers), symmetry and bottom boundary conditions, the
 quarter-sphere indenter as rigid tri3 shells driven down by a load curve, and sliding-elastic
 contact with a very large friction coefficient (near-perfect stick). The settings that real
 FEBio 4 needed (README, "FEBio backend") are the defaults of :class:`FebSettings`:
@@ -180,6 +181,16 @@ def _params(parent: ET.Element, values: dict[str, Any]) -> None:
         _sub(parent, k, v if isinstance(v, str) else _num(v))
 
 
+def _solid_parts(spec: ModelSpec, mesh: BlockMesh) -> list[tuple[str, np.ndarray]]:
+    """The hex8 parts (name, element indices): one "Block", or one per element set of a composite
+    (named after its constituent; FEBio's element ids run through the parts in this order)."""
+    if spec.composite is None:
+        return [("Block", np.arange(mesh.n_elements))]
+    if mesh.element_material is None:
+        raise ValueError(f"{mesh.source}: a composite spec needs a mesh with element sets")
+    return [(c.name, mesh.element_set(c.name)) for c in spec.composite.constituents]
+
+
 def build_feb(
     spec: ModelSpec, mesh: BlockMesh, logfile: str = "model.log", settings: FebSettings | None = None
 ) -> ET.ElementTree:
@@ -228,15 +239,30 @@ def build_feb(
 
     mat = spec.material
     materials = _sub(root, "Material")
-    block = _sub(materials, "material", id=BLOCK_MATERIAL_ID, name="Block", type="trans iso Mooney-Rivlin")
-    _params(
-        block,
-        {"density": 1.0, "k": mat.kappa, "c1": mat.c1, "c2": 0.0, "c3": s.c3, "c4": 0.0, "c5": mat.c5},
-    )
-    _params(block, {"lam_max": 1.0})
-    _sub(_sub(block, "fiber", type="vector"), "vector", _vec(mat.fiber))
+    solid_parts = _solid_parts(spec, mesh)
+    if spec.composite is None:
+        block = _sub(
+            materials, "material", id=BLOCK_MATERIAL_ID, name="Block", type="trans iso Mooney-Rivlin"
+        )
+        _params(
+            block,
+            {"density": 1.0, "k": mat.kappa, "c1": mat.c1, "c2": 0.0, "c3": s.c3, "c4": 0.0, "c5": mat.c5},
+        )
+        _params(block, {"lam_max": 1.0})
+        _sub(_sub(block, "fiber", type="vector"), "vector", _vec(mat.fiber))
     rigid = _sub(materials, "material", id=INDENTER_MATERIAL_ID, name="Indenter", type="rigid body")
     _params(rigid, {"density": 1.0, "E": 1.0, "v": 0.0, "center_of_mass": _vec(center)})
+    if spec.composite is not None:
+        # the composite's constituents (2.4.2): FEBio's uncoupled Mooney-Rivlin (neo-Hookean: c2 = 0);
+        # ids 1, 3, ... so that the indenter keeps id 2 (the log's rigid body)
+        for k, c in enumerate(spec.composite.constituents):
+            if c.c5 != 0.0:
+                raise ValueError(
+                    f"composite.{c.name}.c5: the FEBio export writes Mooney-Rivlin constituents (c5 = 0)"
+                )
+            cid = BLOCK_MATERIAL_ID if k == 0 else INDENTER_MATERIAL_ID + k
+            m_el = _sub(materials, "material", id=cid, name=c.name, type="Mooney-Rivlin")
+            _params(m_el, {"density": 1.0, "c1": c.c1, "c2": c.c2, "k": c.kappa})
 
     ids = mesh.node_ids
     sphere_xyz, sphere_tri = indenter_surface(radius, center, s.sphere_divisions)
@@ -248,9 +274,12 @@ def build_feb(
     nodes_el = _sub(geo, "Nodes", name="IndenterNodes")
     for i, x in zip(sphere_ids, sphere_xyz, strict=True):
         _sub(nodes_el, "node", _vec(x), id=int(i))
-    elems = _sub(geo, "Elements", type="hex8", name="Block")
-    for e, conn in enumerate(mesh.elements):
-        _sub(elems, "elem", _ids(ids[conn]), id=e + 1)
+    e_id = 1
+    for part, members in solid_parts:
+        elems = _sub(geo, "Elements", type="hex8", name=part)
+        for conn in mesh.elements[members]:
+            _sub(elems, "elem", _ids(ids[conn]), id=e_id)
+            e_id += 1
     elems = _sub(geo, "Elements", type="tri3", name="Indenter")
     n_hex = mesh.n_elements
     for e, tri in enumerate(sphere_tri):
@@ -268,7 +297,8 @@ def build_feb(
     _sub(pair, "secondary", "IndenterSurface")
 
     domains = _sub(root, "MeshDomains")
-    _sub(domains, "SolidDomain", name="Block", mat="Block")
+    for part, _ in solid_parts:
+        _sub(domains, "SolidDomain", name=part, mat=part)
     _sub(_sub(domains, "ShellDomain", name="Indenter", mat="Indenter"), "shell_thickness", s.shell_thickness)
 
     boundary = _sub(root, "Boundary")

@@ -44,7 +44,12 @@ def fail(message: str, as_json: bool, code: int = 1) -> None:
 def model_spec(
     c1, c5, kappa, radius, steps, step_size, mesh, mesh_from, substeps, friction: float | None = None
 ) -> ModelSpec:
+    from ..forward.mesh_presets import COMPOSITE_MESH_PRESETS
+    from ..forward.spec import CompositeMaterial
+
+    composite = CompositeMaterial() if mesh in COMPOSITE_MESH_PRESETS and not mesh_from else None
     return ModelSpec(
+        composite=composite,  # a composite mesh preset: the phantom's constituents (2.4.2)
         geometry=Geometry(),
         indenter=Indenter(radius),
         protocol=Protocol(step_size=step_size, steps=steps),
@@ -61,7 +66,13 @@ KAPPA = Annotated[float, typer.Option(help="bulk-like modulus kappa, kPa")]
 RADIUS = Annotated[float, typer.Option(help="sphere radius, mm (paper: 4.77 or 8)")]
 STEPS = Annotated[int, typer.Option(help="number of indentation steps")]
 STEP_SIZE = Annotated[float, typer.Option(help="depth per step, mm")]
-MESH = Annotated[str, typer.Option(help="mesh preset: coarse, default, fine, reference")]
+MESH = Annotated[
+    str,
+    typer.Option(
+        help="mesh preset: coarse, default, fine, reference; composite-coarse, composite: the composite "
+        "phantom (its constituents, not c1/c5)"
+    ),
+]
 MESH_FROM = Annotated[Path | None, typer.Option(help="run on the hex8 block mesh of this FEBio .feb file")]
 SUBSTEPS = Annotated[int, typer.Option(help="solver increments per step")]
 FRICTION = Annotated[
