@@ -9,6 +9,8 @@ __getattr__, __dir__, __all__ = lazy.attach(
     __name__,
     submod_attrs={
         "spec": [
+            "CompositeMaterial",
+            "Constituent",
             "Contact",
             "Geometry",
             "Indenter",
@@ -19,7 +21,15 @@ __getattr__, __dir__, __all__ = lazy.attach(
             "SolverOptions",
             "SpecError",
         ],
-        "mesh": ["MESH_PRESETS", "BlockMesh", "build_mesh", "preset_mesh", "structured_block"],
+        "mesh": ["MESH_PRESETS", "BlockMesh", "build_mesh", "grid_block", "preset_mesh", "structured_block"],
+        "composite_mesh": [
+            "PHANTOM",
+            "PhantomLayout",
+            "fiber_volume_fraction",
+            "phantom_mesh",
+        ],
+        "element_moduli": ["ElementModuli", "composite_moduli"],
+        "block_stretch": ["BlockStretchResult", "StretchError", "equibiaxial_stretch", "stretch_block"],
         "coulomb_contact": ["FrictionContactState", "contact_response", "tributary_areas"],
         "solver": ["EmbeddedSolver", "SimulationError", "simulate", "thread_limits"],
         "material": ["InvertedElementError"],
