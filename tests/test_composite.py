@@ -174,3 +174,28 @@ def test_composite_export_writes_two_materials_and_parts_and_reads_back(tmp_path
 
     moduli = element_moduli(spec_back, back)
     assert np.count_nonzero(moduli.c2 == 5945.0) == coarse.element_set("fibers").size
+
+
+def test_embedded_solver_runs_the_composite_with_per_element_materials(coarse):
+    """The indentation solver on the phantom's coarse mesh: constituents equal to one material
+    give that material's result to the last bit; the real fibers stiffen the block; the composite
+    has no (c1, c5) sensitivities."""
+    from indentation_studio.forward.solver import EmbeddedSolver
+    from indentation_studio.forward.spec import Material, MeshChoice, Protocol
+
+    protocol = Protocol(step_size=0.5, steps=2)
+    same = CompositeMaterial(
+        Constituent("matrix", 9.7, kappa=1000.0), Constituent("fibers", 9.7, kappa=1000.0)
+    )
+    spec = ModelSpec.composite_phantom("composite-coarse", composite=same, protocol=protocol)
+    homogeneous = ModelSpec(
+        material=Material(c1=9.7, c5=0.0, kappa=1000.0), mesh=MeshChoice("coarse"), protocol=protocol
+    )
+    a = EmbeddedSolver(spec, coarse).run()
+    b = EmbeddedSolver(homogeneous, coarse).run()
+    assert np.array_equal(a.force, b.force) and np.array_equal(a.displacement, b.displacement)
+    assert a.spec["composite"]["fibers"]["c1"] == 9.7 and "composite" not in b.spec
+    real = EmbeddedSolver(ModelSpec.composite_phantom("composite-coarse", protocol=protocol), coarse).run()
+    assert real.force[-1] > 1.05 * a.force[-1]
+    with pytest.raises(ValueError, match="composite"):
+        EmbeddedSolver(spec, coarse).run(sensitivities=True)
