@@ -256,21 +256,42 @@ def _stretches(name: str, values: np.ndarray | None, n: int) -> np.ndarray:
     return v
 
 
+#: Cell size (mm) of the phantom's equibiaxial mesh between fibers; 2 cells across each fiber.
+EQUIBIAXIAL_CELL = 0.8
+
+
+def equibiaxial_phantom_mesh(spec: ModelSpec, cell: float = EQUIBIAXIAL_CELL) -> BlockMesh:
+    """The phantom's mesh for the equibiaxial stretch: uniform cells of about ``cell`` mm in x and
+    z with 2 across each fiber, one cell along y. The stretched block is invariant along the fibers
+    (y), so one cell there is exact; the indentation presets' grading toward the indenter is of
+    no use here, and their large far cells lock: on ``composite-coarse`` the transverse stress at
+    lambda = 1.03 is 14.3 kPa against 4.3 kPa here, 4.24 kPa with 0.4 mm cells and 4 across."""
+    from .composite_mesh import phantom_mesh
+    from .mesh_presets import CompositeMeshPreset
+
+    preset = CompositeMeshPreset(cell, 0.0, 2, spec.geometry.half_y, 0.0)
+    return phantom_mesh(spec.geometry, preset, name=f"equibiaxial, {cell:g} mm cells")
+
+
 def equibiaxial_stretch(
     spec: ModelSpec,
     max_stretch: float = 1.3,
     steps: int = 6,
     mesh: BlockMesh | None = None,
+    cell: float = EQUIBIAXIAL_CELL,
     **kwargs,
 ) -> BlockStretchResult:
     """Paper 2.9: stretch the spec's block (homogeneous or composite) equibiaxially in x and y
-    in ``steps`` equal steps to ``max_stretch``, the top free; no indenter."""
+    in ``steps`` equal steps to ``max_stretch``, the top free; no indenter. A composite is
+    stretched on :func:`equibiaxial_phantom_mesh` (``cell`` mm) unless ``mesh`` is given."""
     from .mesh import build_mesh
 
     if not (np.isfinite(max_stretch) and max_stretch > 1.0):
         raise ValueError(f"max_stretch must be a number > 1, got {max_stretch!r}")
     if int(steps) != steps or steps < 1:
         raise ValueError(f"steps must be a whole number >= 1, got {steps!r}")
+    if mesh is None and spec.composite is not None and not spec.mesh.feb_file:
+        mesh = equibiaxial_phantom_mesh(spec, cell)
     mesh = mesh if mesh is not None else build_mesh(spec)
     lam = 1.0 + (max_stretch - 1.0) * np.arange(1, steps + 1) / steps
     return stretch_block(mesh, element_moduli(spec, mesh), lam, lam, **kwargs)

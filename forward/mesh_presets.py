@@ -74,8 +74,9 @@ class CompositeMeshPreset:
 
 
 #: Composite phantom meshes: ``composite`` near the paper's 86,400 hex8 (2.4.2), ``composite-coarse``
-#: a few thousand nodes for tests.
+#: a few thousand nodes for tests. Two cells across each fiber: with one, the equibiaxial stretch
+#: locks (transverse stress at lambda = 1.03 twice that of finer meshes, and kappa-dependent).
 COMPOSITE_MESH_PRESETS: dict[str, CompositeMeshPreset] = {
-    "composite-coarse": CompositeMeshPreset(3.0, 0.15, 1, 3.0, 0.3),
+    "composite-coarse": CompositeMeshPreset(2.0, 0.15, 2, 4.0, 0.5),
     "composite": CompositeMeshPreset(0.7, 0.03, 2, 0.5, 0.07),
 }
