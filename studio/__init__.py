@@ -11,6 +11,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
             "corner_figure",
             "design_comparison_figure",
             "displacement_maps_figure",
+            "equibiaxial_figure",
             "force_depth_figure",
             "mesh_figure",
             "objective_map_figure",

@@ -19,6 +19,7 @@ from rich.table import Table
 from ..atomic_write import strict_json
 from ..forward.spec import SpecError
 from .campaign_cli import campaign_app
+from .composite_cli import composite_app
 from .design_cli import design_app
 from .import_cli import register as register_import
 from .inference_cli import register as register_inference
@@ -60,6 +61,7 @@ def _headless() -> None:
 
 
 app.add_typer(campaign_app, name="campaign")
+app.add_typer(composite_app, name="composite")
 app.add_typer(design_app, name="design")
 app.add_typer(surrogate_app, name="surrogate")
 register_inference(app)

@@ -229,6 +229,36 @@ def mesh_figure(nodes: np.ndarray, elements: np.ndarray, title: str = "") -> Fig
     return fig
 
 
+def equibiaxial_figure(
+    stretch: np.ndarray,
+    sigma_fiber: np.ndarray,
+    sigma_transverse: np.ndarray,
+    fit: dict[str, float] | None = None,
+    title: str = "",
+) -> Figure:
+    """Paper Fig. 14: true (Cauchy) stress against stretch under equibiaxial stretch, along the
+    fibers and across them (points: the composite FE model), with eq. 10a, 10b at the fitted
+    ``fit`` = {"c1": ..., "c5": ...} (kPa) as lines."""
+    from ..forward.material import equibiaxial_stress_incompressible
+
+    lam = np.asarray(stretch, dtype=float)
+    fig, ax = plt.subplots(figsize=(5.6, 4.2), constrained_layout=True)
+    ax.plot(lam, sigma_fiber, "o", ms=4, color="C0", label="FE, along the fibers")
+    ax.plot(lam, sigma_transverse, "s", ms=4, color="C1", label="FE, across the fibers")
+    if fit is not None:
+        grid = np.linspace(1.0, float(lam.max()), 200)
+        s11, s22 = equibiaxial_stress_incompressible(grid, fit["c1"], fit["c5"])
+        text = f"eq. 10, c1 = {fit['c1']:.2f}, c5 = {fit['c5']:.0f} kPa"
+        ax.plot(grid, s11, "-", color="C0", label=f"{text} (10a)")
+        ax.plot(grid, s22, "--", color="C1", label="(10b)")
+    ax.set_xlabel("stretch lambda")
+    ax.set_ylabel("true stress (kPa)")
+    ax.set_title(title or "equibiaxial stretch of the composite")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    return fig
+
+
 def save_figure(fig: Figure, path: str | Path, dpi: int = 130) -> Path:
     """Write ``fig`` as a PNG at ``path`` (atomically) and close it; returns the path."""
     path = Path(path)

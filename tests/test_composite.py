@@ -199,3 +199,36 @@ def test_embedded_solver_runs_the_composite_with_per_element_materials(coarse):
     assert real.force[-1] > 1.05 * a.force[-1]
     with pytest.raises(ValueError, match="composite"):
         EmbeddedSolver(spec, coarse).run(sensitivities=True)
+
+
+def test_cli_composite_equibiaxial_json_and_figure(tmp_path):
+    """``indent-studio composite equibiaxial --json``: the phantom's stresses, the eq. 10 fit and
+    eq. 11 beside it; ``--figure`` writes Fig. 14."""
+    import json
+
+    from typer.testing import CliRunner
+
+    from indentation_studio.studio.cli import app
+
+    png = tmp_path / "fig14.png"
+    args = ["composite", "equibiaxial", "--max-stretch", "1.02", "--steps", "2", "--cell", "2.0"]
+    out = CliRunner().invoke(app, [*args, "--figure", str(png), "--json"])
+    assert out.exit_code == 0, out.output
+    d = json.loads(out.stdout)
+    assert d["sigma_fiber_kPa"][-1] == pytest.approx(41.79, rel=1e-3)
+    assert d["sigma_transverse_kPa"][-1] == pytest.approx(3.072, rel=1e-3)
+    assert d["fit"]["values"]["c5"] == pytest.approx(1941.3, rel=1e-3)
+    assert d["eq11"]["c5"] == pytest.approx(0.07168 * 4718 + (1 - 0.07168) * 9.7, rel=1e-9)
+    assert png.is_file() and png.stat().st_size > 1000
+    bad = CliRunner().invoke(app, [*args[:2], "--max-stretch", "0.9", "--json"])
+    assert bad.exit_code != 0 and "max_stretch" in json.loads(bad.stdout)["error"]
+
+
+def test_equibiaxial_figure_draws_points_and_eq10():
+    from indentation_studio.studio.figures import equibiaxial_figure
+
+    lam = np.array([1.0, 1.1, 1.2])
+    fig = equibiaxial_figure(lam, [0.0, 100.0, 190.0], [0.0, 12.0, 23.0], {"c1": 12.0, "c5": 1500.0})
+    lines = fig.axes[0].get_lines()
+    assert len(lines) == 4
+    assert lines[2].get_ydata()[-1] == pytest.approx(2 * 12.0 * (1.2**2 - 1.2**-4) + 1500.0 * 0.2)
