@@ -225,9 +225,13 @@ class ConstrainedSymmetricSolver:
     def inverse_columns(self, dofs: np.ndarray) -> np.ndarray:
         """The columns ``dofs`` of the factorised matrix's inverse, A^-1 E (n, len(dofs)), each
         computed once per factorisation (one multi-right-hand-side back-substitution for those
-        not in hand yet). A column of a dof the factorisation constrains is zero."""
+        not in hand yet; the columns kept are dropped first where they would number more than
+        ``max_extra``). A column of a dof the factorisation constrains is zero."""
         dofs = np.asarray(dofs, dtype=np.int64)
         missing = np.unique(dofs[self._column_of[dofs] < 0])
+        if missing.size and self._W.shape[1] + missing.size > max(self.max_extra, np.unique(dofs).size):
+            self._reset_extra()  # at most max_extra columns kept: start again with those asked for
+            missing = np.unique(dofs)
         if missing.size:
             unit = np.zeros((self.pattern.n_dofs, missing.size))
             unit[missing, np.arange(missing.size)] = 1.0

@@ -84,6 +84,10 @@ FRICTION_NEWTON = 60
 #: factorisation when it moved by more than this fraction of the node's penalty: a node that came
 #: into contact, left it, or slips (EmbeddedSolver._contact_correction).
 CONTACT_BLOCK_CHANGE = 1e-3
+#: With friction, a step made with a fresh factorisation is GMRES on the tangent to this relative
+#: residual, in at most this many iterations (EmbeddedSolver._fresh_step).
+FRESH_RTOL = 1e-10
+FRESH_MAXITER = 50
 
 
 @contextlib.contextmanager
@@ -324,8 +328,22 @@ class EmbeddedSolver:
             x = self._krylov(K, cmask, rhs, rtol, self._krylov_maxiter())
             if x is not None:
                 return x
+        return self._fresh_step(K, cmask, rhs)
+
+    def _fresh_step(self, K: sp.csr_matrix, cmask: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+        """Solve K x = rhs with a factorisation of K made here: one back-substitution; with
+        friction GMRES on K itself, preconditioned with it, to ``FRESH_RTOL`` (the factorisation is
+        of K's symmetric part, its contact blocks put back by :meth:`_contact_correction` for at
+        most ``max_extra // 3`` nodes, and in single precision on large meshes)."""
         self._factorize(K, cmask)
-        return self._solve(rhs, cmask)
+        if self._tangent_symmetric:
+            return self._solve(rhs, cmask)
+        x = self._krylov(K, cmask, rhs, FRESH_RTOL, FRESH_MAXITER)
+        if x is None:
+            raise LinearSolveError(
+                f"GMRES on the friction tangent did not reach {FRESH_RTOL:g} after a factorisation"
+            )
+        return x
 
     def _solve(self, rhs: np.ndarray, cmask: np.ndarray) -> np.ndarray:
         """One back-substitution with the factorisation in hand, ``cmask``'s dofs held at zero."""
@@ -497,8 +515,7 @@ class EmbeddedSolver:
                     _, K, _ = self.assemble(u.reshape(-1, 3))
                 try:
                     if exact:  # the last step did not lower the residual: a factorisation here
-                        self._factorize(K, cmask)
-                        du = self._solve(r_free, cmask)
+                        du = self._fresh_step(K, cmask, r_free)
                     else:  # an inexact Newton step, as exact as the residual is far above the reactions
                         du = self._newton_step(K, cmask, r_free, KRYLOV_RTOL * min(1.0, ref / norm))
                 except LinearSolveError as exc:
@@ -637,7 +654,10 @@ class EmbeddedSolver:
                 c.status = wanted
             else:
                 raise _IncrementFailed("the contact set did not settle")
-            sens = self._friction_sensitivity(eq, cmask, c) if self._sensitivities else None
+            try:
+                sens = self._friction_sensitivity(eq, cmask, c) if self._sensitivities else None
+            except LinearSolveError as exc:  # an increment that fails, cut back like any other
+                raise _IncrementFailed(str(exc)) from exc
         finally:
             self._friction_state = None
         c.settle(eq.u[top], d1, sens[top] if sens is not None else None)

@@ -100,8 +100,9 @@ class ExperimentFit:
         if self.friction.mode == "assumed" and self.inputs.spec.contact.friction is None:
             out.append(
                 "the contact is assumed a perfect stick: fits of data made with mu = 0.3 put c5 28 to 34 % "
-                "low, outside their bounds (README, 'Friction'); fit with --friction marginalise (the FE "
-                "stage brings mu in) unless the stick is known to hold"
+                "low, outside their bounds (README, 'Friction'); unless the stick is known to hold, fit "
+                "with mu marginalised (--friction marginalise: the FE stage of a single-level surrogate, "
+                "without --check-mesh, or a surrogate trained with mu)"
             )
         same_model = "mu" in self.inputs.surrogate.parameters or self.friction.mode == "assumed"
         if self.refined and same_model and final.F > 0 and first.F > SURROGATE_MISS_RATIO * final.F:
@@ -202,8 +203,7 @@ def fit_experiment(
 
     ``friction`` (:class:`inference.friction_treatment.FrictionTreatment`, or its text: a value,
     'identify', 'marginalise[:LO:HI]', 'assumed') says how the fit treats the indenter's friction
-    coefficient mu; by default (None) it is marginalised wherever the fit can bring mu in
-    (:func:`default_friction`). On a surrogate trained with mu as a parameter (a campaign with a mu
+    coefficient mu; by default (None) as :func:`default_friction` says. On a surrogate trained with mu as a parameter (a campaign with a mu
     axis) the surrogate stage fits or holds mu too; on one without, that stage fits (c1, c5) with
     its contact as a start, and the FE stage (needed then) brings mu in."""
     say = say or (lambda message: None)
@@ -244,15 +244,16 @@ def fit_experiment(
 
 
 def default_friction(surrogate, fe_stage: bool = True) -> FrictionTreatment:
-    """How a fit treats mu when not told: marginalised (a log-uniform prior over the surrogate's mu
-    range, else 0.1 .. 3) wherever the fit can bring mu in, that is on a surrogate trained with mu,
-    or with the FE stage (``fe_stage``) of a single-level surrogate; else its contact assumed (no FE
-    stage, a mesh check, which is made with the stick, or a
-    multi-fidelity surrogate, whose FE stage is the high-fidelity mesh's Gauss-Newton check).
-    Why (README, "Friction"): on synthetic data made with mu = 0.3, 1, 3 and the perfect stick,
-    a perfect-stick fit put c5 28 to 34 % low at mu = 0.3, the truth outside its bounds, while the
-    marginalised fit held the truth at every mu; where nothing slips (mu >= 1) it gives the stick's
-    (c1, c5) and bounds, mu's interval then reaching the range's upper end."""
+    """How a fit treats mu when not told. On a surrogate trained with mu: marginalised (a
+    log-uniform prior over its mu range; it has no contact to assume). On one without: marginalised
+    over 0.1 .. 3 when the FE stage can bring mu in (``fe_stage``: the FE refinement and no mesh
+    check, which is made with the stick) and the surrogate is single-level (a multi-fidelity
+    surrogate's FE stage is the high-fidelity mesh's Gauss-Newton check, with its own model
+    error); else the surrogate's contact assumed, the fit warning what that costs.
+    Why (README, "Friction"): on synthetic data made with mu = 0.3, 1, 3 and the perfect stick
+    (two truths), a perfect-stick fit put c5 28 to 34 % low at mu = 0.3, the truth outside its
+    bounds, while the marginalised fit held the truth in every case; where nothing slips it gives
+    the stick's (c1, c5) and bounds, mu's interval then reaching the range's upper end."""
     if "mu" in surrogate.parameters or (fe_stage and not has_high_fidelity_level(surrogate)):
         return FrictionTreatment("marginalise")
     return FrictionTreatment()

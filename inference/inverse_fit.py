@@ -63,13 +63,13 @@ class _Stalled(Exception):
     pass
 
 
-#: A fit stops at its best point when F has not fallen by this fraction of itself in
+#: A fit stops at its best point when, after it has improved on its start, F has not fallen by
+#: this fraction of eq. 8's s^2 (the height of eq. 6's certainty region F - F_hat <= s^2) in
 #: ``STALL_EVALUATIONS`` evaluations in a row: an objective that is not smooth at the scale of the
 #: steps (friction's stick and slip statuses settle differently at parameters 1e-4 apart, F
-#: jumping by 15 %) otherwise holds Levenberg-Marquardt to its evaluation limit. 1e-5 of F is about
-#: a fiftieth of eq. 6's certainty region F - F_hat <= s^2 for the data sizes here (s^2 / F about
-#: 6e-4 with 10^4 residuals), so the best point lies within a tenth or so of a bound of the minimum.
-STALL_RTOL = 1e-5
+#: jumping by 15 %) otherwise holds Levenberg-Marquardt to its evaluation limit. A point within
+#: 0.01 s^2 of the minimum lies within a tenth of a bound of it (F is quadratic there).
+STALL_S2_FRACTION = 0.01
 STALL_EVALUATIONS = 8
 
 
@@ -100,7 +100,9 @@ def fit_parameters(
 
     good: dict[str, np.ndarray] = {}  # the last point whose model ran to the end
     best: dict[str, np.ndarray] = {}  # the lowest F among those
-    stall = {"F": np.inf, "since": 0}  # the F last fallen to by STALL_RTOL, evaluations since
+    # the F last fallen to by STALL_S2_FRACTION s^2, evaluations since, falls below the start's
+    stall = {"F": np.inf, "since": 0, "falls": 0}
+    n_data = objective.data_points(eta)
     failed: list[str] = []
     failed_at: set[bytes] = set()
 
@@ -130,11 +132,13 @@ def fit_parameters(
                 progress(len(history), np.exp(z), float(r @ r))
             if f_stop is not None and r @ r < f_stop:
                 raise _EarlyStop
-            if r @ r < stall["F"] * (1.0 - STALL_RTOL):
-                stall.update(F=float(r @ r), since=0)
+            F = float(r @ r)
+            s2 = s_from_data(F, n_data, z.size, alpha) ** 2 if n_data > z.size else 0.0
+            if F < stall["F"] - STALL_S2_FRACTION * s2:
+                stall.update(F=F, since=0, falls=stall["falls"] + int(np.isfinite(stall["F"])))
             else:
                 stall["since"] += 1
-                if stall["since"] >= STALL_EVALUATIONS:
+                if stall["falls"] > 0 and stall["since"] >= STALL_EVALUATIONS:
                     raise _Stalled
         return last["r"], last["J"]
 
@@ -164,8 +168,8 @@ def fit_parameters(
     except _Stalled:
         z = best["z"]
         message = (
-            f"stopped at the best point: F fell by less than {STALL_RTOL:g} of itself in "
-            f"{STALL_EVALUATIONS} evaluations (an objective not smooth at the steps' scale)"
+            f"stopped at the best point: F fell by less than {STALL_S2_FRACTION:g} s^2 in "
+            f"{STALL_EVALUATIONS} evaluations (an objective not smooth at the steps' scale, or at its minimum)"
         )
     if z.tobytes() in failed_at:
         z = best["z"]  # never report a point whose model did not run: the best one that did

@@ -32,8 +32,9 @@ FIT_FRICTION = Annotated[
     str | None,
     typer.Option(
         help="the indenter's friction coefficient mu: a value (known), identify (fitted with c1, c5) or "
-        "marginalise (a log-uniform prior; :LO:HI sets its range, default the surrogate's or 0.1..3); "
-        "default: the surrogate's contact"
+        "marginalise (a log-uniform prior; :LO:HI sets its range, default the surrogate's or 0.1..3) or "
+        "assumed (the surrogate's contact); default: marginalise where the fit can bring mu in (a "
+        "surrogate with mu, or the FE stage of a single-level surrogate without --check-mesh), else assumed"
     ),
 ]
 
@@ -41,7 +42,7 @@ POSTERIOR_FRICTION = Annotated[
     str | None,
     typer.Option(
         help="on a surrogate trained with mu: a value (known), marginalise (sampled, log-uniform prior; "
-        ":LO:HI its range) or identify (sampled, uniform prior)"
+        ":LO:HI its range; the default there) or identify (sampled, uniform prior)"
     ),
 ]
 
