@@ -86,7 +86,7 @@ FRICTION_NEWTON = 60
 CONTACT_BLOCK_CHANGE = 1e-3
 #: With friction, a step made with a fresh factorisation is GMRES on the tangent to this relative
 #: residual, in at most this many iterations (EmbeddedSolver._fresh_step).
-FRESH_RTOL = 1e-10
+FRESH_RTOL = 1e-8
 FRESH_MAXITER = 50
 
 
@@ -334,16 +334,15 @@ class EmbeddedSolver:
         """Solve K x = rhs with a factorisation of K made here: one back-substitution; with
         friction GMRES on K itself, preconditioned with it, to ``FRESH_RTOL`` (the factorisation is
         of K's symmetric part, its contact blocks put back by :meth:`_contact_correction` for at
-        most ``max_extra // 3`` nodes, and in single precision on large meshes)."""
+        most ``max_extra // 3`` nodes, and in single precision on large meshes), else that
+        factorisation's own step."""
         self._factorize(K, cmask)
         if self._tangent_symmetric:
             return self._solve(rhs, cmask)
         x = self._krylov(K, cmask, rhs, FRESH_RTOL, FRESH_MAXITER)
-        if x is None:
-            raise LinearSolveError(
-                f"GMRES on the friction tangent did not reach {FRESH_RTOL:g} after a factorisation"
-            )
-        return x
+        # where GMRES does not get there (a correction capped far below the contact set), the
+        # factorisation's own step, checked by the damped Newton's residual like any other
+        return x if x is not None else self._solve(rhs, cmask)
 
     def _solve(self, rhs: np.ndarray, cmask: np.ndarray) -> np.ndarray:
         """One back-substitution with the factorisation in hand, ``cmask``'s dofs held at zero."""
