@@ -31,6 +31,8 @@ class Confirmation:
     surrogate: Prediction
     mesh_check: MeshCheck | None = None
     check_mesh: str | None = None
+    #: the friction coefficient the FE run used (a fit with mu), None for the surrogate's contact
+    friction: float | None = None
 
     def to_dict(self) -> dict:
         """confirm.json: both objective values, the surrogate's largest errors, the mesh check."""
@@ -44,6 +46,7 @@ class Confirmation:
                 100 * (np.abs(sur.displacement[0] - fe.displacement[0]) / u_max).max()
             ),
             "solver": self.solver,
+            "contact": self.fe_spec.contact.describe(),
         }
         if self.mesh_check is not None:
             payload["mesh_check"] = self.mesh_check.to_dict(self.check_mesh)
@@ -51,9 +54,15 @@ class Confirmation:
             **self.inputs.sources,
             "theta": self.theta.tolist(),
             "weights": eta.tolist(),
-            "model": self.inputs.spec.to_dict(),
+            "model": self.fe_spec.to_dict(),
         }
         return payload
+
+    @property
+    def fe_spec(self):
+        """The model the FE run solved: the surrogate's, with the friction coefficient if given."""
+        spec = self.inputs.spec
+        return spec if self.friction is None else spec.with_friction(self.friction)
 
     def save(self, folder: str | Path) -> Path:
         """Write ``folder/confirm.json`` atomically (``posterior --mesh-check`` reads it)."""
@@ -69,18 +78,28 @@ def confirm(
     check_mesh: str | None = None,
     exclude_steps=(),
     say: Callable[[str], None] | None = None,
+    friction: float | None = None,
 ) -> Confirmation:
-    """Run the surrogate's FE model at ``theta`` (kPa) on ``solver`` (embedded or febio) and compare.
+    """Run the surrogate's FE model at ``theta`` = (c1, c5) (kPa) on ``solver`` (embedded or febio)
+    and compare. ``friction`` runs it with that Coulomb friction coefficient (the mu of a fit that
+    marginalised or identified it; fit.json's friction.mu) instead of the surrogate's contact.
     With ``check_mesh`` (embedded only) also the finer mesh's shift of the fit and its uncertainty."""
     inputs = prepare_fit(experiment, surrogate, weights, exclude_steps)
     theta = np.asarray(theta, float).reshape(-1)
+    if theta.size != 2:
+        raise ValueError(f"confirm takes theta = (c1, c5); give mu as friction, got {theta.tolist()}")
+    if friction is not None and not (np.isfinite(friction) and friction >= 0):
+        raise ValueError(f"friction: mu must be a number >= 0, got {friction!r}")
+    if friction is not None and check_mesh is not None:
+        raise ValueError("friction: the mesh check is made with the perfect stick; confirm without it")
+    spec = inputs.spec if friction is None else inputs.spec.with_friction(friction)
     check = None
     if check_mesh is None:
-        fe = FESolverPredictor(inputs.spec, solver=solver).predict(theta[None, :])
+        fe = FESolverPredictor(spec, solver=solver).predict(theta[None, :])
     else:
         if solver != "embedded":
             raise ValueError("the mesh check needs the embedded solver (exact sensitivities)")
         check, fe = check_mesh_at(inputs.spec, inputs.objective, inputs.eta, theta, check_mesh, say)
     return Confirmation(
-        inputs, theta, solver, fe, inputs.surrogate.predict(theta[None, :]), check, check_mesh
+        inputs, theta, solver, fe, inputs.surrogate.predict(theta[None, :]), check, check_mesh, friction
     )

@@ -218,18 +218,30 @@ def confirm(
     solver: Annotated[str, typer.Option(help="embedded or febio")] = "embedded",
     check_mesh: CHECK_MESH = None,
     exclude_steps: EXCLUDE = "",
+    friction: Annotated[
+        float | None,
+        typer.Option(help="run with this Coulomb mu (a fit that marginalised mu: fit.json's friction.mu)"),
+    ] = None,
     out: OUT = None,
     as_json: JSON = False,
 ) -> None:
     """FE confirmation of a fit: F(theta_hat) from an FE run, and how far the surrogate's prediction
-    is from that run. With --check-mesh, the parameter shift the finer mesh would give, the fit's
+    is from that run (with --friction, the FE run has that friction coefficient). With --check-mesh, the parameter shift the finer mesh would give, the fit's
     bounds with the mesh's uncertainty added, and the fit carried to the finer mesh. Written to
     confirm.json (``indent-studio posterior --mesh-check`` reads it)."""
     from ..inference.confirmation import confirm as confirm_fit
 
     try:
         result = confirm_fit(
-            experiment, surrogate, [c1, c5], _weights(weights), solver, check_mesh, _steps(exclude_steps), say
+            experiment,
+            surrogate,
+            [c1, c5],
+            _weights(weights),
+            solver,
+            check_mesh,
+            _steps(exclude_steps),
+            say,
+            friction,
         )
         path = result.save(out or Path(experiment) / "results")
     except (ValueError, OSError, RuntimeError) as exc:

@@ -204,3 +204,11 @@ def test_confirm_with_mesh_check_cli(campaigns, tmp_path):
     assert res.exit_code == 1 and "not" in json.loads(res.stdout)["error"]
     res = CliRunner().invoke(app, [*args, "--check-mesh", "coarse", "--json"])
     assert res.exit_code == 1 and "finer" in json.loads(res.stdout)["error"]
+    # a fit that marginalised mu is confirmed with its mu: the FE run has that contact
+    res = CliRunner().invoke(app, [*args, "--friction", "0.5", "--out", str(tmp_path / "c"), "--json"])
+    assert res.exit_code == 0, res.output
+    with_mu = json.loads(res.stdout)
+    assert with_mu["contact"] == "Coulomb friction mu = 0.5"
+    assert with_mu["inputs"]["model"]["contact"]["friction"] == 0.5
+    res = CliRunner().invoke(app, [*args, "--friction", "0.5", "--check-mesh", "default", "--json"])
+    assert res.exit_code == 1 and "perfect stick" in json.loads(res.stdout)["error"]
