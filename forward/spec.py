@@ -30,13 +30,18 @@ class SpecError(ValueError):
         super().__init__(f"{field_name}: {message}")
 
 
-def _finite_positive(name: str, value: float) -> float:
+def _finite(name: str, value: float) -> float:
     try:
         v = float(value)
     except (TypeError, ValueError) as exc:
         raise SpecError(name, f"must be a number, got {value!r}") from exc
     if not math.isfinite(v):
         raise SpecError(name, f"must be finite, got {value!r}")
+    return v
+
+
+def _finite_positive(name: str, value: float) -> float:
+    v = _finite(name, value)
     if v <= 0.0:
         raise SpecError(name, f"must be positive, got {value!r}")
     return v
@@ -137,16 +142,6 @@ class Material:
 #: (kappa = 1000 kPa, mu = 2 c1 = 20 kPa; Poisson's ratio 0.49), so that the composite and the
 #: model fitted to it are equally compressible.
 BULK_TO_SHEAR = 50.0
-
-
-def _finite(name: str, value: float) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError) as exc:
-        raise SpecError(name, f"must be a number, got {value!r}") from exc
-    if not math.isfinite(v):
-        raise SpecError(name, f"must be finite, got {value!r}")
-    return v
 
 
 @dataclass(frozen=True)
