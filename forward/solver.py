@@ -164,7 +164,6 @@ class EmbeddedSolver:
             single_precision=self.n_dofs >= SINGLE_PRECISION_DOFS,
             # with friction the factorisation is of the tangent's symmetric part; the contact
             # blocks' changes since (slip, nodes in or out) are put back by _contact_correction
-            symmetric=True,
         )
         #: whether the tangent is symmetric (CG) or not (GMRES): the slip tangent is unsymmetric
         self._tangent_symmetric = self.friction is None
@@ -172,6 +171,8 @@ class EmbeddedSolver:
         #: assembly, and (symmetrised) in the factorisation in hand
         self._contact_blocks: np.ndarray | None = None
         self._factored_contact_blocks: np.ndarray | None = None
+        #: the last contact correction with the blocks and the factorisation count it was made for
+        self._correction: tuple[np.ndarray, int, LowRankUpdate | None] | None = None
         self.linear_solver = self.linear.backend
         self.top = self.mesh.top
         top_z = float(self.mesh.nodes[:, 2].max())
@@ -366,6 +367,15 @@ class EmbeddedSolver:
             or self.linear.factor_mask is None
         ):
             return None
+        made = self._correction  # the same blocks and factorisation: the same correction
+        if made is not None and made[0] is self._contact_blocks and made[1] == self.stats["factorizations"]:
+            return made[2]
+        update = self._contact_update(cmask)
+        self._correction = (self._contact_blocks, self.stats["factorizations"], update)
+        return update
+
+    def _contact_update(self, cmask: np.ndarray) -> LowRankUpdate | None:
+        """:meth:`_contact_correction` made anew."""
         change = self._contact_blocks - self._factored_contact_blocks
         size = np.abs(change).max(axis=(1, 2)) / self._contact_eps
         nodes = np.flatnonzero(size > CONTACT_BLOCK_CHANGE)
