@@ -1,5 +1,6 @@
-"""Sparse solves for the Newton iterations, on one sparsity pattern per run: symmetric (the
-body and the stick contact) or unsymmetric (Coulomb friction's slip tangent).
+"""Sparse solves for the Newton iterations, on one sparsity pattern per run: symmetric matrices
+(the body and the stick contact; with Coulomb friction the tangent's symmetric part, its
+unsymmetric slip blocks put back by :class:`LowRankUpdate`).
 
 Constrained dofs (supports, symmetry planes, nodes stuck to the indenter) are eliminated by
 zeroing their rows and columns and putting 1 on the diagonal, so the pattern of the matrix never
@@ -7,7 +8,7 @@ changes during a run: the fill-reducing ordering and symbolic analysis are done 
 Newton iteration pays only the numerical factorisation and the solve.
 
 Backends (timings in the README, "Solver choices"): ``pardiso`` (MKL PARDISO through pypardiso,
-symmetric indefinite mode, or real unsymmetric with ``symmetric=False``) is the default;
+symmetric indefinite mode) is the default;
 ``superlu`` (scipy) is the fallback when MKL is not importable.
 
 A factorisation also serves systems with more dofs constrained than it was made with (nodes that
@@ -70,9 +71,6 @@ def default_backend() -> str:
 #: pivots perturbed by 1e-8, no scaling or weighted matching (the tangent is symmetric and well
 #: scaled), iterative refinement only after a perturbed pivot (README, "Solver choices").
 PARDISO_IPARM = {1: 1, 2: 2, 8: 0, 10: 8, 11: 0, 13: 0}
-#: ... and for unsymmetric matrices: pivots perturbed by 1e-13, scaling and matching on, as the
-#: MKL manual recommends for real unsymmetric matrices (mtype 11).
-PARDISO_IPARM_UNSYMMETRIC = {1: 1, 2: 2, 8: 0, 10: 13, 11: 1, 13: 1}
 
 
 def _mkl_runtime_beside_python() -> str | None:
@@ -89,8 +87,8 @@ def _mkl_runtime_beside_python() -> str | None:
     return None
 
 
-def _new_pardiso(symmetric: bool = True):
-    """A symmetric-indefinite (or real unsymmetric) PARDISO solver. pypardiso looks for MKL by walking the whole
+def _new_pardiso():
+    """A symmetric-indefinite PARDISO solver. pypardiso looks for MKL by walking the whole
     environment folder (about 0.4 s) unless ``PYPARDISO_MKL_RT`` names the library, so the
     library is looked up beside Python first, and the path the first solver of a process used
     is recorded there for the next ones (a campaign worker runs hundreds)."""
@@ -100,8 +98,8 @@ def _new_pardiso(symmetric: bool = True):
         found = _mkl_runtime_beside_python()
         if found is not None:
             os.environ["PYPARDISO_MKL_RT"] = found
-    solver = pypardiso.PyPardisoSolver(mtype=-2 if symmetric else 11)
-    for i, value in (PARDISO_IPARM if symmetric else PARDISO_IPARM_UNSYMMETRIC).items():
+    solver = pypardiso.PyPardisoSolver(mtype=-2)
+    for i, value in PARDISO_IPARM.items():
         solver.set_iparm(i, value)
     os.environ.setdefault("PYPARDISO_MKL_RT", solver.libmkl._name)
     return solver
@@ -116,16 +114,12 @@ class ConstrainedSymmetricSolver:
         backend: str | None = None,
         permanent: np.ndarray | None = None,
         single_precision: bool = False,
-        symmetric: bool = True,
     ) -> None:
         """``permanent`` (n,) marks dofs constrained for the whole run (supports, symmetry
         planes): they are dropped from the factorised system altogether. ``single_precision``
         (PARDISO only) factorises in float32 (iparm 28), about twice as fast: for callers that use
-        the factorisation as a preconditioner or in corrections checked by a residual.
-        ``symmetric=False`` factorises the whole matrix as it is (LU) instead of its upper
-        triangle."""
+        the factorisation as a preconditioner or in corrections checked by a residual."""
         self.pattern = pattern
-        self.symmetric = bool(symmetric)
         self.backend = backend or default_backend()
         if self.backend not in ("pardiso", "superlu"):
             raise ValueError(f"unknown linear solver {self.backend!r}; use 'pardiso' or 'superlu'")
@@ -179,15 +173,11 @@ class ConstrainedSymmetricSolver:
                 A = sp.csr_matrix(
                     (data[self._full_slots], self._full_indices, self._full_indptr), shape=(self.m, self.m)
                 )
-                self._lu = (
-                    spla.splu(
-                        A.tocsc(),
-                        permc_spec="MMD_AT_PLUS_A",
-                        diag_pivot_thresh=0.0,
-                        options={"SymmetricMode": True},
-                    )
-                    if self.symmetric
-                    else spla.splu(A.tocsc())
+                self._lu = spla.splu(
+                    A.tocsc(),
+                    permc_spec="MMD_AT_PLUS_A",
+                    diag_pivot_thresh=0.0,
+                    options={"SymmetricMode": True},
                 )
         except LinearSolveError:
             raise
@@ -216,7 +206,7 @@ class ConstrainedSymmetricSolver:
         key = extra.tobytes()
         if self._schur is None or self._schur[0] != key:
             S = W[extra]
-            self._schur = (key, sla.lu_factor(0.5 * (S + S.T) if self.symmetric else S))
+            self._schur = (key, sla.lu_factor(0.5 * (S + S.T)))
         lam = sla.lu_solve(self._schur[1], y[extra])
         y = y - W @ lam
         y[extra] = 0.0
@@ -242,13 +232,12 @@ class ConstrainedSymmetricSolver:
 
     def _factorize_pardiso(self, data: np.ndarray) -> None:
         if self._pardiso is None:
-            self._pardiso = _new_pardiso(self.symmetric)
+            self._pardiso = _new_pardiso()
             self._pardiso.set_iparm(28, int(self.single_precision))
-        if self.symmetric:  # PARDISO reads the upper triangle of a symmetric matrix
-            slots, indices, indptr = self._upper_slots, self._upper_indices, self._upper_indptr
-        else:
-            slots, indices, indptr = self._full_slots, self._full_indices, self._full_indptr
-        A = sp.csr_matrix((data[slots], indices, indptr), shape=(self.m, self.m))
+        # PARDISO reads the upper triangle of a symmetric matrix
+        A = sp.csr_matrix(
+            (data[self._upper_slots], self._upper_indices, self._upper_indptr), shape=(self.m, self.m)
+        )
         self._pardiso._check_A(A)  # pypardiso's checks want float64; PARDISO reads float32 if iparm 28
         if self.single_precision:
             A.data = A.data.astype(np.float32)
