@@ -15,6 +15,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
         "objective_over_plane": ["ObjectiveMap", "campaign_objective_map", "objective_map"],
         "experiment_choice": ["candidate_grid", "compare_designs"],
         "constituents": ["fit_equibiaxial", "rule_of_mixtures"],
+        "composite_homogenisation": ["CompositeHomogenisation", "composite_equibiaxial_fit"],
         "error_budget": [
             "ErrorBudget",
             "campaign_error_budget",

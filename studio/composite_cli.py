@@ -31,55 +31,22 @@ def equibiaxial(
 ) -> None:
     """Stretch the phantom equibiaxially (fibers along y, top free) and fit eq. 10 to its
     volume-averaged true stresses; eq. 11's rule of mixtures beside it."""
-    import time
-
-    from ..design.constituents import fit_equibiaxial, rule_of_mixtures
-    from ..forward.block_stretch import equibiaxial_phantom_mesh, equibiaxial_stretch
-    from ..forward.composite_mesh import PHANTOM
-    from ..forward.spec import CompositeMaterial, Constituent, ModelSpec, SpecError
+    from ..design.composite_homogenisation import composite_equibiaxial_fit
+    from ..forward.spec import SpecError
 
     try:
-        composite = CompositeMaterial()
-        if bulk_to_shear is not None:
-            composite = CompositeMaterial(
-                *(
-                    Constituent(c.name, c.c1, c.c2, c.c5, bulk_to_shear * c.shear_modulus)
-                    for c in composite.constituents
-                )
-            )
-        spec = ModelSpec.composite_phantom("composite-coarse", composite=composite)
-        mesh = equibiaxial_phantom_mesh(spec, cell)
-        t = time.perf_counter()
-        result = equibiaxial_stretch(spec, max_stretch, steps, mesh=mesh)
-        wall = time.perf_counter() - t
-        lam = result.stretch_x[1:]
-        fit = fit_equibiaxial(lam, result.sigma_fiber[1:], result.sigma_transverse[1:])
-        fvf = PHANTOM.fiber_volume_fraction(2 * spec.geometry.half_x, spec.geometry.height)
-        m, f = composite.matrix, composite.fibers
-        eq11 = rule_of_mixtures(m.shear_modulus, f.c1, f.c2, fvf)
+        done = composite_equibiaxial_fit(max_stretch, steps, cell, bulk_to_shear)
         if figure is not None:
             from .figures import equibiaxial_figure, save_figure
 
+            r = done.stretch
             save_figure(
-                equibiaxial_figure(result.stretch_x, result.sigma_fiber, result.sigma_transverse, fit.values),
-                figure,
+                equibiaxial_figure(r.stretch_x, r.sigma_fiber, r.sigma_transverse, done.fit.values), figure
             )
     except (SpecError, ValueError, RuntimeError, OSError) as exc:
         fail(str(exc), as_json)
-    payload = {
-        **result.to_dict(),
-        "fit": {
-            "values": fit.values,
-            "std_errors": fit.std_errors,
-            "rms_kPa": fit.rms_kPa,
-            "n_points": fit.n_points,
-        },
-        "eq11": {"c1": eq11[0], "c5": eq11[1], "fiber_volume_fraction": fvf},
-        "mesh": {"nodes": mesh.n_nodes, "elements": mesh.n_elements, "source": mesh.source},
-        "kappa_kPa": {c.name: c.kappa for c in composite.constituents},
-        "wall_s": wall,
-        "figure": str(figure) if figure is not None else None,
-    }
+    payload = done.to_dict() | {"figure": str(figure) if figure is not None else None}
+    fit, eq11, mesh, wall = done.fit, done.eq11, done.mesh, done.wall_s
     if as_json:
         print(strict_json(payload))
         return

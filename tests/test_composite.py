@@ -222,6 +222,12 @@ def test_cli_composite_equibiaxial_json_and_figure(tmp_path):
     assert png.is_file() and png.stat().st_size > 1000
     bad = CliRunner().invoke(app, [*args[:2], "--max-stretch", "0.9", "--json"])
     assert bad.exit_code != 0 and "max_stretch" in json.loads(bad.stdout)["error"]
+    # the command is one call of the library, which a notebook reaches as ins.design
+    import indentation_studio as ins
+
+    done = ins.design.composite_equibiaxial_fit(1.02, 2, 2.0)
+    assert done.fit.values == pytest.approx(d["fit"]["values"], rel=1e-9)
+    assert "not a 95 % bound" in d["fit"]["std_errors_include"]
 
 
 def test_equibiaxial_figure_draws_points_and_eq10():
