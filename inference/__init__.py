@@ -12,7 +12,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
         "synthetic_experiment": ["write_synthetic_experiment"],
         "inverse_fit": ["FitResult", "fit_parameters"],
         "fit_inputs": ["FitInputs", "prepare_fit"],
-        "experiment_fit": ["ExperimentFit", "fit_experiment"],
+        "experiment_fit": ["ExperimentFit", "default_friction", "fit_experiment"],
         "posterior": ["Posterior", "sample_posterior"],
         "model_error": [
             "ModelError",

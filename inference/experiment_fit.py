@@ -37,6 +37,7 @@ from .model_error import ModelError, combined_pct, has_high_fidelity_level, mode
 __all__ = [
     "ExperimentFit",
     "check_parameter_order",
+    "default_friction",
     "fit_experiment",
     "fit_on_surrogate_with_mu",
     "surrogate_with_mu",
