@@ -7,11 +7,13 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 
+import numpy as np
+
 from ..forward.block_mesh import BlockMesh
 from ..forward.block_stretch import BlockStretchResult, equibiaxial_phantom_mesh, equibiaxial_stretch
 from ..forward.composite_mesh import PHANTOM
 from ..forward.spec import CompositeMaterial, Constituent, ModelSpec
-from .constituents import Fit, fit_equibiaxial, rule_of_mixtures
+from .constituents import Fit, fit_equibiaxial, parallel_fiber_stresses, rule_of_mixtures
 
 __all__ = ["CompositeHomogenisation", "composite_equibiaxial_fit"]
 
@@ -27,6 +29,25 @@ class CompositeHomogenisation:
     eq11: tuple[float, float]
     fiber_volume_fraction: float
     wall_s: float
+
+    def parallel_fibers(self) -> dict:
+        """The stresses of :func:`design.constituents.parallel_fiber_stresses` at this stretch and
+        FVF, their largest relative gap to the FE's along the fibers, and eq. 10 fitted to them:
+        what an FE composite of continuous bonded fibers should give (and why eq. 11b's c5 is low)."""
+        m, f = self.composite.matrix, self.composite.fibers
+        lam = self.stretch.stretch_x[1:]
+        s11, s22 = parallel_fiber_stresses(lam, m.shear_modulus, f.c1, f.c2, self.fiber_volume_fraction)
+        fe11 = self.stretch.sigma_fiber[1:]
+        fit = fit_equibiaxial(lam, s11, s22) if lam.size >= 2 else None
+        return {
+            "sigma_fiber_kPa": s11.tolist(),
+            "sigma_transverse_kPa": s22.tolist(),
+            "fe_fiber_stress_max_rel_gap": float(np.max(np.abs(fe11 / s11 - 1.0))),
+            "eq10_fit": fit.values if fit is not None else None,
+            "small_strain_c5": float(
+                self.fiber_volume_fraction * (6.0 * (f.c1 + f.c2) - 6.0 * m.shear_modulus)
+            ),
+        }
 
     def to_dict(self) -> dict:
         return {
@@ -51,6 +72,7 @@ class CompositeHomogenisation:
                 "elements": self.mesh.n_elements,
                 "source": self.mesh.source,
             },
+            "parallel_fibers": self.parallel_fibers(),
             "kappa_kPa": {c.name: c.kappa for c in self.composite.constituents},
             "wall_s": self.wall_s,
         }

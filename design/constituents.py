@@ -2,6 +2,8 @@
 
 * :func:`rule_of_mixtures`: eq. 11a, 11b from the matrix's neo-Hookean shear modulus, the fibers'
   Mooney-Rivlin constants and the fiber volume fraction.
+* :func:`parallel_fiber_stresses`: the equibiaxial stresses the rule of mixtures of the
+  constituents' own stresses gives for continuous fibers (what an FE composite should approach).
 * :func:`fit_neo_hookean_uniaxial`: the matrix's mu from uniaxial tension (or compression) data.
 * :func:`fit_mooney_rivlin_uniaxial`: the fibers' (c1, c2) from uniaxial tension data.
 * :func:`fit_equibiaxial`: (c1, c5) of eq. 2 from equibiaxial stress-stretch data (eq. 10a, 10b),
@@ -47,6 +49,30 @@ def rule_of_mixtures(
     c1 = mu_matrix / 2.0
     c5 = fiber_volume_fraction * (c1_fiber + c2_fiber) + (1.0 - fiber_volume_fraction) * c1
     return float(c1), float(c5)
+
+
+def parallel_fiber_stresses(
+    stretch, mu_matrix: float, c1_fiber: float, c2_fiber: float, fiber_volume_fraction: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """The equibiaxial stresses of a block of continuous parallel fibers in a matrix, by the rule of
+    mixtures of the constituents' own stresses (Voigt along the fibers), incompressible, kPa.
+
+    Along the fibers (direction 1) the fibers and the matrix share the stretch: the matrix is in
+    equibiaxial tension, 2 c1_m (lam^2 - lam^-4) with c1_m = mu_m / 2 (the left side of eq. 10b),
+    while a thin fiber is free to contract across its axis (the soft matrix hardly holds it), so it
+    is in uniaxial tension, 2 (c1_f + c2_f / lam)(lam^2 - 1 / lam); sigma11 is their mix by volume.
+    Across the fibers sigma22 is the matrix's.
+
+    At small strain this gives sigma11 - sigma22 = FVF (6 (c1_f + c2_f) - 12 c1_m) (lam - 1): the
+    c5 of eq. 10a is the fibers' Young's modulus 3 mu_f = 6 (c1_f + c2_f) times FVF, where eq. 11b
+    takes FVF (c1_f + c2_f), six times less."""
+    lam = np.asarray(stretch, dtype=float)
+    if np.any(~np.isfinite(lam)) or np.any(lam <= 0):
+        raise ValueError("stretches must be positive finite numbers")
+    matrix = mu_matrix * (lam**2 - lam**-4.0)
+    fiber = 2.0 * (c1_fiber + c2_fiber / lam) * (lam**2 - 1.0 / lam)
+    s11 = fiber_volume_fraction * fiber + (1.0 - fiber_volume_fraction) * matrix
+    return s11, matrix
 
 
 def _clean(stretch, *stresses) -> tuple[np.ndarray, ...]:

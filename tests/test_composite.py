@@ -5,6 +5,7 @@ materials."""
 import numpy as np
 import pytest
 
+import indentation_studio as ins
 from indentation_studio.forward.composite_mesh import (
     FIBERS,
     MATRIX,
@@ -238,3 +239,27 @@ def test_equibiaxial_figure_draws_points_and_eq10():
     lines = fig.axes[0].get_lines()
     assert len(lines) == 4
     assert lines[2].get_ydata()[-1] == pytest.approx(2 * 12.0 * (1.2**2 - 1.2**-4) + 1500.0 * 0.2)
+
+
+def test_equibiaxial_fiber_stress_is_the_parallel_fiber_rule_of_mixtures():
+    """Along continuous bonded fibers the FE composite's averaged stress is the constituents'
+    own stresses mixed by volume (fibers in uniaxial tension, matrix equibiaxial), to within the
+    small lateral interaction; that is what puts eq. 10's c5 near FVF x 6 (c1_f + c2_f), not
+    eq. 11b's FVF x (c1_f + c2_f)."""
+    from indentation_studio.design.constituents import parallel_fiber_stresses
+
+    done = ins.design.composite_equibiaxial_fit(1.2, 4, 2.0)
+    lam = done.stretch.stretch_x[1:]
+    fvf = done.fiber_volume_fraction
+    s11, s22 = parallel_fiber_stresses(lam, 19.4, -1227.0, 5945.0, fvf)
+    # by hand at lambda = 1.2: fibers 2 (c1 + c2 / 1.2)(1.44 - 1 / 1.2), matrix 19.4 (1.44 - 1.2^-4)
+    fib = 2 * (-1227 + 5945 / 1.2) * (1.44 - 1 / 1.2)
+    mat = 19.4 * (1.44 - 1.2**-4)
+    assert s11[-1] == pytest.approx(fvf * fib + (1 - fvf) * mat, rel=1e-12)
+    assert s22[-1] == pytest.approx(mat, rel=1e-12)
+    gap = np.abs(done.stretch.sigma_fiber[1:] / s11 - 1.0)
+    assert gap.max() < 0.03
+    par = done.parallel_fibers()
+    assert par["fe_fiber_stress_max_rel_gap"] == pytest.approx(gap.max(), rel=1e-12)
+    assert par["small_strain_c5"] == pytest.approx(fvf * (6 * 4718 - 6 * 19.4), rel=1e-12)
+    assert done.fit.values["c5"] > 3 * done.eq11[1]
