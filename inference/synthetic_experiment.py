@@ -47,10 +47,61 @@ def write_synthetic_experiment(
     A step whose force the predictor gives as NaN (a recorded FEBio step off equilibrium) gets no
     force readings and is listed in experiment.json's 'excluded_steps'; ``source`` (e.g. the FEBio
     run it was made from) is recorded under 'synthetic'."""
+    pred = predictor.predict(np.asarray(theta, float)[None, :])
+    return write_experiment_from_model(
+        pred.force[0],
+        pred.displacement[0],
+        pred.top_xyz,
+        out_dir,
+        radius,
+        step_size,
+        truth=[float(v) for v in np.ravel(theta)],
+        model=_model_of(predictor, source),
+        u_noise=u_noise,
+        f_noise=f_noise,
+        points=points,
+        fov=fov,
+        fiber_angle_deg=fiber_angle_deg,
+        write_fiber_angle=write_fiber_angle,
+        frame_offset=frame_offset,
+        hold_s=hold_s,
+        seed=seed,
+        u_noise_mm=u_noise_mm,
+        misregistration_mm=misregistration_mm,
+        source=source,
+    )
+
+
+def write_experiment_from_model(
+    force: np.ndarray,
+    field: np.ndarray,
+    top: np.ndarray,
+    out_dir: str | Path,
+    radius: float,
+    step_size: float,
+    truth: list[float] | None,
+    model: dict | None,
+    u_noise: float = 0.02,
+    f_noise: float = 0.02,
+    points: int = 6000,
+    fov: float = 25.0,
+    fiber_angle_deg: float | None = 60.0,
+    write_fiber_angle: bool = True,
+    frame_offset=(3.0, -2.0, 12.0),
+    hold_s: float = 30.0,
+    seed: int = 0,
+    u_noise_mm: float | None = None,
+    misregistration_mm: float = 0.0,
+    source: dict | None = None,
+) -> Path:
+    """The experiment folder of one model run: ``force`` (steps,) mN of the whole specimen, ``field``
+    (steps, n_top, 3) the quarter model's top-node displacements at ``top`` (n_top, 3), as a DIC
+    system and a load cell would record them (module docstring; options as
+    :func:`write_synthetic_experiment`). ``truth`` is the (c1, c5) that made it, None where no
+    homogeneous parameters did (the composite phantom); ``model`` the spec of the model."""
     rng = np.random.default_rng(seed)
     out = Path(out_dir)
-    pred = predictor.predict(np.asarray(theta, float)[None, :])
-    force, field, top = pred.force[0], pred.displacement[0], pred.top_xyz
+    force, field, top = np.asarray(force, float), np.asarray(field, float), np.asarray(top, float)
     steps = len(force)
     # DIC points over the field of view in the model frame, the indenter's shadow removed
     r = fov * np.sqrt(rng.random(points))
@@ -104,7 +155,7 @@ def write_synthetic_experiment(
         "description": "synthetic",
         **({"excluded_steps": unknown} if unknown else {}),
         "synthetic": {
-            "theta": [float(v) for v in np.ravel(theta)],
+            "theta": truth,
             "u_noise": u_noise if u_noise_mm is None else None,
             "u_noise_mm": u_noise_mm,
             "misregistration_mm": cap_shift.tolist(),
@@ -114,7 +165,7 @@ def write_synthetic_experiment(
             "true_fiber_angle_deg": fiber_angle_deg,
             "frame_offset": offset.tolist(),
             "seed": seed,
-            "model": _model_of(predictor, source),
+            "model": model,
             **({"source": source} if source else {}),
         },
     }
