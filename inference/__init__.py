@@ -1,6 +1,6 @@
 """Inference: what is done after a test. Experiment data and its processing (eq. 9, registration,
 DIC to nodes), synthetic experiments, the inverse fit (2.8.2), posteriors, the model-error (mesh)
-check, the FE confirmation."""
+check, the FE confirmation, the composite phantom as an experiment."""
 
 import lazy_loader as lazy
 
@@ -9,7 +9,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
     submod_attrs={
         "experiment_data": ["ExperimentData", "ExperimentDataError", "load_experiment"],
         "experiment_processing": ["experiment_objective", "static_forces", "to_model_frame"],
-        "synthetic_experiment": ["write_synthetic_experiment"],
+        "synthetic_experiment": ["write_experiment_from_model", "write_synthetic_experiment"],
         "inverse_fit": ["FitResult", "fit_parameters"],
         "fit_inputs": ["FitInputs", "prepare_fit"],
         "experiment_fit": ["ExperimentFit", "default_friction", "fit_experiment"],
@@ -34,5 +34,11 @@ __getattr__, __dir__, __all__ = lazy.attach(
         "data_check": ["check_experiment"],
         "friction_treatment": ["FixedParameter", "FrictionTreatment", "friction_bounds"],
         "febio_experiment": ["RecordedRun", "experiment_from_febio_run", "febio_contact"],
+        "composite_experiment": [
+            "CompositeComparison",
+            "compare_with_homogeneous",
+            "composite_indentation",
+            "experiment_from_composite",
+        ],
     },
 )

@@ -259,6 +259,58 @@ def equibiaxial_figure(
     return fig
 
 
+def composite_comparison_figure(comparison, within_mm: float = 20.0, title: str = "") -> Figure:
+    """Paper Fig. 12, 13 for the composite phantom: (a) force against depth, the composite (points)
+    and the homogeneous model at the fitted (c1, c5) (line); (b, c) the composite's top-surface
+    uz and in-plane |u| at the last step over the full field (quarter mirrored); (d) uz of the
+    composite minus the homogeneous model's. The top layer's fibers (along y) are drawn as
+    dashed bands: they imprint the surface. ``comparison`` is an
+    :class:`inference.composite_experiment.CompositeComparison`."""
+    c = comparison
+    xy = c.top_xyz[:, :2]
+    keep = np.all(np.abs(xy) <= within_mm, axis=1)
+    x, y = xy[keep, 0], xy[keep, 1]
+    X = np.concatenate([x, -x, x, -x])
+    Y = np.concatenate([y, y, -y, -y])
+    uc = c.field_composite[-1][keep]
+    du = c.field_difference[-1][keep]
+    maps = [
+        ("composite uz (mm)", np.tile(uc[:, 2], 4), "viridis", None),
+        ("composite in-plane |u| (mm)", np.tile(np.hypot(uc[:, 0], uc[:, 1]), 4), "magma", None),
+        ("uz, composite - homogeneous (mm)", np.tile(du[:, 2], 4), "RdBu_r", "sym"),
+    ]
+    fig, axes = plt.subplots(1, 4, figsize=(18, 4.3), constrained_layout=True)
+    ax = axes[0]
+    ax.plot(c.depth, c.force_composite, "o", ms=4, color="C0", label="composite FE")
+    t1, t5 = c.theta
+    ax.plot(
+        c.depth, c.force_homogeneous, "-", lw=1.8, color="C3", label=f"homogeneous {{{t1:.2f}, {t5:.0f}}} kPa"
+    )
+    ax.set_xlabel("indentation depth (mm)")
+    ax.set_ylabel("indenter force, whole specimen (mN)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    for ax, (label, v, cmap, sym) in zip(axes[1:], maps, strict=True):
+        lim = float(np.nanmax(np.abs(v))) or 1.0
+        cs = ax.tricontourf(
+            X, Y, v, levels=21, cmap=cmap, vmin=-lim if sym else None, vmax=lim if sym else None
+        )
+        fig.colorbar(cs, ax=ax, label=label)
+        for lo, hi in c.fiber_bands:
+            if lo > within_mm:
+                continue
+            for a, b in ((lo, hi), (-hi, -lo)):
+                ax.axvline(a, color="w" if cmap != "RdBu_r" else "k", ls="--", lw=0.6, alpha=0.7)
+                ax.axvline(b, color="w" if cmap != "RdBu_r" else "k", ls="--", lw=0.6, alpha=0.7)
+        ax.set_xlim(-within_mm, within_mm)
+        ax.set_ylim(-within_mm, within_mm)
+        ax.set_aspect("equal")
+        ax.set_xlabel("x (mm)")
+        ax.set_ylabel("y (mm), fiber direction")
+    fig.suptitle(title or f"composite phantom at {c.depth[-1]:g} mm: top fibers dashed")
+    return fig
+
+
 def save_figure(fig: Figure, path: str | Path, dpi: int = 130) -> Path:
     """Write ``fig`` as a PNG at ``path`` (atomically) and close it; returns the path."""
     path = Path(path)

@@ -1,0 +1,223 @@
+"""The composite phantom as an experiment (paper 2.4.2, 3.3.1; Table 2's "Simulation" rows).
+
+The phantom's FE model (fibers and matrix as two materials, :mod:`forward.composite_mesh`) is
+indented with the paper's protocol; its indenter force and top-surface field become an experiment
+folder in the lab format (DIC-like points over a field of view, noise, a registration error:
+:func:`inference.synthetic_experiment.write_experiment_from_model`), which the studio's ``fit``
+identifies with the homogeneous model, surrogate and all, as the paper did. There is no true
+(c1, c5): experiment.json says so (``synthetic.theta`` null) and names the composite model.
+
+:func:`compare_with_homogeneous` puts the homogeneous model at a fitted (c1, c5) beside the
+composite: force against depth and the top-surface field, where the fibers show.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..forward.composite_mesh import PHANTOM
+from ..forward.mesh_study import top_field_interpolator
+from ..forward.result import SimulationResult
+from ..forward.simulation_run import run_simulation
+from ..forward.solver import EmbeddedSolver
+from ..forward.spec import Contact, Indenter, Material, MeshChoice, ModelSpec, Protocol, SolverOptions
+from .synthetic_experiment import write_experiment_from_model
+
+__all__ = [
+    "CompositeComparison",
+    "compare_with_homogeneous",
+    "composite_indentation",
+    "experiment_from_composite",
+    "top_fiber_bands",
+]
+
+#: The result file a composite experiment folder keeps beside the experiment.
+RESULT_FILE = "composite-result.npz"
+
+
+def composite_spec(
+    radius: float = 4.77,
+    preset: str = "composite",
+    steps: int = 28,
+    step_size: float = 0.5,
+    friction: float | None = None,
+    solver: SolverOptions | None = None,
+) -> ModelSpec:
+    """The phantom's indentation spec: its constituents (3.1) on the composite mesh ``preset``,
+    the sphere of ``radius``, ``steps`` x ``step_size`` mm, the paper's stick (or Coulomb mu)."""
+    return ModelSpec.composite_phantom(
+        preset,
+        indenter=Indenter(radius=radius),
+        protocol=Protocol(steps=steps, step_size=step_size),
+        contact=Contact(friction=friction),
+        **({"solver": solver} if solver is not None else {}),
+    )
+
+
+def composite_indentation(
+    out_dir: str | Path,
+    radius: float = 4.77,
+    preset: str = "composite",
+    steps: int = 28,
+    step_size: float = 0.5,
+    friction: float | None = None,
+    progress: Callable[[int, int, float], None] | None = None,
+    say: Callable[[str], None] | None = None,
+    **experiment_options,
+) -> tuple[SimulationResult, Path]:
+    """Indent the composite phantom (:func:`composite_spec`) on the embedded solver, keep the
+    result in ``out_dir``/composite-result.npz and write the experiment folder ``out_dir`` from it
+    (:func:`experiment_from_composite`, ``experiment_options`` passed on). A run that fails keeps
+    its finished steps in composite-result.partial.npz and raises SimulationError."""
+    out = Path(out_dir)
+    if (out / "experiment.json").exists() and not experiment_options.get("overwrite", False):
+        raise FileExistsError(f"{out}: an experiment is already there (overwrite=True replaces it)")
+    out.mkdir(parents=True, exist_ok=True)
+    spec = composite_spec(radius, preset, steps, step_size, friction)
+    run = run_simulation(spec, out / RESULT_FILE, progress=progress, say=say)
+    return run.result, experiment_from_composite(run.result, out, **experiment_options)
+
+
+def experiment_from_composite(
+    result: SimulationResult | str | Path,
+    out_dir: str | Path,
+    u_noise_mm: float = 0.02,
+    f_noise: float = 0.02,
+    misregistration_mm: float = 0.1,
+    fov: float = 25.0,
+    points: int = 6000,
+    fiber_angle_deg: float = 60.0,
+    seed: int = 0,
+    overwrite: bool = False,
+) -> Path:
+    """The experiment folder of a composite indentation (a SimulationResult or its .npz): its
+    force and top field as a lab records them (noise and registration error as
+    :func:`inference.febio_experiment.experiment_from_febio_run` by default). Refuses a result
+    that is not of the composite phantom, and an experiment folder already there (unless
+    ``overwrite``)."""
+    if not isinstance(result, SimulationResult):
+        result = SimulationResult.load(result)
+    if "composite" not in result.spec:
+        raise ValueError("not a composite phantom's result (its spec has no composite materials)")
+    out = Path(out_dir)
+    if (out / "experiment.json").exists() and not overwrite:
+        raise FileExistsError(f"{out}: an experiment is already there (overwrite=True replaces it)")
+    spec = ModelSpec.from_dict(result.spec)
+    if not np.all(np.isfinite(result.force)):
+        raise ValueError("the composite result has non-finite forces")
+    source = {
+        "solver": result.solver.get("name"),
+        "mesh": result.solver.get("mesh"),
+        "version": result.solver.get("version"),
+        "note": "the composite phantom (fibers and matrix): no homogeneous (c1, c5) made these data",
+    }
+    return write_experiment_from_model(
+        result.force[1:],
+        result.displacement[1:],
+        result.top_xyz,
+        out,
+        radius=spec.indenter.radius,
+        step_size=spec.protocol.step_size,
+        truth=None,
+        model=result.spec,
+        u_noise_mm=u_noise_mm,
+        f_noise=f_noise,
+        misregistration_mm=misregistration_mm,
+        fov=fov,
+        points=points,
+        fiber_angle_deg=fiber_angle_deg,
+        seed=seed,
+        source=source,
+    )
+
+
+def top_fiber_bands(result: SimulationResult) -> list[tuple[float, float]]:
+    """x-intervals (mm, quarter model) of the fibers in the top layer, which imprint the surface."""
+    spec = ModelSpec.from_dict(result.spec)
+    g = spec.geometry
+    centres = PHANTOM.x_centres(2 * g.half_x)
+    h = PHANTOM.fiber_size / 2
+    return [(float(c - h), float(c + h)) for c in centres if c > 0]
+
+
+@dataclass
+class CompositeComparison:
+    """The composite's force and top field beside the homogeneous model's at ``theta``."""
+
+    theta: tuple[float, float]
+    depth: np.ndarray
+    force_composite: np.ndarray
+    force_homogeneous: np.ndarray
+    top_xyz: np.ndarray
+    field_composite: np.ndarray
+    field_homogeneous: np.ndarray
+    homogeneous_mesh: str
+    fiber_bands: list[tuple[float, float]]
+
+    @property
+    def field_difference(self) -> np.ndarray:
+        """Composite minus homogeneous, (steps, n_top, 3) mm, at the composite's top nodes."""
+        return self.field_composite - self.field_homogeneous
+
+    def to_dict(self, within_mm: float = 25.0) -> dict:
+        """Force table, the relative force gap, and the field gap at the last step within
+        ``within_mm`` of the axis (the DIC field)."""
+        r = np.hypot(self.top_xyz[:, 0], self.top_xyz[:, 1])
+        near = r <= within_mm
+        diff = self.field_difference[-1][near]
+        f_c, f_h = self.force_composite, self.force_homogeneous
+        rel = np.divide(f_h - f_c, f_c, out=np.zeros_like(f_c), where=f_c != 0)
+        return {
+            "theta": {"c1": self.theta[0], "c5": self.theta[1]},
+            "depth_mm": self.depth.tolist(),
+            "force_composite_mN": f_c.tolist(),
+            "force_homogeneous_mN": f_h.tolist(),
+            "force_rel_gap_max": float(np.max(np.abs(rel[1:]))),
+            "force_rel_gap_last": float(rel[-1]),
+            "field_rms_gap_mm": {a: float(np.sqrt(np.mean(diff[:, j] ** 2))) for j, a in enumerate("xyz")},
+            "field_max_gap_mm": {a: float(np.max(np.abs(diff[:, j]))) for j, a in enumerate("xyz")},
+            "field_within_mm": within_mm,
+            "homogeneous_mesh": self.homogeneous_mesh,
+            "top_fiber_bands_x_mm": self.fiber_bands,
+        }
+
+
+def compare_with_homogeneous(
+    result: SimulationResult | str | Path,
+    theta,
+    mesh: str = "default",
+    progress: Callable[[int, int, float], None] | None = None,
+) -> CompositeComparison:
+    """Run the homogeneous model (eq. 3) at ``theta`` = (c1, c5) on the mesh ``mesh`` with the
+    composite result's indenter, protocol and contact, and put it beside the composite: forces, and
+    the homogeneous top field interpolated at the composite's top nodes."""
+    if not isinstance(result, SimulationResult):
+        result = SimulationResult.load(result)
+    c1, c5 = (float(v) for v in np.ravel(theta))
+    comp = ModelSpec.from_dict(result.spec)
+    spec = ModelSpec(
+        geometry=comp.geometry,
+        indenter=comp.indenter,
+        protocol=comp.protocol,
+        material=Material(c1=c1, c5=c5),
+        mesh=MeshChoice(preset=mesh),
+        contact=comp.contact,
+    )
+    hom = EmbeddedSolver(spec).run(progress=progress)
+    interp = top_field_interpolator(hom.top_xyz, np.moveaxis(hom.displacement, 0, 1))
+    field_h = np.moveaxis(interp(result.top_xyz), 0, 1)
+    return CompositeComparison(
+        theta=(c1, c5),
+        depth=result.depth,
+        force_composite=result.force,
+        force_homogeneous=hom.force,
+        top_xyz=result.top_xyz,
+        field_composite=result.displacement,
+        field_homogeneous=field_h,
+        homogeneous_mesh=mesh,
+        fiber_bands=top_fiber_bands(result),
+    )
