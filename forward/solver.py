@@ -7,7 +7,9 @@ tangent of the three-field hex8 (:mod:`forward.hex8_mean_dilatation`), starting 
 prescribed contact displacements into the body). The stick contact set
 (:mod:`forward.stick_contact`) is settled by re-solving until no free node penetrates the sphere
 and no attached node pulls on it. An increment that fails (no convergence, an inverted element,
-a contact set that does not settle) is cut in half, up to ``max_cutbacks`` times.
+a contact set that does not settle) is cut in half; the run fails when an increment of the
+step / 2^``max_cutbacks`` fails (or a step has failed ``CUTBACK_BUDGET`` x ``max_cutbacks``
+increments in all). After a converged increment the next is doubled, up to the step.
 
 With ``sensitivities=True`` the converged tangent of each step also gives d(force)/d(theta) and
 d(top displacements)/d(theta) for theta = (c1, c5): one extra back-substitution per parameter
@@ -55,6 +57,10 @@ class _IncrementFailed(Exception):
     pass
 
 
+#: A step may fail this many times ``max_cutbacks`` increments in all (halving and doubling back)
+#: before the run is given up: a hard stretch (the composite's matrix pinched between the sphere
+#: and a fiber) needs several small increments in a row, not one.
+CUTBACK_BUDGET = 4
 #: A correction keeps the current factorisation while the residual shrinks at least this much.
 REFACTOR_RATIO = 0.3
 #: ... and for at most this many corrections in a row.
@@ -809,7 +815,8 @@ class EmbeddedSolver:
                 except _IncrementFailed as exc:
                     log.debug("increment %.4g -> %.4g mm failed: %s", d, d + dd, exc)
                     rec["cutbacks"] += 1
-                    if rec["cutbacks"] > opts.max_cutbacks:
+                    smallest = dd <= nominal * 2.0**-opts.max_cutbacks * (1.0 + 1e-9)
+                    if smallest or rec["cutbacks"] > CUTBACK_BUDGET * max(opts.max_cutbacks, 1):
                         partial = self._result(
                             depths, forces, disp, conv, f_sens, u_sens, sensitivities, t_start
                         )

@@ -18,6 +18,7 @@ FIGURES = {
     "02_campaign_and_surrogates": 1,  # parity
     "03_experiment_design": 2,  # design comparison, Fig. 8
     "04_fitting_an_experiment": 1,  # corner
+    "05_composite_phantom": 2,  # Fig. 14, Fig. 12/13
 }
 
 
@@ -25,8 +26,8 @@ def _code(book) -> list[str]:
     return ["".join(c.source) for c in book.cells if c.cell_type == "code"]
 
 
-def test_there_are_four_notebooks_stored_without_outputs():
-    assert [p.name[:2] for p in NOTEBOOKS] == ["01", "02", "03", "04"]
+def test_there_are_five_notebooks_stored_without_outputs():
+    assert [p.name[:2] for p in NOTEBOOKS] == ["01", "02", "03", "04", "05"]
     for path in NOTEBOOKS:
         book = nbformat.read(path, as_version=4)
         assert all(not c.get("outputs") for c in book.cells if c.cell_type == "code"), path.name
