@@ -73,10 +73,12 @@ class CompositeMeshPreset:
     growth_y: float
 
 
-#: Composite phantom meshes: ``composite`` near the paper's 86,400 hex8 (2.4.2), ``composite-coarse``
-#: a few thousand nodes for tests. Two cells across each fiber: with one, the equibiaxial stretch
+#: Composite phantom meshes: ``composite`` near the paper's 86,400 hex8 (2.4.2), ``composite-medium``
+#: a third of it (its mesh-convergence partner: 1 mm cells at the indenter, 1 to 1.6 mm along the
+#: fibers), ``composite-coarse`` a few thousand nodes for tests. Two cells across each fiber: with one, the equibiaxial stretch
 #: locks (transverse stress at lambda = 1.03 twice that of finer meshes, and kappa-dependent).
 COMPOSITE_MESH_PRESETS: dict[str, CompositeMeshPreset] = {
     "composite-coarse": CompositeMeshPreset(2.0, 0.15, 2, 4.0, 0.5),
+    "composite-medium": CompositeMeshPreset(1.0, 0.06, 2, 1.0, 0.15),
     "composite": CompositeMeshPreset(0.7, 0.03, 2, 0.5, 0.07),
 }

@@ -67,7 +67,10 @@ def indent(
     out: Annotated[Path, typer.Option(help="experiment folder to write (the result is kept in it)")],
     radius: RADIUS = 4.77,
     mesh: Annotated[
-        str, typer.Option(help="composite mesh preset: composite (paper size) or composite-coarse")
+        str,
+        typer.Option(
+            help="composite mesh preset: composite (paper size), composite-medium or composite-coarse"
+        ),
     ] = "composite",
     steps: STEPS = 28,
     step_size: STEP_SIZE = 0.5,

@@ -69,7 +69,7 @@ STEP_SIZE = Annotated[float, typer.Option(help="depth per step, mm")]
 MESH = Annotated[
     str,
     typer.Option(
-        help="mesh preset: coarse, default, fine, reference; composite-coarse, composite: the composite "
+        help="mesh preset: coarse, default, fine, reference; composite-coarse, composite-medium, composite: the composite "
         "phantom (its constituents, not c1/c5)"
     ),
 ]
