@@ -227,7 +227,7 @@ def test_cli_composite_equibiaxial_json_and_figure(tmp_path):
     import indentation_studio as ins
 
     done = ins.design.composite_equibiaxial_fit(1.02, 2, 2.0)
-    assert done.fit.values == pytest.approx(d["fit"]["values"], rel=1e-9)
+    assert done.fit.values == pytest.approx(d["fit"]["values"], rel=1e-6)  # threads: 4e-9 seen
     assert "not a 95 % bound" in d["fit"]["std_errors_include"]
 
 
