@@ -157,6 +157,8 @@ class CompositeComparison:
     field_homogeneous: np.ndarray
     homogeneous_mesh: str
     fiber_bands: list[tuple[float, float]]
+    homogeneous_contact: dict | None = None
+    radius: float = 0.0
 
     @property
     def field_difference(self) -> np.ndarray:
@@ -165,9 +167,9 @@ class CompositeComparison:
 
     def to_dict(self, within_mm: float = 25.0) -> dict:
         """Force table, the relative force gap, and the field gap at the last step within
-        ``within_mm`` of the axis (the DIC field)."""
+        ``within_mm`` of the axis and outside the indenter's shadow (what DIC sees)."""
         r = np.hypot(self.top_xyz[:, 0], self.top_xyz[:, 1])
-        near = r <= within_mm
+        near = (r <= within_mm) & (r > self.radius)
         diff = self.field_difference[-1][near]
         f_c, f_h = self.force_composite, self.force_homogeneous
         rel = np.divide(f_h - f_c, f_c, out=np.zeros_like(f_c), where=f_c != 0)
@@ -181,7 +183,9 @@ class CompositeComparison:
             "field_rms_gap_mm": {a: float(np.sqrt(np.mean(diff[:, j] ** 2))) for j, a in enumerate("xyz")},
             "field_max_gap_mm": {a: float(np.max(np.abs(diff[:, j]))) for j, a in enumerate("xyz")},
             "field_within_mm": within_mm,
+            "field_outside_mm": self.radius,
             "homogeneous_mesh": self.homogeneous_mesh,
+            "homogeneous_contact": self.homogeneous_contact,
             "top_fiber_bands_x_mm": self.fiber_bands,
         }
 
@@ -191,10 +195,13 @@ def compare_with_homogeneous(
     theta,
     mesh: str = "default",
     progress: Callable[[int, int, float], None] | None = None,
+    friction: float | str | None = "composite",
 ) -> CompositeComparison:
     """Run the homogeneous model (eq. 3) at ``theta`` = (c1, c5) on the mesh ``mesh`` with the
-    composite result's indenter, protocol and contact, and put it beside the composite: forces, and
-    the homogeneous top field interpolated at the composite's top nodes."""
+    composite result's indenter and protocol, and put it beside the composite: forces, and the
+    homogeneous top field interpolated at the composite's top nodes. Its contact is the
+    composite's (``friction`` "composite"), or Coulomb's mu = ``friction`` (a fit's mu), None the
+    stick."""
     if not isinstance(result, SimulationResult):
         result = SimulationResult.load(result)
     c1, c5 = (float(v) for v in np.ravel(theta))
@@ -205,7 +212,7 @@ def compare_with_homogeneous(
         protocol=comp.protocol,
         material=Material(c1=c1, c5=c5),
         mesh=MeshChoice(preset=mesh),
-        contact=comp.contact,
+        contact=comp.contact if friction == "composite" else Contact(friction=friction),
     )
     hom = EmbeddedSolver(spec).run(progress=progress)
     interp = top_field_interpolator(hom.top_xyz, np.moveaxis(hom.displacement, 0, 1))
@@ -220,4 +227,6 @@ def compare_with_homogeneous(
         field_homogeneous=field_h,
         homogeneous_mesh=mesh,
         fiber_bands=top_fiber_bands(result),
+        homogeneous_contact={"friction": spec.contact.friction},
+        radius=comp.indenter.radius,
     )

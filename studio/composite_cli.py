@@ -143,6 +143,12 @@ def compare(
     c5: Annotated[float | None, typer.Option(help="homogeneous c5, kPa (default: --fit's)")] = None,
     fit: Annotated[Path | None, typer.Option(help="a fit.json whose (c1, c5) to use")] = None,
     mesh: Annotated[str, typer.Option(help="the homogeneous model's mesh preset")] = "default",
+    friction: Annotated[
+        float | None,
+        typer.Option(
+            help="the homogeneous model's Coulomb mu (default: --fit's mu, else the composite's contact)"
+        ),
+    ] = None,
     figure: Annotated[
         Path | None, typer.Option(help="write force-depth and displacement maps (Fig. 12, 13) here")
     ] = None,
@@ -161,9 +167,14 @@ def compare(
             values = json.loads(fit.read_text())
             c1 = values["c1"] if c1 is None else c1
             c5 = values["c5"] if c5 is None else c5
+            fitted = values.get("friction") or {}
+            if friction is None and fitted.get("treatment") != "assumed" and "mu" in fitted:
+                friction = float(fitted["mu"])  # the fit's mu: the model it fitted
         if c1 is None or c5 is None:
             raise ValueError("give --c1 and --c5, or --fit")
-        done = compare_with_homogeneous(result, (c1, c5), mesh)
+        done = compare_with_homogeneous(
+            result, (c1, c5), mesh, friction="composite" if friction is None else friction
+        )
         if figure is not None:
             from .figures import composite_comparison_figure, save_figure
 
