@@ -27,26 +27,15 @@ def write_synthetic_experiment(
     out_dir: str | Path,
     radius: float,
     step_size: float,
-    u_noise: float = 0.02,
-    f_noise: float = 0.02,
-    points: int = 6000,
-    fov: float = 25.0,
-    fiber_angle_deg: float | None = 60.0,
-    write_fiber_angle: bool = True,
-    frame_offset=(3.0, -2.0, 12.0),
-    hold_s: float = 30.0,
-    seed: int = 0,
-    u_noise_mm: float | None = None,
-    misregistration_mm: float = 0.0,
     source: dict | None = None,
+    **options,
 ) -> Path:
     """Simulate ``theta`` with ``predictor`` and write an experiment folder; returns its path.
-    Displacement noise is ``u_noise`` x max |u| per direction, or ``u_noise_mm`` mm when given;
-    ``misregistration_mm`` moves the indenter's cap by that much in a random in-plane direction, so
-    that the registration (the sphere fit) puts the indentation point that far from the truth.
-    A step whose force the predictor gives as NaN (a recorded FEBio step off equilibrium) gets no
-    force readings and is listed in experiment.json's 'excluded_steps'; ``source`` (e.g. the FEBio
-    run it was made from) is recorded under 'synthetic'."""
+    ``options`` are those of :func:`write_experiment_from_model` (noise, field of view, frame,
+    registration error, seed). A step whose force the predictor gives as NaN (a recorded FEBio
+    step off equilibrium) gets no force readings and is listed in experiment.json's
+    'excluded_steps'; ``source`` (e.g. the FEBio run it was made from) is recorded under
+    'synthetic'."""
     pred = predictor.predict(np.asarray(theta, float)[None, :])
     return write_experiment_from_model(
         pred.force[0],
@@ -57,18 +46,8 @@ def write_synthetic_experiment(
         step_size,
         truth=[float(v) for v in np.ravel(theta)],
         model=_model_of(predictor, source),
-        u_noise=u_noise,
-        f_noise=f_noise,
-        points=points,
-        fov=fov,
-        fiber_angle_deg=fiber_angle_deg,
-        write_fiber_angle=write_fiber_angle,
-        frame_offset=frame_offset,
-        hold_s=hold_s,
-        seed=seed,
-        u_noise_mm=u_noise_mm,
-        misregistration_mm=misregistration_mm,
         source=source,
+        **options,
     )
 
 
@@ -96,9 +75,12 @@ def write_experiment_from_model(
 ) -> Path:
     """The experiment folder of one model run: ``force`` (steps,) mN of the whole specimen, ``field``
     (steps, n_top, 3) the quarter model's top-node displacements at ``top`` (n_top, 3), as a DIC
-    system and a load cell would record them (module docstring; options as
-    :func:`write_synthetic_experiment`). ``truth`` is the (c1, c5) that made it, None where no
-    homogeneous parameters did (the composite phantom); ``model`` the spec of the model."""
+    system and a load cell would record them (module docstring). Displacement noise is
+    ``u_noise`` x max |u| per direction, or ``u_noise_mm`` mm when given; ``misregistration_mm``
+    moves the indenter's cap by that much in a random in-plane direction, so that the
+    registration (the sphere fit) puts the indentation point that far from the truth.
+    ``truth`` is the (c1, c5) that made it, None where no homogeneous parameters did (the
+    composite phantom); ``model`` the spec of the model."""
     rng = np.random.default_rng(seed)
     out = Path(out_dir)
     force, field, top = np.asarray(force, float), np.asarray(field, float), np.asarray(top, float)
