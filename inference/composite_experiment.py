@@ -25,7 +25,7 @@ from ..forward.result import SimulationResult
 from ..forward.simulation_run import run_simulation
 from ..forward.solver import EmbeddedSolver
 from ..forward.spec import Contact, Indenter, Material, MeshChoice, ModelSpec, Protocol, SolverOptions
-from .synthetic_experiment import write_experiment_from_model
+from .synthetic_experiment import LAB_RECORDING, write_experiment_from_model
 
 __all__ = [
     "CompositeComparison",
@@ -85,18 +85,14 @@ def composite_indentation(
 def experiment_from_composite(
     result: SimulationResult | str | Path,
     out_dir: str | Path,
-    u_noise_mm: float = 0.02,
-    f_noise: float = 0.02,
-    misregistration_mm: float = 0.1,
-    fov: float = 25.0,
-    points: int = 6000,
-    fiber_angle_deg: float = 60.0,
     seed: int = 0,
     overwrite: bool = False,
+    **recording,
 ) -> Path:
     """The experiment folder of a composite indentation (a SimulationResult or its .npz): its
-    force and top field as a lab records them (noise and registration error as
-    :func:`inference.febio_experiment.experiment_from_febio_run` by default). Refuses a result
+    force and top field as a lab records them (``recording``: options of
+    :func:`inference.synthetic_experiment.write_experiment_from_model`, by default
+    :data:`~inference.synthetic_experiment.LAB_RECORDING`). Refuses a result
     that is not of the composite phantom, and an experiment folder already there (unless
     ``overwrite``)."""
     if not isinstance(result, SimulationResult):
@@ -124,14 +120,9 @@ def experiment_from_composite(
         step_size=spec.protocol.step_size,
         truth=None,
         model=result.spec,
-        u_noise_mm=u_noise_mm,
-        f_noise=f_noise,
-        misregistration_mm=misregistration_mm,
-        fov=fov,
-        points=points,
-        fiber_angle_deg=fiber_angle_deg,
         seed=seed,
         source=source,
+        **(LAB_RECORDING | recording),
     )
 
 

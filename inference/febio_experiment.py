@@ -16,7 +16,7 @@ import numpy as np
 from ..forward.febio_readback import logged_block_material, read_febio_run
 from ..forward.predictor import Prediction, as_theta
 from ..forward.spec import Indenter, Material, MeshChoice, ModelSpec, Protocol
-from .synthetic_experiment import write_synthetic_experiment
+from .synthetic_experiment import LAB_RECORDING, write_synthetic_experiment
 
 __all__ = ["RecordedRun", "experiment_from_febio_run", "febio_contact"]
 
@@ -73,12 +73,12 @@ def experiment_from_febio_run(
     radius: float = 4.77,
     steps: int = 28,
     step_size: float = 0.5,
-    u_noise_mm: float = 0.02,
-    f_noise: float = 0.02,
-    misregistration_mm: float = 0.1,
-    fov: float = 25.0,
-    points: int = 6000,
-    fiber_angle_deg: float = 60.0,
+    u_noise_mm: float = LAB_RECORDING["u_noise_mm"],
+    f_noise: float = LAB_RECORDING["f_noise"],
+    misregistration_mm: float = LAB_RECORDING["misregistration_mm"],
+    fov: float = LAB_RECORDING["fov"],
+    points: int = LAB_RECORDING["points"],
+    fiber_angle_deg: float = LAB_RECORDING["fiber_angle_deg"],
     seed: int = 0,
     overwrite: bool = False,
 ) -> Path:

@@ -20,6 +20,18 @@ from ..atomic_write import atomic_write, atomic_write_json
 from ..forward.mesh_study import top_field_interpolator
 from .experiment_processing import rotation_to_fibers
 
+#: How a lab records a model run by default (the FEBio run's and the composite's experiments): 0.02 mm
+#: DIC noise, 2 % force noise, 0.1 mm misregistration, 6,000 points over a 25 mm field of view,
+#: fibers at 60 deg in the DIC frame (options of :func:`write_experiment_from_model`).
+LAB_RECORDING = {
+    "u_noise_mm": 0.02,
+    "f_noise": 0.02,
+    "misregistration_mm": 0.1,
+    "fov": 25.0,
+    "points": 6000,
+    "fiber_angle_deg": 60.0,
+}
+
 
 def write_synthetic_experiment(
     predictor,
