@@ -14,7 +14,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
         "weights": ["PAPER_HESSIAN", "compare_with_paper", "optimise_weights", "table1"],
         "objective_over_plane": ["ObjectiveMap", "campaign_objective_map", "objective_map"],
         "experiment_choice": ["candidate_grid", "compare_designs"],
-        "constituents": ["fit_equibiaxial", "rule_of_mixtures"],
+        "constituents": ["fit_equibiaxial", "parallel_fiber_stresses", "rule_of_mixtures"],
         "composite_homogenisation": ["CompositeHomogenisation", "composite_equibiaxial_fit"],
         "error_budget": [
             "ErrorBudget",

@@ -39,6 +39,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
             "compare_with_homogeneous",
             "composite_indentation",
             "experiment_from_composite",
+            "fitted_model",
         ],
     },
 )

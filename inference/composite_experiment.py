@@ -24,7 +24,7 @@ from ..forward.mesh_study import top_field_interpolator
 from ..forward.result import SimulationResult
 from ..forward.simulation_run import run_simulation
 from ..forward.solver import EmbeddedSolver
-from ..forward.spec import Contact, Indenter, Material, MeshChoice, ModelSpec, Protocol, SolverOptions
+from ..forward.spec import Contact, Indenter, Material, MeshChoice, ModelSpec, Protocol
 from .synthetic_experiment import LAB_RECORDING, write_experiment_from_model
 
 __all__ = [
@@ -32,6 +32,7 @@ __all__ = [
     "compare_with_homogeneous",
     "composite_indentation",
     "experiment_from_composite",
+    "fitted_model",
     "top_fiber_bands",
 ]
 
@@ -45,7 +46,6 @@ def composite_spec(
     steps: int = 28,
     step_size: float = 0.5,
     friction: float | None = None,
-    solver: SolverOptions | None = None,
 ) -> ModelSpec:
     """The phantom's indentation spec: its constituents (3.1) on the composite mesh ``preset``,
     the sphere of ``radius``, ``steps`` x ``step_size`` mm, the paper's stick (or Coulomb mu)."""
@@ -54,7 +54,6 @@ def composite_spec(
         indenter=Indenter(radius=radius),
         protocol=Protocol(steps=steps, step_size=step_size),
         contact=Contact(friction=friction),
-        **({"solver": solver} if solver is not None else {}),
     )
 
 
@@ -148,8 +147,8 @@ class CompositeComparison:
     field_homogeneous: np.ndarray
     homogeneous_mesh: str
     fiber_bands: list[tuple[float, float]]
-    homogeneous_contact: dict | None = None
-    radius: float = 0.0
+    homogeneous_contact: dict
+    radius: float
 
     @property
     def field_difference(self) -> np.ndarray:
@@ -179,6 +178,21 @@ class CompositeComparison:
             "homogeneous_contact": self.homogeneous_contact,
             "top_fiber_bands_x_mm": self.fiber_bands,
         }
+
+
+def fitted_model(fit: str | Path | dict) -> tuple[tuple[float, float], float | None]:
+    """(c1, c5) of a fit (its fit.json, or that dict) and its mu (held, identified or
+    marginalised; None where the surrogate's contact was assumed): the homogeneous model it found."""
+    import json
+
+    values = json.loads(Path(fit).read_text()) if not isinstance(fit, dict) else fit
+    try:
+        theta = (float(values["c1"]), float(values["c5"]))
+    except KeyError as exc:
+        raise ValueError(f"{fit if not isinstance(fit, dict) else 'the fit'}: no {exc} in it") from exc
+    friction = values.get("friction") or {}
+    mu = friction.get("mu") if friction.get("treatment") != "assumed" else None
+    return theta, None if mu is None else float(mu)
 
 
 def compare_with_homogeneous(

@@ -87,18 +87,24 @@ def indent(
     ``indent-studio fit --experiment OUT`` identifies with the homogeneous model."""
     import time
 
+    from ..forward.result import SimulationResult
     from ..forward.solver import SimulationError
     from ..forward.spec import SpecError
-    from ..inference.composite_experiment import composite_indentation, experiment_from_composite
+    from ..inference.composite_experiment import (
+        RESULT_FILE,
+        composite_indentation,
+        experiment_from_composite,
+    )
 
     t0 = time.perf_counter()
     try:
         if from_result is not None:
-            folder = experiment_from_composite(from_result, out, seed=seed, overwrite=overwrite)
+            result = SimulationResult.load(from_result)
+            folder = experiment_from_composite(result, out, seed=seed, overwrite=overwrite)
             result_file = from_result
         else:
             with step_progress(err, "composite indentation", steps) as bar:
-                _, folder = composite_indentation(
+                result, folder = composite_indentation(
                     out,
                     radius,
                     mesh,
@@ -110,12 +116,9 @@ def indent(
                     seed=seed,
                     overwrite=overwrite,
                 )
-            result_file = out / "composite-result.npz"
+            result_file = out / RESULT_FILE
     except (SpecError, ValueError, FileExistsError, SimulationError, OSError) as exc:
         fail(str(exc), as_json)
-    from ..forward.result import SimulationResult
-
-    result = SimulationResult.load(result_file)
     payload = {
         "experiment": str(folder),
         "result_file": str(result_file),
@@ -160,16 +163,14 @@ def compare(
 
     from ..forward.solver import SimulationError
     from ..forward.spec import SpecError
-    from ..inference.composite_experiment import compare_with_homogeneous
+    from ..inference.composite_experiment import compare_with_homogeneous, fitted_model
 
     try:
-        if fit is not None and (c1 is None or c5 is None):
-            values = json.loads(fit.read_text())
-            c1 = values["c1"] if c1 is None else c1
-            c5 = values["c5"] if c5 is None else c5
-            fitted = values.get("friction") or {}
-            if friction is None and fitted.get("treatment") != "assumed" and "mu" in fitted:
-                friction = float(fitted["mu"])  # the fit's mu: the model it fitted
+        if fit is not None:
+            (c1_fit, c5_fit), mu_fit = fitted_model(fit)
+            c1 = c1_fit if c1 is None else c1
+            c5 = c5_fit if c5 is None else c5
+            friction = mu_fit if friction is None else friction  # the model the fit found
         if c1 is None or c5 is None:
             raise ValueError("give --c1 and --c5, or --fit")
         done = compare_with_homogeneous(

@@ -115,3 +115,16 @@ def test_cli_composite_indent_and_compare(coarse_run, tmp_path):
     assert png.stat().st_size > 10_000
     bad = CliRunner().invoke(app, [*args[:4], "--json"])
     assert bad.exit_code != 0 and "--c1" in json.loads(bad.stdout)["error"]
+
+
+def test_fitted_model_reads_theta_and_the_mu_the_fit_used(tmp_path):
+    from indentation_studio.inference.composite_experiment import fitted_model
+
+    marg = {"c1": 13.78, "c5": 243.7, "friction": {"treatment": "marginalise", "mu": 0.209}}
+    assert fitted_model(marg) == ((13.78, 243.7), 0.209)
+    assumed = {"c1": 12.14, "c5": 614.4, "friction": {"treatment": "assumed", "contact": "stick"}}
+    path = tmp_path / "fit.json"
+    path.write_text(json.dumps(assumed))
+    assert fitted_model(path) == ((12.14, 614.4), None)
+    with pytest.raises(ValueError, match="'c5'"):
+        fitted_model({"c1": 1.0})
