@@ -157,9 +157,9 @@ def _frame_times(dic: DICSeries, choice: FrameChoice) -> np.ndarray | None:
 
 def _forces(
     protocol: ProtocolInfo, source: ForceSource
-) -> tuple[pd.DataFrame, np.ndarray | None, list, float]:
+) -> tuple[pd.DataFrame, np.ndarray | None, list, float, dict]:
     """The hold readings (step, time_s, force_mN), the hold windows on the record's clock (or None)
-    the holds as dicts and the tare."""
+    the holds as dicts, the tare and what the record said of the contact point and the drift."""
     if (source.load_frame is None) == (source.force_csv is None):
         raise ExperimentDataError(
             "give the force as either a load-frame record or a force.csv, not both or neither"
@@ -168,7 +168,7 @@ def _forces(
         path = Path(source.force_csv)
         table = read_table(path)
         columns = {c: find_column(table, c, path) for c in ("step", "time_s", "force_mN")}
-        return table.rename(columns={v: k for k, v in columns.items()}), None, [], 0.0
+        return table.rename(columns={v: k for k, v in columns.items()}), None, [], 0.0, {}
     record = read_load_frame(source.load_frame, source.columns)
     search = find_holds(
         record,
@@ -186,7 +186,19 @@ def _forces(
     windows = np.full((protocol.steps, 2), np.nan)  # a missing (excluded) step's hold stays NaN
     for h in search.holds:
         windows[h.step - 1] = (h.start_s, h.end_s)
-    return hold_force_table(record, search), windows, [h.to_dict() for h in search.holds], search.tare_mN
+    info = {
+        "contact_position_mm": search.contact_position_mm,
+        "contact_from": search.contact_from,
+        "drift_mN_per_s": search.drift_mN_per_s,
+        "notes": list(record.notes) + list(search.notes),
+    }
+    return (
+        hold_force_table(record, search),
+        windows,
+        [h.to_dict() for h in search.holds],
+        search.tare_mN,
+        info,
+    )
 
 
 def _save_npz(path: Path, **arrays: np.ndarray) -> None:
@@ -243,7 +255,7 @@ def import_experiment(
     source_format: str = "",
 ) -> ImportResult:
     """Assemble and write an experiment folder from a read DIC export (module docstring)."""
-    table, windows, holds, tare = _forces(protocol, force)
+    table, windows, holds, tare, record_info = _forces(protocol, force)
     if frames.frames is not None:
         index = frames_by_list(dic, frames.frames, protocol.steps)
     elif windows is not None:
@@ -272,6 +284,7 @@ def import_experiment(
             "force_source": str(force.load_frame or force.force_csv),
             "holds": holds,
             "tare_mN": tare,
+            "load_frame": record_info,
             "indenter_source": str(indenter.path),
             "notes": dic.notes,
         },
@@ -353,6 +366,6 @@ def import_load_frame(
     """The load frame's record cut into the protocol's holds, written as a ``force.csv`` in the
     format's hold form; returns the holds (rows, times, depth, eq. 9 fit) and the tare."""
     source = replace(force, load_frame=Path(record), force_csv=None)
-    table, _, holds, tare = _forces(protocol, source)
+    table, _, holds, tare, info = _forces(protocol, source)
     atomic_write(Path(out_csv), table.to_csv(index=False))
-    return {"force_csv": str(out_csv), "holds": holds, "tare_mN": tare, "readings": len(table)}
+    return {"force_csv": str(out_csv), "holds": holds, "tare_mN": tare, "readings": len(table), **info}

@@ -2,19 +2,21 @@
 protocol, each assigned its step and fitted with eq. 9 (paper 2.7).
 
 The stage moves by one step, stops, and holds while the force relaxes; the balance or load cell
-reads all along. A reading belongs to a hold when the depth (position from the contact position,
-signed so that it grows into the specimen) sits within ``level_tol`` step sizes of a whole number
-k of steps; a run of such readings at one k lasting at least ``min_hold_s`` and standing still
-(its depth spanning at most half that tolerance) is step k's hold.
-A run that stands still elsewhere (off every level) is a slipped step and an error naming its
-rows; so are a hold beyond the protocol, a step held twice, and a count of holds that differs from
-the protocol's steps (both counts named). The readings before step 1 (depth 0) tare the force
-when there are enough of them.
+reads all along, at any rate (1 Hz .. 1 kHz). The depth is the position from the contact point
+(given, or where the force leaves its unloaded baseline), signed so that it grows into the
+specimen. A run of readings whose depth sits within ``level_tol`` step sizes of a whole number k
+of steps is trimmed to the stretch where the stage stood still (:mod:`.hold_detection`: within a
+band of a few times the position's noise, so a ramp's readings never count in a hold); lasting at
+least ``min_hold_s`` it is step k's hold. A stretch that stands still elsewhere (off every level)
+is a slipped step and an error naming its rows; so are a hold beyond the protocol, a step held
+twice, and a count of holds that differs from the protocol's steps (both counts named, and the
+levels and durations where the stage did stand still). The readings before step 1 (depth 0) tare
+the force; unloaded readings after the last hold give the load cell's drift, taken off.
 """
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -23,10 +25,10 @@ import pandas as pd
 from .experiment_data import ExperimentDataError
 from .experiment_processing import RelaxationFit, relaxation_fit
 from .hold_checks import check_hold_forces
+from .hold_detection import OFF, describe_stretches, force_onset, still_stretches
 from .table_columns import find_column, numeric_column, read_table
 from .units import resolve_unit
 
-_OFF = -(10**9)  # the label of a reading off every level
 _TIME_NAMES = ("time", "t", "elapsed")
 _POSITION_NAMES = ("position", "pos", "displacement", "disp", "depth", "extension", "z", "stage")
 _FORCE_NAMES = ("force", "load", "f", "weight", "mass", "reading")
@@ -52,6 +54,7 @@ class LoadFrameRecord:
     position_mm: np.ndarray
     force_mN: np.ndarray
     columns: dict[str, str]
+    notes: list[str] = field(default_factory=list)
 
 
 @dataclass
@@ -112,14 +115,6 @@ def read_load_frame(path: str | Path, columns: LoadFrameColumns = LoadFrameColum
     return LoadFrameRecord(path, t, p, f, {"time": t_col, "position": p_col, "force": f_col})
 
 
-def _runs(labels: np.ndarray) -> list[tuple[int, int, int]]:
-    """(label, first, last) of each maximal run of equal labels."""
-    edges = np.flatnonzero(np.diff(labels) != 0)
-    starts = np.concatenate([[0], edges + 1])
-    ends = np.concatenate([edges, [len(labels) - 1]])
-    return [(int(labels[a]), int(a), int(b)) for a, b in zip(starts, ends, strict=True)]
-
-
 @dataclass
 class HoldSearch:
     holds: list[Hold]
@@ -127,6 +122,23 @@ class HoldSearch:
     position_sign: float
     force_sign: float
     contact_position_mm: float
+    contact_from: str = "given"  # "given", "force onset" or "first reading"
+    drift_mN_per_s: float = 0.0  # the load cell's drift, from the unloaded readings before and after
+    tare_time_s: float = 0.0  # the time the tare was read at (the drift's origin)
+    notes: list[str] = field(default_factory=list)
+
+    def baseline(self, t: np.ndarray) -> np.ndarray:
+        """The unloaded reading at times ``t``: the tare and the drift since it was read."""
+        return self.tare_mN + self.drift_mN_per_s * (np.asarray(t, float) - self.tare_time_s)
+
+
+def _contact(record: LoadFrameRecord, given: float | None) -> tuple[float, str]:
+    if given is not None:
+        return float(given), "given"
+    i = force_onset(record.force_mN, record.time_s)
+    if i is None:
+        return float(record.position_mm[0]), "first reading"
+    return float(record.position_mm[i]), "force onset"
 
 
 def find_holds(
@@ -141,16 +153,20 @@ def find_holds(
     min_hold_s: float = 5.0,
     tare: bool = True,
     excluded_steps: tuple[int, ...] = (),
+    drift: bool = True,
 ) -> HoldSearch:
     """The protocol's holds in ``record`` (module docstring), each fitted with eq. 9.
 
-    ``contact_position_mm`` is the position at zero depth (default: the first reading);
-    ``position_sign`` +1 when the position grows into the specimen, -1 when it falls (default: the
-    sign of the largest excursion); ``force_sign`` makes compression positive (default: the sign
-    of the force at the deepest hold). A step of ``excluded_steps`` may have no hold and its
-    readings are not checked."""
+    ``contact_position_mm`` is the position at zero depth (default: where the force leaves its
+    unloaded baseline, :func:`.hold_detection.force_onset`; the first reading when it never
+    does); ``position_sign`` +1 when the position grows into the specimen, -1 when it falls
+    (default: the sign of the largest excursion); ``force_sign`` makes compression positive
+    (default: the sign of the force at the deepest hold). A step of ``excluded_steps`` may have no
+    hold and its readings are not checked. With ``drift``, unloaded readings after the last hold
+    (the indenter withdrawn to the contact point or above) give the load cell's drift since the
+    tare, which is taken off every reading (linear in time)."""
     where = str(record.path)
-    p0 = float(record.position_mm[0] if contact_position_mm is None else contact_position_mm)
+    p0, contact_from = _contact(record, contact_position_mm)
     excursion = record.position_mm - p0
     sign = float(
         position_sign if position_sign is not None else np.sign(excursion[np.argmax(np.abs(excursion))])
@@ -158,70 +174,82 @@ def find_holds(
     if sign == 0:
         raise ExperimentDataError(f"{where}: the position never changes: no hold found")
     depth = sign * excursion
-    level = np.rint(depth / step_size)
-    on_level = np.abs(depth - level * step_size) <= level_tol * step_size
-    labels = np.where(on_level, level, _OFF).astype(np.int64)
     t = record.time_s
-    still = 0.5 * level_tol * step_size  # a hold stands still: its depth spans no more than this
-    runs = [
-        (k, a, b)
-        for k, a, b in _runs(labels)
-        if t[b] - t[a] >= min_hold_s and (b - a + 1) >= 4 and (k == _OFF or np.ptp(depth[a : b + 1]) <= still)
-    ]
+    stretches = still_stretches(t, depth, step_size, level_tol)
+    held = [(k, s) for k, s in stretches if s.duration_s >= min_hold_s and s.readings >= 4]
+    seen = [(k, s) for k, s in stretches if s.duration_s >= min(1.0, min_hold_s) and s.readings >= 4]
+    saw = (
+        f"the stage stood still at {describe_stretches([x for x in seen if x[1].depth_mm > -step_size])} "
+        f"(depths from the contact at {p0:g} mm, {contact_from})"
+    )
     # a stretch that stands still off every level: a step that slipped or stopped short
-    for k, a0, b0 in _runs(labels):
-        if k != _OFF:
-            continue
-        moving = (np.abs(np.diff(depth[a0 : b0 + 1])) > still).astype(int)
-        pieces = [(a0 + i, a0 + j + 1) for m, i, j in _runs(moving) if m == 0] if moving.size else []
-        for a, b in pieces:
-            d = float(np.median(depth[a : b + 1]))
-            if t[b] - t[a] < min_hold_s or np.ptp(depth[a : b + 1]) > still or not 0 < d < steps * step_size:
-                continue
+    for k, s in held:
+        if k == OFF and 0 < s.depth_mm < steps * step_size:
+            d = s.depth_mm
             raise ExperimentDataError(
-                f"{where}: rows {a + 2}..{b + 2} (t = {t[a]:g} .. {t[b]:g} s) hold at depth {d:.4g} mm, between "
-                f"steps {int(d // step_size)} and {int(d // step_size) + 1} of {step_size:g} mm: a slipped step?"
+                f"{where}: rows {s.first + 2}..{s.last + 2} (t = {s.start_s:g} .. {s.end_s:g} s) hold at depth "
+                f"{d:.4g} mm, between steps {int(d // step_size)} and {int(d // step_size) + 1} of {step_size:g} mm: "
+                "a slipped step?"
             )
-    level_runs = [(k, a, b) for k, a, b in runs if k >= 1]
+    level_runs = [(k, s.first, s.last) for k, s in held if k >= 1]
     if not level_runs:
         raise ExperimentDataError(
             f"{where}: no hold found: the position never stays within {level_tol * step_size:g} mm of a multiple of "
-            f"the {step_size:g} mm step for {min_hold_s:g} s (step size, units or --min-hold wrong?)"
+            f"the {step_size:g} mm step for {min_hold_s:g} s; {saw} (step size, units, contact or --min-hold "
+            "wrong?)"
         )
-    held = [k for k, _, _ in level_runs]
-    for i, k in enumerate(held):
+    levels = [k for k, _, _ in level_runs]
+    for i, k in enumerate(levels):
         if k > steps:
             _, a, b = level_runs[i]
             raise ExperimentDataError(
-                f"{where}: found {len(set(held))} holds but the protocol has {steps} steps: rows {a + 2}..{b + 2} "
-                f"hold at step {k} ({k * step_size:g} mm)"
+                f"{where}: found {len(set(levels))} holds but the protocol has {steps} steps: rows {a + 2}..{b + 2} "
+                f"hold at step {k} ({k * step_size:g} mm); {saw}"
             )
-        if held.count(k) > 1:
+        if levels.count(k) > 1:
             rows = [f"{a + 2}..{b + 2}" for kk, a, b in level_runs if kk == k]
             raise ExperimentDataError(f"{where}: step {k} is held more than once (rows {', '.join(rows)})")
-    missing = sorted(set(range(1, steps + 1)) - set(held) - set(excluded_steps))
+    missing = sorted(set(range(1, steps + 1)) - set(levels) - set(excluded_steps))
     if missing:
         raise ExperimentDataError(
-            f"{where}: found {len(held)} holds but the protocol has {steps} steps (no hold at step(s) "
-            f"{', '.join(map(str, missing[:10]))})"
+            f"{where}: found {len(levels)} holds but the protocol has {steps} steps (no hold at step(s) "
+            f"{', '.join(map(str, missing[:10]))}); {saw}"
         )
-    before = [(a, b) for k, a, b in runs if k == 0 and b < level_runs[0][1]]
-    tare_mN = (
-        float(np.median(record.force_mN[before[-1][0] : before[-1][1] + 1])) if (tare and before) else 0.0
+    search = HoldSearch([], 0.0, sign, 1.0, p0, contact_from)
+    first_hold, last_hold = min(a for _, a, _ in level_runs), max(b for _, _, b in level_runs)
+    before = [s for k, s in stretches if k == 0 and s.last < first_hold and s.readings >= 3]
+    if tare and before:
+        s = before[-1]
+        search.tare_mN = float(np.median(record.force_mN[s.first : s.last + 1]))
+        search.tare_time_s = 0.5 * (s.start_s + s.end_s)
+        after = [
+            s
+            for k, s in stretches
+            if s.first > last_hold and s.depth_mm <= level_tol * step_size and s.readings >= 3
+        ]
+        if drift and after:
+            e = after[-1]
+            end_f = float(np.median(record.force_mN[e.first : e.last + 1]))
+            end_t = 0.5 * (e.start_s + e.end_s)
+            search.drift_mN_per_s = (end_f - search.tare_mN) / (end_t - search.tare_time_s)
+            search.notes.append(
+                f"load-cell drift {search.drift_mN_per_s:.3g} mN/s taken off (unloaded {search.tare_mN:.4g} mN at "
+                f"t = {search.tare_time_s:g} s, {end_f:.4g} mN at t = {end_t:g} s)"
+            )
+    f_all = record.force_mN - search.baseline(t)
+    _, a, b = max(level_runs)
+    search.force_sign = float(
+        force_sign if force_sign is not None else np.sign(np.median(f_all[a : b + 1])) or 1.0
     )
-    f_all = record.force_mN - tare_mN
-    _, a, b = level_runs[-1]
-    fsign = float(force_sign if force_sign is not None else np.sign(np.median(f_all[a : b + 1])) or 1.0)
-    holds = []
     for k, a, b in sorted(level_runs):
-        tt, ff = t[a : b + 1] - t[a], fsign * f_all[a : b + 1]
+        tt, ff = t[a : b + 1] - t[a], search.force_sign * f_all[a : b + 1]
         try:
             fit = relaxation_fit(tt, ff)
         except ExperimentDataError as exc:
             if k not in excluded_steps:
                 raise ExperimentDataError(f"{where}: step {k} (rows {a + 2}..{b + 2}): {exc}") from None
             fit = RelaxationFit(np.nan, np.nan, np.nan, np.nan)
-        holds.append(
+        search.holds.append(
             Hold(
                 k,
                 a + 2,
@@ -236,17 +264,17 @@ def find_holds(
                 fit.rate,
             )
         )
-    table = hold_force_table(record, HoldSearch(holds, tare_mN, sign, fsign, p0))
+    table = hold_force_table(record, search)
     check_hold_forces(
         table,
         radius,
         step_size,
         where,
-        rows=np.concatenate([np.arange(h.first_row, h.last_row + 1) for h in holds]),
+        rows=np.concatenate([np.arange(h.first_row, h.last_row + 1) for h in search.holds]),
         force_column=record.columns["force"],
         excluded_steps=excluded_steps,
     )
-    return HoldSearch(holds, tare_mN, sign, fsign, p0)
+    return search
 
 
 def hold_force_table(record: LoadFrameRecord, search: HoldSearch) -> pd.DataFrame:
@@ -260,7 +288,8 @@ def hold_force_table(record: LoadFrameRecord, search: HoldSearch) -> pd.DataFram
                 {
                     "step": h.step,
                     "time_s": record.time_s[a : b + 1] - record.time_s[a],
-                    "force_mN": search.force_sign * (record.force_mN[a : b + 1] - search.tare_mN),
+                    "force_mN": search.force_sign
+                    * (record.force_mN[a : b + 1] - search.baseline(record.time_s[a : b + 1])),
                 }
             )
         )

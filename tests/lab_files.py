@@ -200,3 +200,73 @@ def load_frame_record(
         }
     )
     return record, np.array(windows)
+
+
+def sampled_record(
+    rate_hz: float,
+    steps: int = 6,
+    step_size: float = 0.5,
+    hold_s: float = 30.0,
+    ramps_s: tuple[float, ...] = (0.5, 1.0, 1.5, 2.0),
+    mu_kPa: float = 4.0,
+    radius: float = 4.77,
+    tau_s: float = 4.0,
+    relax: float = 0.3,
+    noise: float = 0.0,
+    position_noise_mm: float = 0.0,
+    drift_mN_per_s: float = 0.0,
+    approach_mm: float = 1.0,
+    wait_s: float = 10.0,
+    position0: float = 37.5,
+    seed: int = 0,
+) -> tuple[pd.DataFrame, np.ndarray]:
+    """A load-frame record sampled at ``rate_hz`` as a lab's would be: the stage approaches from
+    ``approach_mm`` above the specimen, waits at contact, then each step's ramp (``ramps_s`` in
+    turn) and a hold whose force relaxes by eq. 9 to F_k = 16/3 mu sqrt(R) d^1.5 (plus
+    ``relax`` F_k at the stop, time constant ``tau_s``), then withdraws above the contact and
+    waits. ``noise`` is the force noise's standard deviation relative to step 1's F, absolute
+    and the same on every reading; the load cell drifts linearly from 0 at t = 0. Columns
+    ``Time [s]``, ``Position [mm]`` (falling into the specimen), ``Force [N]`` (negative in
+    compression). Returns the record and the true static forces F_k (mN)."""
+    rng = np.random.default_rng(seed)
+    dt = 1.0 / rate_hz
+    F = 16.0 / 3.0 * mu_kPa * np.sqrt(radius) * (step_size * np.arange(1, steps + 1)) ** 1.5
+    pieces = []  # (duration, depth(s), force(s)) with s the time from the piece's start
+    approach_s = approach_mm / 0.5
+    pieces.append((approach_s, lambda s: -approach_mm + 0.5 * s, lambda s: 0.0 * s))
+    pieces.append((wait_s, lambda s: 0.0 * s, lambda s: 0.0 * s))
+    f_prev, d_prev = 0.0, 0.0
+    for k in range(steps):
+        ramp = ramps_s[k % len(ramps_s)]
+        d_k, peak = step_size * (k + 1), F[k] * (1.0 + relax)
+        pieces.append(
+            (
+                ramp,
+                lambda s, a=d_prev, b=d_k, r=ramp: a + (b - a) * s / r,
+                lambda s, a=f_prev, b=peak, r=ramp: a + (b - a) * s / r,
+            )
+        )
+        pieces.append(
+            (hold_s, lambda s, d=d_k: d + 0.0 * s, lambda s, f=F[k]: f * (1.0 + relax * np.exp(-s / tau_s)))
+        )
+        f_prev, d_prev = F[k] * (1.0 + relax * np.exp(-hold_s / tau_s)), d_k
+    pieces.append(
+        (
+            2.0,
+            lambda s, a=d_prev: a - (a + approach_mm) * s / 2.0,
+            lambda s, a=f_prev: a * (1 - s / 0.5) * (s < 0.5),
+        )
+    )
+    pieces.append((wait_s, lambda s: -approach_mm + 0.0 * s, lambda s: 0.0 * s))
+    total = sum(p[0] for p in pieces)
+    t = np.arange(0.0, total, dt)
+    depth, force = np.zeros_like(t), np.zeros_like(t)
+    start = 0.0
+    for duration, d_of, f_of in pieces:
+        sel = (t >= start - 1e-9 * dt) & (t < start + duration - 1e-9 * dt)
+        depth[sel], force[sel] = d_of(t[sel] - start), f_of(t[sel] - start)
+        start += duration
+    force = force + drift_mN_per_s * t + noise * F[0] * rng.standard_normal(len(t))
+    depth = depth + position_noise_mm * rng.standard_normal(len(t))
+    record = pd.DataFrame({"Time [s]": t, "Position [mm]": position0 - depth, "Force [N]": -force * 1e-3})
+    return record, F
