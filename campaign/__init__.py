@@ -1,5 +1,5 @@
 """Campaigns: many forward simulations over a parameter design, run in parallel into a resumable
-store under ``runs/<name>/`` (ARCHITECTURE.md, "Results on disk")."""
+store under ``runs/<name>/`` (docs/architecture.md, "Results on disk")."""
 
 import lazy_loader as lazy
 

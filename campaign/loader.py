@@ -36,7 +36,7 @@ class CampaignData:
         return len(self.theta)
 
     def prediction(self) -> Prediction:
-        """The campaign as a Prediction (the seam of ARCHITECTURE.md) at its points ``theta``."""
+        """The campaign as a Prediction (docs/architecture.md, "The Predictor seam") at its points ``theta``."""
         return Prediction(self.force, self.displacement, self.depth, self.top_xyz, self.parameters)
 
 

@@ -465,9 +465,9 @@ def shipped_budget(spec, folder: str | Path | None = None) -> dict | None:
 
 
 def surrogate_error_budget(surrogate) -> dict | None:
-    """The error budget a surrogate carries: meta['error_budget'] as recorded at training (None:
+    """The error budget a surrogate carries: ``meta['error_budget']`` as recorded at training (None:
     none known then); for a surrogate without that record (an older file, or one being trained),
-    the shipped budget for the FE model it emulates (meta['campaign']['model'])."""
+    the shipped budget for the FE model it emulates (``meta['campaign']['model']``)."""
     meta = getattr(surrogate, "meta", {}) or {}
     if "error_budget" in meta:
         return meta["error_budget"]

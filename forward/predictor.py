@@ -1,4 +1,4 @@
-"""The one seam of ARCHITECTURE.md: a Predictor maps parameters to force curves and fields.
+"""The one seam (docs/architecture.md, "The Predictor seam"): a Predictor maps parameters to force curves and fields.
 
 ``predict(theta (n, p), kPa) -> Prediction(force (n, steps) mN, displacement (n, steps, nodes, 3) mm)``.
 The steps are the indentation steps 1..N_s (depth 0, where everything is zero, is left out, so
@@ -66,7 +66,7 @@ class Prediction:
 
 @runtime_checkable
 class Predictor(Protocol):
-    """Anything that predicts force curves and fields from parameters (ARCHITECTURE.md)."""
+    """Anything that predicts force curves and fields from parameters (docs/architecture.md, "The Predictor seam")."""
 
     parameters: tuple[str, ...]
 

@@ -1,6 +1,6 @@
 """The ``indent-studio`` command line (typer).
 
-Contract (ARCHITECTURE.md): every command takes ``--json`` and then prints exactly one JSON object
+Contract (docs/architecture.md, "The CLI contract"): every command takes ``--json`` and then prints exactly one JSON object
 on stdout; progress and logs go to stderr.
 """
 

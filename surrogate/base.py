@@ -1,6 +1,6 @@
 """What the Gaussian-process and the MLP emulators share: input scaling, the PCA reduction of the
 force curves and of the displacement field, the reconstruction, the chain rule for Jacobians, and
-the Predictor seam of ARCHITECTURE.md.
+the Predictor seam (docs/architecture.md, "The Predictor seam").
 
 Inputs: theta scaled to [0, 1] over the training box, in log (default) or linearly (``input_scale``);
 log serves better because the response changes fastest at small c1 (README, "Surrogates").
@@ -105,7 +105,7 @@ def _reduce(Y: np.ndarray, scale: np.ndarray, tol: float, max_components: int) -
 
 
 class FieldSurrogate(ABC):
-    """An emulator of the forward model trained on a campaign; a Predictor (ARCHITECTURE.md)."""
+    """An emulator of the forward model trained on a campaign; a Predictor (docs/architecture.md, "The Predictor seam")."""
 
     kind = "abstract"
 
