@@ -37,7 +37,8 @@ __getattr__, __dir__, __all__ = lazy.attach(
             "stretch_block",
         ],
         "coulomb_contact": ["FrictionContactState", "contact_response", "tributary_areas"],
-        "solver": ["EmbeddedSolver", "SimulationError", "simulate", "thread_limits"],
+        "solver": ["EmbeddedSolver", "SimulationError", "simulate"],
+        "threads": ["busy_cores", "solver_threads", "thread_limits"],
         "material": ["InvertedElementError"],
         "result": ["SimulationResult"],
         "predictor": [

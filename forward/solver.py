@@ -18,7 +18,6 @@ with right-hand side -dR/dtheta (the internal force is linear in c1 and c5).
 
 from __future__ import annotations
 
-import contextlib
 import hashlib
 import logging
 import time
@@ -40,6 +39,7 @@ from .result import SYMMETRY_FACTOR, SimulationResult
 from .sparse_assembly import SparsePattern
 from .spec import ModelSpec
 from .stick_contact import RigidSphere, StickContactState
+from .threads import solver_threads, thread_limits
 
 log = logging.getLogger(__name__)
 
@@ -79,10 +79,6 @@ SENSITIVITY_RTOL = 1e-11
 #: Meshes with at least this many dofs factorise in single precision (PARDISO): the factorisation
 #: only preconditions CG and makes corrections that Newton's residual checks, and costs half.
 SINGLE_PRECISION_DOFS = 20_000
-#: Meshes below this many dofs run on one thread (numba's kernel and MKL's PARDISO alike): their
-#: kernels and back-substitutions last milliseconds, where two thread pools handing the cores to
-#: each other cost more than they share (``default``: 6.0 s -> 3.2 s on 2 cores, README "Speed").
-THREADED_DOFS = 20_000
 #: With Coulomb friction, each Newton solve takes at most this many damped steps
 #: (EmbeddedSolver._equilibrate_friction).
 FRICTION_NEWTON = 60
@@ -94,25 +90,6 @@ CONTACT_BLOCK_CHANGE = 1e-3
 #: residual, in at most this many iterations (EmbeddedSolver._fresh_step).
 FRESH_RTOL = 1e-8
 FRESH_MAXITER = 50
-
-
-@contextlib.contextmanager
-def thread_limits(threads: int | None):
-    """Limit numba's and the BLAS/OpenMP libraries' (MKL's PARDISO) threads within the block;
-    None leaves them as they are. numba's count is restored on exit."""
-    if threads is None:
-        yield
-        return
-    import numba
-    from threadpoolctl import threadpool_limits
-
-    before = numba.get_num_threads()
-    numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
-    try:
-        with threadpool_limits(threads):
-            yield
-    finally:
-        numba.set_num_threads(before)
 
 
 _STRUCTURES: dict[bytes, tuple[ReferenceGeometry, SparsePattern]] = {}
@@ -738,16 +715,20 @@ class EmbeddedSolver:
         sensitivities: bool = False,
         progress: Callable[[int, int, float], None] | None = None,
         full_field: bool = False,
+        *,
+        threads: int | None = None,
     ) -> SimulationResult:
         """Run the protocol; ``progress(step, steps, force)`` is called after each step;
-        ``full_field`` keeps every node's displacement per step (for VTU export). The linear
+        ``full_field`` keeps every node's displacement per step (for VTU export). ``threads``:
+        numba's and MKL's thread count for this run; None takes the idle cores
+        (:func:`forward.threads.solver_threads`), a campaign worker passes 1. The linear
         solver's memory (PARDISO keeps its factors outside Python) is freed at the end."""
         if sensitivities and not self._mat.homogeneous:
             raise ValueError(
                 "sensitivities are those of the homogeneous model's (c1, c5); a composite has none"
             )
         try:
-            with thread_limits(1 if self.n_dofs < THREADED_DOFS else None):
+            with thread_limits(solver_threads() if threads is None else threads):
                 result = self._run(sensitivities, progress, full_field)
         finally:
             self.linear.release()
