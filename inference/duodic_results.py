@@ -16,6 +16,7 @@ numbers count from 0 (the reference), like MatchID's ``Image_0000``.
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -41,6 +42,25 @@ SKIPPED_FIELDS = (
     "Deform_ARBM",
     "RBM",
 )
+
+
+def _reader_notes(caught: list[warnings.WarningMessage]) -> list[str]:
+    """pymatreader's warnings said in the studio's words: its "Complex objects (like classes)
+    are not supported" is raised for every MATLAB object DuoDIC saves beside the results (camera
+    parameters, class instances), none of which the import reads; other warnings are passed on."""
+    objects = sum("Complex objects" in str(w.message) for w in caught)
+    strings = sum("string variables" in str(w.message) for w in caught)
+    notes = []
+    if objects or strings:
+        notes.append(
+            f"{objects + strings} MATLAB object(s) in the file (classes{', strings' if strings else ''}) not read: the "
+            "import needs only Points3D, Disp and corrComb"
+        )
+    for w in caught:
+        text = str(w.message)
+        if "Complex objects" not in text and "string variables" not in text:
+            warnings.warn(f"reading a DuoDIC file: {text}", stacklevel=3)
+    return notes
 
 
 def _cells(value, name: str, path: Path) -> list[np.ndarray]:
@@ -86,9 +106,12 @@ def read_duodic(
         raise ExperimentDataError(f"{path}: missing file")
     scale = unit_factor(length_unit, "length", str(path))
     try:
-        content = read_mat(str(path), ignore_fields=list(SKIPPED_FIELDS))
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            content = read_mat(str(path), ignore_fields=list(SKIPPED_FIELDS))
     except Exception as exc:  # scipy and h5py raise several types for files that are not .mat
         raise ExperimentDataError(f"{path}: not a readable MATLAB file ({exc})") from exc
+    library_notes = _reader_notes(caught)
     content = {k: v for k, v in content.items() if not k.startswith("__")}  # scipy's header entries
     names = [variable] if variable else [v for v in VARIABLES if v in content]
     if variable and variable not in content:
@@ -135,6 +158,7 @@ def read_duodic(
     seen = np.isfinite(xyz).all(axis=1)
     dropped = int((~seen).sum())
     notes = [f"{dropped} points not reconstructed in the reference frame dropped"] if dropped else []
+    notes += library_notes
     return DICSeries(
         str(path),
         xyz[seen],

@@ -23,7 +23,7 @@ import pandas as pd
 
 from .dic_series import DICSeries, require_consecutive_frames
 from .experiment_data import ExperimentDataError
-from .table_columns import find_column, frame_number, numeric_column, read_table
+from .table_columns import find_column, first_row, frame_number, numeric_column, read_table
 from .units import resolve_unit
 
 REQUIRED = ("x", "y", "z", "ux", "uy", "uz")
@@ -94,7 +94,9 @@ def _frame_table(table: pd.DataFrame, path: Path, mapping: CSVMapping, max_sigma
         )
         dup = ids.duplicated()
         if dup.any():
-            raise ExperimentDataError(f"{path}: row {int(np.flatnonzero(dup)[0]) + 2}: point id listed twice")
+            raise ExperimentDataError(
+                f"{path}: row {int(np.flatnonzero(dup)[0]) + first_row(table)}: point id listed twice"
+            )
     time = None
     if "time" in cols:
         header = find_column(table, cols["time"], path, "time")

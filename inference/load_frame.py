@@ -26,11 +26,21 @@ from .experiment_data import ExperimentDataError
 from .experiment_processing import RelaxationFit, relaxation_fit
 from .hold_checks import check_hold_forces
 from .hold_detection import OFF, describe_stretches, force_onset, still_stretches
-from .table_columns import find_column, numeric_column, read_table
+from .table_columns import find_column, first_row, numeric_column, read_table
 from .units import resolve_unit
 
 _TIME_NAMES = ("time", "t", "elapsed")
-_POSITION_NAMES = ("position", "pos", "displacement", "disp", "depth", "extension", "z", "stage")
+_POSITION_NAMES = (
+    "position",
+    "pos",
+    "displacement",
+    "disp",
+    "depth",
+    "extension",
+    "z",
+    "stage",
+    "crosshead",
+)
 _FORCE_NAMES = ("force", "load", "f", "weight", "mass", "reading")
 
 
@@ -55,6 +65,7 @@ class LoadFrameRecord:
     force_mN: np.ndarray
     columns: dict[str, str]
     notes: list[str] = field(default_factory=list)
+    first_line: int = 2  # the file line of the first reading (2: the header is line 1)
 
 
 @dataclass
@@ -79,13 +90,21 @@ class Hold:
 
 
 def _guess(table: pd.DataFrame, given: str | None, names: tuple[str, ...], path: Path, role: str) -> str:
+    """The column of ``role``: ``given``, else the first whose name starts with one of ``names``,
+    else the first with one of them as a word (``Axial Force`` for a force, as MTS names it)."""
     if given is not None:
         return find_column(table, given, path, role)
     from .table_columns import bare_name
 
+    words = {
+        c: bare_name(c).lower().replace("_", " ").replace("-", " ").replace(".", " ").split()
+        for c in table.columns
+    }
     for c in table.columns:
-        words = bare_name(c).lower().replace("_", " ").replace("-", " ").split()
-        if words and words[0] in names:
+        if words[c] and words[c][0] in names:
+            return c
+    for c in table.columns:
+        if any(w in names for w in words[c][1:]):
             return c
     raise ExperimentDataError(
         f"{path}: no {role} column found by name (has {', '.join(table.columns)}); name it explicitly"
@@ -110,9 +129,17 @@ def read_load_frame(path: str | Path, columns: LoadFrameColumns = LoadFrameColum
     back = np.flatnonzero(np.diff(t) <= 0)
     if back.size:
         raise ExperimentDataError(
-            f"{path}: row {back[0] + 3}, column '{t_col}': time {t[back[0] + 1]:g} s does not follow {t[back[0]]:g} s"
+            f"{path}: row {back[0] + 1 + first_row(table)}, column '{t_col}': time {t[back[0] + 1]:g} s does not follow {t[back[0]]:g} s"
         )
-    return LoadFrameRecord(path, t, p, f, {"time": t_col, "position": p_col, "force": f_col})
+    return LoadFrameRecord(
+        path,
+        t,
+        p,
+        f,
+        {"time": t_col, "position": p_col, "force": f_col},
+        list(table.attrs.get("notes", [])),
+        first_row(table),
+    )
 
 
 @dataclass
@@ -166,6 +193,7 @@ def find_holds(
     (the indenter withdrawn to the contact point or above) give the load cell's drift since the
     tare, which is taken off every reading (linear in time)."""
     where = str(record.path)
+    r0 = record.first_line
     p0, contact_from = _contact(record, contact_position_mm)
     excursion = record.position_mm - p0
     sign = float(
@@ -187,7 +215,7 @@ def find_holds(
         if k == OFF and 0 < s.depth_mm < steps * step_size:
             d = s.depth_mm
             raise ExperimentDataError(
-                f"{where}: rows {s.first + 2}..{s.last + 2} (t = {s.start_s:g} .. {s.end_s:g} s) hold at depth "
+                f"{where}: rows {s.first + r0}..{s.last + r0} (t = {s.start_s:g} .. {s.end_s:g} s) hold at depth "
                 f"{d:.4g} mm, between steps {int(d // step_size)} and {int(d // step_size) + 1} of {step_size:g} mm: "
                 "a slipped step?"
             )
@@ -203,11 +231,11 @@ def find_holds(
         if k > steps:
             _, a, b = level_runs[i]
             raise ExperimentDataError(
-                f"{where}: found {len(set(levels))} holds but the protocol has {steps} steps: rows {a + 2}..{b + 2} "
+                f"{where}: found {len(set(levels))} holds but the protocol has {steps} steps: rows {a + r0}..{b + r0} "
                 f"hold at step {k} ({k * step_size:g} mm); {saw}"
             )
         if levels.count(k) > 1:
-            rows = [f"{a + 2}..{b + 2}" for kk, a, b in level_runs if kk == k]
+            rows = [f"{a + r0}..{b + r0}" for kk, a, b in level_runs if kk == k]
             raise ExperimentDataError(f"{where}: step {k} is held more than once (rows {', '.join(rows)})")
     missing = sorted(set(range(1, steps + 1)) - set(levels) - set(excluded_steps))
     if missing:
@@ -247,13 +275,13 @@ def find_holds(
             fit = relaxation_fit(tt, ff)
         except ExperimentDataError as exc:
             if k not in excluded_steps:
-                raise ExperimentDataError(f"{where}: step {k} (rows {a + 2}..{b + 2}): {exc}") from None
+                raise ExperimentDataError(f"{where}: step {k} (rows {a + r0}..{b + r0}): {exc}") from None
             fit = RelaxationFit(np.nan, np.nan, np.nan, np.nan)
         search.holds.append(
             Hold(
                 k,
-                a + 2,
-                b + 2,
+                a + r0,
+                b + r0,
                 float(t[a]),
                 float(t[b]),
                 float(np.median(depth[a : b + 1])),
@@ -282,7 +310,7 @@ def hold_force_table(record: LoadFrameRecord, search: HoldSearch) -> pd.DataFram
     ``time_s`` from the start of that hold, ``force_mN`` (tared, compression positive)."""
     parts = []
     for h in search.holds:
-        a, b = h.first_row - 2, h.last_row - 2
+        a, b = h.first_row - record.first_line, h.last_row - record.first_line
         parts.append(
             pd.DataFrame(
                 {

@@ -25,7 +25,7 @@ import pandas as pd
 
 from .dic_series import DICSeries, require_consecutive_frames
 from .experiment_data import ExperimentDataError
-from .table_columns import find_column, frame_number, numeric_column, read_table
+from .table_columns import find_column, first_row, frame_number, numeric_column, read_table
 from .units import resolve_unit
 
 
@@ -75,7 +75,7 @@ def _read_frame(path: Path, cols: MatchIDColumns, length_unit: str | None, max_s
     if dup.any():
         row = int(np.flatnonzero(dup)[0])
         raise ExperimentDataError(
-            f"{path}: row {row + 2}: point at image position ({ids[row, 0]:g}, {ids[row, 1]:g}) listed twice"
+            f"{path}: row {row + first_row(table)}: point at image position ({ids[row, 0]:g}, {ids[row, 1]:g}) listed twice"
         )
     return frame, ids[ok], coor[ok] - disp[ok], disp[ok], list(table.columns)
 

@@ -59,6 +59,17 @@ FORCE_UNIT = Annotated[str | None, typer.Option(help="record: force unit (mN, N,
 MIN_HOLD = Annotated[float, typer.Option(help="record: shortest hold, s")]
 OVERWRITE = Annotated[bool, typer.Option(help="replace an existing experiment folder")]
 DESCRIPTION = Annotated[str, typer.Option(help="free text for experiment.json")]
+ENCODING = Annotated[
+    str | None,
+    typer.Option(help="text encoding of the CSV files, e.g. cp1252 (default: UTF-8, else detected)"),
+]
+
+
+def csv_encoding(encoding: str | None):
+    """The block's CSV files read as ``encoding`` (:func:`..inference.csv_text.csv_encoding`)."""
+    from ..inference.csv_text import csv_encoding as block
+
+    return block(encoding)
 
 
 def _steps(text: str) -> tuple[int, ...]:
@@ -141,14 +152,16 @@ def import_matchid_command(
     min_hold: MIN_HOLD = 5.0,
     description: DESCRIPTION = "",
     overwrite: OVERWRITE = False,
+    encoding: ENCODING = None,
     as_json: JSON = False,
 ) -> None:
     """A MatchID export folder (+ load-frame record, indenter points) into an experiment folder."""
     from ..inference.experiment_import import import_matchid
 
     try:
-        protocol, force, ind, choice = _sources(locals())
-        result = import_matchid(dic, out, protocol, force, ind, choice, length_unit, max_sigma, overwrite)
+        with csv_encoding(encoding):
+            protocol, force, ind, choice = _sources(locals())
+            result = import_matchid(dic, out, protocol, force, ind, choice, length_unit, max_sigma, overwrite)
     except (ValueError, OSError) as exc:
         fail(str(exc), as_json)
     _report(result.to_dict(), as_json)
@@ -185,26 +198,28 @@ def import_duodic_command(
     min_hold: MIN_HOLD = 5.0,
     description: DESCRIPTION = "",
     overwrite: OVERWRITE = False,
+    encoding: ENCODING = None,
     as_json: JSON = False,
 ) -> None:
     """DuoDIC results (+ load-frame record, indenter points) into an experiment folder."""
     from ..inference.experiment_import import import_duodic
 
     try:
-        protocol, force, ind, choice = _sources(locals())
-        result = import_duodic(
-            mat,
-            out,
-            protocol,
-            force,
-            ind,
-            length_unit,
-            choice,
-            max_corr,
-            rigid_body_removed,
-            variable,
-            overwrite,
-        )
+        with csv_encoding(encoding):
+            protocol, force, ind, choice = _sources(locals())
+            result = import_duodic(
+                mat,
+                out,
+                protocol,
+                force,
+                ind,
+                length_unit,
+                choice,
+                max_corr,
+                rigid_body_removed,
+                variable,
+                overwrite,
+            )
     except (ValueError, OSError) as exc:
         fail(str(exc), as_json)
     _report(result.to_dict(), as_json)
@@ -245,6 +260,7 @@ def import_csv_command(
     min_hold: MIN_HOLD = 5.0,
     description: DESCRIPTION = "",
     overwrite: OVERWRITE = False,
+    encoding: ENCODING = None,
     as_json: JSON = False,
 ) -> None:
     """Any DIC CSV export (VIC-3D, GOM, Ncorr) with a column mapping into an experiment folder."""
@@ -252,11 +268,12 @@ def import_csv_command(
     from ..inference.import_csv import CSVMapping
 
     try:
-        mapping = CSVMapping.parse(columns, positions=positions, length_unit=length_unit)
-        protocol, force, ind, choice = _sources(locals())
-        result = import_dic_csv(
-            dic, mapping, out, protocol, force, ind, choice, pattern, max_sigma, overwrite
-        )
+        with csv_encoding(encoding):
+            mapping = CSVMapping.parse(columns, positions=positions, length_unit=length_unit)
+            protocol, force, ind, choice = _sources(locals())
+            result = import_dic_csv(
+                dic, mapping, out, protocol, force, ind, choice, pattern, max_sigma, overwrite
+            )
     except (ValueError, OSError) as exc:
         fail(str(exc), as_json)
     _report(result.to_dict(), as_json)
@@ -277,6 +294,7 @@ def import_load_frame_command(
     position_unit: POSITION_UNIT = None,
     force_unit: FORCE_UNIT = None,
     min_hold: MIN_HOLD = 5.0,
+    encoding: ENCODING = None,
     as_json: JSON = False,
 ) -> None:
     """Cut a load-frame record into the protocol's holds (one per step, eq. 9 fit each) as force.csv."""
@@ -284,9 +302,14 @@ def import_load_frame_command(
     from ..inference.load_frame import LoadFrameColumns
 
     try:
-        protocol = ProtocolInfo(radius, step_size, steps, excluded_steps=_steps(exclude_steps))
-        columns = LoadFrameColumns(time_col, position_col, force_col, time_unit, position_unit, force_unit)
-        result = import_load_frame(record, out, protocol, ForceSource(columns=columns, min_hold_s=min_hold))
+        with csv_encoding(encoding):
+            protocol = ProtocolInfo(radius, step_size, steps, excluded_steps=_steps(exclude_steps))
+            columns = LoadFrameColumns(
+                time_col, position_col, force_col, time_unit, position_unit, force_unit
+            )
+            result = import_load_frame(
+                record, out, protocol, ForceSource(columns=columns, min_hold_s=min_hold)
+            )
     except (ValueError, OSError) as exc:
         fail(str(exc), as_json)
     _report(result, as_json)

@@ -270,3 +270,64 @@ def sampled_record(
     depth = depth + position_noise_mm * rng.standard_normal(len(t))
     record = pd.DataFrame({"Time [s]": t, "Position [mm]": position0 - depth, "Force [N]": -force * 1e-3})
     return record, F
+
+
+def write_bluehill(path: Path, record: pd.DataFrame, encoding: str = "utf-8") -> Path:
+    """An Instron Bluehill style export of a record (``Time [s]``, ``Position [mm]``, ``Force
+    [N]``): a block of test information, a blank line, the quoted column names ``Time``,
+    ``Extension``, ``Load`` and a unit row ``(s)``, ``(mm)``, ``(N)``; every value quoted."""
+    lines = [
+        '"Sample ID:","Specimen 1"',
+        '"Test date:","25/11/2026"',
+        '"Method:","Indentation steps.im_cmp"',
+        '"Operator:","lab"',
+        '"Specimen label:","phantom A"',
+        "",
+        '"Time","Extension","Load"',
+        '"(s)","(mm)","(N)"',
+    ]
+    t, p, f = (record[c].to_numpy() for c in ("Time [s]", "Position [mm]", "Force [N]"))
+    lines += [f'"{a:.5f}","{b:.6f}","{c:.8f}"' for a, b, c in zip(t, p, f, strict=True)]
+    path.write_text("\r\n".join(lines) + "\r\n", encoding=encoding, newline="")
+    return path
+
+
+def write_testsuite(path: Path, record: pd.DataFrame) -> Path:
+    """An MTS TestSuite (TW) style export: tab separated, a header block of ``Name:<TAB>value``
+    lines, the column names ``Running Time``, ``Crosshead``, ``Axial Force`` and a bare unit row
+    ``sec``, ``mm``, ``kN``."""
+    lines = [
+        "Test Run Name:\tRun 3",
+        "Test Definition:\tIndentation steps",
+        "Specimen:\tphantom A",
+        "Station:\tLoad frame 2",
+        "",
+        "Running Time\tCrosshead\tAxial Force",
+        "sec\tmm\tkN",
+    ]
+    t, p, f = (record[c].to_numpy() for c in ("Time [s]", "Position [mm]", "Force [N]"))
+    lines += [f"{a:.5f}\t{b:.6f}\t{c * 1e-3:.11f}" for a, b, c in zip(t, p, f, strict=True)]
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def add_matchid_tensors(folder: Path) -> Path:
+    """MatchID's deformation-gradient columns ``defgradient.F[0,0] [-]`` .. (commas inside the
+    brackets, unquoted, as MatchID writes them) added to every file of an export folder, between
+    its columns."""
+    names = [f"defgradient.F[{i},{j}] [-]" for i in range(3) for j in range(3)]
+    for path in sorted(folder.glob("*.csv")):
+        table = pd.read_csv(path)
+        head = list(table.columns[:5])
+        tail = list(table.columns[5:])
+        rows = [",".join(head + names + tail)]
+        eye = np.eye(3).ravel()
+        for values in table.itertuples(index=False):
+            v = list(values)
+            rows.append(
+                ",".join(
+                    [f"{x:.10E}" for x in v[:5]] + [f"{x:.4f}" for x in eye] + [f"{x:.10E}" for x in v[5:]]
+                )
+            )
+        path.write_text("\n".join(rows) + "\n")
+    return folder
