@@ -32,6 +32,7 @@ def top_field_interpolator(top_xyz: np.ndarray, field: np.ndarray):
         grid = np.empty((x.size, y.size, *field.shape[1:]))
         grid[ix, iy] = field
         interp = RegularGridInterpolator((x, y), grid, method="linear")
+        lo, hi = np.array([x[0], y[0]]), np.array([x[-1], y[-1]])  # the grid's own (rounded) ends
     else:
         interp = LinearNDInterpolator(xy, field.reshape(field.shape[0], -1))
 

@@ -17,6 +17,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
             "objective_map_figure",
             "parity_figure",
             "save_figure",
+            "verification_figure",
         ],
         "demo": ["run_demo"],
     },

@@ -311,6 +311,41 @@ def composite_comparison_figure(comparison, within_mm: float = 20.0, title: str 
     return fig
 
 
+def verification_figure(case: dict, names: tuple[str, ...] | None = None, title: str = "") -> Figure:
+    """A verification study's convergence (one case of
+    :func:`inference.verification_study.run_verification_study`): |f_k - f_ext| / |f_ext| against
+    the representative cell size h, log-log, one panel per quantity, with the line of the finest
+    triplet's observed order p through the finest level."""
+    quantities = case["quantities"]
+    names = tuple(names or quantities)
+    cols = min(3, len(names))
+    rows = -(-len(names) // cols)
+    fig, axes = plt.subplots(
+        rows, cols, figsize=(3.6 * cols, 3.0 * rows), constrained_layout=True, squeeze=False
+    )
+    for ax, name in zip(axes.ravel(), names, strict=False):
+        q = quantities[name]
+        h = np.asarray(q["sizes"], float)
+        f = np.asarray(q["values"], float)
+        ext, p = q["extrapolated"], q["orders"][0]
+        err = np.abs(f - ext) / max(abs(ext), 1e-300)
+        shown = err > 0
+        ax.loglog(h[shown], err[shown], "o-", color="C0", label="levels")
+        if p is not None and np.isfinite(p) and err[0] > 0:
+            hh = np.array([h.min(), h.max()])
+            ax.loglog(hh, err[0] * (hh / h[0]) ** p, "--", color="C1", label=f"p = {p:.2f}")
+        state = "asymptotic" if q["asymptotic"] else "not asymptotic"
+        ax.set_title(f"{name}\n{state}", fontsize=9)
+        ax.set_xlabel("h (mm)")
+        ax.set_ylabel("|f - f_ext| / |f_ext|")
+        ax.legend(fontsize=7)
+    for ax in axes.ravel()[len(names) :]:
+        ax.set_visible(False)
+    if title:
+        fig.suptitle(title)
+    return fig
+
+
 def save_figure(fig: Figure, path: str | Path, dpi: int = 130) -> Path:
     """Write ``fig`` as a PNG at ``path`` (atomically) and close it; returns the path."""
     path = Path(path)

@@ -1,0 +1,124 @@
+"""Families of systematically refined quarter-block meshes for a verification study: one topology
+and one grading, refined by a constant ratio in every direction.
+
+Each axis maps a uniform parameter xi in [0, 1] to the coordinate by the continuous form of
+geometric grading,
+
+    x(xi) = L (exp(beta xi) - 1) / (exp(beta) - 1),
+
+with beta set so that the base level's first cell (at the indentation point) is ``h0``. Level k has
+``round(n * ratio^k)`` cells along an axis of n base cells, the same xi-spacing refined by ``ratio``,
+so every cell shrinks by the same ratio wherever it is (Roache's systematic refinement), and the
+representative size h = (V / N)^(1/3) falls by ``ratio`` from level to level.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import brentq
+
+from .block_mesh import BlockMesh, grid_block
+from .grid_convergence import representative_size
+from .spec import Geometry
+
+__all__ = ["MeshFamily", "graded_coordinates"]
+
+
+def graded_coordinates(length: float, cells: int, beta: float) -> np.ndarray:
+    """``cells + 1`` coordinates from 0 to ``length`` on the exponential map of rate ``beta``."""
+    xi = np.linspace(0.0, 1.0, cells + 1)
+    if abs(beta) < 1e-12:
+        return length * xi
+    x = length * np.expm1(beta * xi) / np.expm1(beta)
+    x[-1] = length  # exactly: the far faces of every level coincide
+    return x
+
+
+def _rate(length: float, cells: int, first: float) -> float:
+    """beta such that the first of ``cells`` cells over ``length`` is ``first`` (0: uniform)."""
+    if not 0 < first <= length / cells + 1e-12:
+        raise ValueError(
+            f"a first cell of {first:g} mm cannot start {cells} growing cells over {length:g} mm"
+        )
+    if abs(first - length / cells) < 1e-12:
+        return 0.0
+    return float(brentq(lambda b: length * np.expm1(b / cells) / np.expm1(b) - first, 1e-9, 200.0))
+
+
+@dataclass(frozen=True)
+class MeshFamily:
+    """A family of refined meshes: ``cells_xy`` and ``cells_z`` base cells (level 0, the coarsest)
+    with first cells ``h0_xy`` and ``h0_z`` at the indentation point, refined by ``ratio`` per level.
+
+    Parameters
+    ----------
+    cells_xy, cells_z : int
+        Cells along x (and y) and along z at level 0.
+    h0_xy, h0_z : float
+        The size of level 0's cell at the indentation point along x (and y) and z, mm.
+    ratio : float
+        Refinement ratio between levels (Roache asks for at least 1.3).
+    """
+
+    cells_xy: int = 8
+    cells_z: int = 8
+    h0_xy: float = 1.2
+    h0_z: float = 1.2
+    ratio: float = 1.5
+
+    def __post_init__(self) -> None:
+        if not self.ratio > 1.0:
+            raise ValueError(f"the refinement ratio must be > 1, got {self.ratio!r}")
+        if self.cells_xy < 1 or self.cells_z < 1:
+            raise ValueError("a family needs at least one cell per axis")
+
+    def cells(self, level: int) -> tuple[int, int]:
+        """(cells along x and y, cells along z) at ``level``; refused where ratio^level does not
+        make whole numbers (the refinement would not be systematic)."""
+        out = []
+        for n in (self.cells_xy, self.cells_z):
+            exact = n * self.ratio**level
+            if abs(exact - round(exact)) > 1e-6:
+                raise ValueError(
+                    f"level {level}: {n} x {self.ratio:g}^{level} = {exact:g} cells is not a whole number; "
+                    "choose base counts divisible by the ratio's denominator"
+                )
+            out.append(round(exact))
+        return out[0], out[1]
+
+    def mesh(self, level: int, geometry: Geometry | None = None) -> BlockMesh:
+        """The hex8 quarter block of ``level`` (0 the coarsest)."""
+        g = geometry or Geometry()
+        nxy, nz = self.cells(level)
+        bx = _rate(g.half_x, self.cells_xy, self.h0_xy)
+        by = _rate(g.half_y, self.cells_xy, self.h0_xy)
+        bz = _rate(g.height, self.cells_z, self.h0_z)
+        x = graded_coordinates(g.half_x, nxy, bx)
+        y = graded_coordinates(g.half_y, nxy, by)
+        z = g.height - graded_coordinates(g.height, nz, bz)[::-1]
+        return grid_block(x, y, z, f"family:{self.name}:L{level}")
+
+    def size(self, level: int, geometry: Geometry | None = None) -> float:
+        """The representative cell size h = (V / N)^(1/3) of ``level``, mm."""
+        g = geometry or Geometry()
+        nxy, nz = self.cells(level)
+        return representative_size(g.half_x * g.half_y * g.height, nxy * nxy * nz)
+
+    def node_count(self, level: int) -> int:
+        nxy, nz = self.cells(level)
+        return (nxy + 1) ** 2 * (nz + 1)
+
+    @property
+    def name(self) -> str:
+        return f"{self.cells_xy}x{self.cells_z}-h{self.h0_xy:g}x{self.h0_z:g}-r{self.ratio:g}"
+
+    def to_dict(self) -> dict:
+        return {
+            "cells_xy": self.cells_xy,
+            "cells_z": self.cells_z,
+            "h0_xy": self.h0_xy,
+            "h0_z": self.h0_z,
+            "ratio": self.ratio,
+        }

@@ -1,0 +1,347 @@
+"""A verification study of the forward model, as the V&V literature does it (Roache's GCI, ASME
+V&V 20): a family of systematically refined meshes (:class:`forward.mesh_family.MeshFamily`) and
+refined increments, solved at a few parameter points and radii; for each quantity the observed
+order, whether the levels are in the asymptotic range, the extrapolated value and the GCI
+(:mod:`forward.grid_convergence`).
+
+Quantities, for each (point, radius):
+
+* the indenter force at 2, 7 and 14 mm (those of the protocol's depths that it reaches);
+* the top field at the deepest step at rings of 1, 1.5, 2 and 3 R from the axis: uz and ux on the
+  x axis (across the fibers), uy on the y axis (along them);
+* the parameter bias: the (c1, c5) that the studio's default objective (eq. 4, 5, the paper's
+  weights, a 25 mm field of view) fits to each level's noise-free response. The fitting model is
+  the finest level at the true parameters with its exact sensitivities, and the fit is its
+  Gauss-Newton step in log theta (first order in the response's difference, which is a few % at
+  most). Its value on the finest level is the truth itself; the sequence over the levels is a
+  functional of the response that converges like it, so its order, its extrapolated value and
+  each level's GCI say how far a fit made with that level's model would move on a converged one.
+
+Every run is kept in ``out_dir`` (one ``.npz`` per level, point, radius and substep count) and read
+back when the same spec and mesh are asked for again, so a study killed half-way (it is hours of
+CPU at paper scale) resumes where it stopped.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .. import __version__
+from ..atomic_write import atomic_write_json
+from ..design.objective import PAPER_WEIGHTS, Objective
+from ..forward.grid_convergence import ConvergenceOfQuantity, observed_order, study_quantity
+from ..forward.mesh_family import MeshFamily
+from ..forward.mesh_study import top_field_interpolator
+from ..forward.predictor import Prediction
+from ..forward.result import SimulationResult
+from ..forward.solver import EmbeddedSolver
+from ..forward.spec import Indenter, ModelSpec
+from .mesh_check import prediction_at_nodes
+
+__all__ = ["VerificationStudy", "parameter_bias", "run_verification_study"]
+
+#: Depths at which the force is studied (mm), and rings (multiples of R) where the field is.
+FORCE_DEPTHS = (2.0, 7.0, 14.0)
+FIELD_RINGS = (1.0, 1.5, 2.0, 3.0)
+#: The field of view of the fit whose bias is studied (mm from the axis), as the synthetic
+#: experiments' DIC (inference.synthetic_experiment.LAB_RECORDING).
+FIT_FIELD_OF_VIEW = 25.0
+
+
+@dataclass
+class VerificationStudy:
+    """The study's tables: one entry per (radius, point) with each quantity's convergence, the
+    costs of every level, and the increments' study on the finest levels."""
+
+    family: MeshFamily
+    levels: tuple[int, ...]  # finest first
+    cases: list[dict[str, Any]] = field(default_factory=list)
+    inputs: dict[str, Any] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "schema": "indentation-studio/verification-study/1",
+            "code_version": __version__,
+            "family": self.family.to_dict() | {"name": self.family.name},
+            "levels": list(self.levels),
+            "inputs": self.inputs,
+            "cases": self.cases,
+        }
+
+
+def _solve_or_reuse(
+    spec: ModelSpec,
+    family: MeshFamily,
+    level: int,
+    path: Path,
+    *,
+    sensitivities: bool,
+    progress: Callable[[int, int, float], None] | None,
+    say: Callable[[str], None] | None,
+) -> SimulationResult:
+    """``spec`` on the family's ``level``, read back from ``path`` when it holds the same spec on
+    the same mesh (and sensitivities where asked for), else solved and kept there."""
+    mesh = family.mesh(level, spec.geometry)
+    if path.is_file():
+        try:
+            old = SimulationResult.load(path)
+        except ValueError:
+            old = None
+        if (
+            old is not None
+            and old.spec == spec.to_dict()
+            and old.solver.get("mesh", {}).get("nodes") == mesh.n_nodes
+            and old.solver.get("mesh", {}).get("source") == mesh.source
+            and (old.force_sensitivity is not None or not sensitivities)
+        ):
+            if say is not None:
+                say(f"{path.name}: read back (same spec and mesh)")
+            return old
+    result = EmbeddedSolver(spec, mesh=mesh).run(sensitivities=sensitivities, progress=progress)
+    result.save(path)
+    return result
+
+
+def _step_at(result: SimulationResult, depth: float) -> int | None:
+    hit = np.flatnonzero(np.isclose(result.depth, depth, atol=1e-9))
+    return int(hit[0]) if hit.size else None
+
+
+def field_quantities(result: SimulationResult, radius: float) -> dict[str, float]:
+    """uz and ux on the x axis and uy on the y axis at the rings, deepest step, mm."""
+    at = top_field_interpolator(result.top_xyz, result.displacement[-1])
+    out = {}
+    for ring in FIELD_RINGS:
+        rho = ring * radius
+        on_x, on_y = at(np.array([[rho, 0.0]]))[0], at(np.array([[0.0, rho]]))[0]
+        out[f"uz({ring:g}R)"] = float(on_x[2])
+        out[f"ux({ring:g}R)"] = float(on_x[0])
+        out[f"uy({ring:g}R)"] = float(on_y[1])
+    return out
+
+
+def parameter_bias(
+    model: SimulationResult,
+    data: SimulationResult,
+    *,
+    weights: Sequence[float] = PAPER_WEIGHTS,
+    field_of_view: float = FIT_FIELD_OF_VIEW,
+) -> np.ndarray:
+    """The (c1, c5) that one Gauss-Newton step in log theta of the objective (eq. 4, 5) fits to
+    ``data``'s noise-free response, from ``model`` solved at the truth with sensitivities.
+
+    Parameters
+    ----------
+    model : SimulationResult
+        The fitting model at the true parameters, with sensitivities (its mesh's top nodes are
+        the objective's nodes).
+    data : SimulationResult
+        The response fitted (another mesh of the same test), read at ``model``'s top nodes.
+    weights : four numbers, optional
+        eta of eq. 5 (force, ux, uy, uz); the paper's by default.
+    field_of_view : float, optional
+        Nodes farther than this from the axis carry no data (mm).
+
+    Returns
+    -------
+    numpy.ndarray
+        (c1, c5) in kPa; ``model``'s own parameters when ``data`` is ``model``.
+    """
+    if model.force_sensitivity is None:
+        raise ValueError("the fitting model must be solved with sensitivities")
+    theta = np.array([model.spec["material"]["c1"], model.spec["material"]["c5"]], float)
+    top = np.asarray(model.top_xyz)
+    target = prediction_at_nodes(data, top)
+    radius = float(model.spec["indenter"]["radius"])
+    mask = np.hypot(top[:, 0], top[:, 1]) <= field_of_view
+    objective = Objective(target.force[0], target.displacement[0], top, radius, mask=mask)
+    pred = Prediction.from_results([model], ("c1", "c5"))
+    r = objective.residuals(pred, weights)[0]
+    J = objective.jacobian(pred, weights)[0] * theta
+    delta, *_ = np.linalg.lstsq(J, -r, rcond=None)
+    return theta * np.exp(delta)
+
+
+def _case(
+    spec: ModelSpec,
+    family: MeshFamily,
+    levels: Sequence[int],
+    folder: Path,
+    *,
+    substeps: Sequence[int],
+    substep_levels: int,
+    progress: Callable[[str, int, int, float], None] | None,
+    say: Callable[[str], None] | None,
+) -> dict[str, Any]:
+    """One (point, radius): every level solved (the finest with sensitivities), the quantities'
+    convergence, the costs, and the increments' study on the finest levels."""
+    radius = spec.indenter.radius
+    runs: dict[tuple[int, int], SimulationResult] = {}
+    for level in levels:
+        for n in substeps if level in levels[:substep_levels] else substeps[:1]:
+            at = replace(spec, solver=replace(spec.solver, substeps=n))
+            label = f"L{level}-s{n}"
+            report = None if progress is None else (lambda k, m, f, lab=label: progress(lab, k, m, f))
+            runs[(level, n)] = _solve_or_reuse(
+                at,
+                family,
+                level,
+                folder / f"{label}.npz",
+                sensitivities=(level == levels[0] and n == substeps[0]),
+                progress=report,
+                say=say,
+            )
+    base = [runs[(level, substeps[0])] for level in levels]
+    sizes = [family.size(level, spec.geometry) for level in levels]
+    values: dict[str, list[float]] = {}
+    for depth in FORCE_DEPTHS:
+        k = _step_at(base[0], depth)
+        if k is not None:
+            values[f"force({depth:g}mm)"] = [float(r.force[k]) for r in base]
+    for r in base:
+        for name, v in field_quantities(r, radius).items():
+            values.setdefault(name, []).append(v)
+    for r in base:
+        c1, c5 = parameter_bias(base[0], r)
+        values.setdefault("fit c1", []).append(float(c1))
+        values.setdefault("fit c5", []).append(float(c5))
+    quantities: dict[str, ConvergenceOfQuantity] = {
+        name: study_quantity(name, v, sizes) for name, v in values.items()
+    }
+    increments = []
+    if len(substeps) >= 3:
+        for level in levels[:substep_levels]:
+            f = [float(runs[(level, n)].force[-1]) for n in substeps[:3]][::-1]  # finest increment first
+            dt = [spec.protocol.step_size / n for n in substeps[:3]][::-1]
+            t = observed_order(f, dt)
+            increments.append(
+                {
+                    "level": level,
+                    "substeps": list(substeps[:3]),
+                    "force_deepest_mN": f[::-1],
+                    "order": t.order,
+                    "oscillatory": t.oscillatory,
+                    "extrapolated_mN": t.extrapolated,
+                    "gci_pct": t.gci_fine_pct,
+                    "change_1_to_finest_pct": 100.0 * (f[-1] - f[0]) / f[0],
+                }
+            )
+    return {
+        "radius": radius,
+        "theta": [spec.material.c1, spec.material.c5],
+        "levels": [
+            {
+                "level": level,
+                "h_mm": h,
+                "nodes": int(r.solver["mesh"]["nodes"]),
+                "wall_s": float(r.wall_s),
+                "newton_iterations": int(r.newton_iterations),
+                "sensitivities": r.force_sensitivity is not None,
+            }
+            for level, h, r in zip(levels, sizes, base, strict=True)
+        ],
+        "quantities": {name: q.to_dict() for name, q in quantities.items()},
+        "increments": increments,
+    }
+
+
+def run_verification_study(
+    spec: ModelSpec,
+    family: MeshFamily,
+    levels: Sequence[int],
+    *,
+    points: Sequence[tuple[float, float]] = ((3.0, 540.0), (11.0, 330.0), (19.0, 120.0)),
+    radii: Sequence[float] = (4.77, 8.0),
+    substeps: Sequence[int] = (1, 2, 4),
+    substep_levels: int = 2,
+    out_dir: str | Path,
+    progress: Callable[[str, int, int, float], None] | None = None,
+    say: Callable[[str], None] | None = None,
+) -> VerificationStudy:
+    """Solve and tabulate the verification study; resumable through ``out_dir``.
+
+    Parameters
+    ----------
+    spec : ModelSpec
+        The model (protocol, kappa, contact, solver options); its mesh, (c1, c5) and radius are
+        replaced by the study's.
+    family : MeshFamily
+        The refined meshes.
+    levels : sequence of int
+        At least three levels of ``family``; any order (the finest is solved with sensitivities).
+    points, radii : optional
+        (c1, c5) points (kPa) and indenter radii (mm).
+    substeps : sequence of int, optional
+        Increments per step; the first for every level, all of them on the ``substep_levels``
+        finest levels (three or more for the increments' observed order).
+    out_dir : path
+        Where every run and ``study.json`` are kept.
+    progress : callable, optional
+        ``progress(label, step, steps, force)`` after each step of each run.
+    say : callable, optional
+        Messages (runs read back).
+
+    Returns
+    -------
+    VerificationStudy
+    """
+    ordered = tuple(sorted({int(k) for k in levels}, reverse=True))
+    if len(ordered) < 3:
+        raise ValueError(f"a verification study needs three or more levels, got {list(levels)}")
+    if not substeps or any(int(n) < 1 for n in substeps):
+        raise ValueError(f"substeps must be whole numbers >= 1, got {list(substeps)}")
+    out = Path(out_dir)
+    study = VerificationStudy(
+        family,
+        ordered,
+        inputs={
+            "model": spec.to_dict(),
+            "points": [list(map(float, p)) for p in points],
+            "radii": [float(r) for r in radii],
+            "substeps": [int(n) for n in substeps],
+            "substep_levels": int(substep_levels),
+            "weights": list(PAPER_WEIGHTS),
+            "field_of_view_mm": FIT_FIELD_OF_VIEW,
+            "solver": "embedded",
+        },
+    )
+    t0 = time.perf_counter()
+    for radius in radii:
+        for c1, c5 in points:
+            case_spec = replace(spec, indenter=Indenter(float(radius))).with_material(
+                c1=float(c1), c5=float(c5)
+            )
+            folder = out / f"R{radius:g}" / f"c1-{c1:g}_c5-{c5:g}"
+            study.cases.append(
+                _case(
+                    case_spec,
+                    family,
+                    ordered,
+                    folder,
+                    substeps=[int(n) for n in substeps],
+                    substep_levels=substep_levels,
+                    progress=progress,
+                    say=say,
+                )
+            )
+            atomic_write_json(out / "study.json", study.to_dict() | {"wall_s": time.perf_counter() - t0})
+    return study
+
+
+def load_verification_study(path: str | Path) -> dict[str, Any]:
+    """A study's ``study.json`` as written (a clear error naming the file when it is not one)."""
+    p = Path(path)
+    try:
+        data = json.loads(p.read_text())
+    except (OSError, ValueError) as exc:
+        raise ValueError(f"{p}: not a readable verification study ({exc})") from exc
+    if data.get("schema") != "indentation-studio/verification-study/1":
+        raise ValueError(f"{p}: not a verification study (schema {data.get('schema')!r})")
+    return data

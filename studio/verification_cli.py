@@ -1,0 +1,147 @@
+"""``indent-studio verification-study``: the mesh study done as the V&V literature does it (a
+family of systematically refined meshes, refined increments, observed orders and GCI), beside
+``mesh-study``'s comparison of presets against one reference mesh."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from ..atomic_write import strict_json
+from ..forward.mesh_family import MeshFamily
+from ..forward.solver import SimulationError
+from ..forward.spec import SpecError
+from ..inference.verification_study import run_verification_study
+from .figures import save_figure, verification_figure
+from .options import JSON, KAPPA, STEP_SIZE, STEPS, err, fail, model_spec, say
+from .progress import step_progress
+
+
+def parse_family(text: str) -> MeshFamily:
+    """'CXY x CZ : H0 : RATIO' (e.g. '8x8:1.2:1.5'): base cells along x (and y) and z, the base
+    level's first cell (mm, both axes) and the refinement ratio."""
+    try:
+        cells, h0, ratio = text.split(":")
+        cxy, cz = cells.lower().split("x")
+        return MeshFamily(int(cxy), int(cz), float(h0), float(h0), float(ratio))
+    except ValueError as exc:
+        raise ValueError(f"--family {text!r}: use CXYxCZ:H0:RATIO, e.g. 8x8:1.2:1.5 ({exc})") from exc
+
+
+def parse_points(text: str) -> list[tuple[float, float]]:
+    """'c1:c5,c1:c5,...' in kPa."""
+    try:
+        return [(float(a), float(b)) for a, b in (p.split(":") for p in text.split(",") if p.strip())]
+    except ValueError as exc:
+        raise ValueError(f"--points {text!r}: use c1:c5 pairs, e.g. 3:540,11:330 ({exc})") from exc
+
+
+def _floats(text: str, option: str) -> list[float]:
+    try:
+        return [float(v) for v in text.split(",") if v.strip()]
+    except ValueError as exc:
+        raise ValueError(f"{option} {text!r}: use comma-separated numbers") from exc
+
+
+def verification_study(
+    family: Annotated[
+        str, typer.Option(help="CXYxCZ:H0:RATIO, the base level and the ratio")
+    ] = "8x8:1.2:1.5",
+    levels: Annotated[str, typer.Option(help="comma-separated levels (0 the coarsest)")] = "0,1,2,3",
+    points: Annotated[str, typer.Option(help="c1:c5 pairs, kPa")] = "3:540,11:330,19:120",
+    radii: Annotated[str, typer.Option(help="indenter radii, mm")] = "4.77,8",
+    substeps: Annotated[
+        str, typer.Option(help="increments per step; all of them on the finest levels")
+    ] = "1,2,4",
+    substep_levels: Annotated[int, typer.Option(help="how many finest levels get every substep count")] = 2,
+    kappa: KAPPA = 1000.0,
+    steps: STEPS = 28,
+    step_size: STEP_SIZE = 0.5,
+    out_dir: Annotated[
+        Path, typer.Option(help="every run and study.json; a run already there is read back")
+    ] = Path("runs/verification"),
+    figure: Annotated[Path | None, typer.Option(help="PNG of the first case's convergence (log-log)")] = None,
+    as_json: JSON = False,
+) -> None:
+    """Verification study (Roache's GCI, ASME V&V 20): observed orders, asymptotic range,
+    extrapolated values and GCI of the force, the top field and the fit's (c1, c5) over a family of
+    systematically refined meshes; resumable (run the same command again)."""
+    try:
+        fam = parse_family(family)
+        level_list = [int(v) for v in _floats(levels, "--levels")]
+        sub = [int(v) for v in _floats(substeps, "--substeps")]
+        pts, rad = parse_points(points), _floats(radii, "--radii")
+        spec = model_spec(10.0, 350.0, kappa, rad[0] if rad else 4.77, steps, step_size, "default", None, 1)
+        total = len(pts) * len(rad) * steps * (len(level_list) + (len(sub) - 1) * substep_levels)
+        with step_progress(err, "verification study", total) as bar:
+            done: dict[str, int] = {}
+
+            def report(label: str, k: int, n: int, f: float) -> None:
+                done[label] = done.get(label, 0) + 1
+                bar.update(sum(done.values()), f"{label} step {k}/{n}: {f:.1f} mN")
+
+            study = run_verification_study(
+                spec,
+                fam,
+                level_list,
+                points=pts,
+                radii=rad,
+                substeps=sub,
+                substep_levels=substep_levels,
+                out_dir=out_dir,
+                progress=report,
+                say=say,
+            )
+    except (SpecError, ValueError, SimulationError, OSError) as exc:
+        fail(str(exc), as_json)
+    payload = study.to_dict() | {"study_file": str(Path(out_dir) / "study.json")}
+    if figure is not None and study.cases:
+        case = study.cases[0]
+        title = f"R = {case['radius']:g} mm, (c1, c5) = ({case['theta'][0]:g}, {case['theta'][1]:g}) kPa"
+        payload["figure"] = str(save_figure(verification_figure(case, title=title), figure))
+    if as_json:
+        print(strict_json(payload))
+        return
+    console = Console()
+    for case in study.cases:
+        table = Table(
+            title=f"R = {case['radius']:g} mm, (c1, c5) = ({case['theta'][0]:g}, {case['theta'][1]:g}) kPa; "
+            f"levels {', '.join(str(lv['nodes']) for lv in case['levels'])} nodes"
+        )
+        for col in (
+            "quantity",
+            "values (finest first)",
+            "orders p",
+            "asymptotic",
+            "extrapolated",
+            "GCI % per level",
+        ):
+            table.add_column(col, justify="right")
+        for name, q in case["quantities"].items():
+            table.add_row(
+                name,
+                ", ".join(f"{v:.5g}" for v in q["values"]),
+                ", ".join(f"{p:.2f}" for p in q["orders"]),
+                "yes" if q["asymptotic"] else "no",
+                f"{q['extrapolated']:.5g}",
+                ", ".join(f"{g:.2f}" for g in q["gci_pct"]),
+            )
+        console.print(table)
+        for inc in case["increments"]:
+            console.print(
+                f"level {inc['level']}: substeps {inc['substeps']}, force at the deepest step "
+                f"{', '.join(f'{f:.1f}' for f in inc['force_deepest_mN'])} mN, order {inc['order']:.2f}, "
+                f"GCI {inc['gci_pct']:.3f} %",
+                highlight=False,
+            )
+    if "figure" in payload:
+        console.print(f"figure: {payload['figure']}")
+
+
+def register(app: typer.Typer) -> None:
+    """Add ``verification-study`` to the studio's command line."""
+    app.command("verification-study")(verification_study)
