@@ -191,6 +191,24 @@ def _solid_parts(spec: ModelSpec, mesh: BlockMesh) -> list[tuple[str, np.ndarray
     return [(c.name, mesh.element_set(c.name)) for c in spec.composite.constituents]
 
 
+def check_material_ids(root: ET.Element) -> None:
+    """FEBio 4's rule for the Material section: ids 1, 2, ..., n in the order listed, each name
+    once, and every domain's ``mat`` and rigid body's ``rb`` naming a material that is there."""
+    mats = root.findall("Material/material")
+    ids = [int(m.get("id")) for m in mats]
+    if ids != list(range(1, len(ids) + 1)):
+        raise ValueError(f"FEBio needs materials listed with ids 1..{len(ids)} in order, got {ids}")
+    names = [m.get("name") for m in mats]
+    if len(set(names)) != len(names):
+        raise ValueError(f"material names repeat: {names}")
+    for d in root.iterfind("MeshDomains/*"):
+        if d.get("mat") not in names:
+            raise ValueError(f"domain {d.get('name')} names material {d.get('mat')!r}, not one of {names}")
+    for rb in root.iter("rb"):
+        if int(rb.text) not in ids or mats[int(rb.text) - 1].get("type") != "rigid body":
+            raise ValueError(f"rigid body {rb.text} is not the id of a rigid material")
+
+
 def build_feb(
     spec: ModelSpec, mesh: BlockMesh, logfile: str = "model.log", settings: FebSettings | None = None
 ) -> ET.ElementTree:
@@ -263,6 +281,9 @@ def build_feb(
             cid = BLOCK_MATERIAL_ID if k == 0 else INDENTER_MATERIAL_ID + k
             m_el = _sub(materials, "material", id=cid, name=c.name, type="Mooney-Rivlin")
             _params(m_el, {"density": 1.0, "c1": c.c1, "c2": c.c2, "k": c.kappa})
+    # FEBio 4 reads materials in the order of their ids ("invalid value for attribute id" when the
+    # rigid indenter's id 2 comes before the matrix's 1): listed 1, 2, 3, ...
+    materials[:] = sorted(materials, key=lambda m: int(m.get("id")))
 
     ids = mesh.node_ids
     sphere_xyz, sphere_tri = indenter_surface(radius, center, s.sphere_divisions)
@@ -374,6 +395,7 @@ def build_feb(
     _sub(log, "node_data", name=TOP_DATA, data="ux;uy;uz", node_set="top", delim=" ")
     _sub(log, "rigid_body_data", str(INDENTER_MATERIAL_ID), name=INDENTER_DATA, data="z;Fx;Fy;Fz", delim=" ")
     _sub(log, "node_data", name=BOTTOM_DATA, data="Rz", node_set="bottom", delim=" ")
+    check_material_ids(root)
     return ET.ElementTree(root)
 
 
