@@ -14,6 +14,8 @@ import shutil
 import tomllib
 from pathlib import Path
 
+from mkdocs.plugins import event_priority
+
 ROOT = Path(__file__).resolve().parents[2]
 TREE = ROOT / "build" / "griffe"
 
@@ -44,6 +46,7 @@ def lay_out_sources(root: Path = ROOT, tree: Path = TREE) -> Path:
     return tree
 
 
+@event_priority(100)  # before mkdocstrings' on_config, which keeps only search paths that exist
 def on_config(config, **kwargs):
     lay_out_sources()
     return config
