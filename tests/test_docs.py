@@ -24,3 +24,10 @@ def test_docs_build_strict(tmp_path):
         assert (site / page / "index.html").is_file(), page
     api = (site / "api" / "forward" / "index.html").read_text()
     assert 'id="indentation_studio.forward.ModelSpec"' in api  # the lazily exported names resolved
+
+
+def test_docs_home_shows_the_readme_commands():
+    readme = (ROOT / "README.md").read_text()
+    home = (ROOT / "docs" / "index.md").read_text()
+    commands = [line for line in readme.splitlines() if line.startswith("python3 -m venv ")]
+    assert len(commands) == 2 and all(command in home.splitlines() for command in commands)
