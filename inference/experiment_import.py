@@ -19,6 +19,7 @@ import numpy as np
 import pandas as pd
 
 from ..atomic_write import atomic_write, atomic_write_json
+from .clock_offset import ClockOffset, find_clock_offset, indentation_signal
 from .dic_series import DICSeries, frames_by_list, frames_by_time
 from .experiment_data import ExperimentDataError, load_experiment
 from .load_frame import LoadFrameColumns, find_holds, hold_force_table, read_load_frame
@@ -59,13 +60,14 @@ class ForceSource:
 class FrameChoice:
     """The DIC frame of each step: ``frames`` (one frame number per step), or by time: the last
     frame during each hold, with frame times from the export, ``times_s`` (one per frame) or
-    ``times_file`` (a CSV of frame, time), plus ``time_offset_s`` onto the load frame's clock."""
+    ``times_file`` (a CSV of frame, time), plus ``time_offset_s`` onto the load frame's clock
+    (None: found from the data, :mod:`.clock_offset`)."""
 
     frames: tuple[int, ...] | None = None
     times_s: tuple[float, ...] | None = None
     times_file: Path | None = None
     time_unit: str | None = None
-    time_offset_s: float = 0.0
+    time_offset_s: float | None = None
 
 
 @dataclass(frozen=True)
@@ -191,6 +193,7 @@ def _forces(
         "contact_from": search.contact_from,
         "drift_mN_per_s": search.drift_mN_per_s,
         "notes": list(record.notes) + list(search.notes),
+        "_track": (record.time_s, search.position_sign * (record.position_mm - search.contact_position_mm)),
     }
     return (
         hold_force_table(record, search),
@@ -256,10 +259,23 @@ def import_experiment(
 ) -> ImportResult:
     """Assemble and write an experiment folder from a read DIC export (module docstring)."""
     table, windows, holds, tare, record_info = _forces(protocol, force)
+    track = record_info.pop("_track", None)
+    clock = None
     if frames.frames is not None:
         index = frames_by_list(dic, frames.frames, protocol.steps)
     elif windows is not None:
-        index = frames_by_time(dic, windows, frames.time_offset_s, _frame_times(dic, frames))
+        times = _frame_times(dic, frames)
+        if times is None:
+            raise ExperimentDataError(
+                f"{dic.source}: the export has no frame times; give them, or name the frame of every step"
+            )
+        if frames.time_offset_s is None:
+            clock = find_clock_offset(times, indentation_signal(dic), *track)
+        else:
+            clock = ClockOffset(
+                frames.time_offset_s, frames.time_offset_s, frames.time_offset_s, np.nan, np.nan, "given"
+            )
+        index = frames_by_time(dic, windows, clock.offset_s, times)
     else:
         raise ExperimentDataError(
             "name the DIC frame of every step (frames), or give the load-frame record so that frames are matched "
@@ -285,6 +301,7 @@ def import_experiment(
             "holds": holds,
             "tare_mN": tare,
             "load_frame": record_info,
+            "clock_offset": None if clock is None else clock.to_dict(),
             "indenter_source": str(indenter.path),
             "notes": dic.notes,
         },
@@ -299,7 +316,7 @@ def import_experiment(
         len(indenter_xyz),
         holds,
         tare,
-        list(dic.notes),
+        list(dic.notes) + record_info.get("notes", []) + ([clock.describe()] if clock is not None else []),
     )
 
 
@@ -367,5 +384,6 @@ def import_load_frame(
     format's hold form; returns the holds (rows, times, depth, eq. 9 fit) and the tare."""
     source = replace(force, load_frame=Path(record), force_csv=None)
     table, _, holds, tare, info = _forces(protocol, source)
+    info.pop("_track", None)
     atomic_write(Path(out_csv), table.to_csv(index=False))
     return {"force_csv": str(out_csv), "holds": holds, "tare_mN": tare, "readings": len(table), **info}

@@ -43,7 +43,11 @@ FRAME_TIMES = Annotated[
     typer.Option(help="CSV of frame and time: frames matched to the holds by time (the last in each)"),
 ]
 TIME_OFFSET = Annotated[
-    float, typer.Option(help="added to the DIC frame times to reach the load frame's clock, s")
+    str,
+    typer.Option(
+        help="added to the DIC frame times to reach the load frame's clock, s; 'auto': found from the data "
+        "(the frames' indentation against the stage's depth)"
+    ),
 ]
 LENGTH_UNIT = Annotated[
     str | None, typer.Option(help="length unit of the DIC export (if its headers state none)")
@@ -70,6 +74,15 @@ def csv_encoding(encoding: str | None):
     from ..inference.csv_text import csv_encoding as block
 
     return block(encoding)
+
+
+def _offset(text: str) -> float | None:
+    if text.strip().lower() == "auto":
+        return None
+    try:
+        return float(text)
+    except ValueError as exc:
+        raise ValueError(f"--time-offset: {text!r} is neither a number of seconds nor 'auto'") from exc
 
 
 def _steps(text: str) -> tuple[int, ...]:
@@ -107,7 +120,7 @@ def _sources(o: dict):
     frames = FrameChoice(
         frames=parse_frames(o["frames"]) if o["frames"] else None,
         times_file=o["frame_times"],
-        time_offset_s=o["time_offset"],
+        time_offset_s=_offset(o["time_offset"]),
     )
     return protocol, force, IndenterSource(o["indenter"], o["indenter_unit"]), frames
 
@@ -137,7 +150,7 @@ def import_matchid_command(
     exclude_steps: EXCLUDE = "",
     frames: FRAMES = None,
     frame_times: FRAME_TIMES = None,
-    time_offset: TIME_OFFSET = 0.0,
+    time_offset: TIME_OFFSET = "auto",
     length_unit: LENGTH_UNIT = None,
     max_sigma: Annotated[
         float | None, typer.Option(help="drop points whose stats.Sigma exceeds this, mm")
@@ -184,7 +197,7 @@ def import_duodic_command(
     exclude_steps: EXCLUDE = "",
     frames: FRAMES = None,
     frame_times: FRAME_TIMES = None,
-    time_offset: TIME_OFFSET = 0.0,
+    time_offset: TIME_OFFSET = "auto",
     max_corr: Annotated[float | None, typer.Option(help="drop points whose corrComb exceeds this")] = None,
     rigid_body_removed: Annotated[bool, typer.Option(help="use Disp.DispVec_ARBM")] = False,
     variable: Annotated[str | None, typer.Option(help="the structure's name in the file")] = None,
@@ -247,7 +260,7 @@ def import_csv_command(
     exclude_steps: EXCLUDE = "",
     frames: FRAMES = None,
     frame_times: FRAME_TIMES = None,
-    time_offset: TIME_OFFSET = 0.0,
+    time_offset: TIME_OFFSET = "auto",
     length_unit: LENGTH_UNIT = None,
     max_sigma: Annotated[float | None, typer.Option(help="drop points whose sigma exceeds this")] = None,
     indenter_unit: INDENTER_UNIT = None,

@@ -1,0 +1,67 @@
+"""The offset between the DIC frames' time stamps and the load frame's record, found from the data:
+frames taken all along (ramps seen) pin it to the sampling; frames taken only in the holds give a
+range of offsets that fit as well, which holds the true one, and the frames chosen for the steps
+are the true ones."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from lab_files import sampled_record
+
+from indentation_studio.inference.clock_offset import find_clock_offset, indentation_signal
+from indentation_studio.inference.dic_series import DICSeries, frames_by_time
+from indentation_studio.inference.load_frame import LoadFrameRecord, find_holds
+
+TRUE_OFFSET = 12.3  # the DIC clock started 12.3 s after the load frame's
+
+
+def _series(times_dic, record, search):
+    """DIC frames whose field grows as depth^1.5 at the frames' true times on the record's clock."""
+    rng = np.random.default_rng(1)
+    base = rng.standard_normal((400, 3))
+    depth = np.clip(search.position_sign * (record.position_mm - search.contact_position_mm), 0, None)
+    d = np.interp(times_dic + TRUE_OFFSET, record.time_s, depth)
+    u = d[:, None, None] ** 1.5 * base[None] * 0.1
+    xyz = np.column_stack([rng.uniform(-5, 5, (400, 2)), np.zeros(400)])
+    return DICSeries(
+        "dic", xyz, u, np.arange(len(times_dic)), [str(i) for i in range(len(times_dic))], times_dic
+    )
+
+
+@pytest.fixture(scope="module")
+def record():
+    frame, _ = sampled_record(10, steps=5)
+    rec = LoadFrameRecord(
+        None,
+        frame["Time [s]"].to_numpy(),
+        frame["Position [mm]"].to_numpy(),
+        frame["Force [N]"].to_numpy() * 1e3,
+        {"force": "Force [N]"},
+    )
+    return rec, find_holds(rec, 0.5, 5, 4.77)
+
+
+def test_offset_from_frames_taken_all_along(record):
+    rec, search = record
+    times = np.arange(0.0, rec.time_s[-1] - TRUE_OFFSET, 1.0)  # 1 frame/s on the DIC clock
+    dic = _series(times, rec, search)
+    depth = search.position_sign * (rec.position_mm - search.contact_position_mm)
+    clock = find_clock_offset(dic.times_s, indentation_signal(dic), rec.time_s, depth)
+    assert abs(clock.offset_s - TRUE_OFFSET) <= 0.1  # the record's sampling interval
+    assert clock.power == pytest.approx(1.5)
+
+
+def test_offset_from_frames_taken_in_the_holds(record):
+    rec, search = record
+    ends = np.array([h.end_s for h in search.holds])
+    times = np.concatenate([[5.0], ends - 3.0]) - TRUE_OFFSET  # a reference, then one frame late in each hold
+    dic = _series(times, rec, search)
+    depth = search.position_sign * (rec.position_mm - search.contact_position_mm)
+    clock = find_clock_offset(dic.times_s, indentation_signal(dic), rec.time_s, depth)
+    assert (
+        clock.low_s <= TRUE_OFFSET <= clock.high_s and clock.high_s - clock.low_s <= 30.0 + 1e-6
+    )  # the hold
+    windows = np.array([(h.start_s, h.end_s) for h in search.holds])
+    assert frames_by_time(dic, windows, clock.offset_s).tolist() == [1, 2, 3, 4, 5]
+    assert "found from the data" in clock.describe()
