@@ -229,8 +229,12 @@ def check_experiment(exp: ExperimentData | str | Path, mesh: str = "default") ->
     strain_angle = None
     try:
         deepest = exp.used_steps[-1] - 1
+        L = dic.frame.leveling if dic.frame is not None else np.eye(3)
         strain_angle = fiber_angle_from_strain(
-            (exp.dic_xyz - dic.origin)[:, :2], exp.dic_u[deepest], 1.5 * exp.radius, 4.0 * exp.radius
+            ((exp.dic_xyz - dic.origin) @ L.T)[:, :2],
+            exp.dic_u[deepest] @ L.T,
+            1.5 * exp.radius,
+            4.0 * exp.radius,
         )
     except ExperimentDataError as exc:
         warnings.append(f"the fiber direction cannot be read from the strain field: {exc}")

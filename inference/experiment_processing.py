@@ -6,8 +6,9 @@
   lowest point is the indentation point and the origin of the model frame.
 * :func:`fiber_angle_from_strain`: the fiber direction from the principal directions of the
   measured in-plane strain around the indenter (the stiff fibers stretch least).
-* :func:`to_model_frame`: translate to the indentation point and rotate about z so that +y runs
-  along the fibers.
+* :func:`to_model_frame`: level the DIC data (the plane of its reference positions is the top
+  face, :mod:`.specimen_frame`; DIC in camera coordinates comes out in the specimen's frame),
+  translate to the indentation point and rotate about z so that +y runs along the fibers.
 * :func:`dic_to_nodes`: the DIC displacements at the FE top-surface nodes by a proximity-weighted
   least-squares plane through neighbouring DIC points in the reference configuration (scipy
   cKDTree); the full field is folded onto the quarter model by the symmetry planes (x -> |x| with
@@ -24,6 +25,7 @@ from scipy.optimize import curve_fit
 from scipy.spatial import cKDTree
 
 from .experiment_data import ExperimentData, ExperimentDataError
+from .specimen_frame import SpecimenFrame, specimen_frame
 
 
 @dataclass(frozen=True)
@@ -123,15 +125,18 @@ class RegisteredDIC:
     xyz: np.ndarray  # (points, 3) in the model frame: origin at the indentation point, y along the fibers
     u: np.ndarray  # (steps, points, 3) in the model frame
     origin: np.ndarray  # the indentation point in the DIC frame
-    fiber_angle_deg: float
+    fiber_angle_deg: float  # in the leveled frame (the DIC frame when its z is the face's normal)
     fiber_angle_estimated: bool
     sphere_radius: float
     sphere_rms: float = float("nan")  # RMS distance of the indenter points from the fitted sphere, mm
-    rotation: np.ndarray | None = None  # DIC frame -> model frame (rotation about z)
+    rotation: np.ndarray | None = None  # DIC frame -> model frame (leveling, then about z to the fibers)
+    frame: SpecimenFrame | None = None  # the specimen's top face found in the DIC data
 
     def to_dict(self) -> dict:
-        """The registration a fit used (what ``fit --json`` reports)."""
-        return {
+        """The registration a fit used (what ``fit --json`` reports): the origin (indentation
+        point) and rotation DIC frame -> model frame, the sphere fit, the top face (normal, tilt,
+        the points' spread about it, the indentation point's distance from it), the fibers."""
+        out = {
             "origin_mm": self.origin.tolist(),
             "sphere_radius_mm": self.sphere_radius,
             "sphere_fit_rms_mm": self.sphere_rms,
@@ -139,25 +144,45 @@ class RegisteredDIC:
             "fiber_angle_deg": self.fiber_angle_deg,
             "fiber_angle_estimated": self.fiber_angle_estimated,
         }
+        if self.frame is not None:
+            out.update(self.frame.to_dict())
+        return out
+
+
+def leveled_fiber_angle(angle_deg: float, frame: SpecimenFrame) -> float:
+    """A fiber direction given in the DIC frame (degrees from x, as the camera sees it: the
+    direction in the top face whose projection along the DIC z makes that angle with x) as its
+    angle in the leveled frame."""
+    a = np.radians(angle_deg)
+    n = frame.normal
+    f = np.array([np.cos(a), np.sin(a), -(n[0] * np.cos(a) + n[1] * np.sin(a)) / n[2]])
+    f = frame.leveling @ f
+    return float(np.degrees(np.arctan2(f[1], f[0])) % 180.0)
 
 
 def to_model_frame(exp: ExperimentData) -> RegisteredDIC:
-    """Origin at the lowest point of the fitted indenter sphere; y along the fibers (given, or
-    estimated from the strain field when the experiment does not say)."""
+    """The DIC data in the model frame: the top face and its normal from the plane of the DIC
+    reference positions (:mod:`.specimen_frame`: DIC in camera coordinates is leveled; a point
+    of indentation off the face is an error), the origin at the fitted sphere's point nearest the
+    face, y along the fibers (given, or estimated from the strain field when the experiment does
+    not say)."""
     centre, radius = fit_sphere(exp.indenter_xyz)
-    origin = centre - np.array([0.0, 0.0, radius])
-    xyz = exp.dic_xyz - origin
+    frame = specimen_frame(exp.dic_xyz, centre, radius)
+    origin = frame.indentation_point_mm
+    L = frame.leveling
+    xyz_l = (exp.dic_xyz - origin) @ L.T
+    u_l = exp.dic_u @ L.T
     estimated = exp.fiber_angle_deg is None
     angle = (
-        fiber_angle_from_strain(
-            xyz[:, :2], exp.dic_u[exp.used_steps[-1] - 1], 1.5 * exp.radius, 4.0 * exp.radius
-        )
+        fiber_angle_from_strain(xyz_l[:, :2], u_l[exp.used_steps[-1] - 1], 1.5 * exp.radius, 4.0 * exp.radius)
         if estimated
+        else leveled_fiber_angle(exp.fiber_angle_deg, frame)
+        if frame.tilt_deg > 0.0
         else exp.fiber_angle_deg
     )
     Q = rotation_to_fibers(angle)
     rms = float(np.sqrt(np.mean((np.linalg.norm(exp.indenter_xyz - centre, axis=1) - radius) ** 2)))
-    return RegisteredDIC(xyz @ Q.T, exp.dic_u @ Q.T, origin, float(angle), estimated, radius, rms, Q)
+    return RegisteredDIC(xyz_l @ Q.T, u_l @ Q.T, origin, float(angle), estimated, radius, rms, Q @ L, frame)
 
 
 def _step_mask(steps: int, used: np.ndarray) -> np.ndarray:
@@ -189,6 +214,80 @@ def unfold_by_symmetry(xy: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.nd
     return np.concatenate(points), np.concatenate(values, axis=1)
 
 
+@dataclass
+class NodeInterpolation:
+    """How :func:`dic_to_nodes` makes each FE top node's value from the DIC points: the weighted
+    least-squares plane through its ``k`` nearest points (of those folded into the quarter model
+    and mirrored back). A node's value is ``planes[:, 0]`` . u of its neighbours, its in-plane
+    gradient ``planes[:, 1:]`` . u: linear in the DIC data, so the noise of the node values
+    follows from it (:mod:`inference.adequacy`)."""
+
+    points: np.ndarray  # (n_ok,) indices into the DIC points of those correlated at every step used
+    neighbours: np.ndarray  # (nodes, k) indices into the unfolded points (copy * n_ok + point)
+    planes: np.ndarray  # (nodes, 3, k): rows value, d/dx, d/dy of the plane at the node
+    measured: np.ndarray  # (nodes,) bool: the node has data
+    signs: np.ndarray  # (nodes, k, 3): the sign each neighbour's ux, uy, uz carries (folding, mirroring)
+
+    def matrix(self, direction: int) -> np.ndarray:
+        """(nodes, n_ok): node value of ``direction`` (0 ux, 1 uy, 2 uz) = this @ that direction of
+        the points (0 for nodes without data); a point that is a neighbour twice (a node on a
+        symmetry plane sees it and its mirror image) counts twice with its signs."""
+        n_ok = len(self.points)
+        W = np.zeros((len(self.neighbours), n_ok))
+        rows = np.repeat(np.arange(len(self.neighbours)), self.neighbours.shape[1])
+        w = (self.planes[:, 0, :] * self.signs[..., direction]).ravel()
+        np.add.at(W, (rows, (self.neighbours % n_ok).ravel()), w)
+        W[~self.measured] = 0.0
+        return W
+
+
+#: The mirror images of :func:`unfold_by_symmetry`, in its order: (x, y) signs.
+_MIRRORS = ((1.0, 1.0), (-1.0, 1.0), (1.0, -1.0), (-1.0, -1.0))
+
+
+def node_interpolation(
+    dic: RegisteredDIC,
+    node_xy: np.ndarray,
+    neighbours: int = 12,
+    max_distance: float | None = None,
+    used_steps: np.ndarray | None = None,
+) -> NodeInterpolation:
+    """The planes :func:`dic_to_nodes` interpolates with (its docstring says how they are chosen)."""
+    xy = dic.xyz[:, :2]
+    used = np.arange(dic.u.shape[0]) if used_steps is None else np.asarray(used_steps, int) - 1
+    ok = np.all(np.isfinite(dic.u[used]), axis=(0, 2))  # points correlated at every step used
+    if not ok.any():
+        raise ExperimentDataError("no DIC point is correlated at every step")
+    k = int(min(neighbours, 4 * int(ok.sum())))
+    if k < 3:
+        raise ExperimentDataError(f"a plane through the DIC points needs 3 of them, got {int(ok.sum())}")
+    pts = np.concatenate([np.abs(xy[ok]) * m for m in _MIRRORS])
+    tree = cKDTree(pts)
+    if max_distance is None:  # twice the typical reach of k neighbours among the DIC points
+        d, _ = tree.query(pts, k=k + 1)
+        max_distance = 2.0 * float(np.median(d[:, -1]))
+    node_xy = np.asarray(node_xy, float)
+    dist, idx = tree.query(node_xy, k=k)  # (nodes, k)
+    dx = pts[idx] - node_xy[:, None, :]  # (nodes, k, 2)
+    angle = np.sort(np.arctan2(dx[..., 1], dx[..., 0]), axis=1)
+    gaps = np.diff(np.concatenate([angle, angle[:, :1] + 2.0 * np.pi], axis=1), axis=1)
+    surrounded = gaps.max(axis=1) < np.deg2rad(MAX_NEIGHBOUR_GAP_DEG)
+    w = (1.0 - dist / (1.0001 * dist[:, -1:] + 1e-12)) ** 2
+    A = np.concatenate([np.ones((*dist.shape, 1)), dx], axis=2)  # (nodes, k, 3)
+    AtW = np.transpose(A * w[..., None], (0, 2, 1))  # (nodes, 3, k)
+    M = AtW @ A  # (nodes, 3, 3)
+    # a node whose neighbours do not surround it well (all on a line) has a singular plane fit
+    well_posed = np.linalg.cond(M) < 1e8
+    measured = (dist[:, -1] <= max_distance) & well_posed & surrounded
+    planes = np.linalg.solve(np.where(well_posed[:, None, None], M, np.eye(3)), AtW)  # (nodes, 3, k)
+    n_ok = int(ok.sum())
+    fold = np.where(xy[ok] < 0, -1.0, 1.0)  # (n_ok, 2): the point's quadrant
+    mirror = np.array(_MIRRORS)[idx // n_ok]  # (nodes, k, 2)
+    signs = np.ones((*idx.shape, 3))
+    signs[..., :2] = fold[idx % n_ok] * mirror
+    return NodeInterpolation(np.flatnonzero(ok), idx, planes, measured, signs)
+
+
 def dic_to_nodes(
     dic: RegisteredDIC,
     node_xy: np.ndarray,
@@ -208,37 +307,14 @@ def dic_to_nodes(
     farther than ``max_distance`` (default twice the median distance of a DIC point to its k-th
     neighbour). ``used_steps`` (1..N; default all) are the steps that count: a point needs to be
     correlated in those only, and the other steps' displacements are returned as 0."""
-    xy = dic.xyz[:, :2]
+    plan = node_interpolation(dic, node_xy, neighbours, max_distance, used_steps)
     used = np.arange(dic.u.shape[0]) if used_steps is None else np.asarray(used_steps, int) - 1
-    ok = np.all(np.isfinite(dic.u[used]), axis=(0, 2))  # points correlated at every step used
-    if not ok.any():
-        raise ExperimentDataError("no DIC point is correlated at every step")
-    k = int(min(neighbours, 4 * int(ok.sum())))
-    if k < 3:
-        raise ExperimentDataError(f"a plane through the DIC points needs 3 of them, got {int(ok.sum())}")
-    pts, u = unfold_by_symmetry(xy[ok], np.nan_to_num(dic.u[:, ok]) * _step_mask(dic.u.shape[0], used))
-    tree = cKDTree(pts)
-    if max_distance is None:  # twice the typical reach of k neighbours among the DIC points
-        d, _ = tree.query(pts, k=k + 1)
-        max_distance = 2.0 * float(np.median(d[:, -1]))
-    node_xy = np.asarray(node_xy, float)
-    dist, idx = tree.query(node_xy, k=k)  # (nodes, k)
-    dx = pts[idx] - node_xy[:, None, :]  # (nodes, k, 2)
-    angle = np.sort(np.arctan2(dx[..., 1], dx[..., 0]), axis=1)
-    gaps = np.diff(np.concatenate([angle, angle[:, :1] + 2.0 * np.pi], axis=1), axis=1)
-    surrounded = gaps.max(axis=1) < np.deg2rad(MAX_NEIGHBOUR_GAP_DEG)
-    w = (1.0 - dist / (1.0001 * dist[:, -1:] + 1e-12)) ** 2
-    A = np.concatenate([np.ones((*dist.shape, 1)), dx], axis=2)  # (nodes, k, 3)
-    AtW = np.transpose(A * w[..., None], (0, 2, 1))  # (nodes, 3, k)
-    M = AtW @ A  # (nodes, 3, 3)
-    # a node whose neighbours do not surround it well (all on a line) has a singular plane fit
-    well_posed = np.linalg.cond(M) < 1e8
-    measured = (dist[:, -1] <= max_distance) & well_posed & surrounded
-    U = np.moveaxis(u[:, idx], 0, 2).reshape(len(node_xy), k, -1)  # (nodes, k, steps * 3)
-    coef = np.linalg.solve(np.where(well_posed[:, None, None], M, np.eye(3)), AtW @ U)  # (nodes, 3, steps*3)
-    out = coef[:, 0].reshape(len(node_xy), u.shape[0], 3).transpose(1, 0, 2).copy()
-    out[:, ~measured] = 0.0
-    return out, measured
+    u = np.nan_to_num(dic.u[:, plan.points]) * _step_mask(dic.u.shape[0], used)  # (steps, n_ok, 3)
+    n_ok = len(plan.points)
+    U = u[:, plan.neighbours % n_ok] * plan.signs[None]  # (steps, nodes, k, 3)
+    out = np.einsum("nk,snkd->snd", plan.planes[:, 0, :], U)
+    out[:, ~plan.measured] = 0.0
+    return out, plan.measured
 
 
 def experiment_objective(exp: ExperimentData, top_xyz: np.ndarray, reading: str = "paper", excluded_steps=()):
