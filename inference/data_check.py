@@ -15,7 +15,9 @@
 * warnings with numbers: a hold that has not relaxed, a sphere-fit residual larger than the DIC
   noise, a missing or excluded step, a fitted sphere radius that is not the declared one, a
   force that does not grow with depth, a DIC frame with few points, fewer than half the points
-  correlated at every step (the only ones the DIC-to-node interpolation uses).
+  correlated at every step (the only ones the DIC-to-node interpolation uses), and those of
+  :mod:`.dic_checks`: points inside the contact radius, a field with no indentation, a step whose
+  point count drops, the DIC points' spread about the top face beyond the DIC noise.
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial import cKDTree
 
+from .dic_checks import contact_radius, dic_field_warnings
 from .experiment_data import ExperimentData, ExperimentDataError, load_experiment
 from .experiment_processing import (
     RegisteredDIC,
@@ -95,6 +98,9 @@ class DataCheck:
     node_xy: list[list[float]] = field(repr=False, default_factory=list)
     node_measured: list[bool] = field(repr=False, default_factory=list)
     dic_noise_mm: list[float] = field(default_factory=list)  # ux, uy (along the fibers), uz
+    points_inside_contact: list[dict] = field(default_factory=list)  # per step with any (dic_checks)
+    indentation_signature_mm: float | None = None  # uz beside the indenter - far field, deepest step
+    registration: dict = field(default_factory=dict)  # the top face, origin and rotation (to_model_frame)
     warnings: list[str] = field(default_factory=list)
 
     def to_dict(self) -> dict:
@@ -170,12 +176,6 @@ def _coverage(exp: ExperimentData, dic: RegisteredDIC) -> list[StepCoverage]:
             )
         )
     return out
-
-
-def contact_radius(radius: float, depth: float) -> float:
-    """The radius of the circle where a sphere pressed ``depth`` into a plane meets it:
-    sqrt(2 R d - d^2), and R once the sphere is in past its equator."""
-    return float(radius if depth >= radius else np.sqrt(2.0 * radius * depth - depth * depth))
 
 
 def _top_nodes(mesh: str) -> np.ndarray:
@@ -259,6 +259,8 @@ def check_experiment(exp: ExperimentData | str | Path, mesh: str = "default") ->
             warnings.append(
                 f"step {c.step}: only {c.points} DIC points ({100 * c.fraction:.3g} % of the best step's)"
             )
+    field_warnings, inside, signature = dic_field_warnings(exp, dic, noise)
+    warnings.extend(field_warnings)
     every = int(np.isfinite(exp.dic_u[exp.used_steps - 1]).all(axis=(0, 2)).sum())
     if every < LOW_COVERAGE * len(exp.dic_xyz):
         warnings.append(
@@ -292,5 +294,8 @@ def check_experiment(exp: ExperimentData | str | Path, mesh: str = "default") ->
         node_xy=node_xy.tolist(),
         node_measured=measured.tolist(),
         dic_noise_mm=noise.tolist(),
+        points_inside_contact=[c.to_dict() for c in inside],
+        indentation_signature_mm=signature,
+        registration=dic.to_dict(),
         warnings=warnings,
     )
