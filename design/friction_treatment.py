@@ -26,8 +26,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-from ..design.certainty import bounds_pct, s_for_parameters
 from ..forward.predictor import Prediction, as_theta
+from .certainty import bounds_pct, s_for_parameters
 
 __all__ = [
     "FRICTION_MODES",

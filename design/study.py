@@ -6,10 +6,18 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy import stats
 
 from ..forward.predictor import FESolverPredictor, Prediction
 from ..forward.spec import ModelSpec
-from .certainty import bounds_pct, combine, finite_difference_term_hessians, gauss_newton_term_hessians
+from .certainty import (
+    bounds_pct,
+    combine,
+    finite_difference_term_hessians,
+    gauss_newton_term_hessians,
+    s_for_parameters,
+)
+from .friction_treatment import FrictionTreatment, friction_bounds
 from .objective import Objective
 
 
@@ -72,16 +80,11 @@ def fe_design_study(
 def friction_design_bounds(study: DesignStudy, eta, s: float, mu_prior: tuple[float, float]) -> dict:
     """The bounds (percent) of c1 and c5 of a study with mu (3 x 3 Hessians) when mu is known,
     identified with them, or a nuisance with a log-uniform prior on ``mu_prior`` (the Laplace
-    stand-in of :func:`inference.friction_treatment.friction_bounds`), and mu's own bound when
+    stand-in of :func:`design.friction_treatment.friction_bounds`), and mu's own bound when
     identified. ``s`` is the design's noise level for (c1, c5) as without friction (eq. 8 with
     p = 2), so that the bounds with mu known are those of ``design bounds`` on that contact; with
     mu fitted too the region is 3-D and s is read for p = 3 (eq. 8, n the objective's data
     points), and the residual sd the prior is weighed against is s / sqrt(2 F_{2, n-2}^0.95)."""
-    from scipy import stats
-
-    from ..inference.friction_treatment import FrictionTreatment, friction_bounds
-    from .certainty import s_for_parameters
-
     H = study.hessian(eta)
     if H.shape != (3, 3):
         raise ValueError("the study has no mu: run it with parameters ('c1', 'c5', 'mu')")

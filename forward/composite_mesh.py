@@ -29,6 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .block_mesh import BlockMesh, grid_block
+from .hex8_mean_dilatation import ReferenceGeometry
 from .mesh_presets import COMPOSITE_MESH_PRESETS, CompositeMeshPreset
 from .spec import Geometry
 
@@ -176,7 +177,6 @@ def composite_mesh(name: str, geometry: Geometry | None = None) -> BlockMesh:
 
 def fiber_volume_fraction(mesh: BlockMesh) -> float:
     """Volume of the fiber elements over the mesh's volume."""
-    from .hex8_mean_dilatation import ReferenceGeometry
 
     if mesh.element_material is None:
         raise ValueError(f"{mesh.source}: not a composite mesh (no element sets)")

@@ -24,9 +24,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .block_mesh import BlockMesh
 from .hex8_kernel_numba import hex8_three_field_kernel
 from .material import InvertedElementError, volumetric_energy
-from .mesh import BlockMesh
 
 _G = 1.0 / np.sqrt(3.0)
 #: Natural coordinates of the hex8 nodes in FEBio's order.

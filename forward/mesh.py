@@ -10,6 +10,7 @@ of our meshes and of FEBio's coincide when the grids do.
 from __future__ import annotations
 
 from .block_mesh import BlockMesh, grid_block
+from .composite_mesh import composite_mesh
 from .feb_mesh import read_feb_block_mesh
 from .mesh_presets import MESH_PRESETS, GradedAxis, MeshPreset
 from .spec import Geometry, ModelSpec
@@ -47,7 +48,5 @@ def build_mesh(spec: ModelSpec) -> BlockMesh:
     if spec.mesh.feb_file:
         return read_feb_block_mesh(spec.mesh.feb_file)
     if spec.mesh.is_composite:
-        from .composite_mesh import composite_mesh
-
         return composite_mesh(spec.mesh.preset, spec.geometry)
     return preset_mesh(spec.mesh.preset, spec.geometry)

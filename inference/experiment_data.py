@@ -37,9 +37,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-
-class ExperimentDataError(ValueError):
-    """Malformed experiment data; the message names the file, row and column."""
+from .experiment_errors import ExperimentDataError
+from .hold_checks import check_hold_forces
 
 
 @dataclass
@@ -181,8 +180,6 @@ def load_experiment(root: str | Path, exclude_missing: bool = False) -> Experime
     """Read and validate an experiment folder (module docstring). With ``exclude_missing`` a step
     with fewer than 4 force readings or no correlated DIC point is left out (listed in
     ``missing_steps``) instead of refused: the data check reports it."""
-    from .hold_checks import check_hold_forces
-
     root = Path(root)
     if not root.is_dir():
         raise ExperimentDataError(f"{root}: no such experiment folder")

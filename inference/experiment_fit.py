@@ -11,18 +11,19 @@ from pathlib import Path
 import numpy as np
 
 from ..atomic_write import atomic_write_json
-from ..design.objective import PAPER_WEIGHTS
-from ..forward.predictor import FESolverPredictor
-from ..forward.solver import SimulationError
-from ..surrogate.base import FieldSurrogate
-from .experiment_data import ExperimentData
-from .fit_inputs import FitInputs, prepare_fit
-from .friction_treatment import (
+from ..design.friction_treatment import (
     DEFAULT_MU_RANGE,
     FixedParameter,
     FrictionTreatment,
     friction_bounds,
 )
+from ..design.objective import PAPER_WEIGHTS
+from ..forward.predictor import FESolverPredictor
+from ..forward.solver import SimulationError
+from ..surrogate.base import FieldSurrogate
+from ..surrogate.error_budgets import surrogate_error_budget
+from .experiment_data import ExperimentData
+from .fit_inputs import FitInputs, prepare_fit
 from .inverse_fit import (
     PAPER_F_STOP,
     PAPER_START,
@@ -64,7 +65,7 @@ class ExperimentFit:
     @property
     def friction_bounds(self) -> dict | None:
         """With mu fitted: (c1, c5)'s bounds, mu's, the conditional ones and mu's share
-        (:func:`inference.friction_treatment.friction_bounds`)."""
+        (:func:`design.friction_treatment.friction_bounds`)."""
         if not self.friction.fits_mu:
             return None
         f = self.fit
@@ -202,7 +203,7 @@ def fit_experiment(
     mesh with bounds that hold its discretisation uncertainty. ``exclude_steps`` (1..N) are left
     out of the fit beside those the experiment excludes; the result lists them all.
 
-    ``friction`` (:class:`inference.friction_treatment.FrictionTreatment`, or its text: a value,
+    ``friction`` (:class:`design.friction_treatment.FrictionTreatment`, or its text: a value,
     'identify', 'marginalise[:LO:HI]', 'assumed') says how the fit treats the indenter's friction
     coefficient mu; by default (None) as :func:`default_friction` says. On a surrogate trained with mu as a parameter (a campaign with a mu
     axis) the surrogate stage fits or holds mu too; on one without, that stage fits (c1, c5) with
@@ -526,7 +527,6 @@ def _stick_mesh_budget(surrogate, contact: str, measured_with: str = "perfect st
     FEBio's baseline with mu identified: c5 +34 % outside +-3.9 %). Its source says which contact
     it was measured with (``measured_with``: the surrogate's campaign's contact, which the shipped
     budget was matched on)."""
-    from ..design.error_budget import surrogate_error_budget
 
     budget = surrogate_error_budget(surrogate)
     if not budget:

@@ -12,11 +12,11 @@ import numpy as np
 
 from ..atomic_write import atomic_write_json
 from ..design.certainty import bounds_pct
+from ..design.friction_treatment import FrictionTreatment, friction_bounds
 from ..design.objective import PAPER_WEIGHTS
 from ..surrogate.base import FieldSurrogate
 from .experiment_data import ExperimentData
 from .fit_inputs import FitInputs, prepare_fit
-from .friction_treatment import FrictionTreatment, friction_bounds
 from .inverse_fit import FitResult, fit_parameters
 from .mesh_check import load_mesh_check
 from .model_error import ModelError, model_error_at, model_error_scope, with_model_error

@@ -19,7 +19,8 @@ from collections.abc import Sequence
 import numpy as np
 import pandas as pd
 
-from .experiment_data import ExperimentDataError
+from .experiment_errors import ExperimentDataError
+from .relaxation import relaxation_fit
 
 STEP_RATIO = 20.0
 SPIKE_SIGMAS = 8.0
@@ -35,8 +36,6 @@ def hertz_modulus(force_mN: np.ndarray, depth_mm: np.ndarray, radius: float) -> 
 
 def _spike(t: np.ndarray, f: np.ndarray) -> tuple[int, float] | None:
     """The index and size of the worst reading that stands out of the hold's eq. 9 fit, if any."""
-    from .experiment_processing import relaxation_fit
-
     try:
         fit = relaxation_fit(t, f)
     except ExperimentDataError:

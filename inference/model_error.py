@@ -13,7 +13,7 @@ multi-fidelity surrogate also knows two model errors, which are reported beside 
 
 A single-level surrogate knows the second part only, when an error budget of its own mesh for the
 same test is known (given at training, or shipped with the studio:
-:func:`design.error_budget.shipped_budget`); its bounds then hold that mesh's error and say so.
+:func:`surrogate.error_budgets.shipped_budget`); its bounds then hold that mesh's error and say so.
 
 Both are 95 % half-widths in percent of theta_hat and are combined with the statistical one by
 root sum of squares (independent sources, as ASME V&V 20 combines uncertainties).
@@ -25,9 +25,9 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..design.error_budget import surrogate_error_budget
 from ..design.objective import Objective, check_weights
 from ..forward.predictor import Prediction
+from ..surrogate.error_budgets import surrogate_error_budget
 
 __all__ = ["Z95", "ModelError", "combined_pct", "model_error_at", "model_error_scope", "with_model_error"]
 

@@ -14,6 +14,7 @@ from rich.table import Table
 from ..atomic_write import atomic_write, atomic_write_json, strict_json
 from ..design.certainty import DESIGN_BOUNDS_INCLUDE
 from ..forward.spec import SpecError
+from ..inference.error_budget import campaign_error_budget
 from .options import (
     FRICTION,
     JSON,
@@ -481,7 +482,6 @@ def error_budget_cmd(
     responses, beside a typical experiment's 95 % half-width (converged: bias below a third).
     The JSON is saved after every row; run again with the same settings to resume a stopped one."""
     from ..campaign.loader import open_campaign
-    from ..design.error_budget import campaign_error_budget
 
     try:
         path = out or open_campaign(reference, runs_dir).root / "error-budget.json"

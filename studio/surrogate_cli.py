@@ -12,6 +12,7 @@ from rich.console import Console
 from rich.table import Table
 
 from ..atomic_write import strict_json
+from ..surrogate.error_budgets import remaining_bias
 from .options import JSON, err, fail
 
 surrogate_app = typer.Typer(
@@ -49,7 +50,6 @@ def _budget_for(
     """What ``error_budget`` leaves for the campaign's mesh (named ``budget_model`` in it); None
     when no file is given (the training then takes the shipped budget for that mesh, if any)."""
     from ..campaign.loader import open_campaign
-    from ..design.error_budget import remaining_bias
 
     if error_budget is None:
         return None

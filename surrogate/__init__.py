@@ -21,5 +21,12 @@ __getattr__, __dir__, __all__ = lazy.attach(
         "persistence": ["SurrogateFileError", "load_surrogate", "save_surrogate"],
         "pickle_conversion": ["convert_pickled_surrogate"],
         "validation": ["k_fold_errors", "prediction_errors"],
+        "error_budgets": [
+            "remaining_bias",
+            "shipped_budget",
+            "shipped_budgets_folder",
+            "surrogate_error_budget",
+        ],
+        "registry": ["SAVED_KINDS", "surrogate_class"],
     },
 )

@@ -31,6 +31,7 @@ from ..forward.mesh_study import top_field_interpolator
 from ..forward.predictor import Prediction, ReducedBasis
 from .base import FieldSurrogate, TrainingData
 from .gaussian_process import GaussianProcessSurrogate
+from .registry import surrogate_class
 
 __all__ = ["MultiFidelitySurrogate", "interpolation_matrix", "model_differences"]
 
@@ -331,15 +332,13 @@ class MultiFidelitySurrogate(FieldSurrogate):
     @classmethod
     def from_state(cls, config: dict[str, Any], arrays: dict[str, np.ndarray]) -> MultiFidelitySurrogate:
         """The surrogate that :meth:`to_state` described."""
-        from .persistence import _surrogate_class
-
         if config["kind"] != cls.kind:
             raise ValueError(f"a {config['kind']!r} surrogate cannot be rebuilt as {cls.kind!r}")
 
         def level(name: str) -> FieldSurrogate:
             prefix = f"{name}."
             own = {k[len(prefix) :]: v for k, v in arrays.items() if k.startswith(prefix)}
-            return _surrogate_class(config[name]["kind"]).from_state(config[name], own)
+            return surrogate_class(config[name]["kind"]).from_state(config[name], own)
 
         low, discrepancy = level("low"), level("discrepancy")
         if not isinstance(discrepancy, GaussianProcessSurrogate):

@@ -26,6 +26,7 @@ import numpy as np
 
 from .. import __version__
 from .base import FieldSurrogate
+from .registry import surrogate_class
 from .safe_file import FORMAT, SurrogateFileError, json_header_field, read_container, write_container
 
 __all__ = ["DEFAULT_SUFFIX", "SurrogateFileError", "load_surrogate", "save_surrogate", "versions"]
@@ -52,24 +53,6 @@ def versions() -> dict[str, str]:
         "safetensors": _library_version("safetensors"),
         "python": platform.python_version(),
     }
-
-
-def _surrogate_class(kind: str) -> type[FieldSurrogate]:
-    """The class of a saved ``kind``, from a fixed list (torch is imported only for an MLP, or a
-    multi-fidelity surrogate whose low level is one)."""
-    if kind == "gp":
-        from .gaussian_process import GaussianProcessSurrogate
-
-        return GaussianProcessSurrogate
-    if kind == "mlp":
-        from .mlp import MLPSurrogate
-
-        return MLPSurrogate
-    if kind == "mf":
-        from .multi_fidelity import MultiFidelitySurrogate
-
-        return MultiFidelitySurrogate
-    raise ValueError(f"unknown surrogate kind {kind!r}")
 
 
 def _json_default(value: Any) -> Any:
@@ -154,7 +137,7 @@ def load_surrogate(path: str | Path) -> FieldSurrogate:
     meta = json_header_field(path, header, "meta")
     check = json_header_field(path, header, "self_check")
     try:
-        model = _surrogate_class(config["kind"]).from_state(config, arrays)
+        model = surrogate_class(config["kind"]).from_state(config, arrays)
     except (KeyError, TypeError, ValueError, RuntimeError) as exc:
         reason = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
         raise SurrogateFileError(f"{path}: inconsistent surrogate file ({reason})") from exc

@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING
 
 from ..campaign.loader import CampaignData, load_campaign
 from .base import FieldSurrogate, TrainingData
+from .error_budgets import surrogate_error_budget
 from .validation import k_fold_errors, prediction_errors
 
 if TYPE_CHECKING:
@@ -57,7 +58,7 @@ def train_surrogate(
     """Train a ``kind`` surrogate on ``campaign``; its errors on the training points, by ``kfold``
     cross-validation and on ``test_campaign`` go to ``model.meta['validation']`` (percent).
     ``error_budget`` (what a budget leaves for the campaign's mesh,
-    :func:`design.error_budget.remaining_bias`; default: the studio's shipped budget for that
+    :func:`surrogate.error_budgets.remaining_bias`; default: the studio's shipped budget for that
     mesh and test, if any) goes to meta['error_budget']: fits carry it in their bounds."""
     data = training_data(campaign, runs_dir)
     model = make_surrogate(kind, input_scale, pca_tol).fit(data, seed=seed)
@@ -76,8 +77,6 @@ def train_surrogate(
 def _record_error_budget(model: FieldSurrogate, error_budget: dict | None) -> None:
     """meta['error_budget']: the one given, else the shipped one for the FE model the surrogate
     emulates, else None (fits then say their bounds hold no model error)."""
-    from ..design.error_budget import surrogate_error_budget
-
     model.meta.pop("error_budget", None)
     known = error_budget if error_budget is not None else surrogate_error_budget(model)
     model.meta["error_budget"] = None if known is None else dict(known)
@@ -101,7 +100,7 @@ def train_multi_fidelity(
     campaign's. The discrepancy's ``folds``-fold errors go to meta['discrepancy_kfold'] (force %,
     field mm); its errors on the training points and on ``test_campaign`` (percent, as for
     :func:`train_surrogate`) to meta['validation']. ``error_budget`` (what the budget leaves for the
-    high-fidelity mesh, :func:`design.error_budget.remaining_bias`; default: the shipped budget for
+    high-fidelity mesh, :func:`surrogate.error_budgets.remaining_bias`; default: the shipped budget for
     that mesh and test, if any) goes to meta['error_budget'], where fits read the systematic part
     of their model error."""
     from .multi_fidelity import MultiFidelitySurrogate

@@ -1,4 +1,4 @@
-"""The error budget of a model (design.error_budget): a model fitted to its own response has no
+"""The error budget of a model (inference.error_budget; its files: surrogate.error_budgets): a model fitted to its own response has no
 bias; the expected noise objective matches Monte Carlo; a coarser mesh's bias is the fit it causes."""
 
 from __future__ import annotations
@@ -6,18 +6,18 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from indentation_studio.design.error_budget import (
-    compute_error_budget,
-    model_top_xyz,
-    noise_objective_value,
-    reference_prediction,
-    remaining_bias,
-)
 from indentation_studio.design.objective import PAPER_WEIGHTS, Objective
 from indentation_studio.forward.predictor import FESolverPredictor
 from indentation_studio.forward.solver import simulate
 from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
+from indentation_studio.inference.error_budget import (
+    compute_error_budget,
+    model_top_xyz,
+    noise_objective_value,
+    reference_prediction,
+)
 from indentation_studio.inference.inverse_fit import fit_parameters
+from indentation_studio.surrogate.error_budgets import remaining_bias
 
 PROTOCOL = Protocol(step_size=0.5, steps=3)
 COARSE = ModelSpec(mesh=MeshChoice("coarse"), protocol=PROTOCOL)
@@ -178,7 +178,7 @@ def test_surrogate_split_reuses_the_fe_models_row():
 def _budget_file(folder, reference_spec: ModelSpec, rows: list[dict], complete: bool = True):
     import json
 
-    from indentation_studio.design.error_budget import ErrorBudget
+    from indentation_studio.inference.error_budget import ErrorBudget
 
     budget = ErrorBudget(
         __import__("pandas").DataFrame(rows),
@@ -198,8 +198,8 @@ def test_shipped_budget_applies_to_the_same_test_only(tmp_path):
     unfinished budget give None."""
     from dataclasses import replace
 
-    from indentation_studio.design.error_budget import shipped_budget
     from indentation_studio.forward.spec import Indenter
+    from indentation_studio.surrogate.error_budgets import shipped_budget
 
     reference = replace(FINER, mesh=MeshChoice("reference"))
     row = {"c1_half_width_pct": 0.2, "c5_half_width_pct": 1.0, "c1_fit": 1.0, "c5_fit": 1.0}
@@ -244,7 +244,7 @@ def test_the_shipped_budget_of_the_paper_test():
     """The studio ships the 9-point budget of the paper's test against 'reference': a surrogate
     on 'default' or 'fine' for that test carries what it leaves (from its rows), other meshes and
     tests none; a surrogate file from before the record takes it at fit time."""
-    from indentation_studio.design.error_budget import (
+    from indentation_studio.surrogate.error_budgets import (
         shipped_budget,
         shipped_budgets_folder,
         surrogate_error_budget,
@@ -278,7 +278,7 @@ def _on(spec: ModelSpec, mesh: str) -> ModelSpec:
 def test_contact_model_bias_of_a_stick_fit_to_frictional_data():
     """``PRESET@stick`` is the reference's model with the perfect stick: its budget row against a
     frictional reference is the fit the stick assumption causes (a full LM fit agrees)."""
-    from indentation_studio.design.error_budget import resolve_model
+    from indentation_studio.inference.error_budget import resolve_model
 
     frictional = COARSE.with_friction(0.3)
     stick, _ = resolve_model("coarse@stick", frictional)
@@ -290,3 +290,17 @@ def test_contact_model_bias_of_a_stick_fit_to_frictional_data():
     budget_row, lm_bias = _budget_and_lm_bias(_reference(frictional), stick)
     assert abs(lm_bias[1]) > 0.1  # friction does move the fit
     np.testing.assert_allclose(budget_row, lm_bias, atol=0.05)
+
+
+def test_moved_names_keep_their_old_path_for_one_version_with_a_warning():
+    import indentation_studio as ins
+    from indentation_studio.inference.error_budget import compute_error_budget as new
+    from indentation_studio.surrogate.error_budgets import shipped_budget as new_reader
+
+    with pytest.warns(DeprecationWarning, match="moved to indentation_studio.inference.error_budget"):
+        from indentation_studio.design.error_budget import compute_error_budget as old
+    assert old is new
+    with pytest.warns(DeprecationWarning, match="surrogate.error_budgets"):
+        assert ins.design.shipped_budget is new_reader
+    with pytest.warns(DeprecationWarning, match="design.friction_treatment"):
+        assert ins.inference.FrictionTreatment is ins.design.FrictionTreatment

@@ -1,4 +1,4 @@
-"""Fits that hold, identify or marginalise the friction coefficient mu (inference.friction_treatment):
+"""Fits that hold, identify or marginalise the friction coefficient mu (design.friction_treatment):
 the treatments' text, eq. 6's bounds with mu (Schur complement, the prior, mu's share), a surrogate
 with mu as its third parameter (p = 3 through the Predictor seam), and fit_experiment with it."""
 
@@ -9,7 +9,7 @@ import pytest
 from scipy import stats
 
 from indentation_studio.design.certainty import bounds_pct, s_for_parameters
-from indentation_studio.inference.friction_treatment import (
+from indentation_studio.design.friction_treatment import (
     FixedParameter,
     FrictionTreatment,
     friction_bounds,

@@ -1,0 +1,385 @@
+"""The error budget of a model (moved here from ``design.error_budget``: computing one fits a
+reference campaign, which is inference's; reading a measured one is
+:mod:`indentation_studio.surrogate.error_budgets`'s): the parameter bias it causes in a fit, beside what a typical
+experiment can resolve.
+
+At each test point theta_t of a reference campaign (noise-free responses of a finer model), the
+reference is read at the model's top nodes and fitted with the model, with the fit's own
+objective (eq. 4, 5, Appendix B weights) and weights. The bias is theta_fit / theta_t - 1. It is
+set beside the 95 % half-width of eq. 6 to 8 that a typical experiment gives on the same
+objective: force noise ``force_noise`` (relative, per step) and DIC noise ``dic_noise`` (mm, per
+node), whose expected objective value F_noise = sum_k eta_k E|r_k|^2 gives s by eq. 8.
+
+A model is converged for that test when its bias is well inside the half-width; the studio asks
+for a third (:data:`CONVERGED_FRACTION`). For a surrogate the bias is split into a
+discretisation part (the FE model it emulates, fitted the same way) and a surrogate part (the
+rest). FE models are fitted by Gauss-Newton from theta_t (with their exact
+sensitivities, at most ``fe_steps``: each one simulation); surrogates by Levenberg-Marquardt to
+convergence.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ..atomic_write import atomic_write_json
+from ..campaign.loader import open_campaign
+from ..design.certainty import bounds_pct, s_from_data
+from ..design.objective import PAPER_WEIGHTS, Objective, check_weights
+from ..forward.mesh import build_mesh
+from ..forward.mesh_presets import MESH_PRESETS
+from ..forward.predictor import CachedPredictor, FESolverPredictor, Prediction
+from ..forward.result import SimulationResult
+from ..forward.richardson import RichardsonPredictor
+from ..forward.spec import MeshChoice, ModelSpec
+from ..surrogate.persistence import load_surrogate
+from .inverse_fit import fit_parameters
+from .mesh_check import prediction_at_nodes
+
+__all__ = [
+    "CONVERGED_FRACTION",
+    "ErrorBudget",
+    "campaign_error_budget",
+    "compute_error_budget",
+    "noise_objective_value",
+    "resolve_model",
+]
+
+#: A model is good enough for a test when its bias is below this fraction of the test's half-width.
+CONVERGED_FRACTION = 1.0 / 3.0
+
+
+@dataclass
+class ErrorBudget:
+    """Bias of each model at each test point (percent of the truth) and the typical half-width."""
+
+    table: pd.DataFrame  # one row per (model, test point)
+    weights: np.ndarray
+    force_noise: float
+    dic_noise: float
+    reference: dict = field(default_factory=dict)  # where the reference came from (provenance)
+    fov_mm: float | None = 25.0
+    fe_steps: int | None = None  # Gauss-Newton steps of the FE models' fits
+
+    def summary(self) -> pd.DataFrame:
+        """Per model: the largest |bias| of c1 and c5, the median half-width, their ratio, and
+        whether the model is converged for the test (every point below the fraction)."""
+        rows = []
+        for model, t in self.table.groupby("model", sort=False):
+            row = {"model": model, "points": len(t)}
+            ok = True
+            for p in ("c1", "c5"):
+                bias = t[f"{p}_bias_pct"].abs()
+                half = t[f"{p}_half_width_pct"]
+                row[f"{p}_max_bias_pct"] = float(bias.max())
+                row[f"{p}_median_half_width_pct"] = float(half.median())
+                row[f"{p}_max_bias_over_half_width"] = float((bias / half).max())
+                ok &= bool(np.all(bias <= CONVERGED_FRACTION * half))
+            row["converged"] = ok
+            rows.append(row)
+        return pd.DataFrame(rows)
+
+    def to_dict(self, complete: bool = True) -> dict:
+        """The JSON of error-budget.json; ``complete`` False while rows are still to come."""
+        return {
+            "weights": self.weights.tolist(),
+            "force_noise": self.force_noise,
+            "dic_noise_mm": self.dic_noise,
+            "field_of_view_mm": self.fov_mm,
+            "converged_fraction": CONVERGED_FRACTION,
+            "half_width_include": "eq. 6 to 8 of a typical experiment: measurement noise only "
+            f"({100 * self.force_noise:g} % force, {self.dic_noise:g} mm DIC)",
+            "reference": self.reference,
+            "rows": self.table.to_dict(orient="records"),
+            "summary": self.summary().to_dict(orient="records"),
+            "fe_steps": self.fe_steps,
+            "complete": complete,
+        }
+
+
+def noise_objective_value(objective: Objective, eta, force_noise: float, dic_noise: float) -> float:
+    """E[F] of eq. 5 for pure measurement noise: relative force noise per step and DIC noise (mm)
+    at every measured node, through the objective's own normalisation and nodal weights."""
+    e = check_weights(eta)
+    steps = len(objective.steps)
+    force_term = steps * force_noise**2
+    scale = objective.displacement_residual_scale()[objective.measured]  # (nodes, 3)
+    field_terms = steps * dic_noise**2 * np.sum(scale**2, axis=0)
+    return float(e[0] * force_term + e[1:] @ field_terms)
+
+
+def model_top_xyz(model) -> np.ndarray:
+    """The top nodes a Predictor answers on: a surrogate's ``top_xyz``, an FE model's mesh top."""
+    if hasattr(model, "top_xyz"):
+        return np.asarray(model.top_xyz, float)
+    if _is_fe(model):
+        mesh = build_mesh(model.spec)
+        return mesh.nodes[mesh.top]
+    raise TypeError(f"cannot tell the top nodes of {type(model).__name__}")
+
+
+def reference_prediction(result: SimulationResult, top_xyz: np.ndarray) -> Prediction:
+    """A reference simulation read at other top nodes (steps without depth 0)."""
+    return prediction_at_nodes(result, top_xyz)
+
+
+def _is_fe(model) -> bool:
+    """FE models (fitted by Gauss-Newton from the truth) as opposed to surrogates."""
+    inner = model.predictor if isinstance(model, CachedPredictor) else model
+    return isinstance(inner, FESolverPredictor | RichardsonPredictor)
+
+
+def _check_same_test(name: str, model, result: SimulationResult) -> None:
+    """The model must simulate the reference's test: the same depths and indenter radius."""
+    if _is_fe(model):
+        depth, radius = np.asarray(model.spec.protocol.depths), model.spec.indenter.radius
+    else:
+        spec = (getattr(model, "meta", {}).get("campaign") or {}).get("model") or {}
+        depth, radius = np.asarray(model.depth), (spec.get("indenter") or {}).get("radius")
+    ref_depth, ref_radius = np.asarray(result.depth[1:]), float(result.spec["indenter"]["radius"])
+    if depth.shape != ref_depth.shape or not np.allclose(depth, ref_depth):
+        raise ValueError(f"model {name!r} simulates other depths than the reference ({len(depth)} steps)")
+    if radius is not None and abs(float(radius) - ref_radius) > 1e-9:
+        raise ValueError(f"model {name!r} has R = {radius:g} mm, the reference R = {ref_radius:g} mm")
+
+
+def _fit_bias(model, objective: Objective, eta: np.ndarray, theta_t: np.ndarray, fe_steps: int) -> tuple:
+    """(theta_fit, Jacobian in log theta at the fit) for one model and one reference target."""
+    if _is_fe(model):  # Gauss-Newton from the truth, exact sensitivities
+        theta = theta_t.copy()
+        for _ in range(fe_steps):
+            pred = model.predict(theta[None, :], jacobian=True)
+            r = objective.residuals(pred, eta)[0]
+            J = objective.jacobian(pred, eta)[0] * theta
+            delta, *_ = np.linalg.lstsq(J, -r, rcond=None)
+            theta = theta * np.exp(delta)
+            if np.max(np.abs(delta)) < 1e-3:
+                break
+        return theta, J
+    fit = fit_parameters(objective, model, eta, theta0=theta_t)
+    pred = model.predict(fit.theta[None, :], jacobian=True)
+    return fit.theta, objective.jacobian(pred, eta)[0] * fit.theta
+
+
+def compute_error_budget(
+    reference: Sequence[SimulationResult],
+    models: Mapping[str, object],
+    fe_models: Mapping[str, object] | None = None,
+    weights=PAPER_WEIGHTS,
+    force_noise: float = 0.02,
+    dic_noise: float = 0.02,
+    reference_source: dict | None = None,
+    fe_steps: int = 3,
+    progress: Callable[[str], None] | None = None,
+    fov_mm: float | None = 25.0,
+    done_rows: Sequence[dict] = (),
+    on_row: Callable[[ErrorBudget], None] | None = None,
+    fe_names: Mapping[str, str] | None = None,
+) -> ErrorBudget:
+    """Fit each of ``models`` (name -> Predictor: an FE model or a surrogate) to each noise-free
+    ``reference`` response and tabulate the biases beside the typical 95 % half-width.
+    ``fe_models`` (name -> the FE Predictor a surrogate of that name emulates) splits a
+    surrogate's bias into discretisation and surrogate parts. Only the top nodes within ``fov_mm``
+    of the indentation axis are measured (a DIC field of view; None: the whole top).
+
+    ``done_rows`` are rows of an earlier, interrupted budget with the same settings (as in its
+    JSON): those (model, test point) pairs are kept, not fitted again. ``on_row`` is called with
+    the budget so far after every new row, so that a caller can save it as it grows.
+    ``fe_names`` (surrogate name -> the name its FE model has among ``models``, e.g. its mesh
+    preset): when that FE model is budgeted too (here or in ``done_rows``), its fit at the same
+    point is the surrogate's discretisation part, not fitted a second time."""
+    eta = check_weights(weights)
+    if not reference:
+        raise ValueError("the error budget needs at least one reference response")
+    if not (force_noise > 0 and dic_noise > 0):
+        raise ValueError(f"noise levels must be positive, got {force_noise}, {dic_noise}")
+    fe_models, fe_names = dict(fe_models or {}), dict(fe_names or {})
+    rows: list[dict] = []
+    previous = {_row_key(r["model"], (r["c1_true"], r["c5_true"])): dict(r) for r in done_rows}
+    known = dict(previous)  # every row at hand, kept or fitted here, by (model, test point)
+
+    def budget() -> ErrorBudget:
+        source = dict(reference_source or {})
+        return ErrorBudget(pd.DataFrame(rows), eta, force_noise, dic_noise, source, fov_mm, fe_steps)
+
+    for name, model in models.items():
+        top = None
+        fe = fe_models.get(name)
+        for result in reference:
+            _check_same_test(name, model, result)
+            m = result.spec["material"]
+            theta_t = np.array([m["c1"], m["c5"]], float)
+            key = _row_key(name, theta_t)
+            if key in previous:
+                rows.append(previous[key])
+                continue
+            top = model_top_xyz(model) if top is None else top
+            if progress is not None:
+                progress(f"{name} at {theta_t.round(3).tolist()} kPa")
+            target = reference_prediction(result, top)
+            in_view = None if fov_mm is None else np.linalg.norm(top[:, :2], axis=1) <= fov_mm
+            objective = Objective.from_prediction(
+                target, radius=float(result.spec["indenter"]["radius"]), mask=in_view
+            )
+            theta_fit, J = _fit_bias(model, objective, eta, theta_t, fe_steps)
+            s = s_from_data(
+                noise_objective_value(objective, eta, force_noise, dic_noise), objective.data_points(eta)
+            )
+            half = bounds_pct(2.0 * J.T @ J, s)
+            bias = 100.0 * (theta_fit / theta_t - 1.0)
+            row = {"model": name, "c1_true": theta_t[0], "c5_true": theta_t[1]}
+            row |= {"c1_fit": theta_fit[0], "c5_fit": theta_fit[1]}
+            row |= {"c1_bias_pct": bias[0], "c5_bias_pct": bias[1]}
+            row |= {"c1_half_width_pct": half[0], "c5_half_width_pct": half[1]}
+            if fe is not None:
+                fe_row = known.get(_row_key(fe_names.get(name), theta_t))
+                if fe_row is not None:  # that FE model is in the budget too: its fit is the split
+                    fe_fit = np.array([fe_row["c1_fit"], fe_row["c5_fit"]], float)
+                else:
+                    fe_fit, _ = _fit_bias(fe, objective, eta, theta_t, fe_steps)
+                disc = 100.0 * (fe_fit / theta_t - 1.0)
+                row |= {"c1_discretisation_pct": disc[0], "c5_discretisation_pct": disc[1]}
+                row |= {"c1_surrogate_pct": bias[0] - disc[0], "c5_surrogate_pct": bias[1] - disc[1]}
+            rows.append(row)
+            known[key] = row
+            if on_row is not None:
+                on_row(budget())
+    return budget()
+
+
+def _row_key(model: str | None, theta_t) -> tuple:
+    """A (model, test point) pair, the unit an interrupted budget resumes by."""
+    return (str(model), *(round(float(t), 9) for t in theta_t))
+
+
+def resolve_model(name: str, reference_spec, fe_cache: dict | None = None) -> tuple[object, object | None]:
+    """A model named on the command line: a mesh preset (the reference's model on that mesh), a
+    FEBio .feb file's hex8 mesh, ``richardson:FINE,COARSE[,ORDER]`` (two presets extrapolated,
+    :mod:`forward.richardson`) or a surrogate file; ``@stick`` or ``@mu=VALUE`` after a mesh or a
+    .feb gives the model another contact (the bias a contact model causes: a stick model fitted
+    to frictional data). Returns (Predictor, the FE Predictor a
+    surrogate emulates, or None). FE models are shared through ``fe_cache`` (mesh -> Predictor),
+    so that a mesh is solved once per test point whatever uses it."""
+
+    cache = {} if fe_cache is None else fe_cache
+    name, _, contact = name.partition("@")
+    if contact:  # the same model with another contact: PRESET@stick or PRESET@mu=0.3
+        if contact == "stick":
+            reference_spec = reference_spec.with_friction(None)
+        elif contact.startswith("mu="):
+            try:
+                reference_spec = reference_spec.with_friction(float(contact[3:]))
+            except ValueError as exc:
+                raise ValueError(f"model {name}@{contact}: {exc}") from exc
+        else:
+            raise ValueError(f"model {name}@{contact}: the contact is @stick or @mu=VALUE")
+
+    def fe(spec) -> CachedPredictor:
+        key = json_key(spec.to_dict())
+        if key not in cache:
+            cache[key] = CachedPredictor(FESolverPredictor(spec))
+        return cache[key]
+
+    if name in MESH_PRESETS:
+        return fe(replace(reference_spec, mesh=MeshChoice(name))), None
+    if name.startswith("richardson:"):
+        parts = name.split(":", 1)[1].split(",")
+        if len(parts) not in (2, 3) or not all(m in MESH_PRESETS for m in parts[:2]):
+            raise ValueError(f"model {name!r}: use richardson:FINE,COARSE[,ORDER] with mesh presets")
+        fine, coarse = (fe(replace(reference_spec, mesh=MeshChoice(m))) for m in parts[:2])
+        return RichardsonPredictor(fine, coarse, float(parts[2]) if len(parts) == 3 else 1.0), None
+    path = Path(name)
+    if path.suffix == ".feb":
+        return fe(replace(reference_spec, mesh=MeshChoice(feb_file=str(path)))), None
+    if not path.is_file():
+        raise ValueError(
+            f"model {name!r}: not a mesh preset ({', '.join(MESH_PRESETS)}), richardson:FINE,COARSE, "
+            ".feb file or surrogate file"
+        )
+    surrogate = load_surrogate(path)
+    model = (surrogate.meta.get("campaign") or {}).get("model")
+    return surrogate, (fe(ModelSpec.from_dict(model)) if model else None)
+
+
+def json_key(payload: dict) -> str:
+    return json.dumps(payload, sort_keys=True)
+
+
+def campaign_error_budget(
+    reference: str,
+    models: Sequence[str],
+    weights=PAPER_WEIGHTS,
+    force_noise: float = 0.02,
+    dic_noise: float = 0.02,
+    fe_steps: int = 3,
+    runs_dir="runs",
+    progress: Callable[[str], None] | None = None,
+    fov_mm: float | None = 25.0,
+    out=None,
+) -> ErrorBudget:
+    """:func:`compute_error_budget` with the reference given as a campaign (name or folder: its
+    done points are the test points) and the models by name (:func:`resolve_model`).
+
+    With ``out`` (a JSON path) the budget is saved after every row (``"complete": false`` until
+    the end), and a budget stopped before its end resumes from that file when run again with the
+    same reference and settings: finished rows are not fitted again."""
+
+    store = open_campaign(reference, runs_dir)
+    done = store.points_with("done")
+    if len(done) == 0:
+        raise ValueError(f"reference campaign {store.spec.name!r} has no finished points")
+    results = [SimulationResult.load(store.result_path(i)) for i in done]
+    predictors, fe_models, fe_names, cache = {}, {}, {}, {}
+    for name in models:
+        predictors[name], fe = resolve_model(name, store.spec.model, cache)
+        if fe is not None:
+            fe_models[name] = fe
+            mesh = fe.spec.mesh
+            fe_names[name] = mesh.preset or str(mesh.feb_file)
+    source = {"campaign": str(store.root), "points": len(results), "model": store.spec.model.to_dict()}
+    settings = {"weights": check_weights(weights).tolist(), "force_noise": force_noise}
+    settings |= {"dic_noise_mm": dic_noise, "field_of_view_mm": fov_mm, "fe_steps": fe_steps}
+    done_rows = _resumable_rows(out, source, settings) if out is not None else []
+    if done_rows and progress is not None:
+        progress(f"resuming {out}: {len(done_rows)} rows kept")
+
+    def save(partial: ErrorBudget, complete: bool = False) -> None:
+
+        atomic_write_json(out, partial.to_dict(complete))
+
+    budget = compute_error_budget(
+        results,
+        predictors,
+        fe_models,
+        weights,
+        force_noise,
+        dic_noise,
+        source,
+        fe_steps,
+        progress,
+        fov_mm,
+        done_rows=done_rows,
+        on_row=save if out is not None else None,
+        fe_names=fe_names,
+    )
+    if out is not None:
+        save(budget, complete=True)
+    return budget
+
+
+def _resumable_rows(out, source: dict, settings: dict) -> list[dict]:
+    """Rows of an earlier budget at ``out`` made with the same reference and settings (none if
+    the file is absent, unreadable, or was made otherwise)."""
+    try:
+        payload = json.loads(Path(out).read_text())
+    except (OSError, ValueError):
+        return []
+    same = payload.get("reference") == json.loads(json.dumps(source))
+    same &= all(payload.get(k) == json.loads(json.dumps(v)) for k, v in settings.items())
+    return list(payload.get("rows", [])) if same else []

@@ -1,0 +1,98 @@
+"""The error budgets a surrogate or a fit carries: what a measured budget file leaves as a
+systematic 95 % half-width for one model (:func:`remaining_bias`), the budgets shipped with the
+studio (package data ``indentation_studio/error_budgets``) looked up by test and mesh
+(:func:`shipped_budget`), and the one a surrogate recorded at training
+(:func:`surrogate_error_budget`). Reading only: computing a budget (fits of a reference campaign)
+is :mod:`indentation_studio.inference.error_budget`'s. Below both the surrogates and the fits, so
+that training records a budget and a fit reads it without either importing the other."""
+
+from __future__ import annotations
+
+import json
+from importlib.resources import files
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["remaining_bias", "shipped_budget", "shipped_budgets_folder", "surrogate_error_budget"]
+
+
+def remaining_bias(budget_file, model: str) -> dict:
+    """What an error budget leaves for ``model`` (its name in the budget, e.g. the high-fidelity
+    mesh preset), as the systematic 95 % half-width a fit on that model carries: the largest
+    distance between truth and fit over the test points, in percent of the fit (as a fit's bounds
+    are), and never less than in percent of the truth: max(|b|, |1 / (1 + b) - 1|) for a bias b.
+    (A fit 18 % below the truth is 22 % of the fit away from it.)"""
+    try:
+        payload = json.loads(Path(budget_file).read_text())
+        rows = [row for row in payload["rows"] if row["model"] == model]
+        names = sorted({row["model"] for row in payload["rows"]})
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise ValueError(f"{budget_file}: not an error-budget.json ({exc})") from exc
+    if not rows:
+        raise ValueError(f"{budget_file}: no model {model!r} in it (it has {', '.join(names)})")
+    left = {}
+    for name in ("c1", "c5"):
+        b = np.array([row[f"{name}_bias_pct"] for row in rows], float) / 100.0
+        if np.any(b <= -1.0) or not np.all(np.isfinite(b)):
+            raise ValueError(f"{budget_file}: {model!r} has a bias of {name} that is not a fit")
+        left[f"{name}_pct"] = float(100.0 * np.max(np.maximum(np.abs(b), np.abs(1.0 / (1.0 + b) - 1.0))))
+    left["source"] = {"file": str(budget_file), "model": model, "points": len(rows)}
+    return left
+
+
+def shipped_budgets_folder() -> Path:
+    """Where the shipped budgets are: ``indentation_studio/error_budgets`` (package data)."""
+    return Path(str(files("indentation_studio") / "error_budgets"))
+
+
+def _test_of(model: dict) -> dict:
+    """What makes two specs the same test for an error budget: everything but the mesh, the
+    solver's options and the parameters (c1, c5); the contact included (absent: the perfect
+    stick), since a mesh's error measured with one contact is not that mesh's error with another."""
+    material = {k: v for k, v in (model.get("material") or {}).items() if k not in ("c1", "c5")}
+    return {k: model.get(k) for k in ("geometry", "indenter", "protocol", "contact")} | {"material": material}
+
+
+def shipped_budget(spec, folder: str | Path | None = None) -> dict | None:
+    """What a shipped error budget leaves for ``spec``'s mesh (:func:`remaining_bias`), when one was
+    measured for the same test (geometry, indenter, protocol, kappa, fibers) and that mesh preset;
+    None otherwise. A surrogate trained on such a campaign carries it in its fits' bounds."""
+    model = spec.to_dict() if hasattr(spec, "to_dict") else dict(spec)
+    preset = (model.get("mesh") or {}).get("preset")
+    if preset is None:
+        return None
+    test = json.loads(json.dumps(_test_of(model)))
+    for path in sorted(Path(folder or shipped_budgets_folder()).glob("*.json")):
+        try:
+            payload = json.loads(path.read_text())
+            reference = payload["reference"]["model"]
+        except (OSError, ValueError, KeyError, TypeError):
+            continue
+        if json.loads(json.dumps(_test_of(reference))) != test:
+            continue
+        if not payload.get("complete", True):
+            continue
+        try:
+            left = remaining_bias(path, preset)
+        except ValueError:
+            continue
+        left["source"] |= {
+            "file": f"indentation_studio/error_budgets/{path.name}" if folder is None else str(path),
+            "reference_mesh": (reference.get("mesh") or {}).get("preset"),
+            "field_of_view_mm": payload.get("field_of_view_mm"),
+            "weights": payload.get("weights"),
+        }
+        return left
+    return None
+
+
+def surrogate_error_budget(surrogate) -> dict | None:
+    """The error budget a surrogate carries: ``meta['error_budget']`` as recorded at training (None:
+    none known then); for a surrogate without that record (an older file, or one being trained),
+    the shipped budget for the FE model it emulates (``meta['campaign']['model']``)."""
+    meta = getattr(surrogate, "meta", {}) or {}
+    if "error_budget" in meta:
+        return meta["error_budget"]
+    model = (meta.get("campaign") or {}).get("model")
+    return shipped_budget(model) if model else None
