@@ -60,6 +60,10 @@ class LinearSolveError(RuntimeError):
 
 
 def default_backend() -> str:
+    """'pardiso' where MKL PARDISO loads, else 'superlu'. pypardiso makes a solver when it is
+    imported, and that solver walks the whole environment for MKL (about 0.4 s idle, seconds on
+    a busy disk) unless ``PYPARDISO_MKL_RT`` names the library: it is set first."""
+    _point_pypardiso_at_mkl()
     try:
         import pypardiso  # noqa: F401
     except Exception:  # MKL missing or not loadable
@@ -87,17 +91,22 @@ def _mkl_runtime_beside_python() -> str | None:
     return None
 
 
+def _point_pypardiso_at_mkl() -> None:
+    """Name MKL's runtime for pypardiso (``PYPARDISO_MKL_RT``) before it is first imported."""
+    if "PYPARDISO_MKL_RT" not in os.environ:
+        found = _mkl_runtime_beside_python()
+        if found is not None:
+            os.environ["PYPARDISO_MKL_RT"] = found
+
+
 def _new_pardiso():
     """A symmetric-indefinite PARDISO solver. pypardiso looks for MKL by walking the whole
     environment folder (about 0.4 s) unless ``PYPARDISO_MKL_RT`` names the library, so the
     library is looked up beside Python first, and the path the first solver of a process used
     is recorded there for the next ones (a campaign worker runs hundreds)."""
+    _point_pypardiso_at_mkl()
     import pypardiso
 
-    if "PYPARDISO_MKL_RT" not in os.environ:
-        found = _mkl_runtime_beside_python()
-        if found is not None:
-            os.environ["PYPARDISO_MKL_RT"] = found
     solver = pypardiso.PyPardisoSolver(mtype=-2)
     for i, value in PARDISO_IPARM.items():
         solver.set_iparm(i, value)
