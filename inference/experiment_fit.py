@@ -22,6 +22,8 @@ from ..forward.predictor import FESolverPredictor
 from ..forward.solver import SimulationError
 from ..surrogate.base import FieldSurrogate
 from ..surrogate.error_budgets import surrogate_error_budget
+from .adequacy import fit_adequacy
+from .budget_check import budget_status
 from .experiment_data import ExperimentData
 from .fit_inputs import FitInputs, prepare_fit
 from .inverse_fit import (
@@ -61,6 +63,8 @@ class ExperimentFit:
     mu_reach: dict[str, bool] | None = None  # does mu's certainty region reach the range's ends
     mu_reach_notes: dict[str, str] = field(default_factory=dict)  # an end not checked, and why
     restarts: list[dict] = field(default_factory=list)  # fits again from a better point found at an end
+    adequacy: object | None = None  # inference.adequacy.Adequacy: can the model explain the data
+    adequacy_note: str | None = None  # why the adequacy test was not made
 
     @property
     def friction_bounds(self) -> dict | None:
@@ -128,6 +132,10 @@ class ExperimentFit:
             "statistical_pct": self.statistical_pct.tolist(),
             "friction": self._friction_dict(),
             "warnings": self.warnings,
+            "adequacy": self.adequacy.to_dict()
+            if self.adequacy is not None
+            else {"note": self.adequacy_note},
+            "error_budget": budget_status(self),
             "model_error": None if self.model_error is None else self.model_error.to_dict(),
             "F": final.F,
             "s": final.s,
@@ -195,6 +203,9 @@ def fit_experiment(
     exclude_steps=(),
     say: Callable[[str], None] | None = None,
     friction: FrictionTreatment | str | float | None = None,
+    *,
+    force_noise: float | None = None,
+    dic_noise: float | None = None,
 ) -> ExperimentFit:
     """Fit (c1, c5) to a measured experiment: LM from {6, 300} kPa on the surrogate, then (``refine``)
     on the FE model the surrogate was trained on, with its exact sensitivities; eq. 6 to 8 bounds
@@ -207,7 +218,12 @@ def fit_experiment(
     'identify', 'marginalise[:LO:HI]', 'assumed') says how the fit treats the indenter's friction
     coefficient mu; by default (None) as :func:`default_friction` says. On a surrogate trained with mu as a parameter (a campaign with a mu
     axis) the surrogate stage fits or holds mu too; on one without, that stage fits (c1, c5) with
-    its contact as a start, and the FE stage (needed then) brings mu in."""
+    its contact as a start, and the FE stage (needed then) brings mu in.
+
+    Every fit is tested for model adequacy (:mod:`inference.adequacy`: its residuals against the
+    data's noise, measured from the data unless ``force_noise``, relative per reading, or
+    ``dic_noise``, mm, are declared) and says whether its test has an error budget
+    (:mod:`inference.budget_check`)."""
     say = say or (lambda message: None)
     inputs = prepare_fit(experiment, surrogate, weights, exclude_steps)
     treatment = (
@@ -217,7 +233,11 @@ def fit_experiment(
     )
     f_stop = PAPER_F_STOP if paper_stop else None
     if treatment.mode != "assumed" or "mu" in inputs.surrogate.parameters:
-        return _fit_with_friction(inputs, treatment, refine, f_stop, check_mesh, say)
+        result = _fit_with_friction(inputs, treatment, refine, f_stop, check_mesh, say)
+        result.adequacy, result.adequacy_note = fit_adequacy(
+            result, force_noise=force_noise, dic_noise=dic_noise
+        )
+        return result
     say(f"fitting on the {inputs.surrogate.kind} surrogate ...")
     first = fit_parameters(inputs.objective, inputs.surrogate, inputs.eta, f_stop=f_stop)
     final = first
@@ -242,7 +262,9 @@ def fit_experiment(
     if two_level:
         say("the model error at the fit (discrepancy and error budget) ...")
     model_error = model_error_at(inputs.objective, inputs.eta, inputs.surrogate, final.theta)
-    return ExperimentFit(inputs, first, final, refine, check, check_mesh, model_error)
+    result = ExperimentFit(inputs, first, final, refine, check, check_mesh, model_error)
+    result.adequacy, result.adequacy_note = fit_adequacy(result, force_noise=force_noise, dic_noise=dic_noise)
+    return result
 
 
 def default_friction(surrogate, fe_stage: bool = True) -> FrictionTreatment:

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -41,6 +41,8 @@ class FitResult:
     wall_s: float
     message: str
     history: list[tuple[list[float], float]] = field(default_factory=list)
+    residuals: np.ndarray | None = None  # the residual vector of eq. 5 at theta (what F sums)
+    prediction: object | None = None  # the predictor's response there (a Prediction without Jacobians)
 
     @property
     def residual_sd(self) -> float:
@@ -105,11 +107,12 @@ def fit_parameters(
     n_data = objective.data_points(eta)
     failed: list[str] = []
     failed_at: set[bytes] = set()
+    seen: dict = {}  # the last prediction residuals_at made
 
     def evaluate(z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if "z" not in last or not np.array_equal(last["z"], z):
             try:
-                r, J = residuals_at(objective, predictor, eta, np.exp(z))
+                r, J = residuals_at(objective, predictor, eta, np.exp(z), keep=seen)
             except SimulationError as exc:
                 if not good:  # nowhere to step back to
                     raise
@@ -118,15 +121,15 @@ def fit_parameters(
                 # and the trust region shrinks, instead of the fit and all it computed being lost
                 failed.append(f"{np.round(np.exp(z), 4).tolist()}: {exc}")
                 failed_at.add(z.tobytes())
-                last.update(z=z.copy(), r=np.sqrt(10.0) * good["r"], J=good["J"])
+                last.update(z=z.copy(), r=np.sqrt(10.0) * good["r"], J=good["J"], pred=None)
                 history.append((np.exp(z).tolist(), float("inf")))
                 if progress is not None:
                     progress(len(history), np.exp(z), float("inf"))
                 return last["r"], last["J"]
-            last.update(z=z.copy(), r=r, J=J)
+            last.update(z=z.copy(), r=r, J=J, pred=seen.get("prediction"))
             good.update(z=z.copy(), r=r, J=J)
             if not best or r @ r < best["r"] @ best["r"]:
-                best.update(z=z.copy(), r=r, J=J)
+                best.update(z=z.copy(), r=r, J=J, pred=seen.get("prediction"))
             history.append((np.exp(z).tolist(), float(r @ r)))
             if progress is not None:
                 progress(len(history), np.exp(z), float(r @ r))
@@ -174,15 +177,17 @@ def fit_parameters(
     if z.tobytes() in failed_at:
         z = best["z"]  # never report a point whose model did not run: the best one that did
     theta = np.exp(z)
-    r, J = (best["r"], best["J"]) if best and np.array_equal(z, best["z"]) else evaluate(z)
+    at_best = best and np.array_equal(z, best["z"])
+    r, J = (best["r"], best["J"]) if at_best else evaluate(z)
+    prediction = best.get("pred") if at_best else last.get("pred")
     if failed:
         message += f"; {len(failed)} trial point(s) whose simulation failed were refused: " + "; ".join(
             failed
         )
-    return _fit_result(objective, eta, theta, r, J, s, alpha, history, t0, message)
+    return _fit_result(objective, eta, theta, r, J, s, alpha, history, t0, message, prediction)
 
 
-def _fit_result(objective, eta, theta, r, J, s, alpha, history, t0, message) -> FitResult:
+def _fit_result(objective, eta, theta, r, J, s, alpha, history, t0, message, prediction=None) -> FitResult:
     """The FitResult at ``theta`` from its residuals and Jacobian in log theta: F, the Gauss-Newton
     Hessian (log theta is theta_bar - 1 to first order), s of eq. 8 unless given, eq. 6 bounds."""
     F = float(r @ r)
@@ -200,12 +205,19 @@ def _fit_result(objective, eta, theta, r, J, s, alpha, history, t0, message) -> 
         wall_s=time.perf_counter() - t0,
         message=message,
         history=history,
+        residuals=np.asarray(r, float).copy(),
+        prediction=prediction,
     )
 
 
-def residuals_at(objective: Objective, predictor, eta, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Residuals (m,) at ``theta`` and their Jacobian with respect to log(theta) (m, p)."""
+def residuals_at(
+    objective: Objective, predictor, eta, theta: np.ndarray, keep: dict | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Residuals (m,) at ``theta`` and their Jacobian with respect to log(theta) (m, p);
+    ``keep['prediction']`` is set to the response there (without its Jacobians) when given."""
     pred = predictor.predict(theta[None, :], jacobian=True)
+    if keep is not None:
+        keep["prediction"] = replace(pred, force_jacobian=None, displacement_jacobian=None)
     return objective.residuals(pred, eta)[0], objective.jacobian(pred, eta)[0] * theta
 
 
@@ -230,8 +242,9 @@ def gauss_newton_refine(
     history: list[tuple[list[float], float]] = []
     n, p = objective.data_points(eta), theta.size
     message = f"Gauss-Newton: {max_steps} steps without reaching the tolerance"
+    seen: dict = {}
     for _ in range(max_steps):
-        r, J = residuals_at(objective, predictor, eta, theta)
+        r, J = residuals_at(objective, predictor, eta, theta, keep=seen)
         history.append((theta.tolist(), float(r @ r)))
         delta, *_ = np.linalg.lstsq(J, -r, rcond=None)
         half = bounds_pct(2.0 * J.T @ J, s_from_data(float(r @ r), n, p, alpha)) / 100.0
@@ -240,4 +253,4 @@ def gauss_newton_refine(
             message = f"Gauss-Newton: last step {np.round(100 * delta, 3).tolist()} % within {tolerance:.2g} of the bounds"
             break
     # F, the Hessian and s of the last evaluation, at the stepped theta (first order)
-    return _fit_result(objective, eta, theta, r, J, None, alpha, history, t0, message)
+    return _fit_result(objective, eta, theta, r, J, None, alpha, history, t0, message, seen.get("prediction"))

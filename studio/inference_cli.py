@@ -9,8 +9,10 @@ from typing import Annotated
 
 import typer
 from rich.console import Console
+from rich.panel import Panel
 
 from ..atomic_write import strict_json
+from ..inference.adequacy import CANNOT_EXPLAIN
 from .options import JSON, err, fail, say
 
 EXPERIMENT = Annotated[Path, typer.Option(help="experiment folder (README: experiment data format)")]
@@ -25,6 +27,20 @@ CHECK_MESH = Annotated[
     typer.Option(
         help="then solve at the fit on this finer mesh preset (e.g. reference): the fit carried there, with "
         "bounds that add that mesh's discretisation uncertainty (inference/mesh_check.py)"
+    ),
+]
+
+FORCE_NOISE = Annotated[
+    float | None,
+    typer.Option(
+        help="declared force noise, relative, of one reading (e.g. 0.02); default: measured from each "
+        "hold's eq. 9 residuals (the model-adequacy test)"
+    ),
+]
+DIC_NOISE = Annotated[
+    float | None,
+    typer.Option(
+        help="declared DIC noise, mm; default: measured from the DIC data (the model-adequacy test)"
     ),
 ]
 
@@ -64,6 +80,8 @@ def fit(
     check_mesh: CHECK_MESH = None,
     exclude_steps: EXCLUDE = "",
     friction: FIT_FRICTION = None,
+    force_noise: FORCE_NOISE = None,
+    dic_noise: DIC_NOISE = None,
     out: OUT = None,
     as_json: JSON = False,
 ) -> None:
@@ -71,7 +89,9 @@ def fit(
     solver with its exact sensitivities; bounds from eq. 6 to 8 with s from the data. With
     --check-mesh, the fit carried to the finer mesh (``posterior --mesh-check`` reads fit.json then).
     ``--friction`` holds the indenter's friction coefficient mu at a value, or identifies or
-    marginalises it with (c1, c5) (README, "Friction")."""
+    marginalises it with (c1, c5) (README, "Friction"). Every fit is tested for model adequacy
+    (its residuals against the data's noise: chi-square, flagged beyond the 0.1 % tail) and says
+    when no error budget is known for its test."""
     from ..inference.experiment_fit import fit_experiment
 
     try:
@@ -85,6 +105,8 @@ def fit(
             _steps(exclude_steps),
             say,
             friction,
+            force_noise=force_noise,
+            dic_noise=dic_noise,
         )
         path = result.save(out or Path(experiment) / "results")
     except (ValueError, OSError, RuntimeError) as exc:
@@ -108,6 +130,7 @@ def fit(
             f"{m['model_pct'][1]:.2f} % (discrepancy {m['discrepancy_pct'][0]:.2f} / {m['discrepancy_pct'][1]:.2f}, "
             f"error budget {m['error_budget_pct'][0]:.2f} / {m['error_budget_pct'][1]:.2f})"
         )
+    _loud_warnings(payload)
     for warning in payload["warnings"]:
         err.print(f"[yellow]warning:[/yellow] {warning}")
     fr = payload["friction"]
@@ -134,6 +157,53 @@ def fit(
             f"c5 = {t[1]:.1f} kPa +- {u[1]:.1f} % (95 %, statistical and that mesh's GCI); on the fit's mesh "
             f"with its GCI: +- {check['combined_pct'][0]:.1f} %, +- {check['combined_pct'][1]:.1f} %"
         )
+
+
+def _loud_warnings(payload: dict) -> None:
+    """The adequacy flag (red) and a test without an error budget (yellow) as panels under the
+    headline numbers: they say the numbers above are not to be trusted as they stand."""
+    console = Console()
+    adequacy = payload["adequacy"]
+    if "flagged" not in adequacy:
+        console.print(f"  model adequacy: not tested ({adequacy.get('note')})")
+    elif adequacy["flagged"]:
+        named = "".join(f"\n  {d['parameter']}: {d['reason']}" for d in adequacy["named_parameters"])
+        terms = ", ".join(
+            f"{k} {v['statistic']:.4g} / {v['n']}" for k, v in adequacy["terms"].items() if v["n"]
+        )
+        console.print(
+            Panel(
+                f"[bold]{CANNOT_EXPLAIN}[/bold]\n"
+                f"chi-square {adequacy['statistic']:.4g} on {adequacy['dof']} degrees of freedom "
+                f"({adequacy['per_degree']:.3g} per degree), p = {adequacy['p_value']:.3g} < {adequacy['alpha']:g}"
+                f"\nper term (statistic / points): {terms}"
+                f"\nnoise: {_noise_words(adequacy['noise'])}"
+                + (f"\nparameters named:{named}" if named else ""),
+                title="[bold red]MODEL INADEQUATE[/bold red]",
+                border_style="red",
+            )
+        )
+    else:
+        console.print(
+            f"  model adequacy: chi-square {adequacy['statistic']:.4g} on {adequacy['dof']} degrees of freedom, "
+            f"p = {adequacy['p_value']:.3g} (not flagged; noise: {_noise_words(adequacy['noise'])})"
+        )
+        for d in adequacy["named_parameters"]:
+            console.print(f"  [yellow]{d['parameter']}[/yellow]: {d['reason']}")
+    budget = payload["error_budget"]
+    if budget["warning"]:
+        title = "[bold yellow]NO ERROR BUDGET FOR THIS TEST[/bold yellow]"
+        console.print(Panel(budget["warning"], title=title, border_style="yellow"))
+
+
+def _noise_words(noise: dict) -> str:
+    """The noise levels an adequacy test used, short."""
+    dic = ", ".join(f"{v:.3g}" for v in noise["dic_sd_mm"])
+    reg = max(noise["registration_sd_mm"])
+    return (
+        f"force {noise['force_sd_pct_median']:.3g} % of f_inf per step (median; {noise['force_source']}); "
+        f"DIC ({dic}) mm ({noise['dic_source']}); registration {reg:.2g} mm"
+    )
 
 
 def posterior(

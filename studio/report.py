@@ -14,6 +14,8 @@ STYLE = """
 body { font-family: system-ui, sans-serif; max-width: 1100px; margin: 2em auto; color: #222; }
 table { border-collapse: collapse; margin: 1em 0; } td, th { border: 1px solid #ccc; padding: 4px 8px; }
 th { background: #f2f2f2; } img { max-width: 100%; border: 1px solid #ddd; } figcaption { color: #555; }
+.alarm { border: 3px solid #c00; background: #fee; padding: 0.6em 1em; margin: 1em 0; }
+.caution { border: 3px solid #c80; background: #ffd; padding: 0.6em 1em; margin: 1em 0; }
 """
 
 
@@ -31,6 +33,40 @@ def _fmt(v) -> str:
     if isinstance(v, (list, tuple)):
         return "(" + ", ".join(_fmt(x) for x in v) + ")"
     return str(v)
+
+
+def fit_warnings_html(fit: dict) -> str:
+    """The warnings a fit's numbers must be read with, as boxes above them: the model-adequacy
+    flag (red: the model cannot explain the data) and a test without an error budget (amber);
+    a fit not flagged gets its chi-square in one line. ``fit`` holds fit.json's 'adequacy' and
+    'error_budget' (absent: nothing said)."""
+    parts = []
+    adequacy = fit.get("adequacy") or {}
+    if adequacy.get("flagged"):
+        named = "".join(
+            f"<li>{html.escape(d['parameter'])}: {html.escape(d['reason'])}</li>"
+            for d in adequacy.get("named_parameters", [])
+        )
+        parts.append(
+            "<div class='alarm'><b>Model inadequate: the model cannot explain these data; its bounds are not "
+            f"meaningful.</b> Chi-square {adequacy['statistic']:.4g} on {adequacy['dof']} degrees of freedom "
+            f"({adequacy['per_degree']:.3g} per degree), p = {adequacy['p_value']:.3g} &lt; {adequacy['alpha']:g}."
+            + (f"<ul>{named}</ul>" if named else "")
+            + "</div>"
+        )
+    elif "flagged" in adequacy:
+        parts.append(
+            f"<p>Model adequacy: chi-square {adequacy['statistic']:.4g} on {adequacy['dof']} degrees of "
+            f"freedom, p = {adequacy['p_value']:.3g} (not flagged).</p>"
+        )
+    elif adequacy.get("note"):
+        parts.append(f"<p>Model adequacy: not tested ({html.escape(adequacy['note'])}).</p>")
+    budget = fit.get("error_budget") or {}
+    if budget.get("warning"):
+        parts.append(
+            f"<div class='caution'><b>No error budget for this test.</b> {html.escape(budget['warning'])}</div>"
+        )
+    return "".join(parts)
 
 
 def write_report(out: Path, results: dict, sections: list[tuple[str, str]]) -> Path:
@@ -80,6 +116,7 @@ def write_report(out: Path, results: dict, sections: list[tuple[str, str]]) -> P
         parts.append(pd.read_csv(csv).to_html(index=False, float_format=lambda v: f"{v:.3g}"))
     fit, post = results["fit"], results["posterior"]
     parts.append("<h2>The example experiment</h2>")
+    parts.append(fit_warnings_html(fit))
     parts.append(
         f"<p>Fit (surrogate, then FE with exact sensitivities): c1 = {fit['theta'][0]:.3f} kPa +- "
         f"{fit['bounds_pct'][0]:.2f} %, c5 = {fit['theta'][1]:.1f} kPa +- {fit['bounds_pct'][1]:.2f} % (95 %; "

@@ -1,0 +1,497 @@
+"""Model adequacy: can the fitted model explain the data within their measurement noise?
+
+The bounds of eq. 6 to 8 take s from the fit's own residuals, so a model that misses the data
+(the wrong contact, a composite fitted as homogeneous, a force scale off) still gets narrow
+bounds. Here the fit's residuals are whitened by the noise the data carry and summed into a
+chi-square statistic with n - p degrees of freedom (n the data points the fit used, p the
+fitted parameters); beyond its upper 0.1 % tail (``ALPHA``) the fit is flagged: the model
+cannot explain these data, and its bounds are not meaningful.
+
+The noise model:
+
+* force, per step: the standard error of f_inf from that hold's eq. 9 fit (its residuals about
+  f(t) = A exp(-b t) + f_inf); declared (a relative noise of each reading), that standard error
+  scaled by the declared noise over the hold's residual; or, when a hold gives none, the noise
+  the experiment records (a synthetic one's ``f_noise``);
+* DIC, per direction of the model frame: measured from the data (each point against a local
+  quadratic through its neighbours, the fit's own leverage taken out exactly, robust spread
+  over the points) or declared, in mm; at each FE node it is carried through the very planes
+  that interpolate the DIC points there (:func:`inference.experiment_processing.node_interpolation`),
+  so nodes sharing points are correlated as they are;
+* the registration: the indentation point's in-plane standard error from the sphere fit's
+  residual, moving every node's value by the field's gradient there (a rank-two term, solved
+  by Woodbury's identity).
+
+Whitening ``z = L^-1 r`` with ``L L^T`` that covariance, the statistic is ``z^T z``; steps are
+independent. Where the fit is flagged, the parameters that sit at the end of their range or
+that were identified narrowly while the model misses (mu on a composite: it absorbs model
+error) are named.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import stats
+from scipy.linalg import cho_factor, cho_solve
+from scipy.spatial import cKDTree
+
+from ..forward.mesh_study import top_field_interpolator
+from .experiment_data import ExperimentData
+from .experiment_errors import ExperimentDataError
+from .experiment_processing import (
+    NodeInterpolation,
+    RegisteredDIC,
+    fit_sphere,
+    node_interpolation,
+)
+from .relaxation import relaxation_fit
+
+__all__ = [
+    "ALPHA",
+    "Adequacy",
+    "NoiseModel",
+    "chi_square_test",
+    "dic_noise_mm",
+    "force_noise_per_step",
+    "model_adequacy",
+    "noise_model",
+]
+
+#: A fit whose statistic lies beyond this upper tail of its chi-square distribution is flagged.
+ALPHA = 1e-3
+
+#: What a flagged fit says.
+CANNOT_EXPLAIN = "the model cannot explain these data; its bounds are not meaningful"
+
+
+@dataclass
+class NoiseModel:
+    """The measurement noise a fit's residuals are whitened by, and where each part came from."""
+
+    force_sd_mN: np.ndarray  # (steps used,) standard error of each step's f_inf
+    force_source: str
+    dic_sd_mm: np.ndarray  # (3,) ux, uy, uz in the model frame
+    dic_source: str
+    origin_cov_mm2: np.ndarray  # (2, 2) the indentation point's in-plane covariance (model frame)
+    registration_source: str
+
+    def to_dict(self) -> dict:
+        return {
+            "force_sd_mN": self.force_sd_mN.tolist(),
+            "force_sd_pct_median": None,  # set by Adequacy (relative to f_inf)
+            "force_source": self.force_source,
+            "dic_sd_mm": self.dic_sd_mm.tolist(),
+            "dic_source": self.dic_source,
+            "registration_sd_mm": np.sqrt(np.diag(self.origin_cov_mm2)).tolist(),
+            "registration_source": self.registration_source,
+        }
+
+
+@dataclass
+class Adequacy:
+    """The chi-square test of a fit: statistic, degrees of freedom, p-value, the flag, per-term
+    shares, the noise used, and the parameters named when flagged."""
+
+    statistic: float
+    dof: int
+    p_value: float
+    n: int
+    p: int
+    terms: dict[str, dict]  # force, ux, uy, uz: {"statistic", "n"}
+    noise: NoiseModel
+    force_sd_pct: float  # median force noise in percent of f_inf
+    named: list[dict] = field(default_factory=list)  # {"parameter", "reason"}
+    alpha: float = ALPHA
+
+    @property
+    def flagged(self) -> bool:
+        return bool(self.p_value < self.alpha)
+
+    @property
+    def ratio(self) -> float:
+        """The statistic over its degrees of freedom (1 on average where the model fits)."""
+        return self.statistic / self.dof
+
+    def message(self) -> str:
+        """One line: the flag (or not) with its numbers."""
+        head = CANNOT_EXPLAIN if self.flagged else "the model explains these data within their noise"
+        worst = max(self.terms.items(), key=lambda kv: kv[1]["statistic"] / max(kv[1]["n"], 1))
+        names = "".join(f"; {d['parameter']}: {d['reason']}" for d in self.named)
+        return (
+            f"{head}: chi-square {self.statistic:.4g} on {self.dof} degrees of freedom "
+            f"({self.ratio:.3g} per degree), p = {self.p_value:.3g} (flagged below {self.alpha:g}); "
+            f"largest per point: {worst[0]} ({worst[1]['statistic'] / max(worst[1]['n'], 1):.3g}){names}"
+        )
+
+    def to_dict(self) -> dict:
+        noise = self.noise.to_dict() | {"force_sd_pct_median": self.force_sd_pct}
+        return {
+            "flagged": self.flagged,
+            "statistic": self.statistic,
+            "dof": self.dof,
+            "p_value": self.p_value,
+            "alpha": self.alpha,
+            "data_points": self.n,
+            "parameters": self.p,
+            "per_degree": self.ratio,
+            "terms": self.terms,
+            "noise": noise,
+            "named_parameters": self.named,
+            "message": self.message(),
+        }
+
+
+# ------------------------------------------------------------------------------------ noise
+def _recorded(exp: ExperimentData) -> dict:
+    """The noise experiment.json records (a synthetic experiment's 'synthetic' block), or {}."""
+    try:
+        meta = json.loads((exp.root / "experiment.json").read_text())
+    except (OSError, ValueError, TypeError):
+        return {}
+    return meta.get("synthetic") or {}
+
+
+def force_noise_per_step(
+    exp: ExperimentData, steps: np.ndarray, declared: float | None = None
+) -> tuple[np.ndarray, np.ndarray, str]:
+    """The standard error (mN) of f_inf at each of ``steps`` (1..N) and f_inf itself, with where
+    the noise came from. By default from each hold's eq. 9 fit (its residuals); ``declared``
+    (relative noise of one reading) scales that standard error by declared / the hold's residual
+    RMS in units of f_inf (the fit's covariance is proportional to the residual variance); a hold
+    that gives no standard error takes the recorded noise (a synthetic experiment's f_noise) over
+    sqrt(readings)."""
+    recorded = _recorded(exp).get("f_noise")
+    sd, f_inf, fallback = [], [], []
+    for k in steps:
+        g = exp.force[exp.force["step"] == k]
+        t, f = g["time_s"].to_numpy(float), g["force_mN"].to_numpy(float)
+        try:
+            fit = relaxation_fit(t, f)
+        except ExperimentDataError:
+            fit = None
+        if fit is not None:
+            model = fit.amplitude * np.exp(-fit.rate * (t - t.min())) + fit.f_inf
+            rms = float(np.sqrt(np.mean((f - model) ** 2)))
+            f_inf.append(fit.f_inf)
+            good = np.isfinite(fit.f_inf_std) and fit.f_inf_std > 0 and len(t) > 3
+            if good and declared is None:
+                sd.append(fit.f_inf_std)
+                continue
+            if good and rms > 0:
+                sd.append(fit.f_inf_std * declared * abs(fit.f_inf) / rms)
+                continue
+        else:
+            f_inf.append(float(np.median(f)))
+        level = declared if declared is not None else recorded
+        if level is None:
+            raise ExperimentDataError(
+                f"step {k}: its hold gives no standard error of f_inf (eq. 9 with {len(t)} readings) and no "
+                "force noise is declared or recorded; declare one (force_noise)"
+            )
+        sd.append(float(level) * abs(f_inf[-1]) / np.sqrt(max(len(t), 1)))
+        fallback.append(int(k))
+    if declared is not None:
+        source = f"declared: {100 * declared:.3g} % of f_inf per reading, through each hold's eq. 9 fit"
+    else:
+        source = "measured: the standard error of f_inf from each hold's eq. 9 residuals"
+    if fallback:
+        source += (
+            f"; steps {fallback}: the recorded {100 * float(recorded or declared):.3g} % over sqrt(readings)"
+        )
+    return np.array(sd), np.array(f_inf), source
+
+
+def dic_noise_mm(xy: np.ndarray, u: np.ndarray, neighbours: int = 24) -> np.ndarray:
+    """The DIC noise (3,) in mm of one step's displacements ``u`` (points, 3) at ``xy`` (points,
+    2): each point against the least-squares quadratic through its ``neighbours`` nearest
+    others (a quadratic, so that the field's curvature next to the indenter does not read as
+    noise), the difference divided by sqrt(1 + c . c) with c the quadratic's weights of its
+    neighbours at the point (the variance of the difference is sigma^2 (1 + c . c), exactly),
+    and the robust spread (1.4826 MAD) of those over the points."""
+    ok = np.isfinite(u).all(axis=1)
+    xy, u = xy[ok], u[ok]
+    if len(xy) < neighbours + 1:
+        raise ExperimentDataError(f"too few correlated DIC points ({len(xy)}) to estimate the noise")
+    _, idx = cKDTree(xy).query(xy, k=neighbours + 1)
+    idx = idx[:, 1:]
+    d = xy[idx] - xy[:, None, :]  # (n, k, 2)
+    scale = np.sqrt(np.mean(np.sum(d**2, axis=2), axis=1))[:, None, None]
+    d = d / scale
+    A = np.concatenate(
+        [np.ones((*idx.shape, 1)), d, d[..., :1] ** 2, d[..., :1] * d[..., 1:], d[..., 1:] ** 2], axis=2
+    )  # (n, k, 6)
+    AtA = np.einsum("nki,nkj->nij", A, A) + 1e-12 * np.eye(6)
+    c = np.linalg.solve(AtA, np.transpose(A, (0, 2, 1)))[:, 0, :]  # (n, k): weights at the point
+    diff = (u - np.einsum("nk,nkd->nd", c, u[idx])) / np.sqrt(1.0 + np.sum(c**2, axis=1))[:, None]
+    mad = np.median(np.abs(diff - np.median(diff, axis=0)), axis=0)
+    return 1.4826 * mad
+
+
+def _origin_covariance(exp: ExperimentData, dic: RegisteredDIC) -> np.ndarray:
+    """The in-plane covariance (2, 2), model frame, of the indentation point from the sphere fit:
+    its residual's variance times (J^T J)^-1, J the Jacobian of |x - c| - R in (c, R)."""
+    x = np.asarray(exp.indenter_xyz, float)
+    centre, radius = fit_sphere(x)
+    v = x - centre
+    n = v / np.linalg.norm(v, axis=1, keepdims=True)
+    J = np.column_stack([-n, -np.ones(len(x))])
+    res = np.linalg.norm(v, axis=1) - radius
+    dof = max(len(x) - 4, 1)
+    cov = float(res @ res) / dof * np.linalg.pinv(J.T @ J)  # (c, R) in the DIC frame
+    Q = dic.rotation if dic.rotation is not None else np.eye(3)  # DIC frame -> model frame
+    return (Q @ cov[:3, :3] @ Q.T)[:2, :2]
+
+
+def noise_model(
+    exp: ExperimentData,
+    dic: RegisteredDIC,
+    steps: np.ndarray,
+    *,
+    force_noise: float | None = None,
+    dic_noise: float | None = None,
+) -> tuple[NoiseModel, np.ndarray]:
+    """The noise of an experiment's data at ``steps`` (1..N) (module docstring) and f_inf there.
+    ``force_noise`` (relative, one reading) and ``dic_noise`` (mm, every direction) are declared
+    noise levels that replace those measured from the data."""
+    sd, f_inf, force_source = force_noise_per_step(exp, steps, force_noise)
+    if dic_noise is not None:
+        dic_sd, dic_source = np.full(3, float(dic_noise)), f"declared: {dic_noise:g} mm"
+    else:
+        deepest = int(np.max(steps)) - 1
+        dic_sd = dic_noise_mm(dic.xyz[:, :2], dic.u[deepest])
+        dic_source = f"measured from the DIC data at step {deepest + 1} (local quadratics, robust spread)"
+    cov = _origin_covariance(exp, dic)
+    reg_source = (
+        f"the sphere fit of {len(exp.indenter_xyz)} indenter points "
+        f"(residual {dic.sphere_rms:.3g} mm RMS): the indentation point's standard error"
+    )
+    return NoiseModel(sd, force_source, dic_sd, dic_source, cov, reg_source), f_inf
+
+
+# ------------------------------------------------------------------------------- the test
+def chi_square_test(
+    residuals: np.ndarray,
+    objective,
+    eta,
+    noise: NoiseModel,
+    plan: NodeInterpolation,
+    gradients: np.ndarray,
+    p: int,
+    operator_bias: np.ndarray | None = None,
+) -> tuple[float, int, dict[str, dict]]:
+    """The whitened sum of squares of a fit's ``residuals`` (the vector of eq. 5: sqrt(eta_k) r_k
+    over force, ux, uy, uz) on ``objective`` with ``noise``; the DIC part through ``plan`` (the
+    interpolation the objective's data came from) and the registration through ``gradients``
+    (steps used, measured nodes, 3 directions, 2: d u / d x, y of the data at the nodes).
+    ``operator_bias`` (steps used, measured nodes, 3) is what the interpolation makes of the
+    model's own field at the nodes less that field (:func:`operator_bias`): the model seen
+    through the same planes as the data. A node value that carries no noise (ux on the x = 0
+    symmetry plane, uy on y = 0: mirror images cancel) carries no information either and is
+    left out. Returns the statistic, its degrees of freedom (data points with noise and weight
+    minus ``p``) and each term's share."""
+    e = np.asarray(eta, float)
+    s = len(objective.steps)
+    measured = objective.measured
+    m = int(measured.sum())
+    r = np.asarray(residuals, float)
+    if r.size != s + 3 * s * m:
+        raise ValueError(f"the residual vector has {r.size} entries; the objective makes {s + 3 * s * m}")
+    scale = objective.displacement_residual_scale()[measured]  # (m, 3)
+    blocks: list[tuple[str, np.ndarray, object, np.ndarray | None]] = []  # name, diffs, factor, B rows
+    if e[0] > 0:
+        diff = r[:s] / np.sqrt(e[0]) * objective.force_scale  # f_model - f_inf, mN
+        blocks.append(("force", diff[:, None], noise.force_sd_mN, None))
+    L_origin = np.linalg.cholesky(noise.origin_cov_mm2 + 1e-30 * np.eye(2))
+    for j, name in enumerate(("ux", "uy", "uz")):
+        if e[j + 1] <= 0:
+            continue
+        part = r[s + j * s * m : s + (j + 1) * s * m].reshape(s, m)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            du = part / (np.sqrt(e[j + 1]) * scale[:, j])  # (s, m) model - data, mm
+        if operator_bias is not None:
+            du = du + operator_bias[:, :, j]
+        W = plan.matrix(j)[measured]  # (m, points)
+        norm = np.linalg.norm(W, axis=1)
+        keep = (norm > 1e-8 * norm.max()) & np.isfinite(scale[:, j]) & (scale[:, j] > 0)
+        W, du = W[keep], du[:, keep]
+        C = noise.dic_sd_mm[j] ** 2 * (W @ W.T)
+        B = gradients[:, keep, j, :] @ L_origin  # (s, kept, 2)
+        blocks.append((name, du, cho_factor(C + 1e-18 * np.eye(len(W)), lower=True), B))
+    # r^T (D + B B^T)^-1 r by Woodbury: D block-diagonal (force steps; each step's field per direction)
+    total_a, Bt_Dinv_r, Bt_Dinv_B = 0.0, np.zeros(2), np.zeros((2, 2))
+    terms: dict[str, dict] = {}
+    for name, diffs, factor, B in blocks:
+        if B is None:  # force: independent steps
+            z = diffs[:, 0] / factor
+            terms[name] = {"statistic": float(z @ z), "n": int(z.size)}
+            total_a += float(z @ z)
+            continue
+        a_term = 0.0
+        for k in range(diffs.shape[0]):
+            Dinv_r = cho_solve(factor, diffs[k])
+            Dinv_B = cho_solve(factor, B[k])
+            a_term += float(diffs[k] @ Dinv_r)
+            Bt_Dinv_r += B[k].T @ Dinv_r
+            Bt_Dinv_B += B[k].T @ Dinv_B
+        terms[name] = {"statistic": a_term, "n": int(diffs.size)}
+        total_a += a_term
+    correction = float(Bt_Dinv_r @ np.linalg.solve(np.eye(2) + Bt_Dinv_B, Bt_Dinv_r))
+    statistic = total_a - correction
+    if correction:
+        terms["registration"] = {"statistic": -correction, "n": 0}
+    n = int(sum(t["n"] for t in terms.values()))
+    return statistic, n - p, terms
+
+
+def operator_bias(
+    prediction, plan: NodeInterpolation, dic: RegisteredDIC, steps: np.ndarray, measured: np.ndarray
+) -> np.ndarray:
+    """(steps used, measured nodes, 3): the model's top field (``prediction``, one point) sampled
+    at the DIC points (its quarter unfolded by symmetry, as the data are) and interpolated to the
+    nodes by the planes the data went through, less its values at the nodes: what the
+    interpolation itself makes of a curved field, which is no noise (without it data made by the
+    fitted model itself fail the test where the field bends, next to the indenter)."""
+    top = np.asarray(prediction.top_xyz, float)
+    field = np.asarray(prediction.displacement[0], float)[np.asarray(steps, int) - 1]  # (s, nodes, 3)
+    xy = dic.xyz[plan.points, :2]
+    interp = top_field_interpolator(top, np.moveaxis(field, 0, 1))
+    at = np.moveaxis(interp(np.minimum(np.abs(xy), top[:, :2].max(axis=0))), 0, 1)  # (s, points, 3)
+    at[..., 0] *= np.sign(xy[:, 0])
+    at[..., 1] *= np.sign(xy[:, 1])
+    seen = np.stack([at[..., j] @ plan.matrix(j).T for j in range(3)], axis=-1)  # (s, nodes, 3)
+    return (seen - field)[:, measured]
+
+
+def _gradients(
+    plan: NodeInterpolation, dic: RegisteredDIC, steps: np.ndarray, measured: np.ndarray
+) -> np.ndarray:
+    """(steps, measured nodes, 3, 2): the in-plane gradient of the DIC field at the nodes (the
+    interpolating planes' slopes), what a shift of the indentation point moves each value by."""
+    n_ok = len(plan.points)
+    u = np.nan_to_num(dic.u[np.asarray(steps, int) - 1][:, plan.points])  # (s, n_ok, 3)
+    U = u[:, plan.neighbours % n_ok] * plan.signs[None]  # (s, nodes, k, 3)
+    g = np.einsum("nak,snkd->snda", plan.planes[:, 1:, :], U)  # (s, nodes, 3, 2)
+    return g[:, measured]
+
+
+def _named(fit, flagged: bool, at_ends: list[dict]) -> list[dict]:
+    """The parameters a flagged fit names: those at a range end, and mu identified narrowly."""
+    named = list(at_ends)
+    fr = fit.get("friction") or {}
+    if flagged and fr.get("mu_identified"):
+        lo, hi = fr["mu_interval"]
+        named.append(
+            {
+                "parameter": "mu",
+                "reason": (
+                    f"identified at {fr['mu']:.3g} (95 % within [{lo:.3g}, {hi:.3g}]) while the model misses "
+                    "the data: mu absorbs model error here, its value is not a friction coefficient"
+                ),
+            }
+        )
+    return named
+
+
+def model_adequacy(
+    inputs,
+    fit,
+    *,
+    force_noise: float | None = None,
+    dic_noise: float | None = None,
+    at_ends: list[dict] | None = None,
+    friction: dict | None = None,
+) -> Adequacy:
+    """The adequacy test of ``fit`` (a :class:`inference.inverse_fit.FitResult` carrying its
+    residuals) on ``inputs`` (:class:`inference.fit_inputs.FitInputs`): the chi-square statistic
+    of its residuals whitened by the data's noise (module docstring), its degrees of freedom and
+    p-value; flagged beyond the upper ``ALPHA`` tail. ``force_noise`` (relative, one reading) and
+    ``dic_noise`` (mm) are declared levels; ``at_ends`` are parameters the caller found at a range
+    end ({"parameter", "reason"}), named; ``friction`` (fit.json's 'friction') names mu when it
+    was identified narrowly while the fit is flagged."""
+    if fit.residuals is None:
+        raise ValueError("the fit records no residuals: the adequacy test needs them")
+    objective, exp, dic = inputs.objective, inputs.experiment, inputs.dic
+    steps = np.asarray(objective.steps, int) + 1
+    noise, f_inf = noise_model(exp, dic, steps, force_noise=force_noise, dic_noise=dic_noise)
+    plan = node_interpolation(dic, np.asarray(objective.top_xyz)[:, :2], used_steps=exp.used_steps)
+    grads = _gradients(plan, dic, steps, objective.measured)
+    bias = None
+    if fit.prediction is not None:
+        bias = operator_bias(fit.prediction, plan, dic, steps, objective.measured)
+    statistic, dof, terms = chi_square_test(
+        fit.residuals, objective, inputs.eta, noise, plan, grads, fit.theta.size, bias
+    )
+    p_value = float(stats.chi2.sf(statistic, dof)) if dof > 0 else float("nan")
+    force_pct = float(np.median(100.0 * noise.force_sd_mN / np.abs(f_inf)))
+    out = Adequacy(
+        float(statistic), int(dof), p_value, dof + fit.theta.size, fit.theta.size, terms, noise, force_pct
+    )
+    out.named = _named({"friction": friction or {}}, out.flagged, at_ends or [])
+    return out
+
+
+def parameters_at_ends(result) -> list[dict]:
+    """The parameters of an :class:`inference.experiment_fit.ExperimentFit` that sit at an end of
+    their range: mu on its range's limit, and c1, c5 (and mu) at or beyond the ends of the box
+    the surrogate was trained on (within 0.5 %: outside it a surrogate extrapolates, and where the
+    FE stage went there the surrogate's start says nothing of it)."""
+    out = []
+    theta = np.asarray(result.fit.theta, float)
+    names = ("c1", "c5", "mu")
+    fr = result._friction_dict() if result.friction.fits_mu else {}
+    if fr.get("mu_at_limit"):
+        out.append(
+            {
+                "parameter": "mu",
+                "reason": f"on its range's {fr['mu_at_limit']} limit ({fr['mu']:.3g}; range {fr['mu_range']})",
+            }
+        )
+    model = result.inputs.surrogate
+    scaler = getattr(model, "scaler", None)
+    if scaler is None:
+        return out
+    for j, name in enumerate(model.parameters):
+        if j >= theta.size or (name == "mu" and out):
+            continue
+        lo, hi = float(scaler.lo[j]), float(scaler.hi[j])
+        where = "lower" if theta[j] <= lo * 1.005 else "upper" if theta[j] >= hi * 0.995 else None
+        if where is None:
+            continue
+        beyond = theta[j] < lo or theta[j] > hi
+        stage = "the FE stage's fit" if result.refined else "the fit"
+        out.append(
+            {
+                "parameter": names[j] if name not in names else name,
+                "reason": (
+                    f"{theta[j]:.4g} is {'beyond' if beyond else 'at'} the {where} end of the {model.kind} "
+                    f"surrogate's training range [{lo:.4g}, {hi:.4g}] ({stage})"
+                ),
+            }
+        )
+    return out
+
+
+def fit_adequacy(
+    result, *, force_noise: float | None = None, dic_noise: float | None = None
+) -> tuple[Adequacy | None, str | None]:
+    """The adequacy test of an :class:`inference.experiment_fit.ExperimentFit`'s final fit, with
+    the parameters it names; or None and why the test could not be made (the fit's residuals
+    missing, a hold without a standard error and no noise declared, too few DIC points)."""
+    try:
+        fr = result._friction_dict() if result.friction.fits_mu else {}
+        return (
+            model_adequacy(
+                result.inputs,
+                result.fit,
+                force_noise=force_noise,
+                dic_noise=dic_noise,
+                at_ends=parameters_at_ends(result),
+                friction=fr,
+            ),
+            None,
+        )
+    except (ValueError, np.linalg.LinAlgError) as exc:
+        return None, f"the adequacy test could not be made: {exc}"

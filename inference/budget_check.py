@@ -1,0 +1,77 @@
+"""Whether a fit's test has an error budget: without one its bounds hold no model error, and the
+fit says so loudly (the CLI's text output and the report, not only a sentence in fit.json).
+
+A test is the indenter's radius, the protocol (steps and depth), the contact and the DIC field
+of view. A budget is known when the surrogate carries one (measured for its mesh and this test,
+given at training, or shipped with the studio: :func:`design.error_budget.shipped_budget`), or
+when the fit carries its mesh check (``--check-mesh``: the finer mesh's GCI in its bounds). A
+budget measured over a field of view much wider or narrower than the data's
+(``FOV_TOLERANCE``) is named as not quite this test.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["FOV_TOLERANCE", "HOW_TO_MEASURE", "budget_status"]
+
+#: A budget measured over a field of view whose radius differs from the data's by more than
+#: this fraction is not this test's.
+FOV_TOLERANCE = 0.2
+
+#: How to measure a budget for a new test (docs: Fit and posterior, "No error budget").
+HOW_TO_MEASURE = (
+    "measure one: a campaign on a finer mesh at this test (indent-studio campaign run --name ref9 "
+    "--grid c1=3:19:3,c5=120:540:3 --mesh reference, with this test's radius and protocol), then "
+    "indent-studio design error-budget --reference ref9 --model <this surrogate's mesh>, and train "
+    "the surrogate again with --error-budget runs/ref9/error-budget.json (docs: Fit and posterior, "
+    "'No error budget')"
+)
+
+
+def _test(spec, fov_mm: float) -> str:
+    """The test in words: radius, protocol, contact, field of view."""
+    p = spec.protocol
+    return (
+        f"R = {spec.indenter.radius:g} mm, {p.steps} x {p.step_size:g} mm to {p.steps * p.step_size:g} mm, "
+        f"{spec.contact.describe()}, field of view {fov_mm:.3g} mm"
+    )
+
+
+def budget_status(result) -> dict:
+    """Whether the fit (an :class:`inference.experiment_fit.ExperimentFit`) has an error budget
+    for its test: ``{"known": bool, "test": str, "source": dict | None, "warning": str | None}``;
+    the warning says what the bounds then hold and how to measure one."""
+    inputs = result.inputs
+    xyz = np.asarray(inputs.dic.xyz, float)
+    fov = float(np.hypot(xyz[:, 0], xyz[:, 1]).max()) if len(xyz) else float("nan")
+    test = _test(inputs.spec, fov)
+    model = result.model_error
+    source = None if model is None else model.budget_source
+    if result.mesh_check is not None:
+        return {"known": True, "test": test, "source": {"mesh_check": result.check_mesh}, "warning": None}
+    if source is None:
+        mesh = (inputs.spec.to_dict().get("mesh") or {}).get("preset") or "its mesh"
+        return {
+            "known": False,
+            "test": test,
+            "source": None,
+            "warning": (
+                f"no error budget is known for this test ({test}) on the surrogate's mesh ({mesh}): "
+                "the bounds hold measurement noise only, no model error, and can miss the truth by many "
+                "times their width (the 'default' mesh alone put c5 up to 24 % off at the paper's test); "
+                + HOW_TO_MEASURE
+            ),
+        }
+    budget_fov = source.get("field_of_view_mm") if isinstance(source, dict) else None
+    if budget_fov and np.isfinite(fov) and abs(fov / float(budget_fov) - 1.0) > FOV_TOLERANCE:
+        return {
+            "known": False,
+            "test": test,
+            "source": source,
+            "warning": (
+                f"the error budget in these bounds was measured over a {float(budget_fov):g} mm field of view; "
+                f"these data cover {fov:.3g} mm ({test}): it may not hold here; " + HOW_TO_MEASURE
+            ),
+        }
+    return {"known": True, "test": test, "source": source, "warning": None}

@@ -1,0 +1,180 @@
+"""Model adequacy (inference.adequacy): a fit's residuals whitened by the data's noise give a
+chi-square statistic with n - p degrees of freedom; data the model made are not flagged (over
+20 noise draws at most one beyond the 0.1 % tail), data it cannot explain (a force scale 10 %
+off, fibers declared 90 deg from where they are) are. And a fit without an error budget for its
+test says so (inference.budget_check), in the CLI's text and the report too."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+from types import SimpleNamespace
+
+import numpy as np
+import pandas as pd
+import pytest
+from scipy import stats
+
+from indentation_studio.forward.predictor import FESolverPredictor, Prediction
+from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
+from indentation_studio.inference.adequacy import ALPHA, CANNOT_EXPLAIN, dic_noise_mm, model_adequacy
+from indentation_studio.inference.budget_check import budget_status
+from indentation_studio.inference.experiment_data import load_experiment
+from indentation_studio.inference.experiment_processing import experiment_objective, to_model_frame
+from indentation_studio.inference.inverse_fit import fit_parameters
+from indentation_studio.inference.model_error import ModelError
+from indentation_studio.inference.synthetic_experiment import write_synthetic_experiment
+
+SPEC = ModelSpec(mesh=MeshChoice("coarse"), protocol=Protocol(step_size=0.5, steps=4))
+TRUE = np.array([12.0, 250.0])
+ETA = np.array([0.45, 0.35, 0.2, 0.0])
+
+
+class Linearised:
+    """The FE model linearised about TRUE (one run with sensitivities): exact to first order over
+    a fit's percent-wide moves, and fast enough for many noise draws."""
+
+    def __init__(self, spec: ModelSpec):
+        self.spec = spec
+        self.at = FESolverPredictor(spec).predict(TRUE, jacobian=True)
+
+    def predict(self, theta, jacobian: bool = False) -> Prediction:
+        theta = np.atleast_2d(np.asarray(theta, float))
+        d = theta - TRUE
+        a = self.at
+        force = a.force[0] + np.einsum("sp,np->ns", a.force_jacobian[0], d)
+        field = a.displacement[0] + np.einsum("skdp,np->nskd", a.displacement_jacobian[0], d)
+        out = replace(a, force=force, displacement=field, force_jacobian=None, displacement_jacobian=None)
+        if jacobian:
+            n = len(theta)
+            out = replace(
+                out,
+                force_jacobian=np.repeat(a.force_jacobian, n, axis=0),
+                displacement_jacobian=np.repeat(a.displacement_jacobian, n, axis=0),
+            )
+        return out
+
+
+@pytest.fixture(scope="module")
+def model():
+    return Linearised(SPEC)
+
+
+def _experiment(model, folder, seed: int):
+    return write_synthetic_experiment(
+        model, TRUE, folder, radius=4.77, step_size=0.5, seed=seed, u_noise_mm=0.02, f_noise=0.02
+    )
+
+
+def _fit_and_test(model, root, **declared):
+    exp = load_experiment(root)
+    objective, dic = experiment_objective(exp, model.at.top_xyz)
+    fit = fit_parameters(objective, model, ETA)
+    inputs = SimpleNamespace(objective=objective, experiment=exp, dic=dic, eta=ETA)
+    return fit, model_adequacy(inputs, fit, **declared)
+
+
+@pytest.mark.slow
+def test_clean_data_are_not_flagged_over_noise_draws(model, tmp_path):
+    # measured: 0 of 20 flagged; chi-square per degree 0.84 .. 1.11 on about 190 degrees of freedom
+    flagged, ratios = 0, []
+    for seed in range(20):
+        _, a = _fit_and_test(model, _experiment(model, tmp_path / f"e{seed}", seed))
+        assert a.dof == a.n - 2 and a.n == sum(t["n"] for t in a.terms.values())
+        assert a.p_value == pytest.approx(stats.chi2.sf(a.statistic, a.dof))
+        flagged += a.flagged
+        ratios.append(a.ratio)
+        # the noise the data carry, measured back: 0.02 mm DIC, f_inf's standard error from the holds
+        np.testing.assert_allclose(a.noise.dic_sd_mm, 0.02, rtol=0.1)
+    assert flagged <= 1, ratios
+    assert 0.85 < np.mean(ratios) < 1.15, ratios
+
+
+def test_a_wrong_force_scale_is_flagged(model, tmp_path):
+    root = _experiment(model, tmp_path / "scaled", 1)
+    force = pd.read_csv(root / "force.csv")
+    force["force_mN"] *= np.where(force["step"] >= 3, 1.1, 1.0)  # the load cell's scale off at two steps
+    force.to_csv(root / "force.csv", index=False)
+    _, a = _fit_and_test(model, root)
+    assert a.flagged and a.p_value < ALPHA
+    assert a.terms["force"]["statistic"] > 20 * a.terms["force"]["n"]  # the force carries the misfit
+    assert a.to_dict()["flagged"] and CANNOT_EXPLAIN in a.message()
+
+
+def test_a_model_with_the_fibers_elsewhere_is_flagged(model, tmp_path):
+    """Data made with the fibers along one direction, fitted by the model with them 90 deg away:
+    the field's anisotropy is not the model's (the force alone would not tell)."""
+    root = _experiment(model, tmp_path / "fibers", 2)
+    _, clean = _fit_and_test(model, root)
+    meta = json.loads((root / "experiment.json").read_text())
+    meta["fiber_angle_deg"] = (meta["fiber_angle_deg"] + 90.0) % 180.0
+    (root / "experiment.json").write_text(json.dumps(meta))
+    _, a = _fit_and_test(model, root)
+    assert not clean.flagged and a.flagged
+    assert a.statistic > 3 * a.dof
+
+
+def test_declared_noise_replaces_the_measured(model, tmp_path):
+    root = _experiment(model, tmp_path / "declared", 3)
+    _, measured = _fit_and_test(model, root)
+    _, half = _fit_and_test(model, root, dic_noise=0.01, force_noise=0.01)
+    assert half.noise.dic_source.startswith("declared") and half.noise.force_source.startswith("declared")
+    np.testing.assert_allclose(half.noise.dic_sd_mm, 0.01)
+    # half the noise: four times the statistic, and the data then fail the test
+    assert half.statistic == pytest.approx(4 * measured.statistic, rel=0.15)
+    assert half.flagged and not measured.flagged
+
+
+def test_dic_noise_is_measured_without_the_fields_curvature():
+    """A strongly curved field (a Gaussian dimple 2 mm deep) with 0.02 mm noise: the local
+    quadratics with their exact leverage give the noise back within 5 %."""
+    rng = np.random.default_rng(0)
+    r = 20 * np.sqrt(rng.random(5000))
+    phi = 2 * np.pi * rng.random(5000)
+    xy = np.column_stack([r * np.cos(phi), r * np.sin(phi)])
+    dimple = -2.0 * np.exp(-(r**2) / 20.0)
+    u = np.column_stack([0.1 * xy[:, 0] * np.exp(-(r**2) / 30.0), 0.05 * xy[:, 1] / 20, dimple])
+    sd = dic_noise_mm(xy, u + 0.02 * rng.standard_normal(u.shape))
+    np.testing.assert_allclose(sd, 0.02, rtol=0.05)
+
+
+def _result(tmp_path, model, model_error, mesh_check=None):
+    root = _experiment(model, tmp_path / "budget", 4)
+    exp = load_experiment(root)
+    dic = to_model_frame(exp)
+    inputs = SimpleNamespace(dic=dic, spec=SPEC)
+    return SimpleNamespace(inputs=inputs, model_error=model_error, mesh_check=mesh_check, check_mesh=None)
+
+
+def test_a_test_without_an_error_budget_says_so(model, tmp_path):
+    status = budget_status(_result(tmp_path, model, None))
+    assert not status["known"] and "no error budget is known for this test" in status["warning"]
+    assert "R = 4.77 mm, 4 x 0.5 mm" in status["test"] and "design error-budget" in status["warning"]
+    source = {"file": "x.json", "model": "coarse", "points": 9, "field_of_view_mm": 25.0}
+    known = ModelError(np.zeros(2), np.array([3.0, 24.0]), np.zeros((2, 2)), source, False)
+    assert budget_status(_result(tmp_path, model, known))["known"]  # the data cover 25 mm too
+    narrow = ModelError(
+        np.zeros(2), np.array([3.0, 24.0]), np.zeros((2, 2)), source | {"field_of_view_mm": 8.0}, False
+    )
+    status = budget_status(_result(tmp_path, model, narrow))
+    assert not status["known"] and "8 mm field of view" in status["warning"]
+
+
+def test_the_cli_and_the_report_show_the_flag_loudly(model, tmp_path, capsys):
+    from indentation_studio.studio.inference_cli import _loud_warnings
+    from indentation_studio.studio.report import fit_warnings_html
+
+    root = _experiment(model, tmp_path / "loud", 5)
+    force = pd.read_csv(root / "force.csv")
+    force["force_mN"] *= 1.1 ** (force["step"] - 1)
+    force.to_csv(root / "force.csv", index=False)
+    _, a = _fit_and_test(model, root)
+    a.named = [{"parameter": "mu", "reason": "on its range's upper limit"}]
+    payload = {"adequacy": a.to_dict(), "error_budget": budget_status(_result(tmp_path, model, None))}
+    _loud_warnings(payload)
+    out = capsys.readouterr().out
+    assert "MODEL INADEQUATE" in out and "NO ERROR BUDGET FOR THIS TEST" in out
+    assert "the model cannot explain these data" in " ".join(out.split())
+    assert f"{a.dof}" in out and "mu" in out
+    page = fit_warnings_html(payload)
+    assert "class='alarm'" in page and "class='caution'" in page and "its bounds are not meaningful" in page
