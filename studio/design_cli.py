@@ -11,10 +11,10 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from .. import inference  # lazy: the command imports what it runs
 from ..atomic_write import atomic_write, atomic_write_json, strict_json
 from ..design.certainty import DESIGN_BOUNDS_INCLUDE
 from ..forward.spec import SpecError
-from ..inference.error_budget import campaign_error_budget
 from .options import (
     FRICTION,
     JSON,
@@ -485,7 +485,7 @@ def error_budget_cmd(
 
     try:
         path = out or open_campaign(reference, runs_dir).root / "error-budget.json"
-        budget = campaign_error_budget(
+        budget = inference.campaign_error_budget(
             reference,
             model,
             _floats(weights),

@@ -11,8 +11,8 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from .. import surrogate  # lazy: the command imports what it runs
 from ..atomic_write import strict_json
-from ..surrogate.error_budgets import remaining_bias
 from .options import JSON, err, fail
 
 surrogate_app = typer.Typer(
@@ -54,7 +54,7 @@ def _budget_for(
     if error_budget is None:
         return None
     mesh = open_campaign(campaign, runs_dir).spec.model.mesh
-    return remaining_bias(error_budget, budget_model or mesh.preset or str(mesh.feb_file))
+    return surrogate.remaining_bias(error_budget, budget_model or mesh.preset or str(mesh.feb_file))
 
 
 def _say_budget(budget: dict | None, what: str) -> None:
