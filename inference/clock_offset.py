@@ -1,13 +1,15 @@
 """The offset between the DIC cameras' clock and the load frame's, found from the data.
 
-Each DIC frame's indentation signal (the 99th percentile of its points' displacement from the
-frame's median displacement: the surface next to the indenter, which moves with the depth) is
-matched to the stage's depth on the load frame's clock: the offset (added to the frame times)
+Each DIC frame's indentation signal (how far the points that moved most out of the reference
+surface's plane moved: the surface next to the indenter, which sinks with the depth) is
+matched to the stage's depth on the load frame's clock. The first frame that shows an indentation
+was taken during step 1 (its ramp or hold) and the frame before it before the stage moved: that
+bounds the offset (the first indented frame against the first hold). Within those bounds, the
+offset (added to the frame times)
 minimises the misfit of ``signal = a * depth(t + offset)^p`` (``a``, ``p`` fitted) over a
-grid of offsets. Frames taken during holds fit equally well over a range of offsets (the holds'
-flat depth; misfits within 1/sqrt(frames) of the least count as equal: the frames' own scatter
-about the relation, 0.97 u mid-hold against u at its end, can favour a wrong offset by a few
-percent); the range is reported, and the offset chosen is 0 when the range holds
+grid of offsets, among those that put as many frames as can be inside the holds (a DIC frame
+of a stepwise test is taken while the stage stands). Frames taken during holds fit equally well
+over a range of offsets (the holds' flat depth); the range is reported, and the offset chosen is 0 when the range holds
 it (the clocks agree as far as the data can tell), else its middle.
 """
 
@@ -19,6 +21,7 @@ import numpy as np
 
 from .dic_series import DICSeries
 from .experiment_data import ExperimentDataError
+from .specimen_frame import surface_plane
 
 
 @dataclass(frozen=True)
@@ -46,16 +49,21 @@ class ClockOffset:
         )
 
 
-def indentation_signal(dic: DICSeries) -> np.ndarray:
-    """Per frame: the 99th percentile of |u - median(u)| over its correlated points (mm)."""
-    out = np.zeros(len(dic.frame_ids))
+def indentation_signal(dic: DICSeries, fraction: float = 0.02) -> np.ndarray:
+    """Per frame: how far the points that moved most out of the reference surface's plane moved,
+    relative to the frame's median: the larger in size of the means of its ``fraction`` highest
+    and lowest out-of-plane displacements (mm; the surface beside the indenter sinks, noise
+    moves points both ways). The plane is that of the reference positions, so camera
+    coordinates do as well as the specimen's."""
+    _, normal = surface_plane(dic.xyz)
+    out = np.full(len(dic.frame_ids), np.nan)
     for i, u in enumerate(dic.u):
         ok = np.isfinite(u).all(axis=1)
-        if ok.sum() < 10:
-            out[i] = np.nan
+        if ok.sum() < 50:
             continue
-        v = u[ok] - np.median(u[ok], axis=0)
-        out[i] = float(np.percentile(np.linalg.norm(v, axis=1), 99))
+        w = np.sort(u[ok] @ normal - np.median(u[ok] @ normal))
+        k = max(int(fraction * len(w)), 3)
+        out[i] = max(abs(float(w[:k].mean())), abs(float(w[-k:].mean())))
     return out
 
 
@@ -80,11 +88,33 @@ def _misfit(signal: np.ndarray, depth: np.ndarray) -> tuple[np.ndarray, np.ndarr
     return best, best_a, best_p
 
 
+def _first_indentation_window(ft, sig, t, d, first_hold_end_s) -> tuple[float, float] | None:
+    """The offsets that put the first indented frame (its signal above twice the least frame's,
+    which sees only noise) after the stage left the contact point and by the end of step 1's
+    hold, and the frame before it before the stage left: None when no frame is clearly flat."""
+    base = float(sig.min())
+    indented = np.flatnonzero(sig > 2.0 * base + 1e-12)
+    if base <= 0 or not indented.size or indented[0] == 0:
+        return None
+    f = int(indented[0])
+    moved = np.flatnonzero(d > 0)
+    if not moved.size:
+        return None
+    leave = float(t[moved[0] - 1] if moved[0] > 0 else t[0])
+    end = first_hold_end_s if first_hold_end_s is not None else float(t[-1])
+    lo, hi = leave - ft[f], min(end - ft[f], leave - ft[f - 1])
+    return (lo, hi) if hi > lo else None
+
+
 def find_clock_offset(
-    frame_times: np.ndarray, signal: np.ndarray, record_t: np.ndarray, record_depth: np.ndarray
+    frame_times: np.ndarray,
+    signal: np.ndarray,
+    record_t: np.ndarray,
+    record_depth: np.ndarray,
+    hold_windows: np.ndarray | None = None,
 ) -> ClockOffset:
-    """The offset (module docstring) from the frames' times and indentation signals and the
-    record's depth track."""
+    """The offset (module docstring) from the frames' times and indentation signals, the
+    record's depth track and its holds' (start, end) times."""
     ok = np.isfinite(signal) & np.isfinite(frame_times)
     ft, sig = np.asarray(frame_times, float)[ok], np.asarray(signal, float)[ok]
     if len(ft) < 3 or np.ptp(sig) == 0:
@@ -93,10 +123,22 @@ def find_clock_offset(
             "give it (--time-offset)"
         )
     t, d = np.asarray(record_t, float), np.clip(np.asarray(record_depth, float), 0.0, None)
+    windows = None if hold_windows is None else np.asarray(hold_windows, float)
+    if windows is not None:
+        windows = windows[np.isfinite(windows).all(axis=1)]
     lo, hi = t[0] - ft.max(), t[-1] - ft.min()
+    first = _first_indentation_window(
+        ft, sig, t, d, None if windows is None or not len(windows) else windows[0, 1]
+    )
+    if first is not None:
+        lo, hi = max(lo, first[0]), min(hi, first[1])
     dt = float(np.median(np.diff(t)))
     step = max((hi - lo) / 20000.0, dt / 2.0)
     grid = np.arange(lo, hi + step, step)
+    if windows is not None and len(windows):
+        at = ft[None, :] + grid[:, None]  # (offsets, frames)
+        inside = ((at[..., None] >= windows[:, 0]) & (at[..., None] <= windows[:, 1])).any(axis=2).sum(axis=1)
+        grid = grid[inside == inside.max()]  # as many frames in holds as can be
     cost = np.concatenate(
         [
             _misfit(sig, np.interp(ft[None, :] + g[:, None], t, d))[0]
@@ -104,13 +146,13 @@ def find_clock_offset(
         ]
     )
     best = float(cost.min())
-    tie = cost <= best * (1.0 + 1.0 / np.sqrt(len(sig))) + 1e-6 * float(np.ptp(sig))
+    tie = cost <= best * 1.02 + 1e-9 * float(np.ptp(sig))  # 2 %: the record's position noise
     i = int(np.argmin(cost))
     a = i
-    while a > 0 and tie[a - 1]:
+    while a > 0 and tie[a - 1] and grid[a] - grid[a - 1] <= 1.5 * step:
         a -= 1
     b = i
-    while b < len(grid) - 1 and tie[b + 1]:
+    while b < len(grid) - 1 and tie[b + 1] and grid[b + 1] - grid[b] <= 1.5 * step:
         b += 1
     low, high = float(grid[a]), float(grid[b])
     offset = 0.0 if low <= 0.0 <= high else 0.5 * (low + high)

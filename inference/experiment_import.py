@@ -270,11 +270,10 @@ def import_experiment(
                 f"{dic.source}: the export has no frame times; give them, or name the frame of every step"
             )
         if frames.time_offset_s is None:
-            clock = find_clock_offset(times, indentation_signal(dic), *track)
+            clock = find_clock_offset(times, indentation_signal(dic), *track, windows)
         else:
-            clock = ClockOffset(
-                frames.time_offset_s, frames.time_offset_s, frames.time_offset_s, np.nan, np.nan, "given"
-            )
+            given = frames.time_offset_s
+            clock = ClockOffset(given, given, given, np.nan, np.nan, np.nan, "given")
         index = frames_by_time(dic, windows, clock.offset_s, times)
     else:
         raise ExperimentDataError(

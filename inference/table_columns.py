@@ -59,12 +59,15 @@ def first_row(table: pd.DataFrame) -> int:
 
 
 def find_column(table: pd.DataFrame, name: str, path: Path, role: str = "") -> str:
-    """The header of ``table`` that is ``name``, exactly or but for its unit; an error naming the
-    file and the closest headers when there is none."""
+    """The header of ``table`` that is ``name``, exactly or but for its unit (and then, when no
+    header matches so, but for its case); an error naming the file and the closest headers when
+    there is none."""
     if name in table.columns:
         return name
     wanted = bare_name(name)
     hits = [c for c in table.columns if bare_name(c) == wanted]
+    if not hits:  # ``x`` for ``X [mm]``: the same name but for its case
+        hits = [c for c in table.columns if bare_name(c).lower() == wanted.lower()]
     if len(hits) == 1:
         return hits[0]
     if len(hits) > 1:

@@ -47,7 +47,7 @@ def test_offset_from_frames_taken_all_along(record):
     times = np.arange(0.0, rec.time_s[-1] - TRUE_OFFSET, 1.0)  # 1 frame/s on the DIC clock
     dic = _series(times, rec, search)
     depth = search.position_sign * (rec.position_mm - search.contact_position_mm)
-    clock = find_clock_offset(dic.times_s, indentation_signal(dic), rec.time_s, depth)
+    clock = find_clock_offset(dic.times_s, indentation_signal(dic), rec.time_s, depth, _windows(search))
     assert abs(clock.offset_s - TRUE_OFFSET) <= 0.1  # the record's sampling interval
     assert clock.power == pytest.approx(1.5)
 
@@ -58,10 +58,14 @@ def test_offset_from_frames_taken_in_the_holds(record):
     times = np.concatenate([[5.0], ends - 3.0]) - TRUE_OFFSET  # a reference, then one frame late in each hold
     dic = _series(times, rec, search)
     depth = search.position_sign * (rec.position_mm - search.contact_position_mm)
-    clock = find_clock_offset(dic.times_s, indentation_signal(dic), rec.time_s, depth)
+    clock = find_clock_offset(dic.times_s, indentation_signal(dic), rec.time_s, depth, _windows(search))
     assert (
         clock.low_s <= TRUE_OFFSET <= clock.high_s and clock.high_s - clock.low_s <= 30.0 + 1e-6
     )  # the hold
     windows = np.array([(h.start_s, h.end_s) for h in search.holds])
     assert frames_by_time(dic, windows, clock.offset_s).tolist() == [1, 2, 3, 4, 5]
     assert "found from the data" in clock.describe()
+
+
+def _windows(search):
+    return np.array([(h.start_s, h.end_s) for h in search.holds])
