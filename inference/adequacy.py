@@ -56,6 +56,7 @@ __all__ = [
     "chi_square_test",
     "dic_noise_mm",
     "force_noise_per_step",
+    "loud_warnings",
     "model_adequacy",
     "noise_model",
 ]
@@ -377,10 +378,10 @@ def _gradients(
     return g[:, measured]
 
 
-def _named(fit, flagged: bool, at_ends: list[dict]) -> list[dict]:
-    """The parameters a flagged fit names: those at a range end, and mu identified narrowly."""
+def _named(fr: dict, flagged: bool, at_ends: list[dict]) -> list[dict]:
+    """The parameters a fit names: those at a range end and, when it is flagged, mu identified
+    (``fr``: fit.json's 'friction') while the model misses the data."""
     named = list(at_ends)
-    fr = fit.get("friction") or {}
     if flagged and fr.get("mu_identified"):
         lo, hi = fr["mu_interval"]
         named.append(
@@ -429,7 +430,7 @@ def model_adequacy(
     out = Adequacy(
         float(statistic), int(dof), p_value, dof + fit.theta.size, fit.theta.size, terms, noise, force_pct
     )
-    out.named = _named({"friction": friction or {}}, out.flagged, at_ends or [])
+    out.named = _named(friction or {}, out.flagged, at_ends or [])
     return out
 
 
@@ -495,3 +496,10 @@ def fit_adequacy(
         )
     except (ValueError, np.linalg.LinAlgError) as exc:
         return None, f"the adequacy test could not be made: {exc}"
+
+
+def loud_warnings(adequacy: Adequacy | None, budget: dict) -> list[str]:
+    """fit.json's warnings from the adequacy test (when flagged) and the error budget (when none
+    is known for the test), beside their own entries ('adequacy', 'error_budget')."""
+    out = [adequacy.message()] if adequacy is not None and adequacy.flagged else []
+    return out + ([budget["warning"]] if budget.get("warning") else [])

@@ -22,7 +22,7 @@ from ..forward.predictor import FESolverPredictor
 from ..forward.solver import SimulationError
 from ..surrogate.base import FieldSurrogate
 from ..surrogate.error_budgets import surrogate_error_budget
-from .adequacy import fit_adequacy
+from .adequacy import fit_adequacy, loud_warnings
 from .budget_check import budget_status
 from .experiment_data import ExperimentData
 from .fit_inputs import FitInputs, prepare_fit
@@ -123,6 +123,7 @@ class ExperimentFit:
         """fit.json: theta, bounds (statistical only unless a mesh check is present), provenance."""
         final, inputs = self.fit, self.inputs
         first = self.surrogate_fit
+        budget = budget_status(self)
         return {
             "c1": float(final.theta[0]),
             "c5": float(final.theta[1]),
@@ -131,11 +132,11 @@ class ExperimentFit:
             "bounds_include": model_error_scope(self.model_error, contact=self.contact),
             "statistical_pct": self.statistical_pct.tolist(),
             "friction": self._friction_dict(),
-            "warnings": self.warnings,
+            "warnings": self.warnings + loud_warnings(self.adequacy, budget),
             "adequacy": self.adequacy.to_dict()
             if self.adequacy is not None
             else {"note": self.adequacy_note},
-            "error_budget": budget_status(self),
+            "error_budget": budget,
             "model_error": None if self.model_error is None else self.model_error.to_dict(),
             "F": final.F,
             "s": final.s,

@@ -130,9 +130,10 @@ def fit(
             f"{m['model_pct'][1]:.2f} % (discrepancy {m['discrepancy_pct'][0]:.2f} / {m['discrepancy_pct'][1]:.2f}, "
             f"error budget {m['error_budget_pct'][0]:.2f} / {m['error_budget_pct'][1]:.2f})"
         )
-    _loud_warnings(payload)
+    loud = _loud_warnings(payload)
     for warning in payload["warnings"]:
-        err.print(f"[yellow]warning:[/yellow] {warning}")
+        if warning not in loud:
+            err.print(f"[yellow]warning:[/yellow] {warning}")
     fr = payload["friction"]
     if "mu_pct" in fr:
         limit = f" (on its range's {fr['mu_at_limit']} limit)" if fr["mu_at_limit"] else ""
@@ -159,9 +160,10 @@ def fit(
         )
 
 
-def _loud_warnings(payload: dict) -> None:
+def _loud_warnings(payload: dict) -> list[str]:
     """The adequacy flag (red) and a test without an error budget (yellow) as panels under the
-    headline numbers: they say the numbers above are not to be trusted as they stand."""
+    headline numbers: they say the numbers above are not to be trusted as they stand. Returns
+    the warnings shown so (fit.json lists them among its warnings too)."""
     console = Console()
     adequacy = payload["adequacy"]
     if "flagged" not in adequacy:
@@ -194,6 +196,8 @@ def _loud_warnings(payload: dict) -> None:
     if budget["warning"]:
         title = "[bold yellow]NO ERROR BUDGET FOR THIS TEST[/bold yellow]"
         console.print(Panel(budget["warning"], title=title, border_style="yellow"))
+    shown = [adequacy["message"]] if adequacy.get("flagged") else []
+    return shown + ([budget["warning"]] if budget["warning"] else [])
 
 
 def _noise_words(noise: dict) -> str:

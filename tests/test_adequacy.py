@@ -17,7 +17,13 @@ from scipy import stats
 
 from indentation_studio.forward.predictor import FESolverPredictor, Prediction
 from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
-from indentation_studio.inference.adequacy import ALPHA, CANNOT_EXPLAIN, dic_noise_mm, model_adequacy
+from indentation_studio.inference.adequacy import (
+    ALPHA,
+    CANNOT_EXPLAIN,
+    dic_noise_mm,
+    model_adequacy,
+    parameters_at_ends,
+)
 from indentation_studio.inference.budget_check import budget_status
 from indentation_studio.inference.experiment_data import load_experiment
 from indentation_studio.inference.experiment_processing import experiment_objective, to_model_frame
@@ -95,10 +101,33 @@ def test_a_wrong_force_scale_is_flagged(model, tmp_path):
     force = pd.read_csv(root / "force.csv")
     force["force_mN"] *= np.where(force["step"] >= 3, 1.1, 1.0)  # the load cell's scale off at two steps
     force.to_csv(root / "force.csv", index=False)
-    _, a = _fit_and_test(model, root)
+    fit, a = _fit_and_test(model, root)
     assert a.flagged and a.p_value < ALPHA
     assert a.terms["force"]["statistic"] > 20 * a.terms["force"]["n"]  # the force carries the misfit
     assert a.to_dict()["flagged"] and CANNOT_EXPLAIN in a.message()
+    # mu identified narrowly while the model misses is named: it absorbs model error
+    friction = {"mu_identified": True, "mu": 0.21, "mu_interval": [0.19, 0.23]}
+    exp = load_experiment(root)
+    objective, dic = experiment_objective(exp, model.at.top_xyz)
+    inputs = SimpleNamespace(objective=objective, experiment=exp, dic=dic, eta=ETA)
+    named = model_adequacy(inputs, fit, friction=friction).named
+    assert [d["parameter"] for d in named] == ["mu"] and "absorbs model error" in named[0]["reason"]
+
+
+def test_a_parameter_at_the_end_of_the_training_box_is_named():
+    surrogate = SimpleNamespace(
+        parameters=("c1", "c5"), kind="gp", scaler=SimpleNamespace(lo=[2.0, 100.0], hi=[20.0, 500.0])
+    )
+    result = SimpleNamespace(
+        fit=SimpleNamespace(theta=np.array([19.97, 300.0])),
+        friction=SimpleNamespace(fits_mu=False),
+        inputs=SimpleNamespace(surrogate=surrogate),
+        refined=False,
+    )
+    named = parameters_at_ends(result)
+    assert [d["parameter"] for d in named] == ["c1"] and "upper end" in named[0]["reason"]
+    result.fit.theta = np.array([12.0, 300.0])
+    assert parameters_at_ends(result) == []
 
 
 def test_a_model_with_the_fibers_elsewhere_is_flagged(model, tmp_path):
