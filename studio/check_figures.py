@@ -142,15 +142,20 @@ def sphere_fit_figure(exp: ExperimentData, check: DataCheck) -> Figure:
 
 
 def registration_figure(exp: ExperimentData, check: DataCheck, dic: RegisteredDIC) -> Figure:
-    """Left: the DIC points in the DIC frame, the indentation point and the fiber direction
-    (used, and from the strain field). Right: the FE top nodes of the quarter model with DIC data
+    """Left: the DIC points on the top face (the DIC frame leveled: its own frame when its z is
+    the face's normal), the indentation point and the fiber direction (used, and from the strain
+    field; both angles in that leveled frame). Right: the FE top nodes of the quarter model with DIC data
     and those obscured, over the registered DIC points."""
     fig = Figure(figsize=(12, 5.6), layout="constrained")
     a, b = fig.subplots(1, 2)
-    a.scatter(exp.dic_xyz[:, 0], exp.dic_xyz[:, 1], s=0.5, color="0.6")
-    o = dic.origin
+    # the top face seen square on: the DIC frame leveled (the identity when its z is the face's
+    # normal), the origin kept where the DIC frame has it
+    L = dic.frame.leveling if dic.frame is not None else np.eye(3)
+    face = exp.dic_xyz @ L.T
+    a.scatter(face[:, 0], face[:, 1], s=0.5, color="0.6")
+    o = L @ dic.origin
     a.plot(o[0], o[1], "r+", ms=14, mew=2, label="indentation point")
-    span = 0.5 * float(np.ptp(exp.dic_xyz[:, :2], axis=0).max())
+    span = 0.5 * float(np.ptp(face[:, :2], axis=0).max())
     for angle, style, label in (
         (
             check.fiber_angle_deg,
@@ -170,9 +175,15 @@ def registration_figure(exp: ExperimentData, check: DataCheck, dic: RegisteredDI
         d = np.array([np.cos(np.radians(angle)), np.sin(np.radians(angle))]) * span
         a.plot([o[0] - d[0], o[0] + d[0]], [o[1] - d[1], o[1] + d[1]], style, lw=1.5, label=label)
     a.set_aspect("equal")
-    a.set_xlabel("x, DIC frame (mm)")
-    a.set_ylabel("y, DIC frame (mm)")
-    a.set_title("registration in the DIC frame", fontsize=9)
+    tilt = dic.frame.tilt_deg if dic.frame is not None else 0.0
+    a.set_xlabel("x, DIC frame leveled (mm)" if tilt > 1e-6 else "x, DIC frame (mm)")
+    a.set_ylabel("y, DIC frame leveled (mm)" if tilt > 1e-6 else "y, DIC frame (mm)")
+    a.set_title(
+        f"registration: the top face, leveled from the DIC frame (tilted {tilt:.3g} deg)"
+        if tilt > 1e-6
+        else "registration in the DIC frame",
+        fontsize=9,
+    )
     a.legend(fontsize=8, loc="lower left")
     b.scatter(dic.xyz[:, 0], dic.xyz[:, 1], s=0.3, color="0.75")
     xy = np.asarray(check.node_xy)

@@ -23,7 +23,8 @@ FIGURES = (
     ("sphere.png", "The indenter points against the fitted sphere, and the residual beside the DIC noise."),
     (
         "registration.png",
-        "The indentation point and fiber direction in the DIC frame; FE top nodes with data and obscured.",
+        "The indentation point and fiber direction on the top face (the DIC frame leveled); FE top nodes with "
+        "data and obscured.",
     ),
 )
 
@@ -44,6 +45,23 @@ def _rows(items: list[dict], columns: list[tuple[str, str]]) -> str:
 
 def _fmt(v) -> str:
     return html.escape(f"{v:.4g}" if isinstance(v, float) else str(v))
+
+
+def _face(reg: dict, signature: float | None) -> str:
+    """The top face the registration found in the DIC data, and the field's indentation."""
+    if "tilt_deg" not in reg:
+        return ""
+    sink = (
+        ""
+        if signature is None
+        else f" At the deepest step the surface beside the indenter sinks {-signature:.3g} mm below the far field."
+    )
+    return (
+        f"<p>Top face (the plane of the DIC reference positions): normal {_fmt([round(v, 4) for v in reg['surface_normal']])}, "
+        f"tilted {reg['tilt_deg']:.3g} deg from the DIC z (leveled for the model frame); the points' spread about it "
+        f"{reg['surface_rms_mm']:.3g} mm RMS; the indentation point {reg['indentation_point_off_surface_mm']:+.3g} mm from "
+        f"it.{sink}</p>"
+    )
 
 
 def write_check_report(
@@ -82,6 +100,7 @@ def write_check_report(
         f"DIC noise (ux, uy, uz): {noise} mm. Field of view {check.field_of_view_mm:.3g} mm from the axis. "
         f"'{check.mesh}' mesh: {check.nodes_with_data} of {check.nodes} top nodes with DIC data, "
         f"{check.nodes_obscured} obscured.</p>",
+        _face(check.registration, check.indentation_signature_mm),
         "<h2>Holds (eq. 9)</h2>",
         _rows(
             result["holds"],
