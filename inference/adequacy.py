@@ -282,6 +282,7 @@ def chi_square_test(
     gradients: np.ndarray,
     p: int,
     operator_bias: np.ndarray | None = None,
+    jacobian: np.ndarray | None = None,
 ) -> tuple[float, int, dict[str, dict]]:
     """The whitened sum of squares of a fit's ``residuals`` (the vector of eq. 5: sqrt(eta_k) r_k
     over force, ux, uy, uz) on ``objective`` with ``noise``; the DIC part through ``plan`` (the
@@ -289,10 +290,14 @@ def chi_square_test(
     (steps used, measured nodes, 3 directions, 2: d u / d x, y of the data at the nodes).
     ``operator_bias`` (steps used, measured nodes, 3) is what the interpolation makes of the
     model's own field at the nodes less that field (:func:`operator_bias`): the model seen
-    through the same planes as the data. A node value that carries no noise (ux on the x = 0
-    symmetry plane, uy on y = 0: mirror images cancel) carries no information either and is
-    left out. Returns the statistic, its degrees of freedom (data points with noise and weight
-    minus ``p``) and each term's share."""
+    through the same planes as the data. With the fit's ``jacobian`` (residuals by log theta)
+    the statistic is the minimum over theta of the linearised whitened sum, one generalised
+    least-squares step from the fit (the fit minimised the unwhitened sum, which can move theta
+    to absorb part of a systematic difference the whitened one would not): what is chi-square
+    with n - p degrees of freedom where the model and the noise are right. A node value that
+    carries no noise (ux on the x = 0 symmetry plane, uy on y = 0: mirror images cancel) carries
+    no information either and is left out. Returns the statistic, its degrees of freedom (data
+    points with noise and weight minus ``p``) and each term's share (at the fit)."""
     e = np.asarray(eta, float)
     s = len(objective.steps)
     measured = objective.measured
@@ -300,51 +305,52 @@ def chi_square_test(
     r = np.asarray(residuals, float)
     if r.size != s + 3 * s * m:
         raise ValueError(f"the residual vector has {r.size} entries; the objective makes {s + 3 * s * m}")
+    J = np.zeros((r.size, 0)) if jacobian is None else np.asarray(jacobian, float).reshape(r.size, -1)
+    R = np.column_stack([r, J])  # the residuals and their derivatives, transformed alike
     scale = objective.displacement_residual_scale()[measured]  # (m, 3)
-    blocks: list[tuple[str, np.ndarray, object, np.ndarray | None]] = []  # name, diffs, factor, B rows
-    if e[0] > 0:
-        diff = r[:s] / np.sqrt(e[0]) * objective.force_scale  # f_model - f_inf, mN
-        blocks.append(("force", diff[:, None], noise.force_sd_mN, None))
     L_origin = np.linalg.cholesky(noise.origin_cov_mm2 + 1e-30 * np.eye(2))
+    q = R.shape[1]
+    gram = np.zeros((q, q))  # R^T D^-1 R
+    BtDR, BtDB = np.zeros((2, q)), np.zeros((2, 2))
+    terms: dict[str, dict] = {}
+    if e[0] > 0:
+        z = R[:s] / np.sqrt(e[0]) * (objective.force_scale / noise.force_sd_mN)[:, None]  # whitened
+        gram += z.T @ z
+        terms["force"] = {"statistic": float(z[:, 0] @ z[:, 0]), "n": int(s)}
     for j, name in enumerate(("ux", "uy", "uz")):
         if e[j + 1] <= 0:
             continue
-        part = r[s + j * s * m : s + (j + 1) * s * m].reshape(s, m)
+        part = R[s + j * s * m : s + (j + 1) * s * m].reshape(s, m, q)
         with np.errstate(divide="ignore", invalid="ignore"):
-            du = part / (np.sqrt(e[j + 1]) * scale[:, j])  # (s, m) model - data, mm
+            du = part / (np.sqrt(e[j + 1]) * scale[:, j])[None, :, None]  # (s, m, q): model - data, mm
         if operator_bias is not None:
-            du = du + operator_bias[:, :, j]
+            du[..., 0] += operator_bias[:, :, j]
         W = plan.matrix(j)[measured]  # (m, points)
         norm = np.linalg.norm(W, axis=1)
         keep = (norm > 1e-8 * norm.max()) & np.isfinite(scale[:, j]) & (scale[:, j] > 0)
         W, du = W[keep], du[:, keep]
-        C = noise.dic_sd_mm[j] ** 2 * (W @ W.T)
+        factor = cho_factor(noise.dic_sd_mm[j] ** 2 * (W @ W.T) + 1e-18 * np.eye(len(W)), lower=True)
         B = gradients[:, keep, j, :] @ L_origin  # (s, kept, 2)
-        blocks.append((name, du, cho_factor(C + 1e-18 * np.eye(len(W)), lower=True), B))
-    # r^T (D + B B^T)^-1 r by Woodbury: D block-diagonal (force steps; each step's field per direction)
-    total_a, Bt_Dinv_r, Bt_Dinv_B = 0.0, np.zeros(2), np.zeros((2, 2))
-    terms: dict[str, dict] = {}
-    for name, diffs, factor, B in blocks:
-        if B is None:  # force: independent steps
-            z = diffs[:, 0] / factor
-            terms[name] = {"statistic": float(z @ z), "n": int(z.size)}
-            total_a += float(z @ z)
-            continue
-        a_term = 0.0
-        for k in range(diffs.shape[0]):
-            Dinv_r = cho_solve(factor, diffs[k])
-            Dinv_B = cho_solve(factor, B[k])
-            a_term += float(diffs[k] @ Dinv_r)
-            Bt_Dinv_r += B[k].T @ Dinv_r
-            Bt_Dinv_B += B[k].T @ Dinv_B
-        terms[name] = {"statistic": a_term, "n": int(diffs.size)}
-        total_a += a_term
-    correction = float(Bt_Dinv_r @ np.linalg.solve(np.eye(2) + Bt_Dinv_B, Bt_Dinv_r))
-    statistic = total_a - correction
-    if correction:
-        terms["registration"] = {"statistic": -correction, "n": 0}
+        statistic = 0.0
+        for k in range(s):
+            Dinv_R = cho_solve(factor, du[k])
+            gram += du[k].T @ Dinv_R
+            statistic += float(du[k, :, 0] @ Dinv_R[:, 0])
+            BtDR += B[k].T @ Dinv_R
+            BtDB += B[k].T @ cho_solve(factor, B[k])
+        terms[name] = {"statistic": statistic, "n": int(du.shape[0] * du.shape[1])}
+    # (D + B B^T)^-1 by Woodbury: the registration's rank-two term
+    Q = gram - BtDR.T @ np.linalg.solve(np.eye(2) + BtDB, BtDR)
+    at_fit = float(Q[0, 0])
+    statistic = at_fit
+    if q > 1:  # the minimum over theta of the linearised whitened sum
+        QJ = Q[1:, 1:]
+        statistic = at_fit - float(Q[0, 1:] @ np.linalg.lstsq(QJ, Q[1:, 0], rcond=None)[0])
+    terms["registration"] = {"statistic": float(Q[0, 0] - gram[0, 0]), "n": 0}
+    if q > 1:
+        terms["refit"] = {"statistic": statistic - at_fit, "n": 0}
     n = int(sum(t["n"] for t in terms.values()))
-    return statistic, n - p, terms
+    return max(statistic, 0.0), n - p, terms
 
 
 def operator_bias(
@@ -423,7 +429,7 @@ def model_adequacy(
     if fit.prediction is not None:
         bias = operator_bias(fit.prediction, plan, dic, steps, objective.measured)
     statistic, dof, terms = chi_square_test(
-        fit.residuals, objective, inputs.eta, noise, plan, grads, fit.theta.size, bias
+        fit.residuals, objective, inputs.eta, noise, plan, grads, fit.theta.size, bias, fit.jacobian
     )
     p_value = float(stats.chi2.sf(statistic, dof)) if dof > 0 else float("nan")
     force_pct = float(np.median(100.0 * noise.force_sd_mN / np.abs(f_inf)))

@@ -43,6 +43,7 @@ class FitResult:
     history: list[tuple[list[float], float]] = field(default_factory=list)
     residuals: np.ndarray | None = None  # the residual vector of eq. 5 at theta (what F sums)
     prediction: object | None = None  # the predictor's response there (a Prediction without Jacobians)
+    jacobian: np.ndarray | None = None  # d residuals / d log theta there (m, p)
 
     @property
     def residual_sd(self) -> float:
@@ -207,6 +208,7 @@ def _fit_result(objective, eta, theta, r, J, s, alpha, history, t0, message, pre
         history=history,
         residuals=np.asarray(r, float).copy(),
         prediction=prediction,
+        jacobian=np.asarray(J, float).copy(),
     )
 
 
