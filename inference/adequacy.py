@@ -325,11 +325,12 @@ def chi_square_test(
             du = part / (np.sqrt(e[j + 1]) * scale[:, j])[None, :, None]  # (s, m, q): model - data, mm
         if operator_bias is not None:
             du[..., 0] += operator_bias[:, :, j]
-        W = plan.matrix(j)[measured]  # (m, points)
-        norm = np.linalg.norm(W, axis=1)
+        W = plan.matrix(j)[measured]  # (m, points), sparse
+        norm = np.sqrt(np.asarray(W.multiply(W).sum(axis=1)).ravel())
         keep = (norm > 1e-8 * norm.max()) & np.isfinite(scale[:, j]) & (scale[:, j] > 0)
         W, du = W[keep], du[:, keep]
-        factor = cho_factor(noise.dic_sd_mm[j] ** 2 * (W @ W.T) + 1e-18 * np.eye(len(W)), lower=True)
+        C = noise.dic_sd_mm[j] ** 2 * (W @ W.T).toarray()
+        factor = cho_factor(C + 1e-18 * np.eye(len(C)), lower=True)
         B = gradients[:, keep, j, :] @ L_origin  # (s, kept, 2)
         statistic = 0.0
         for k in range(s):
@@ -368,7 +369,7 @@ def operator_bias(
     at = np.moveaxis(interp(np.minimum(np.abs(xy), top[:, :2].max(axis=0))), 0, 1)  # (s, points, 3)
     at[..., 0] *= np.sign(xy[:, 0])
     at[..., 1] *= np.sign(xy[:, 1])
-    seen = np.stack([at[..., j] @ plan.matrix(j).T for j in range(3)], axis=-1)  # (s, nodes, 3)
+    seen = np.stack([(plan.matrix(j) @ at[..., j].T).T for j in range(3)], axis=-1)  # (s, nodes, 3)
     return (seen - field)[:, measured]
 
 

@@ -21,6 +21,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import sparse
 from scipy.spatial import cKDTree
 
 from .experiment_data import ExperimentData, ExperimentDataError
@@ -198,17 +199,15 @@ class NodeInterpolation:
     measured: np.ndarray  # (nodes,) bool: the node has data
     signs: np.ndarray  # (nodes, k, 3): the sign each neighbour's ux, uy, uz carries (folding, mirroring)
 
-    def matrix(self, direction: int) -> np.ndarray:
-        """(nodes, n_ok): node value of ``direction`` (0 ux, 1 uy, 2 uz) = this @ that direction of
-        the points (0 for nodes without data); a point that is a neighbour twice (a node on a
-        symmetry plane sees it and its mirror image) counts twice with its signs."""
+    def matrix(self, direction: int) -> sparse.csr_matrix:
+        """(nodes, n_ok), sparse: node value of ``direction`` (0 ux, 1 uy, 2 uz) = this @ that
+        direction of the points (0 for nodes without data); a point that is a neighbour twice (a
+        node on a symmetry plane sees it and its mirror image) counts twice with its signs."""
         n_ok = len(self.points)
-        W = np.zeros((len(self.neighbours), n_ok))
         rows = np.repeat(np.arange(len(self.neighbours)), self.neighbours.shape[1])
-        w = (self.planes[:, 0, :] * self.signs[..., direction]).ravel()
-        np.add.at(W, (rows, (self.neighbours % n_ok).ravel()), w)
-        W[~self.measured] = 0.0
-        return W
+        w = (self.planes[:, 0, :] * self.signs[..., direction] * self.measured[:, None]).ravel()
+        shape = (len(self.neighbours), n_ok)
+        return sparse.csr_matrix((w, (rows, (self.neighbours % n_ok).ravel())), shape=shape)
 
 
 #: The mirror images of :func:`unfold_by_symmetry`, in its order: (x, y) signs.
