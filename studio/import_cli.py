@@ -61,6 +61,12 @@ TIME_UNIT = Annotated[
 POSITION_UNIT = Annotated[str | None, typer.Option(help="record: position unit (mm, um, m)")]
 FORCE_UNIT = Annotated[str | None, typer.Option(help="record: force unit (mN, N, g for a balance)")]
 MIN_HOLD = Annotated[float, typer.Option(help="record: shortest hold, s")]
+CONTACT = Annotated[
+    float | None,
+    typer.Option(
+        help="record: the position at zero depth, mm (default: where the force leaves its baseline)"
+    ),
+]
 OVERWRITE = Annotated[bool, typer.Option(help="replace an existing experiment folder")]
 DESCRIPTION = Annotated[str, typer.Option(help="free text for experiment.json")]
 ENCODING = Annotated[
@@ -115,7 +121,11 @@ def _sources(o: dict):
         o["time_col"], o["position_col"], o["force_col"], o["time_unit"], o["position_unit"], o["force_unit"]
     )
     force = ForceSource(
-        load_frame=o["load_frame"], columns=columns, min_hold_s=o["min_hold"], force_csv=o["force_csv"]
+        load_frame=o["load_frame"],
+        columns=columns,
+        contact_position_mm=o["contact_position"],
+        min_hold_s=o["min_hold"],
+        force_csv=o["force_csv"],
     )
     frames = FrameChoice(
         frames=parse_frames(o["frames"]) if o["frames"] else None,
@@ -162,6 +172,7 @@ def import_matchid_command(
     time_unit: TIME_UNIT = None,
     position_unit: POSITION_UNIT = None,
     force_unit: FORCE_UNIT = None,
+    contact_position: CONTACT = None,
     min_hold: MIN_HOLD = 5.0,
     description: DESCRIPTION = "",
     overwrite: OVERWRITE = False,
@@ -208,6 +219,7 @@ def import_duodic_command(
     time_unit: TIME_UNIT = None,
     position_unit: POSITION_UNIT = None,
     force_unit: FORCE_UNIT = None,
+    contact_position: CONTACT = None,
     min_hold: MIN_HOLD = 5.0,
     description: DESCRIPTION = "",
     overwrite: OVERWRITE = False,
@@ -270,6 +282,7 @@ def import_csv_command(
     time_unit: TIME_UNIT = None,
     position_unit: POSITION_UNIT = None,
     force_unit: FORCE_UNIT = None,
+    contact_position: CONTACT = None,
     min_hold: MIN_HOLD = 5.0,
     description: DESCRIPTION = "",
     overwrite: OVERWRITE = False,
@@ -306,6 +319,7 @@ def import_load_frame_command(
     time_unit: TIME_UNIT = None,
     position_unit: POSITION_UNIT = None,
     force_unit: FORCE_UNIT = None,
+    contact_position: CONTACT = None,
     min_hold: MIN_HOLD = 5.0,
     encoding: ENCODING = None,
     as_json: JSON = False,
@@ -321,7 +335,10 @@ def import_load_frame_command(
                 time_col, position_col, force_col, time_unit, position_unit, force_unit
             )
             result = import_load_frame(
-                record, out, protocol, ForceSource(columns=columns, min_hold_s=min_hold)
+                record,
+                out,
+                protocol,
+                ForceSource(columns=columns, contact_position_mm=contact_position, min_hold_s=min_hold),
             )
     except (ValueError, OSError) as exc:
         fail(str(exc), as_json)

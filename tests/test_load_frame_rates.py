@@ -84,3 +84,29 @@ def test_holds_shorter_than_min_hold_named_with_their_levels():
     ):
         find_holds(_record(frame), 0.5, 3, 4.77, min_hold_s=5.0)
     assert len(find_holds(_record(frame), 0.5, 3, 4.77, min_hold_s=3.0).holds) == 3
+
+
+def test_cli_contact_given_and_encoding(tmp_path):
+    import json
+
+    from typer.testing import CliRunner
+
+    from indentation_studio.studio.cli import app
+
+    frame, _ = sampled_record(10, steps=3)
+    frame.to_csv(tmp_path / "record.csv", index=False)
+    args = [
+        "import",
+        "load-frame",
+        "--record",
+        str(tmp_path / "record.csv"),
+        "--out",
+        str(tmp_path / "f.csv"),
+    ]
+    args += ["--radius", "4.77", "--step-size", "0.5", "--steps", "3", "--json"]
+    res = CliRunner().invoke(app, [*args, "--contact-position", "37.5", "--encoding", "cp1252"])
+    assert res.exit_code == 0, res.output
+    out = json.loads(res.stdout)
+    assert out["contact_from"] == "given" and out["contact_position_mm"] == 37.5 and len(out["holds"]) == 3
+    res = CliRunner().invoke(app, [*args, "--encoding", "no-such-codec"])
+    assert res.exit_code == 1 and "unknown encoding 'no-such-codec'" in json.loads(res.stdout)["error"]
