@@ -10,9 +10,9 @@ over the stage's speed, so at most the last one or two readings of a ramp (a few
 before the stage stops) can fall into it, never a ramp's worth of them, whatever the rate.
 
 The contact point (zero depth) is where the force leaves its unloaded baseline: the first
-reading from which the force stays beyond ``ONSET_SIGMAS`` times its noise for
-``ONSET_PERSIST_S`` (a single spike does not count), walked back to where it first left
-``ONSET_BACK_SIGMAS`` times the noise.
+reading from which the force stays beyond ``ONSET_SIGMAS`` times its noise (and 0.1 % of its
+largest excursion: a quantised reading) for ``ONSET_PERSIST_S`` (a single spike does not
+count), walked back to where it first left ``ONSET_BACK_SIGMAS`` times the noise.
 """
 
 from __future__ import annotations
@@ -155,7 +155,7 @@ def force_onset(f: np.ndarray, t: np.ndarray) -> int | None:
     if scale == 0.0:
         return None
     sigma = robust_noise(f - slope * t)
-    threshold = max(ONSET_SIGMAS * sigma, 1e-6 * scale)
+    threshold = max(ONSET_SIGMAS * sigma, 1e-3 * scale)  # 0.1 % of the largest: a quantised reading
     above = dev > threshold
     dt = float(np.median(np.diff(t))) if n > 1 else 1.0
     persist = max(3, int(np.ceil(ONSET_PERSIST_S / dt)))
