@@ -7,7 +7,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
     __name__,
     submod_attrs={
         "designs": ["Design", "DesignError", "design_from_option", "paper_grid", "space_filling"],
-        "store": ["CampaignError", "CampaignSpec", "CampaignStore"],
+        "store": ["CampaignError", "CampaignSpec", "CampaignStore", "DiskFullError"],
         "loader": ["CampaignData", "StoredResponses", "force_table", "load_campaign", "open_campaign"],
         "runner": ["run_campaign", "run_named_campaign"],
     },

@@ -29,15 +29,48 @@ class CampaignData:
     parameters: tuple[str, ...]
     points: np.ndarray  # (n,) point numbers in the store
     spec: dict[str, Any]  # the campaign spec (campaign.json)
-    left_out: dict[int, str] = field(default_factory=dict)  # done points without a complete force curve
+    left_out: dict[int, str] = field(default_factory=dict)  # done points with fewer than 2 finite forces
+    # (n, steps) bool: steps without a force (FEBio steps flagged off equilibrium: NaN in ``force``);
+    # None when every force is finite
+    missing: np.ndarray | None = None
 
     @property
     def n(self) -> int:
         return len(self.theta)
 
-    def prediction(self) -> Prediction:
-        """The campaign as a Prediction (docs/architecture.md, "The Predictor seam") at its points ``theta``."""
-        return Prediction(self.force, self.displacement, self.depth, self.top_xyz, self.parameters)
+    def filled_force(self) -> np.ndarray:
+        """``force`` with each missing step filled from the same point's finite steps
+        (:func:`fill_missing_steps`): what training and the design tools use."""
+        return fill_missing_steps(self.force, self.depth)[0] if self.missing is not None else self.force
+
+    def prediction(self, filled: bool = False) -> Prediction:
+        """The campaign as a Prediction (docs/architecture.md, "The Predictor seam") at its points
+        ``theta``; ``filled``: missing steps filled (:meth:`filled_force`), else NaN."""
+        force = self.filled_force() if filled else self.force
+        return Prediction(force, self.displacement, self.depth, self.top_xyz, self.parameters)
+
+
+def fill_missing_steps(force: np.ndarray, depth: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``force`` (n, steps) with each non-finite entry filled from the same point's finite steps:
+    log force interpolated linearly in log depth (the indentation force is locally a power law
+    of depth, so one missing step between two finite ones is filled to a small fraction of a
+    percent), extrapolated from the two nearest finite steps at the ends. Returns the filled
+    array and the mask of what was filled. A row needs two finite, positive forces."""
+    force = np.array(force, float)
+    missing = ~np.isfinite(force)
+    x = np.log(np.asarray(depth, float))
+    for row in np.flatnonzero(missing.any(axis=1)):
+        ok = ~missing[row] & (force[row] > 0)
+        if ok.sum() < 2:
+            raise ValueError(f"training point {row}: fewer than two finite forces to fill its missing steps")
+        xs, ys = x[ok], np.log(force[row, ok])
+        want = missing[row]
+        filled = np.interp(x[want], xs, ys)
+        lo, hi = x[want] < xs[0], x[want] > xs[-1]
+        filled[lo] = ys[0] + (x[want][lo] - xs[0]) * (ys[1] - ys[0]) / (xs[1] - xs[0])
+        filled[hi] = ys[-1] + (x[want][hi] - xs[-1]) * (ys[-1] - ys[-2]) / (xs[-1] - xs[-2])
+        force[row, want] = np.exp(filled)
+    return force, missing
 
 
 class StoredResponses:
@@ -66,38 +99,71 @@ class StoredResponses:
         return Prediction(d.force[rows], d.displacement[rows], d.depth, d.top_xyz, self.parameters)
 
 
-def open_campaign(name_or_path: str | Path, runs_dir: str | Path = "runs") -> CampaignStore:
-    """A campaign by folder path or by name under ``runs_dir``."""
+def open_campaign(
+    name_or_path: str | Path, runs_dir: str | Path = "runs", repair: bool = False
+) -> CampaignStore:
+    """A campaign by folder path or by name under ``runs_dir``, its files checked (nothing written
+    unless ``repair``: the failures are in ``store.problems``)."""
     p = Path(name_or_path)
     root = p if (p / "campaign.json").is_file() else Path(runs_dir) / str(name_or_path)
-    return CampaignStore.open(root)
+    return CampaignStore.open(root, repair=repair)
+
+
+def require_sound(store: CampaignStore) -> None:
+    """A :class:`CampaignError` naming every file of the store that failed its check (a loader
+    reads nothing from a store it cannot trust; ``campaign run`` repairs it)."""
+    if store.problems:
+        listed = "; ".join(f"{p.file}: {p.reason}" for p in store.problems[:10]) + (
+            f"; and {len(store.problems) - 10} more" if len(store.problems) > 10 else ""
+        )
+        raise CampaignError(
+            f"campaign {store.spec.name!r}: {len(store.problems)} file(s) fail their check: {listed}. "
+            f"Run `indent-studio campaign run --name {store.spec.name}` (same options) to solve those points "
+            f"again, or `campaign status` to see them"
+        )
+
+
+def load_point(store: CampaignStore, point: int) -> SimulationResult:
+    """One done point's result; a file that cannot be read is a CampaignError naming it."""
+    try:
+        return SimulationResult.load(store.result_path(point))
+    except (ValueError, OSError) as exc:
+        raise CampaignError(
+            f"campaign {store.spec.name!r}, point {point}: {exc}; `campaign run` solves it again"
+        ) from exc
 
 
 def load_campaign(name_or_path: str | Path, runs_dir: str | Path = "runs") -> CampaignData:
-    """Arrays of every done point with a complete force curve (failed and pending points are left
-    out, and so, with a warning naming them, are done points with a NaN force, e.g. a FEBio run
-    with steps off equilibrium: surrogates learn log(force) at every step)."""
+    """Arrays of every done point (failed and pending points are left out). Steps without a
+    finite force, e.g. FEBio steps flagged off equilibrium, stay NaN in ``force`` and True in
+    ``missing`` (training fills them from the point's own neighbouring steps, see
+    :meth:`surrogate.base.TrainingData.from_campaign`); a done point with fewer than two finite
+    forces is left out with a warning naming it. A store whose files fail their check is
+    refused, naming them."""
     store = open_campaign(name_or_path, runs_dir)
+    require_sound(store)
     done = store.points_with("done")
     if len(done) == 0:
         raise CampaignError(f"campaign {store.spec.name!r} has no finished points yet")
-    results = [SimulationResult.load(store.result_path(i)) for i in done]
-    done, results, left_out = _complete_force_curves(done, results)
+    results = [load_point(store, i) for i in done]
+    done, results, left_out = _usable_force_curves(done, results)
     if left_out:
         warnings.warn(
-            f"campaign {store.spec.name!r}: left out points without a complete force curve: "
+            f"campaign {store.spec.name!r}: left out points with fewer than two finite forces: "
             + "; ".join(f"{i}: {why}" for i, why in left_out.items()),
             stacklevel=2,
         )
     if len(done) == 0:
-        raise CampaignError(f"campaign {store.spec.name!r} has no point with a complete force curve")
+        raise CampaignError(f"campaign {store.spec.name!r} has no point with a usable force curve")
     first = results[0]
     for i, r in zip(done, results, strict=True):
         if r.force.shape != first.force.shape or not np.array_equal(r.top_node_ids, first.top_node_ids):
             raise CampaignError(f"point {i}: its result has other steps or nodes than point {done[0]}")
+    force = np.stack([r.force[1:] for r in results])
+    missing = ~np.isfinite(force)
     return CampaignData(
         theta=store.spec.design.points[done],
-        force=np.stack([r.force[1:] for r in results]),
+        force=force,
         displacement=np.stack([r.displacement[1:] for r in results]),
         depth=np.asarray(first.depth[1:]),
         top_xyz=np.asarray(first.top_xyz),
@@ -106,6 +172,7 @@ def load_campaign(name_or_path: str | Path, runs_dir: str | Path = "runs") -> Ca
         points=done,
         spec=store.spec.to_dict(),
         left_out=left_out,
+        missing=missing if missing.any() else None,
     )
 
 
@@ -116,10 +183,10 @@ def _equilibrium_checked(result: SimulationResult) -> SimulationResult:
     return result
 
 
-def _complete_force_curves(
+def _usable_force_curves(
     points: np.ndarray, results: list[SimulationResult]
 ) -> tuple[np.ndarray, list[SimulationResult], dict[int, str]]:
-    """The points whose every force is finite; the others with the reason.
+    """The points with at least two finite forces past depth 0; the others with the reason.
 
     A FEBio result from before the equilibrium check (no flag array) is checked now, so that no
     force FEBio accepted off equilibrium reaches a surrogate.
@@ -127,8 +194,9 @@ def _complete_force_curves(
     keep, kept, left_out = [], [], {}
     for i, r in zip(points, results, strict=True):
         r = _equilibrium_checked(r)
-        bad = ~np.isfinite(np.asarray(r.force, float))
-        if bad.any():
+        finite = np.isfinite(np.asarray(r.force, float)[1:])
+        if finite.sum() < 2:
+            bad = ~np.isfinite(np.asarray(r.force, float))
             depths = ", ".join(f"{d:g}" for d in np.asarray(r.depth)[bad])
             flagged = r.off_equilibrium is not None and np.array_equal(bad, np.asarray(r.off_equilibrium))
             left_out[int(i)] = f"{'off equilibrium' if flagged else 'no finite force'} at {depths} mm"
@@ -143,8 +211,9 @@ def force_table(store: CampaignStore) -> pd.DataFrame:
     depth_mm, force_mN; NaN where a FEBio step was off equilibrium)."""
     rows = []
     names = store.spec.design.parameters
+    require_sound(store)
     for i in store.points_with("done"):
-        r = _equilibrium_checked(SimulationResult.load(store.result_path(i)))
+        r = _equilibrium_checked(load_point(store, i))
         k = np.arange(len(r.depth))
         block = pd.DataFrame({"point": i, "step": k, "depth_mm": r.depth, "force_mN": r.force})
         for j, name in enumerate(names):

@@ -1,21 +1,33 @@
-"""Run the pending points of a campaign in parallel with joblib: local processes, or the dask
-backend on a dask.distributed cluster (``scheduler="tcp://host:8786"``).
+"""Run the pending points of a campaign in parallel: in this process (``jobs=1``), in local
+processes (loky, joblib's executor), or on a dask.distributed cluster (``scheduler=
+"tcp://host:8786"``).
 
 Each worker solves one point single-threaded (BLAS/MKL and numba threads pinned to 1, so that
 ``jobs`` processes use ``jobs`` cores) and returns its index row with the result; the parent
-writes each result file atomically as it arrives and records the row, so cluster workers need no
-access to the store. A point that fails (spec error, no convergence,
-solver error, timeout, FEBio steps off equilibrium) is recorded with its reason and the campaign
-goes on; the steps it did solve are kept in ``points/<n>.partial.npz``.
+writes each result file atomically as it arrives, with its sha256 and size in the index, so
+workers need no access to the store and a worker killed mid-point writes nothing: on a dask
+cluster the scheduler gives its task to another worker (solved again), and a task that killed
+its workers too often comes back as an error and is recorded failed. A point that fails (spec
+error, no convergence, solver error, timeout) is recorded with its reason and the campaign goes
+on; the steps it did solve are kept in ``points/<n>.partial.npz``. A FEBio point with steps
+flagged off equilibrium is done, those steps' forces NaN (``flagged_steps`` in the index).
+
+Each point is solved once however many runs of the campaign are started (store module
+docstring): a run claims a point (a lease under the store's lock) just before it is solved,
+renews its leases from a heartbeat thread, and releases each once its result is recorded. A run
+takes the points nobody holds; then, by default, it waits for the points another live run holds
+(taking over any whose holder dies), so that when it returns the campaign is complete; with
+``wait_for_held=False`` it returns at once and lists them as ``held_by_other_runs``.
 """
 
 from __future__ import annotations
 
+import concurrent.futures as cf
 import os
+import threading
 import time
 import traceback
 from collections.abc import Callable
-from contextlib import nullcontext
 from pathlib import Path
 from typing import Any
 
@@ -24,7 +36,14 @@ import numpy as np
 from ..forward.febio_runner import find_febio
 from ..forward.spec import ModelSpec
 from .designs import Design, design_from_option
-from .store import CampaignSpec, CampaignStore
+from .store import (
+    DEFAULT_LEASE_TIMEOUT_S,
+    CampaignError,
+    CampaignSpec,
+    CampaignStore,
+    RunIdentity,
+    _result_row,
+)
 
 
 class PointTimeout(RuntimeError):
@@ -39,6 +58,7 @@ def solve_point(
     values: list[float],
     timeout_s: float | None,
     workdir: str | None = None,
+    equilibrium_rel: float | None = None,
 ) -> dict[str, Any]:
     """Solve one point; returns its index row with the result (or the partial result of a
     failure) for the parent to save. Never raises: a failure becomes the row's error."""
@@ -56,11 +76,14 @@ def solve_point(
         with thread_limits(1):  # one worker per core: numba and MKL on one thread each
             spec = ModelSpec.from_dict(model).with_parameters(**dict(zip(parameters, values, strict=True)))
             if solver == "febio":
-                from ..forward.febio_runner import FebioSolver, require_equilibrium
+                from ..forward.febio_equilibrium import EquilibriumTolerance
+                from ..forward.febio_runner import FebioSolver
 
-                # steps FEBio accepted off equilibrium (after its one rerun) fail the point:
-                # a force curve with holes is no training sample (forward.febio_equilibrium)
-                result = require_equilibrium(FebioSolver(spec, workdir=workdir, timeout_s=timeout_s).run())
+                # steps FEBio accepted off equilibrium (after its one rerun, made only when a
+                # step is flagged) are kept as NaN forces: the point is done, its flagged steps
+                # counted (forward.febio_equilibrium; the loader and training handle them)
+                tolerance = EquilibriumTolerance(relative=equilibrium_rel or 0.02)
+                result = FebioSolver(spec, workdir=workdir, timeout_s=timeout_s, tolerance=tolerance).run()
             else:
                 from ..forward.solver import EmbeddedSolver
 
@@ -69,7 +92,7 @@ def solve_point(
                         raise PointTimeout(f"timeout: {timeout_s:g} s exceeded after step {k} of {n}")
 
                 result = EmbeddedSolver(spec).run(progress=deadline)
-        row.update(status="done", newton_iterations=result.newton_iterations, result=result)
+        row.update(status="done", result=result, **_result_row(result))
     except Exception as exc:  # recorded, never propagated: one bad point must not stop a campaign
         partial = getattr(exc, "partial", None)
         if partial is not None and len(partial.depth) > 1:
@@ -83,6 +106,156 @@ def solve_point(
     return row
 
 
+# ------------------------------------------------------------------ executors
+class _InProcess:
+    """``jobs=1``: each point solved in this process when submitted."""
+
+    def __init__(self) -> None:
+        self.ready: list[tuple[int, dict[str, Any] | BaseException]] = []
+
+    def capacity(self) -> int:
+        return 1
+
+    def in_flight(self) -> int:
+        return len(self.ready)
+
+    def submit(self, point: int, args: tuple) -> None:
+        self.ready.append((point, solve_point(*args)))
+
+    def collect(self, timeout: float) -> list[tuple[int, dict[str, Any] | BaseException]]:
+        out, self.ready = self.ready, []
+        return out
+
+    def close(self) -> None:
+        pass
+
+
+class _Processes:
+    """Local worker processes (joblib's loky executor, the reusable one its ``Parallel`` uses);
+    a dead worker fails its points (``worker lost``, for ``--retry-failed``)."""
+
+    def __init__(self, jobs: int) -> None:
+        from joblib.executor import get_memmapping_executor  # the one joblib's Parallel shares
+
+        self.jobs = jobs
+        self.get = lambda: get_memmapping_executor(jobs, timeout=60)
+        self.executor = self.get()
+        self.futures: dict[cf.Future, int] = {}
+
+    def capacity(self) -> int:
+        return self.jobs
+
+    def in_flight(self) -> int:
+        return len(self.futures)
+
+    def submit(self, point: int, args: tuple) -> None:
+        try:
+            future = self.executor.submit(solve_point, *args)
+        except Exception:  # a broken executor (a worker was killed): a fresh one
+            self.executor = self.get()
+            future = self.executor.submit(solve_point, *args)
+        self.futures[future] = point
+
+    def collect(self, timeout: float) -> list[tuple[int, dict[str, Any] | BaseException]]:
+        if not self.futures:
+            return []
+        done, _ = cf.wait(list(self.futures), timeout=timeout, return_when=cf.FIRST_COMPLETED)
+        out = []
+        for f in done:
+            point = self.futures.pop(f)
+            try:
+                out.append((point, f.result()))
+            except BaseException as exc:  # the worker process died
+                out.append((point, exc))
+        return out
+
+    def close(self) -> None:
+        pass  # the reusable executor stays for the next campaign of this process
+
+
+class _Dask:
+    """A dask.distributed cluster: tasks the scheduler moves to another worker when theirs dies;
+    a task that killed too many workers is an error here, recorded failed."""
+
+    def __init__(self, scheduler: str, wait_for_workers_s: float = 60.0) -> None:
+        from distributed import Client
+
+        self.client = Client(scheduler, timeout=wait_for_workers_s)
+        try:
+            self.client.wait_for_workers(1, timeout=wait_for_workers_s)
+        except Exception as exc:
+            self.client.close()
+            raise CampaignError(
+                f"dask scheduler {scheduler}: no worker joined within {wait_for_workers_s:g} s"
+            ) from exc
+        self.futures: dict[Any, int] = {}
+
+    def capacity(self) -> int:
+        try:
+            threads = sum(self.client.nthreads().values())
+        except Exception:
+            threads = 1
+        return 2 * max(threads, 1)
+
+    def in_flight(self) -> int:
+        return len(self.futures)
+
+    def submit(self, point: int, args: tuple) -> None:
+        future = self.client.submit(
+            solve_point, *args, pure=False, key=f"point-{point:05d}-{os.urandom(4).hex()}"
+        )
+        self.futures[future] = point
+
+    def collect(self, timeout: float) -> list[tuple[int, dict[str, Any] | BaseException]]:
+        from distributed import wait
+
+        if not self.futures:
+            return []
+        try:
+            done, _ = wait(list(self.futures), timeout=timeout, return_when="FIRST_COMPLETED")
+        except TimeoutError:
+            return []
+        except Exception:  # distributed's own timeout class in some versions
+            return []
+        out = []
+        for f in done:
+            point = self.futures.pop(f)
+            try:
+                out.append((point, f.result(timeout=timeout)))
+            except BaseException as exc:  # KilledWorker, a cancelled or lost task
+                out.append((point, exc))
+        return out
+
+    def close(self) -> None:
+        for f in self.futures:
+            f.cancel()
+        self.client.close()
+
+
+class _Heartbeat(threading.Thread):
+    """Renews the leases of the points this run holds, every quarter of the lease timeout."""
+
+    def __init__(self, store: CampaignStore, run: RunIdentity, every_s: float) -> None:
+        super().__init__(daemon=True, name="campaign-heartbeat")
+        self.store, self.run_id, self.every_s = store, run, every_s
+        self.held: set[int] = set()
+        self.lost: set[int] = set()
+        self.guard = threading.Lock()
+        self.stop = threading.Event()
+
+    def run(self) -> None:
+        while not self.stop.wait(self.every_s):
+            with self.guard:
+                points = sorted(self.held)
+            if points:
+                try:
+                    lost = self.store.renew(points, self.run_id)
+                except Exception:  # a lock not had this time: the next beat tries again
+                    continue
+                with self.guard:
+                    self.lost |= lost
+
+
 def run_campaign(
     store: CampaignStore,
     jobs: int = 1,
@@ -91,60 +264,134 @@ def run_campaign(
     timeout_s: float | None = None,
     progress: Callable[[int, int, dict[str, int]], None] | None = None,
     index_every_s: float = 1.0,
+    lease_timeout_s: float = DEFAULT_LEASE_TIMEOUT_S,
+    wait_for_held: bool = True,
+    poll_s: float = 0.5,
 ) -> dict[str, Any]:
-    """Solve the pending points (and the failed ones with ``retry_failed``); returns the summary."""
-    from joblib import Parallel, delayed, parallel_config
-
-    todo = store.points_with("pending", "failed") if retry_failed else store.points_with("pending")
+    """Solve the pending points (and the failed ones with ``retry_failed``) that no other run
+    holds; returns the summary (``solved_now``: the points this run solved, ``held_by_other_runs``:
+    those another live run held when it returned). ``index_every_s`` is kept for callers: the
+    index is written as each point finishes (other runs read it)."""
     spec = store.spec
     model = spec.model.to_dict()
+    statuses = ("pending", "failed") if retry_failed else ("pending",)
+    todo = [int(i) for i in store.points_with(*statuses)]
+    attempts_at_start = {
+        i: int(store.index.loc[i, "attempts"]) if not _na(store.index.loc[i, "attempts"]) else 0 for i in todo
+    }
     t0 = time.perf_counter()
     total = len(todo)
+    run = RunIdentity.new()
+    solved = 0
+    handled = 0
+    held: dict[int, dict[str, Any]] = {}
     if total:
-        client = None
-        if scheduler:
-            from distributed import Client
+        executor = _Dask(scheduler) if scheduler else _Processes(jobs) if jobs > 1 else _InProcess()
+        beat = _Heartbeat(store, run, max(lease_timeout_s / 4.0, 0.05))
+        beat.start()
+        remaining = list(todo)
+        claimed: set[int] = set()
 
-            client = Client(scheduler)
-            context = parallel_config(backend="dask", wait_for_workers_timeout=60)
-        else:
-            context = nullcontext()
-        calls = (
-            delayed(solve_point)(
-                int(i),
+        def args(i: int) -> tuple:
+            workdir = str(store.root / "febio" / f"{i:05d}") if spec.solver == "febio" else None
+            values = spec.design.points[i].tolist()
+            return (
+                i,
                 model,
                 spec.solver,
                 spec.design.parameters,
-                spec.design.points[i].tolist(),
+                values,
                 timeout_s,
-                str(store.root / "febio" / f"{i:05d}") if spec.solver == "febio" else None,
+                workdir,
+                spec.equilibrium_rel,
             )
-            for i in todo
-        )
+
         try:
-            with context:
-                runner = Parallel(n_jobs=jobs if not scheduler else -1, return_as="generator_unordered")
-                last_write = time.perf_counter()
-                done = 0
-                for row in runner(calls):  # in completion order; each row names its point
-                    i = int(row.pop("point"))
-                    result, partial = row.pop("result", None), row.pop("partial", None)
-                    if result is not None:
-                        result.save(store.result_path(i))  # atomic: temporary file, then rename
-                    if partial is not None:
-                        partial.save(store.partial_path(i))
-                    store.record(i, row, write=False)
-                    done += 1
-                    if time.perf_counter() - last_write > index_every_s or done == total:
-                        store.write_index()
-                        last_write = time.perf_counter()
+            while remaining or claimed:
+                # claim and submit up to the executor's capacity
+                while executor.in_flight() < executor.capacity() and remaining:
+                    outcome = store.claim_next(
+                        [i for i in remaining if i not in claimed], run, lease_timeout_s, attempts_at_start
+                    )
+                    for i in outcome.finished_elsewhere:
+                        remaining.remove(i)
+                        handled += 1
+                    held = outcome.held
+                    if outcome.point is None:
+                        break
+                    i = outcome.point
+                    claimed.add(i)
+                    with beat.guard:
+                        beat.held.add(i)
+                    executor.submit(i, args(i))
+                if not claimed:
+                    if not remaining or not wait_for_held:
+                        break
+                    time.sleep(poll_s)  # every left point is held by another live run
+                    continue
+                for i, row in executor.collect(poll_s):
+                    with beat.guard:
+                        beat.held.discard(i)
+                        lost = i in beat.lost
+                        beat.lost.discard(i)
+                    solved += _finish(store, run, i, row, lost)  # a full disk raises: lease released below
+                    claimed.discard(i)
+                    remaining.remove(i)
+                    handled += 1
                     if progress is not None:
-                        progress(done, total, store.counts())
+                        progress(handled, total, store.counts())
         finally:
-            store.write_index()
-            if client is not None:
-                client.close()
-    return store.summary() | {"wall_s": time.perf_counter() - t0, "solved_now": total}
+            beat.stop.set()
+            executor.close()
+            for i in list(claimed):
+                store.release(i, run)  # interrupted: the points go back to the pool
+            store.refresh()
+            held = {
+                i: lease
+                for i, lease in held.items()
+                if i in remaining and str(store.index.loc[i, "status"]) != "done"
+            }
+    summary = store.summary(lease_timeout_s)
+    summary["problems"] = [p.to_dict() for p in store.problems]
+    return summary | {
+        "wall_s": time.perf_counter() - t0,
+        "solved_now": solved,
+        "held_by_other_runs": [
+            {"point": i, "host": lease.get("host"), "pid": lease.get("pid")}
+            for i, lease in sorted(held.items())
+        ],
+    }
+
+
+def _na(value: Any) -> bool:
+    import pandas as pd
+
+    return value is None or bool(pd.isna(value))
+
+
+def _finish(
+    store: CampaignStore, run: RunIdentity, i: int, row: dict[str, Any] | BaseException, lost: bool
+) -> int:
+    """Record one point's outcome (its files written, then its index row, then its lease
+    released); returns 1 when the point was solved here and recorded."""
+    if isinstance(row, BaseException):
+        row = {
+            "status": "failed",
+            "error": f"worker lost: {type(row).__name__}: {row}"[:2000],
+            "finished": time.strftime("%Y-%m-%dT%H:%M:%S"),
+        }
+    row = dict(row)
+    row.pop("point", None)
+    result, partial = row.pop("result", None), row.pop("partial", None)
+    with store.locked():
+        if lost or not store.holds(i, run):
+            store.refresh()
+            if str(store.index.loc[i, "status"]) == "done":  # another run took it over and finished
+                return 0
+    store.save_point(i, result, partial, row)
+    store.write_index()
+    store.release(i, run)
+    return 1
 
 
 def default_runs_dir() -> Path:
@@ -162,17 +409,48 @@ def run_named_campaign(
     retry_failed: bool = False,
     timeout_s: float | None = None,
     progress: Callable[[int, int, dict[str, int]], None] | None = None,
+    lease_timeout_s: float = DEFAULT_LEASE_TIMEOUT_S,
+    wait_for_held: bool = True,
+    equilibrium_rel: float | None = None,
+    verify_only: bool = False,
 ) -> dict[str, Any]:
     """Create (or resume) the campaign ``runs_dir/name`` of ``model`` over ``design`` (a Design or a
     grid option such as 'paper', 'lhs:200:7', 'c1=2:20:10,c5=100:500:9') and solve what is left.
-    ``jobs`` 0 means all cores. A store started with another spec is refused, naming the fields."""
+    ``jobs`` 0 means all cores. A store started with another spec is refused, naming the fields.
+    ``equilibrium_rel`` (FEBio): the fraction of a step's own force its imbalance may reach
+    before the step is flagged (default 2 %). ``verify_only``: check the store's files and report,
+    repairing and solving nothing."""
     if isinstance(design, str):
         design = design_from_option(design)
-    store = CampaignStore.create_or_open(runs_dir, CampaignSpec(name, design, model, solver))
+    extra = {"equilibrium_rel": float(equilibrium_rel)} if solver == "febio" and equilibrium_rel else {}
+    spec = CampaignSpec(name, design, model, solver, extra)
+    if verify_only:
+        root = Path(runs_dir) / name
+        if not (root / "campaign.json").is_file():
+            raise CampaignError(f"{root}: no campaign here (campaign.json missing)")
+        store = CampaignStore.open(root, repair=False)
+        diff = store.spec.differences(spec)
+        if diff:
+            raise CampaignError(f"campaign {name!r} in {root} was started with a different {', '.join(diff)}")
+        return store.summary(lease_timeout_s) | {
+            "name": name,
+            "root": str(root),
+            "verify_only": True,
+            "solved_now": 0,
+            "wall_s": 0.0,
+        }
+    store = CampaignStore.create_or_open(runs_dir, spec)
     if solver == "febio":
         find_febio()  # absent FEBio is a clear error before anything runs
     n_jobs = jobs if jobs > 0 else (os.cpu_count() or 1)
     summary = run_campaign(
-        store, n_jobs, scheduler, retry_failed=retry_failed, timeout_s=timeout_s, progress=progress
+        store,
+        n_jobs,
+        scheduler,
+        retry_failed=retry_failed,
+        timeout_s=timeout_s,
+        progress=progress,
+        lease_timeout_s=lease_timeout_s,
+        wait_for_held=wait_for_held,
     )
     return summary | {"name": name, "root": str(store.root), "jobs": n_jobs}

@@ -1,21 +1,41 @@
-"""The campaign store ``runs/<name>/``: ``campaign.json`` (the spec and code version), one result
-file per point under ``points/`` (written atomically by the solver's ``save``), and
-``index.parquet`` (one row per point: parameters, status, wall time, iterations, error).
+"""The campaign store ``runs/<name>/``: ``campaign.json`` (the spec and code version, its sha256
+in ``campaign.sha256``), one result file per point under ``points/`` (written atomically by the
+run's parent process), and ``index.parquet`` (one row per point: parameters, status, wall time,
+iterations, error, and the sha256 and size of the point's file as written).
 
-The result files are the truth: opening a store reconciles the index with them, so a campaign
-killed between writing a result and updating the index loses nothing and repeats nothing.
+Nothing is trusted blindly (:meth:`CampaignStore.verify`): opening a store for a run checks
+every point file against its recorded sha256 and size (a file of an older store, without them,
+is first checked to load and then hashed), and a file that fails (missing, cut short, changed,
+unreadable) is named, moved to ``damaged/`` and its point solved again. An index that is
+unreadable, or has a row missing, repeated or of another point, is rebuilt from the point files;
+``campaign.json`` is checked against its sha256. ``campaign status`` makes the same checks and
+only reports.
+
+Nothing is done twice (:class:`RunIdentity`, :meth:`CampaignStore.claim_next`): a run claims a
+point before solving it by writing a lease ``leases/<n>.json`` (host, pid, start time, a
+heartbeat renewed while it solves) under a short file lock on the store (``filelock``), and
+other runs of the same campaign (on this machine or others sharing the folder) skip the points
+held by a live lease. A lease whose heartbeat is older than the lease timeout, or whose process
+is gone (same host), belongs to a run that died and is taken over. Every index update is made
+under the lock and merged with what other runs wrote.
 """
 
 from __future__ import annotations
 
+import errno
+import hashlib
 import json
+import os
+import socket
 import time
+import uuid
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
+from filelock import FileLock, Timeout
 
 from .. import __version__
 from ..atomic_write import atomic_write
@@ -25,10 +45,130 @@ from .designs import Design
 
 SCHEMA = "indentation-studio/campaign/1"
 STATUSES = ("pending", "done", "failed")
+#: Default equilibrium tolerance of FEBio campaign points: 2 % of the step's own force, the
+#: force noise a fit assumes at that step (eq. 4a weighs each step relative to its own force).
+CAMPAIGN_EQUILIBRIUM_REL = 0.02
+#: Index columns added by this version (older indexes get them on their first resume).
+CHECK_COLUMNS = ("sha256", "bytes", "attempts", "flagged_steps", "rerun_s")
 
 
 class CampaignError(ValueError):
     """A campaign that cannot be created, resumed or read; the message says why."""
+
+
+class DiskFullError(CampaignError, OSError):
+    """The disk filled while writing into the store: nothing was written half (every write is a
+    temporary file renamed only when complete); the message names the file."""
+
+
+#: How long a run waits for the store's lock (held only for short updates) before giving up.
+LOCK_TIMEOUT_S = 120.0
+#: A lease whose heartbeat is older than this belongs to a run that died (default; ``campaign
+#: run --lease-timeout``). Heartbeats are renewed every quarter of it.
+DEFAULT_LEASE_TIMEOUT_S = 120.0
+
+
+def file_digest(path: str | Path) -> tuple[str, int]:
+    """(sha256 hex, size in bytes) of a file."""
+    h = hashlib.sha256()
+    size = 0
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+            size += len(block)
+    return h.hexdigest(), size
+
+
+def disk_full(exc: BaseException, path: Path) -> CampaignError | None:
+    """A clear error for a full disk (ENOSPC, EDQUOT), else None."""
+    if isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT):
+        return DiskFullError(
+            f"disk full while writing {path}: nothing was written half (the file is either whole or "
+            f"absent); free space and run again, finished points are kept"
+        )
+    return None
+
+
+def _raise_if_full(exc: BaseException, path: Path) -> None:
+    full = disk_full(exc, path)
+    if full is not None:
+        raise full from exc
+
+
+@dataclass(frozen=True)
+class RunIdentity:
+    """Who holds a claim: one ``campaign run`` (its own id, host, pid and start time)."""
+
+    run_id: str
+    host: str
+    pid: int
+    started: float  # epoch s
+
+    @classmethod
+    def new(cls) -> RunIdentity:
+        return cls(uuid.uuid4().hex[:12], socket.gethostname(), os.getpid(), time.time())
+
+    def lease(self, point: int) -> dict[str, Any]:
+        return {
+            "point": point,
+            "run_id": self.run_id,
+            "host": self.host,
+            "pid": self.pid,
+            "started": self.started,
+            "claimed": time.time(),
+            "heartbeat": time.time(),
+        }
+
+
+def _iso(t: float) -> str:
+    return time.strftime("%Y-%m-%dT%H:%M:%S", time.localtime(t))
+
+
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OSError):
+        return True
+    return True
+
+
+def lease_alive(lease: dict[str, Any], timeout_s: float, now: float | None = None) -> bool:
+    """A lease is alive while its heartbeat is younger than ``timeout_s`` and, on this host, its
+    process still runs."""
+    now = time.time() if now is None else now
+    try:
+        if now - float(lease["heartbeat"]) > timeout_s:
+            return False
+        if lease["host"] == socket.gethostname() and int(lease["pid"]) != os.getpid():
+            return _pid_alive(int(lease["pid"]))
+    except (KeyError, TypeError, ValueError):
+        return False
+    return True
+
+
+@dataclass
+class Problem:
+    """A point file (or a store file) that failed its check, and what was done about it."""
+
+    file: str
+    reason: str
+    point: int | None = None
+    action: str = "reported"
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"point": self.point, "file": self.file, "reason": self.reason, "action": self.action}
+
+
+@dataclass
+class ClaimOutcome:
+    """What :meth:`CampaignStore.claim_next` found: the point claimed (or None), the candidates
+    finished by another run meanwhile, and those held by another live run (with its lease)."""
+
+    point: int | None
+    finished_elsewhere: set[int]
+    held: dict[int, dict[str, Any]]
 
 
 @dataclass(frozen=True)
@@ -86,7 +226,15 @@ class CampaignSpec:
             self.design.points, other.design.points
         ):
             out.append(f"design ({a['design']['description']} vs {b['design']['description']})")
+        if self.solver == "febio" and self.equilibrium_rel != other.equilibrium_rel:
+            out.append(f"equilibrium tolerance ({self.equilibrium_rel:g} vs {other.equilibrium_rel:g})")
         return out
+
+    @property
+    def equilibrium_rel(self) -> float:
+        """A FEBio step is flagged off equilibrium when its imbalance exceeds this fraction of the
+        step's own force (README, "Campaigns"; ``campaign run --equilibrium-tol``)."""
+        return float(self.extra.get("equilibrium_rel", CAMPAIGN_EQUILIBRIUM_REL))
 
 
 def _changed_fields(a: Any, b: Any, prefix: str = "") -> list[str]:
@@ -100,17 +248,29 @@ def _changed_fields(a: Any, b: Any, prefix: str = "") -> list[str]:
 
 
 class CampaignStore:
-    """One campaign folder. ``create_or_open`` refuses a spec that differs from the stored one."""
+    """One campaign folder. ``create_or_open`` refuses a spec that differs from the stored one.
+
+    ``open(root, repair=True)`` (what a run does) repairs what its checks find; with
+    ``repair=False`` (``campaign status``, the loaders) nothing is written and :attr:`problems`
+    lists what failed."""
 
     def __init__(self, root: Path, spec: CampaignSpec, index: pd.DataFrame) -> None:
-        self.root = root
+        self.root = Path(root)
         self.spec = spec
-        self.index = index
+        self.index = _with_check_columns(index)
+        self.problems: list[Problem] = []
+        self.hashed_now: list[int] = []  # files of an older store hashed (after loading) by this open
+        self._dirty: set[int] = set()
+        self.lock = FileLock(self.root / ".lock", timeout=LOCK_TIMEOUT_S)
 
     # ----------------------------------------------------------------- files
     @property
     def points_dir(self) -> Path:
         return self.root / "points"
+
+    @property
+    def leases_dir(self) -> Path:
+        return self.root / "leases"
 
     def result_path(self, point: int) -> Path:
         return self.points_dir / f"{point:05d}.npz"
@@ -118,47 +278,58 @@ class CampaignStore:
     def partial_path(self, point: int) -> Path:
         return self.points_dir / f"{point:05d}.partial.npz"
 
+    def lease_path(self, point: int) -> Path:
+        return self.leases_dir / f"{point:05d}.json"
+
+    def locked(self):
+        """The store's lock (short critical sections only); a lock not had in
+        ``LOCK_TIMEOUT_S`` is a clear error."""
+        return _Locked(self.lock, self.root)
+
     # ------------------------------------------------------------ open/create
     @classmethod
-    def create_or_open(cls, runs_dir: str | Path, spec: CampaignSpec) -> CampaignStore:
+    def create_or_open(cls, runs_dir: str | Path, spec: CampaignSpec, repair: bool = True) -> CampaignStore:
         root = Path(runs_dir) / spec.name
         meta = root / "campaign.json"
-        if meta.is_file():
-            store = cls.open(root)
-            diff = store.spec.differences(spec)
-            if diff:
-                raise CampaignError(
-                    f"campaign {spec.name!r} in {root} was started with a different "
-                    f"{', '.join(diff)}; use another --name, or delete the folder to start over"
-                )
-            return store
-        root.mkdir(parents=True, exist_ok=True)
-        (root / "points").mkdir(exist_ok=True)
-        record = spec.to_dict() | {"code_version": __version__, "created": time.strftime("%Y-%m-%dT%H:%M:%S")}
-        atomic_write(meta, json.dumps(record, indent=1))
-        store = cls(root, spec, cls._fresh_index(spec))
-        store.write_index()
+        if not meta.is_file():
+            root.mkdir(parents=True, exist_ok=True)
+            with FileLock(root / ".lock", timeout=LOCK_TIMEOUT_S):
+                if not meta.is_file():  # another run may have created it meanwhile
+                    (root / "points").mkdir(exist_ok=True)
+                    record = spec.to_dict() | {
+                        "code_version": __version__,
+                        "created": time.strftime("%Y-%m-%dT%H:%M:%S"),
+                    }
+                    text = json.dumps(record, indent=1)
+                    _write(root / "campaign.json", text)
+                    _write(root / "campaign.sha256", hashlib.sha256(text.encode()).hexdigest() + "\n")
+                    store = cls(root, spec, cls._fresh_index(spec))
+                    _write(root / "index.parquet", lambda tmp: store.index.to_parquet(tmp, index=False))
+        store = cls.open(root, repair=repair)
+        diff = store.spec.differences(spec)
+        if diff:
+            raise CampaignError(
+                f"campaign {spec.name!r} in {root} was started with a different "
+                f"{', '.join(diff)}; use another --name, or delete the folder to start over"
+            )
         return store
 
     @classmethod
-    def open(cls, root: str | Path) -> CampaignStore:
+    def open(cls, root: str | Path, repair: bool = True) -> CampaignStore:
+        """The store at ``root``, every check made (module docstring); ``repair`` fixes what
+        fails (a run), else it is only listed in :attr:`problems` (status, loaders)."""
         root = Path(root)
         meta = root / "campaign.json"
         if not meta.is_file():
             raise CampaignError(f"{root}: no campaign here (campaign.json missing)")
-        try:
-            spec = CampaignSpec.from_dict(json.loads(meta.read_text()))
-        except (ValueError, KeyError, TypeError) as exc:
-            raise CampaignError(f"{meta}: unreadable campaign spec ({exc})") from exc
-        index_path = root / "index.parquet"
-        # a deep copy: arrays read from parquet may be read-only views
-        index = (
-            pd.read_parquet(index_path).copy(deep=True) if index_path.is_file() else cls._fresh_index(spec)
-        )
-        if len(index) != len(spec.design.points):
-            raise CampaignError(f"{index_path}: {len(index)} rows for {len(spec.design.points)} points")
-        store = cls(root, spec, index)
-        store.reconcile()
+        spec = _read_spec(meta, repair)
+        store = cls(root, spec, cls._fresh_index(spec))
+        with store.locked():
+            store.index, store.problems = store._read_index(repair_notes=True)
+            store.verify(repair=repair)
+            if repair:
+                store._clean_temporaries()
+                store.write_index()
         return store
 
     @staticmethod
@@ -172,43 +343,324 @@ class CampaignStore:
         table["newton_iterations"] = pd.array([pd.NA] * n, dtype="Int64")
         table["error"] = pd.array([None] * n, dtype="string")
         table["finished"] = pd.array([None] * n, dtype="string")
-        return table
+        return _with_check_columns(table)
+
+    def _read_index(self, repair_notes: bool = False) -> tuple[pd.DataFrame, list[Problem]]:
+        """The index on disk checked against the design: an unreadable file, or rows missing,
+        repeated, of no point or of other parameters give a fresh row (the point files then
+        restore what they hold). Call under the lock."""
+        path = self.root / "index.parquet"
+        fresh = self._fresh_index(self.spec)
+        problems: list[Problem] = []
+        if not path.is_file():
+            problems.append(Problem(str(path), "missing: rebuilt from the point files", action="rebuilt"))
+            return fresh, problems
+        try:
+            raw = pd.read_parquet(path).copy(deep=True)  # a deep copy: arrays may be read-only views
+            if "point" not in raw or "status" not in raw:
+                raise ValueError("no point or status column")
+        except Exception as exc:  # pyarrow's errors for a damaged file are of many kinds
+            problems.append(
+                Problem(str(path), f"unreadable ({type(exc).__name__}: {exc}); rebuilt from the point files")
+            )
+            return fresh, problems
+        raw = _with_check_columns(raw)
+        names = list(self.spec.design.parameters)
+        n = len(fresh)
+        pts = pd.to_numeric(raw["point"], errors="coerce").to_numpy(float)
+        ok = np.isfinite(pts) & (pts >= 0) & (pts < n) & (pts == np.round(pts))
+        at = np.where(ok, pts, 0).astype(int)
+        for j, k in enumerate(names):
+            values = (
+                pd.to_numeric(raw[k], errors="coerce").to_numpy(float)
+                if k in raw
+                else np.full(len(raw), np.nan)
+            )
+            ok &= np.isclose(values, self.spec.design.points[at, j], rtol=1e-12, atol=0)
+        ok &= raw["status"].astype(str).isin(STATUSES).to_numpy()
+        ok &= ~pd.Series(np.where(ok, at, -1 - np.arange(len(raw)))).duplicated().to_numpy()
+        for r in np.flatnonzero(~ok):
+            problems.append(
+                Problem(
+                    str(path),
+                    f"row {r} (point {raw['point'].iloc[r]!r}) is not a row of the design, or repeats one",
+                )
+            )
+        good = raw[ok]
+        rows = at[ok]
+        for col in fresh.columns:
+            if col in good.columns and col not in ("point", *names):
+                fresh.loc[rows, col] = good[col].to_numpy()
+        for i in sorted(set(range(n)) - set(rows.tolist())):
+            problems.append(Problem(str(path), f"no row for point {i}: restored from its file, if any", i))
+        for p in problems:
+            p.action = "rebuilt from the point files"
+        return fresh, problems
+
+    # ------------------------------------------------------------ the checks
+    def verify(self, repair: bool = True) -> list[Problem]:
+        """Check every point file against its row (module docstring). With ``repair`` a file
+        that fails is moved to ``damaged/`` and its point made pending, a file with no row or
+        hash (an older store, a run killed between writing the file and the index) is checked
+        to load, hashed and recorded done. Returns the problems (also added to
+        :attr:`problems`). Call under the lock when repairing."""
+        found: list[Problem] = []
+        present = {int(p.stem) for p in self.points_dir.glob("[0-9]*.npz") if p.stem.isdigit()}
+        status = self.index["status"].astype(str).to_numpy()
+        for i in range(len(self.index)):
+            path = self.result_path(i)
+            row = self.index.loc[i]
+            if i not in present:
+                if status[i] == "done":
+                    found.append(Problem(str(path), "missing (the index says done)", i, "solve again"))
+                    if repair:
+                        self.record(i, _PENDING, write=False)
+                continue
+            sha, size = row["sha256"], row["bytes"]
+            if status[i] == "done" and not _missing(sha):
+                try:
+                    now_sha, now_size = file_digest(path)
+                except OSError as exc:
+                    reason = f"unreadable ({exc})"
+                else:
+                    if now_size != int(size):
+                        reason = f"{now_size} bytes, {int(size)} written (cut short or changed)"
+                    elif now_sha != sha:
+                        reason = (
+                            f"content changed since written (sha256 {now_sha[:12]}..., {sha[:12]}... written)"
+                        )
+                    else:
+                        continue
+                found.append(Problem(str(path), reason, i, "solve again"))
+                if repair:
+                    self._set_aside(path)
+                    self.record(i, _PENDING, write=False)
+                continue
+            # a file without a hash (an older store) or without a done row: it must load
+            try:
+                result = SimulationResult.load(path)
+                digest = file_digest(path)
+            except (ValueError, OSError) as exc:
+                found.append(Problem(str(path), f"unreadable: {_reason(exc)}", i, "solve again"))
+                if repair:
+                    self._set_aside(path)
+                    self.record(i, _PENDING, write=False)
+                continue
+            if repair:
+                self.hashed_now.append(i)
+                row_update: dict[str, Any] = {"sha256": digest[0], "bytes": digest[1]}
+                if status[i] != "done":
+                    row_update |= _result_row(result) | {"status": "done", "error": None}
+                    row_update["attempts"] = max(int(_int(row["attempts"]) or 0), 1)
+                self.record(i, row_update, write=False)
+        if not repair:
+            for p in found:
+                p.action = "reported: `campaign run` solves it again"
+        self.problems += found
+        return found
+
+    def _set_aside(self, path: Path) -> None:
+        """A file that failed its check, kept in ``damaged/`` to look at (never read again)."""
+        target = self.root / "damaged" / f"{path.name}.{time.strftime('%Y%m%dT%H%M%S')}"
+        target.parent.mkdir(exist_ok=True)
+        try:
+            os.replace(path, target)
+        except OSError:
+            path.unlink(missing_ok=True)
+
+    def _clean_temporaries(self) -> None:
+        """Temporary files of writes cut short by a kill (never renamed), except those of points
+        a live run holds (it may be writing them now)."""
+        held = {int(k) for k, lease in self.leases().items() if lease_alive(lease, DEFAULT_LEASE_TIMEOUT_S)}
+        for stale in self.points_dir.glob("*.tmp"):
+            head = stale.name.split(".", 1)[0]
+            if head.isdigit() and int(head) in held:
+                continue
+            stale.unlink(missing_ok=True)
 
     # ------------------------------------------------------------ index upkeep
     def reconcile(self) -> int:
-        """Mark done every point whose result file exists, pending every 'done' point whose file
-        is gone. Returns how many rows changed."""
-        for stale in self.points_dir.glob("*.tmp"):  # a write cut short by a kill: never renamed
-            stale.unlink(missing_ok=True)
-        have = {int(p.stem) for p in self.points_dir.glob("*.npz") if p.stem.isdigit()}
-        status = self.index["status"].astype(str).to_numpy()
-        changed = 0
-        for i in range(len(self.index)):
-            if i in have and status[i] != "done":
-                row: dict[str, Any] = {"status": "done", "error": None}
-                try:
-                    r = SimulationResult.load(self.result_path(i))
-                    row |= {"wall_s": r.wall_s, "newton_iterations": r.newton_iterations}
-                except ValueError:  # unreadable: solve the point again
-                    self.result_path(i).unlink(missing_ok=True)
-                    row = {"status": "pending"}
-                self.record(i, row, write=False)
-                changed += 1
-            elif i not in have and status[i] == "done":
-                self.record(i, {"status": "pending"}, write=False)
-                changed += 1
-        if changed:
+        """Check the files and repair (what ``open`` does); returns how many problems were found."""
+        with self.locked():
+            found = self.verify(repair=True)
             self.write_index()
-        return changed
+        return len(found)
 
     def record(self, point: int, row: dict[str, Any], write: bool = True) -> None:
         for k, v in row.items():
             self.index.loc[point, k] = v
+        self._dirty.add(int(point))
         if write:
             self.write_index()
 
     def write_index(self) -> None:
-        atomic_write(self.root / "index.parquet", lambda tmp: self.index.to_parquet(tmp, index=False))
+        """Write this run's changed rows into the index on disk, merged with what other runs
+        wrote there (under the lock); ``self.index`` becomes the merged table."""
+        path = self.root / "index.parquet"
+        with self.locked():
+            merged = self._merged()
+            try:
+                atomic_write(path, lambda tmp: merged.to_parquet(tmp, index=False))
+            except OSError as exc:
+                _raise_if_full(exc, path)
+                raise
+            self.index = merged
+            self._dirty.clear()
+
+    def refresh(self) -> None:
+        """Read what other runs recorded (this run's unwritten rows kept)."""
+        with self.locked():
+            self.index = self._merged()
+
+    def _merged(self) -> pd.DataFrame:
+        disk, problems = self._read_index()
+        if problems:  # unreadable or damaged on disk: ours is the checked one
+            disk = self.index.copy()
+        dirty = sorted(self._dirty)
+        if dirty:
+            for col in disk.columns:
+                disk.loc[dirty, col] = self.index.loc[dirty, col].to_numpy()
+        return disk
+
+    # ---------------------------------------------------------------- claims
+    def leases(self) -> dict[int, dict[str, Any]]:
+        """Every lease file, by point (an unreadable one as an expired lease)."""
+        out: dict[int, dict[str, Any]] = {}
+        for f in self.leases_dir.glob("[0-9]*.json"):
+            try:
+                out[int(f.stem)] = json.loads(f.read_text())
+            except (OSError, ValueError):
+                out[int(f.stem)] = {"heartbeat": 0.0, "host": "?", "pid": -1, "run_id": "?"}
+        return out
+
+    def _lease(self, point: int) -> dict[str, Any] | None:
+        try:
+            return json.loads(self.lease_path(point).read_text())
+        except FileNotFoundError:
+            return None
+        except (OSError, ValueError):
+            return {"heartbeat": 0.0, "host": "?", "pid": -1, "run_id": "?"}
+
+    def claim_next(
+        self,
+        candidates: list[int],
+        run: RunIdentity,
+        lease_timeout_s: float = DEFAULT_LEASE_TIMEOUT_S,
+        attempts_at_start: dict[int, int] | None = None,
+    ) -> ClaimOutcome:
+        """Claim the first of ``candidates`` that no live run holds and no run has finished since
+        ``attempts_at_start`` (under the lock: two runs never claim the same point)."""
+        finished: set[int] = set()
+        held: dict[int, dict[str, Any]] = {}
+        with self.locked():
+            self.index = self._merged()
+            status = self.index["status"].astype(str).to_numpy()
+            now = time.time()
+            for i in candidates:
+                attempts = int(_int(self.index.loc[i, "attempts"]) or 0)
+                if status[i] == "done" or (
+                    attempts_at_start is not None and attempts > attempts_at_start.get(i, 0)
+                ):
+                    finished.add(i)
+                    continue
+                lease = self._lease(i)
+                if (
+                    lease is not None
+                    and lease.get("run_id") != run.run_id
+                    and lease_alive(lease, lease_timeout_s, now)
+                ):
+                    held[i] = lease
+                    continue
+                if self.result_path(i).is_file():  # written by a run that died before its index row
+                    before = len(self.problems)
+                    self.verify(repair=True)
+                    self.write_index()
+                    if str(self.index.loc[i, "status"]) == "done":
+                        finished.add(i)
+                        continue
+                    del self.problems[before:]
+                try:
+                    _write(self.lease_path(i), json.dumps(run.lease(i)))
+                except OSError as exc:
+                    _raise_if_full(exc, self.lease_path(i))
+                    raise
+                return ClaimOutcome(i, finished, held)
+        return ClaimOutcome(None, finished, held)
+
+    def renew(self, points: list[int], run: RunIdentity) -> set[int]:
+        """Renew this run's leases; returns the points whose lease another run took over."""
+        lost: set[int] = set()
+        with self.locked():
+            for i in points:
+                lease = self._lease(i)
+                if lease is None or lease.get("run_id") != run.run_id:
+                    lost.add(i)
+                    continue
+                lease["heartbeat"] = time.time()
+                try:
+                    _write(self.lease_path(i), json.dumps(lease))
+                except OSError:
+                    pass  # a full disk: the old heartbeat stands; the timeout is long
+        return lost
+
+    def holds(self, point: int, run: RunIdentity) -> bool:
+        lease = self._lease(point)
+        return lease is not None and lease.get("run_id") == run.run_id
+
+    def release(self, point: int, run: RunIdentity) -> None:
+        with self.locked():
+            if self.holds(point, run):
+                self.lease_path(point).unlink(missing_ok=True)
+
+    def holders(self, lease_timeout_s: float = DEFAULT_LEASE_TIMEOUT_S) -> list[dict[str, Any]]:
+        """The claims on the store: point, host, pid, start time of the holding run, heartbeat
+        age, and whether it is alive (an expired one is taken over by the next run)."""
+        now = time.time()
+        out = []
+        for i, lease in sorted(self.leases().items()):
+            try:
+                started, beat = float(lease.get("started", 0.0)), float(lease.get("heartbeat", 0.0))
+            except (TypeError, ValueError):
+                started, beat = 0.0, 0.0
+            out.append(
+                {
+                    "point": i,
+                    "host": lease.get("host"),
+                    "pid": lease.get("pid"),
+                    "run_started": _iso(started),
+                    "heartbeat_age_s": round(now - beat, 1),
+                    "alive": lease_alive(lease, lease_timeout_s, now),
+                }
+            )
+        return out
+
+    # ---------------------------------------------------------------- results
+    def save_point(
+        self,
+        point: int,
+        result: SimulationResult | None,
+        partial: SimulationResult | None,
+        row: dict[str, Any],
+    ) -> None:
+        """Write a solved point's files (atomically) and its index row with the file's sha256 and
+        size; a full disk is a :class:`DiskFullError` (nothing written half)."""
+        update = dict(row)
+        if result is not None:
+            path = self.result_path(point)
+            try:
+                result.save(path)
+            except OSError as exc:
+                _raise_if_full(exc, path)
+                raise
+            update["sha256"], update["bytes"] = file_digest(path)
+        if partial is not None:
+            try:
+                partial.save(self.partial_path(point))
+            except OSError as exc:
+                _raise_if_full(exc, self.partial_path(point))
+                raise
+        update["attempts"] = int(_int(self.index.loc[point, "attempts"]) or 0) + 1
+        self.record(point, update, write=False)
 
     # ---------------------------------------------------------------- queries
     def counts(self) -> dict[str, int]:
@@ -218,16 +670,27 @@ class CampaignStore:
     def points_with(self, *statuses: str) -> np.ndarray:
         return self.index.loc[self.index["status"].astype(str).isin(statuses), "point"].to_numpy(int)
 
-    def summary(self) -> dict[str, Any]:
+    def summary(self, lease_timeout_s: float = DEFAULT_LEASE_TIMEOUT_S) -> dict[str, Any]:
         c = self.counts()
         walls = self.index["wall_s"].dropna()
         failed = self.index[self.index["status"].astype(str) == "failed"]
         slowest = self.index.dropna(subset=["wall_s"]).nlargest(5, "wall_s")
+        done = self.index[self.index["status"].astype(str) == "done"]
+        flagged = done[done["flagged_steps"].fillna(0).astype(int) > 0]
+        rerun = self.index["rerun_s"].dropna()
         return {
             "name": self.spec.name,
             "folder": str(self.root),
             "points": len(self.index),
             **c,
+            "done_with_flagged_steps": len(flagged),
+            "flagged_steps": int(flagged["flagged_steps"].astype(int).sum()) if len(flagged) else 0,
+            "flagged": [
+                {"point": int(r.point), "flagged_steps": int(r.flagged_steps)}
+                for r in flagged.itertuples(index=False)
+            ],
+            "febio_reruns": len(rerun),
+            "febio_rerun_s": float(rerun.sum()),
             "solver_wall_s": float(walls.sum()),
             "median_point_s": float(walls.median()) if len(walls) else None,
             "failures": [
@@ -241,5 +704,104 @@ class CampaignStore:
                 }
                 for r in slowest.itertuples(index=False)
             ],
+            "problems": [p.to_dict() for p in self.problems],
+            "hashed_now": len(self.hashed_now),
+            "claims": self.holders(lease_timeout_s),
             "store_bytes": sum(p.stat().st_size for p in self.root.rglob("*") if p.is_file()),
         }
+
+
+_PENDING = {"status": "pending", "sha256": None, "bytes": None, "error": None, "flagged_steps": None}
+
+
+class _Locked:
+    """The store's file lock as a context, its timeout a :class:`CampaignError`."""
+
+    def __init__(self, lock: FileLock, root: Path) -> None:
+        self.lock, self.root = lock, root
+
+    def __enter__(self) -> None:
+        try:
+            self.lock.acquire()
+        except Timeout as exc:
+            raise CampaignError(
+                f"{self.root}: the store's lock {self.lock.lock_file} was not free for {LOCK_TIMEOUT_S:g} s"
+            ) from exc
+
+    def __exit__(self, *exc: object) -> None:
+        self.lock.release()
+
+
+def _write(path: Path, content: Any) -> None:
+    try:
+        atomic_write(path, content)
+    except OSError as exc:
+        _raise_if_full(exc, path)
+        raise
+
+
+def _read_spec(meta: Path, repair: bool) -> CampaignSpec:
+    """campaign.json parsed and checked against its sha256 (written with it; an older store gets
+    it on its first resume)."""
+    try:
+        text = meta.read_bytes()
+        spec = CampaignSpec.from_dict(json.loads(text))
+    except (ValueError, KeyError, TypeError, OSError) as exc:
+        raise CampaignError(f"{meta}: unreadable campaign spec ({type(exc).__name__}: {exc})") from exc
+    sums = meta.with_name("campaign.sha256")
+    digest = hashlib.sha256(text).hexdigest()
+    if sums.is_file():
+        recorded = sums.read_text().strip()
+        if recorded != digest:
+            raise CampaignError(
+                f"{meta}: changed since the campaign was created (sha256 {digest[:12]}..., "
+                f"{recorded[:12]}... recorded in {sums.name}); restore it, or delete the folder to start over"
+            )
+    elif repair:
+        _write(sums, digest + "\n")
+    return spec
+
+
+def _with_check_columns(index: pd.DataFrame) -> pd.DataFrame:
+    """The columns of this version added to an older index (empty)."""
+    index = index.copy()
+    n = len(index)
+    if "sha256" not in index:
+        index["sha256"] = pd.array([None] * n, dtype="string")
+    for col in ("bytes", "attempts", "flagged_steps"):
+        if col not in index:
+            index[col] = pd.array([pd.NA] * n, dtype="Int64")
+    if "rerun_s" not in index:
+        index["rerun_s"] = np.nan
+    if "status" in index and not isinstance(index["status"].dtype, pd.CategoricalDtype):
+        index["status"] = pd.Categorical(index["status"].astype(str), categories=STATUSES)
+    return index
+
+
+def _missing(value: Any) -> bool:
+    try:
+        return value is None or bool(pd.isna(value))
+    except (TypeError, ValueError):
+        return False
+
+
+def _int(value: Any) -> int | None:
+    return None if _missing(value) else int(value)
+
+
+def _reason(exc: BaseException) -> str:
+    text = str(exc)
+    return text.split(": ", 1)[1] if text.startswith("/") and ": " in text else text
+
+
+def _result_row(result: SimulationResult) -> dict[str, Any]:
+    """The index fields a result file restores (wall time, iterations, flagged steps, rerun)."""
+    flagged = int(np.sum(result.off_equilibrium)) if result.off_equilibrium is not None else 0
+    rerun = result.solver.get("rerun") or {}
+    walls = rerun.get("wall_s")
+    return {
+        "wall_s": result.wall_s,
+        "newton_iterations": result.newton_iterations,
+        "flagged_steps": flagged,
+        "rerun_s": float(walls[1]) if isinstance(walls, list) and len(walls) > 1 else None,
+    }

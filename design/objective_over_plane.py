@@ -68,4 +68,5 @@ def campaign_objective_map(
     data = campaign if isinstance(campaign, CampaignData) else load_campaign(campaign, runs_dir)
     if study is None:
         study = fe_design_study(ModelSpec.from_dict(data.spec["model"]), theta_star, "exact", reading)
-    return objective_map(data.theta, data.prediction(), study, weights, s)
+    # a FEBio point's steps flagged off equilibrium: filled from its own neighbouring steps
+    return objective_map(data.theta, data.prediction(filled=True), study, weights, s)

@@ -8,6 +8,8 @@ top-surface nodes, per step, with the nodes' ids and reference coordinates.
 from __future__ import annotations
 
 import json
+import zipfile
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -126,5 +128,15 @@ class SimulationResult:
                     off_equilibrium=z["off_equilibrium"] if "off_equilibrium" in z.files else None,
                     contact_status=z["contact_status"] if "contact_status" in z.files else None,
                 )
-        except (OSError, KeyError, ValueError) as exc:
-            raise ValueError(f"{path}: not a readable simulation result ({exc})") from exc
+        except FileNotFoundError as exc:
+            raise ValueError(f"{path}: no such result file") from exc
+        except (OSError, KeyError, ValueError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
+            # a file cut short, a flipped byte (a bad CRC or deflate stream), a missing array
+            what = (
+                "a truncated or damaged file"
+                if isinstance(exc, (zipfile.BadZipFile, zlib.error, EOFError))
+                else "unreadable"
+            )
+            raise ValueError(
+                f"{path}: not a readable simulation result, {what} ({type(exc).__name__}: {exc})"
+            ) from exc

@@ -29,7 +29,7 @@ import numpy as np
 import pandas as pd
 
 from ..atomic_write import atomic_write_json
-from ..campaign.loader import open_campaign
+from ..campaign.loader import load_point, open_campaign, require_sound
 from ..design.certainty import bounds_pct, s_from_data
 from ..design.objective import PAPER_WEIGHTS, Objective, check_weights
 from ..forward.mesh import build_mesh
@@ -331,10 +331,11 @@ def campaign_error_budget(
     same reference and settings: finished rows are not fitted again."""
 
     store = open_campaign(reference, runs_dir)
+    require_sound(store)  # a point file that fails its check is named, not read
     done = store.points_with("done")
     if len(done) == 0:
         raise ValueError(f"reference campaign {store.spec.name!r} has no finished points")
-    results = [SimulationResult.load(store.result_path(i)) for i in done]
+    results = [load_point(store, i) for i in done]
     predictors, fe_models, fe_names, cache = {}, {}, {}, {}
     for name in models:
         predictors[name], fe = resolve_model(name, store.spec.model, cache)

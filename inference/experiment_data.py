@@ -31,6 +31,8 @@ are wrong (a spike, a slipped step) is named by its step and rows (:mod:`.hold_c
 from __future__ import annotations
 
 import json
+import zipfile
+import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -141,11 +143,19 @@ def _read_meta(root: Path) -> dict:
 def _read_dic(root: Path, steps: int) -> tuple[np.ndarray, np.ndarray]:
     npz = root / "dic.npz"
     if npz.is_file():
-        with np.load(npz) as z:
-            for key in ("xyz", "u"):
-                if key not in z:
-                    raise ExperimentDataError(f"{npz}: missing array '{key}'")
-            xyz, u = np.asarray(z["xyz"], float), np.asarray(z["u"], float)
+        try:
+            with np.load(npz, allow_pickle=False) as z:
+                for key in ("xyz", "u"):
+                    if key not in z:
+                        raise ExperimentDataError(f"{npz}: missing array '{key}'")
+                xyz, u = np.asarray(z["xyz"], float), np.asarray(z["u"], float)
+        except ExperimentDataError:
+            raise
+        except (OSError, ValueError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
+            # cut short, a flipped byte (a bad CRC), empty, not an npz
+            raise ExperimentDataError(
+                f"{npz}: not a readable DIC file, truncated or damaged ({type(exc).__name__}: {exc})"
+            ) from exc
         if xyz.ndim != 2 or xyz.shape[1] != 3:
             raise ExperimentDataError(f"{npz}: 'xyz' must be (points, 3), got {xyz.shape}")
         if u.shape != (steps, xyz.shape[0], 3):

@@ -39,12 +39,56 @@ RUNS_DIR = Annotated[Path, typer.Option(help="where campaigns live")]
 
 def _print_summary(summary: dict[str, Any], title: str) -> None:
     table = Table(title=title)
-    for key in ("points", "done", "failed", "pending", "solver_wall_s", "median_point_s", "store_bytes"):
+    keys = (
+        "points",
+        "done",
+        "failed",
+        "pending",
+        "solved_now",
+        "solver_wall_s",
+        "median_point_s",
+        "store_bytes",
+    )
+    for key in keys:
+        if key not in summary:
+            continue
         value = summary.get(key)
+        if key == "done" and summary.get("done_with_flagged_steps"):
+            value = (
+                f"{value} ({summary['done_with_flagged_steps']} done, {summary['flagged_steps']} steps "
+                "flagged off equilibrium: null)"
+            )
         table.add_row(key, f"{value:.3g}" if isinstance(value, float) else str(value))
+    if summary.get("febio_reruns"):
+        table.add_row("febio_reruns", f"{summary['febio_reruns']} ({summary['febio_rerun_s']:.3g} s)")
     Console().print(table)
+    out = Console()
     for f in summary.get("failures", [])[:10]:
-        Console().print(f"failed point {f['point']}: {f['error']}", soft_wrap=True, highlight=False)
+        out.print(f"failed point {f['point']}: {f['error']}", soft_wrap=True, highlight=False)
+    for p in summary.get("problems", []):
+        where = f"point {p['point']}: " if p.get("point") is not None else ""
+        out.print(
+            f"check failed: {where}{p['file']}: {p['reason']}; {p['action']}",
+            soft_wrap=True,
+            highlight=False,
+        )
+    if summary.get("hashed_now"):
+        out.print(
+            f"{summary['hashed_now']} point files without a recorded hash (an older store, or a run "
+            "killed before its index row) checked to load, hashed and recorded",
+            highlight=False,
+        )
+    for c in summary.get("claims", []):
+        state = "running" if c["alive"] else "expired (the next run takes it over)"
+        out.print(
+            f"point {c['point']} held by {c['host']} pid {c['pid']} (run started {c['run_started']}, "
+            f"heartbeat {c['heartbeat_age_s']:g} s ago): {state}",
+            highlight=False,
+        )
+    for h in summary.get("held_by_other_runs", []):
+        out.print(
+            f"point {h['point']}: left to the run holding it ({h['host']} pid {h['pid']})", highlight=False
+        )
 
 
 @campaign_app.command("run")
@@ -72,10 +116,33 @@ def run(
     ] = None,
     timeout: Annotated[float | None, typer.Option(help="per-point timeout, s")] = None,
     retry_failed: Annotated[bool, typer.Option(help="solve the failed points again")] = False,
+    verify_only: Annotated[
+        bool,
+        typer.Option(
+            help="check the store's files against their hashes and report; repair and solve nothing"
+        ),
+    ] = False,
+    wait: Annotated[
+        bool,
+        typer.Option(
+            help="wait for the points another run of this campaign holds (--no-wait: return, listing them)"
+        ),
+    ] = True,
+    lease_timeout: Annotated[
+        float,
+        typer.Option(help="s without a heartbeat after which a run's claim on a point is taken over"),
+    ] = 120.0,
+    equilibrium_tol: Annotated[
+        float,
+        typer.Option(
+            help="FEBio: flag a step whose imbalance exceeds this % of the step's own force (its force null)"
+        ),
+    ] = 2.0,
     runs_dir: RUNS_DIR = Path("runs"),
     as_json: JSON = False,
 ) -> None:
-    """Run (or resume) a campaign; finished points are skipped, failures recorded."""
+    """Run (or resume) a campaign; finished points are skipped, failures recorded. Every point
+    file is checked against its hash first: one that fails is named and solved again."""
     from ..campaign.runner import run_named_campaign
 
     where = f"dask {scheduler}" if scheduler else f"{jobs or 'all'} processes"
@@ -91,24 +158,40 @@ def run(
             # the material values of the base spec are placeholders: each point sets its own
             base = model_spec(1.0, 1.0, kappa, radius, steps, step_size, mesh, mesh_from, substeps, friction)
             summary = run_named_campaign(
-                name, grid, base, runs_dir, solver.value, jobs, scheduler, retry_failed, timeout, report
+                name,
+                grid,
+                base,
+                runs_dir,
+                solver.value,
+                jobs,
+                scheduler,
+                retry_failed,
+                timeout,
+                report,
+                lease_timeout_s=lease_timeout,
+                wait_for_held=wait,
+                equilibrium_rel=equilibrium_tol / 100.0,
+                verify_only=verify_only,
             )
         except (DesignError, CampaignError, SpecError, ValueError, FileNotFoundError, OSError) as exc:
             fail(f"campaign {name}: {exc} (finished points are kept in {Path(runs_dir) / name})", as_json)
     if as_json:
         print(strict_json(summary))
         return
-    _print_summary(summary, f"campaign {name}: {summary['wall_s']:.1f} s")
+    title = f"campaign {name}: " + ("checked" if verify_only else f"{summary['wall_s']:.1f} s")
+    _print_summary(summary, title)
 
 
 @campaign_app.command("status")
 def status(name: NAME, runs_dir: RUNS_DIR = Path("runs"), as_json: JSON = False) -> None:
-    """Done, failed and pending points, wall time, failures with their reasons."""
+    """Done (and with how many FEBio steps flagged), failed and pending points, wall time,
+    failures with their reasons, the point files that fail their check (reported, not repaired:
+    `campaign run` solves them again) and the runs holding points (host, pid, start)."""
     from ..campaign.loader import open_campaign
 
     try:
-        store = open_campaign(name, runs_dir)
-    except CampaignError as exc:
+        store = open_campaign(name, runs_dir, repair=False)
+    except (CampaignError, OSError) as exc:
         fail(str(exc), as_json)
     summary = store.summary()
     if as_json:

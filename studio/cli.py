@@ -7,14 +7,17 @@ on stdout; progress and logs go to stderr.
 from __future__ import annotations
 
 import math
+import os
 import sys
 import time
 from pathlib import Path
 from typing import Annotated, Any
 
+import click
 import typer
 from rich.console import Console
 from rich.table import Table
+from typer.core import TyperGroup
 
 from ..atomic_write import strict_json
 from ..forward.spec import SpecError
@@ -44,7 +47,30 @@ from .options import (
 from .progress import step_progress
 from .surrogate_cli import surrogate_app
 
+
+class StudioGroup(TyperGroup):
+    """The command group with the JSON error contract's safety net: a library error no command
+    caught (a bug, or a file damaged in a way no loader foresaw) becomes the studio's own error,
+    one line on stderr and, with --json, ``{"error": ...}`` on stdout, exit code 1: never a
+    traceback. ``INDENT_STUDIO_TRACEBACK=1`` shows the traceback instead (for a bug report)."""
+
+    def invoke(self, ctx: click.Context) -> Any:
+        raw = [*getattr(ctx, "_protected_args", []), *ctx.args, *sys.argv[1:]]
+        try:
+            return super().invoke(ctx)
+        except (typer.Exit, typer.Abort, click.exceptions.Exit, click.ClickException, click.exceptions.Abort):
+            raise
+        except Exception as exc:
+            if os.environ.get("INDENT_STUDIO_TRACEBACK"):
+                raise
+            fail(
+                f"{type(exc).__name__}: {exc} (unexpected: set INDENT_STUDIO_TRACEBACK=1 to see where)",
+                "--json" in raw,
+            )
+
+
 app = typer.Typer(
+    cls=StudioGroup,
     help="Indentation Studio: identify (c1, c5) of soft tissue from indentation force and 3D-DIC.",
     no_args_is_help=True,
     add_completion=False,

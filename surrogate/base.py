@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 from sklearn.decomposition import PCA
 
+from ..campaign.loader import fill_missing_steps
 from ..forward.predictor import Prediction, ReducedBasis
 from .sklearn_state import estimator_from_state, estimator_state
 
@@ -38,11 +39,26 @@ class TrainingData:
     top_xyz: np.ndarray  # (nodes, 3) mm
     parameters: tuple[str, ...] = ("c1", "c5")
     source: dict[str, Any] = field(default_factory=dict)
+    # (n, steps) bool: forces the campaign does not have (FEBio steps flagged off equilibrium),
+    # filled in ``force`` by :func:`campaign.loader.fill_missing_steps`; validation errors leave them out
+    missing: np.ndarray | None = None
 
     @classmethod
     def from_campaign(cls, data) -> TrainingData:
+        """A campaign's done points; a step without a force (a FEBio step flagged off
+        equilibrium) is filled from the same point's finite steps
+        (:func:`campaign.loader.fill_missing_steps`)
+        and marked in ``missing``."""
+        force, missing = fill_missing_steps(data.force, data.depth)
         return cls(
-            data.theta, data.force, data.displacement, data.depth, data.top_xyz, data.parameters, data.spec
+            data.theta,
+            force,
+            data.displacement,
+            data.depth,
+            data.top_xyz,
+            data.parameters,
+            data.spec,
+            missing if missing.any() else None,
         )
 
     def subset(self, rows: np.ndarray) -> TrainingData:
@@ -54,6 +70,7 @@ class TrainingData:
             self.top_xyz,
             self.parameters,
             self.source,
+            None if self.missing is None else self.missing[rows],
         )
 
     @property

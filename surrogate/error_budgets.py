@@ -33,7 +33,10 @@ def remaining_bias(budget_file, model: str) -> dict:
         raise ValueError(f"{budget_file}: no model {model!r} in it (it has {', '.join(names)})")
     left = {}
     for name in ("c1", "c5"):
-        b = np.array([row[f"{name}_bias_pct"] for row in rows], float) / 100.0
+        try:
+            b = np.array([row[f"{name}_bias_pct"] for row in rows], float) / 100.0
+        except (KeyError, TypeError, ValueError) as exc:
+            raise ValueError(f"{budget_file}: {model!r} has no numeric {name}_bias_pct ({exc!r})") from exc
         if np.any(b <= -1.0) or not np.all(np.isfinite(b)):
             raise ValueError(f"{budget_file}: {model!r} has a bias of {name} that is not a fit")
         left[f"{name}_pct"] = float(100.0 * np.max(np.maximum(np.abs(b), np.abs(1.0 / (1.0 + b) - 1.0))))

@@ -13,9 +13,12 @@ from .base import FieldSurrogate, TrainingData
 def prediction_errors(surrogate: FieldSurrogate, data: TrainingData) -> dict[str, float]:
     """Errors of ``surrogate`` on ``data`` (percent): force relative error over every point and
     step; displacement error over every node and step divided by max |u| of that direction at
-    that point."""
+    that point. Steps whose force the campaign does not have (``data.missing``) are left out of
+    the force errors."""
     pred = surrogate.predict(data.theta)
     rel_f = pred.force / data.force - 1.0
+    if data.missing is not None:  # steps the campaign has no force for (filled for training)
+        rel_f = rel_f[~data.missing]
     u_max = np.abs(data.displacement).max(axis=(1, 2))  # (n, 3)
     rel_u = (pred.displacement - data.displacement) / np.maximum(u_max, 1e-12)[:, None, None, :]
     return {

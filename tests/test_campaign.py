@@ -175,3 +175,336 @@ def test_dask_localcluster_and_loader(tmp_path):
         "depth_mm",
         "force_mN",
     ]
+
+
+# ------------------------------------------------ nothing lost, nothing trusted blindly (issue 34)
+GRID = "c1=4:12:2,c5=150:450:2"
+
+
+def _solved_store(tmp_path, name="h", grid=GRID):
+    store = CampaignStore.create_or_open(tmp_path, _spec(name, grid))
+    summary = run_campaign(store, jobs=1)
+    assert summary["done"] == 4 and summary["solved_now"] == 4
+    return store
+
+
+def _cli(*args, check=True, timeout=600):
+    out = subprocess.run([*CLI, *args, "--json"], capture_output=True, text=True, timeout=timeout)
+    assert not check or out.returncode == 0, out.stderr
+    return out
+
+
+def test_every_point_file_is_recorded_with_its_sha256_and_size(tmp_path):
+    import hashlib
+
+    store = _solved_store(tmp_path)
+    index = pd.read_parquet(tmp_path / "h" / "index.parquet")
+    for row in index.itertuples(index=False):
+        data = store.result_path(row.point).read_bytes()
+        assert row.sha256 == hashlib.sha256(data).hexdigest() and row.bytes == len(data)
+        assert row.attempts == 1
+    assert (tmp_path / "h" / "campaign.sha256").read_text().strip() == hashlib.sha256(
+        (tmp_path / "h" / "campaign.json").read_bytes()
+    ).hexdigest()
+
+
+def test_truncated_point_file_is_named_by_status_and_loaders_and_solved_again_by_a_resume(tmp_path):
+    run = ["campaign", "run", "--name", "tr", "--grid", GRID, "--mesh", "coarse", "--steps", "2"]
+    run += ["--jobs", "1", "--runs-dir", str(tmp_path)]
+    assert json.loads(_cli(*run).stdout)["done"] == 4
+    path = tmp_path / "tr" / "points" / "00002.npz"
+    size = path.stat().st_size
+    os.truncate(path, 500)  # a full disk, a crashed file system, an interrupted copy
+    status = json.loads(_cli("campaign", "status", "--name", "tr", "--runs-dir", str(tmp_path)).stdout)
+    assert [(p["point"], p["file"]) for p in status["problems"]] == [(2, str(path))]
+    assert f"500 bytes, {size} written" in status["problems"][0]["reason"]
+    assert path.stat().st_size == 500  # status reports, repairs nothing
+    # a loader names the file, in the JSON error contract, no traceback
+    train = _cli("surrogate", "train", "--campaign", "tr", "--runs-dir", str(tmp_path), check=False)
+    assert train.returncode == 1 and "Traceback" not in train.stderr
+    error = json.loads(train.stdout)["error"]
+    assert str(path) in error and "500 bytes" in error and "campaign run" in error
+    # the library's own reader names the file too (never a raw BadZipFile)
+    with pytest.raises(ValueError, match=r"00002\.npz: not a readable simulation result, a truncated"):
+        SimulationResult.load(path)
+    check = json.loads(_cli(*run, "--verify-only").stdout)
+    assert [p["point"] for p in check["problems"]] == [2] and check["solved_now"] == 0
+    assert path.stat().st_size == 500  # --verify-only repairs nothing either
+    again = json.loads(_cli(*run).stdout)
+    assert again["solved_now"] == 1 and again["done"] == 4
+    assert [p["point"] for p in again["problems"]] == [2]
+    assert SimulationResult.load(path).force[-1] > 0
+    assert len(list((tmp_path / "tr" / "damaged").iterdir())) == 1  # kept aside, never read again
+    clean = json.loads(_cli("campaign", "status", "--name", "tr", "--runs-dir", str(tmp_path)).stdout)
+    assert clean["problems"] == [] and clean["done"] == 4
+
+
+def test_flipped_byte_inside_a_point_file_is_detected_and_solved_again(tmp_path):
+    store = _solved_store(tmp_path)
+    path = store.result_path(1)
+    before = SimulationResult.load(path).force
+    data = bytearray(path.read_bytes())
+    data[len(data) // 2] ^= 0x01  # one bit, size unchanged
+    path.write_bytes(bytes(data))
+    seen = CampaignStore.open(tmp_path / "h", repair=False)
+    assert [(p.point, "content changed" in p.reason) for p in seen.problems] == [(1, True)]
+    with pytest.raises(CampaignError, match=r"00001\.npz: content changed since written"):
+        load_campaign("h", runs_dir=tmp_path)
+    s = run_campaign(CampaignStore.open(tmp_path / "h"), jobs=1)
+    assert s["solved_now"] == 1 and s["done"] == 4
+    np.testing.assert_array_equal(SimulationResult.load(path).force, before)
+    assert load_campaign("h", runs_dir=tmp_path).n == 4
+
+
+def test_deleted_point_file_is_detected_and_solved_again(tmp_path):
+    store = _solved_store(tmp_path)
+    store.result_path(3).unlink()
+    seen = CampaignStore.open(tmp_path / "h", repair=False)
+    assert [(p.point, p.reason) for p in seen.problems] == [(3, "missing (the index says done)")]
+    s = run_campaign(CampaignStore.open(tmp_path / "h"), jobs=1)
+    assert s["solved_now"] == 1 and s["done"] == 4 and store.result_path(3).is_file()
+
+
+def test_deleted_index_row_is_detected_and_rebuilt_from_the_point_file(tmp_path):
+    _solved_store(tmp_path)
+    path = tmp_path / "h" / "index.parquet"
+    index = pd.read_parquet(path)
+    sha = index.loc[2, "sha256"]
+    index.drop(index=2).to_parquet(path, index=False)
+    seen = CampaignStore.open(tmp_path / "h", repair=False)
+    assert [p.point for p in seen.problems] == [2] and "no row for point 2" in seen.problems[0].reason
+    s = run_campaign(CampaignStore.open(tmp_path / "h"), jobs=1)
+    assert s["solved_now"] == 0 and s["done"] == 4  # the file was checked to load: nothing solved
+    index = pd.read_parquet(path)
+    assert sorted(index["point"]) == [0, 1, 2, 3] and index.loc[2, "sha256"] == sha
+    assert str(index.loc[2, "status"]) == "done" and index.loc[2, "wall_s"] > 0
+    # an index file that cannot be read at all is rebuilt from the point files the same way
+    path.write_bytes(path.read_bytes()[:100])
+    s = run_campaign(CampaignStore.open(tmp_path / "h"), jobs=1)
+    assert s["solved_now"] == 0 and s["done"] == 4 and "unreadable" in s["problems"][0]["reason"]
+    assert CampaignStore.open(tmp_path / "h", repair=False).problems == []
+
+
+def test_an_older_store_gets_its_hashes_on_its_first_resume_after_each_file_loads(tmp_path):
+    store = _solved_store(tmp_path)
+    path = tmp_path / "h" / "index.parquet"
+    old = pd.read_parquet(path).drop(columns=["sha256", "bytes", "attempts", "flagged_steps", "rerun_s"])
+    old.to_parquet(path, index=False)
+    (tmp_path / "h" / "campaign.sha256").unlink()
+    store.result_path(0).write_bytes(store.result_path(0).read_bytes()[:300])  # one damaged file
+    seen = CampaignStore.open(tmp_path / "h", repair=False)  # status: loads each file, reports
+    assert [p.point for p in seen.problems] == [0] and "unreadable" in seen.problems[0].reason
+    resumed = CampaignStore.open(tmp_path / "h")
+    assert sorted(resumed.hashed_now) == [1, 2, 3] and (tmp_path / "h" / "campaign.sha256").is_file()
+    s = run_campaign(resumed, jobs=1)
+    assert s["solved_now"] == 1 and s["done"] == 4
+    assert pd.read_parquet(path)["sha256"].notna().all()
+
+
+def test_a_changed_campaign_json_is_named(tmp_path):
+    _solved_store(tmp_path)
+    meta = tmp_path / "h" / "campaign.json"
+    text = meta.read_text()
+    assert "    150.0\n" in text
+    meta.write_text(text.replace("    150.0\n", "    151.0\n", 1))  # still JSON, another design
+    with pytest.raises(CampaignError, match=r"campaign\.json: changed since the campaign was created"):
+        CampaignStore.open(tmp_path / "h")
+    meta.write_text("{")
+    with pytest.raises(CampaignError, match=r"campaign\.json: unreadable campaign spec"):
+        CampaignStore.open(tmp_path / "h")
+
+
+def test_a_full_disk_is_a_clear_error_and_nothing_is_written_half(tmp_path, monkeypatch):
+    import errno
+
+    from indentation_studio.campaign.store import DiskFullError
+
+    store = CampaignStore.create_or_open(tmp_path, _spec("full", GRID))
+    calls = {"n": 0}
+    original = np.savez_compressed
+
+    def savez(fh, **arrays):  # the second point's file: the disk fills half-way through it
+        calls["n"] += 1
+        if calls["n"] == 2:
+            fh.write(b"PK\x03\x04 half a file")
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return original(fh, **arrays)
+
+    monkeypatch.setattr(np, "savez_compressed", savez)
+    with pytest.raises(
+        DiskFullError, match=r"disk full while writing .*00001\.npz: nothing was written half"
+    ):
+        run_campaign(store, jobs=1)
+    monkeypatch.setattr(np, "savez_compressed", original)
+    files = sorted(p.name for p in store.points_dir.iterdir())
+    assert files == ["00000.npz"]  # no temporary file, no half file
+    s = run_campaign(CampaignStore.open(tmp_path / "full"), jobs=1)
+    assert s["done"] == 4 and s["solved_now"] == 3 and s["problems"] == []
+
+
+def test_two_runs_started_together_solve_each_point_once(tmp_path):
+    args = [*CLI, "campaign", "run", "--name", "two", "--grid", "c1=3:15:3,c5=100:500:3", "--mesh", "coarse"]
+    args += ["--steps", "2", "--jobs", "1", "--runs-dir", str(tmp_path), "--json"]
+    procs = [
+        subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) for _ in range(2)
+    ]
+    outs = [p.communicate(timeout=600) for p in procs]
+    assert all(p.returncode == 0 for p in procs), [o[1][-2000:] for o in outs]
+    summaries = [json.loads(o[0]) for o in outs]
+    assert all(s["done"] == 9 and s["pending"] == 0 for s in summaries)
+    assert sum(s["solved_now"] for s in summaries) == 9  # once in total
+    index = pd.read_parquet(tmp_path / "two" / "index.parquet")
+    assert index["attempts"].tolist() == [1] * 9 and set(index["status"].astype(str)) == {"done"}
+    assert list((tmp_path / "two" / "leases").iterdir()) == []
+
+
+def test_claims_held_by_a_live_run_are_skipped_and_named_and_a_dead_ones_taken_over(tmp_path):
+    from indentation_studio.campaign.store import RunIdentity
+
+    store = CampaignStore.create_or_open(tmp_path, _spec("cl", GRID))
+    other = RunIdentity("elsewhere01", "node17.cluster", 4242, time.time() - 60)
+    dead = RunIdentity("deadrun0001", socket_host(), _dead_pid(), time.time() - 60)
+    store.leases_dir.mkdir(exist_ok=True)
+    (store.lease_path(0)).write_text(json.dumps(other.lease(0)))  # a live run on another machine
+    (store.lease_path(1)).write_text(json.dumps(dead.lease(1)))  # a run killed on this machine
+    stale = other.lease(2) | {"heartbeat": time.time() - 3600}  # not renewed for an hour
+    (store.lease_path(2)).write_text(json.dumps(stale))
+    res = _cli("campaign", "status", "--name", "cl", "--runs-dir", str(tmp_path))
+    claims = {c["point"]: c for c in json.loads(res.stdout)["claims"]}
+    assert claims[0]["host"] == "node17.cluster" and claims[0]["pid"] == 4242 and claims[0]["alive"]
+    assert not claims[1]["alive"] and not claims[2]["alive"]
+    s = run_campaign(CampaignStore.open(tmp_path / "cl"), jobs=1, wait_for_held=False)
+    assert s["solved_now"] == 3 and s["done"] == 3 and s["pending"] == 1  # 1 and 2 taken over
+    assert s["held_by_other_runs"] == [{"point": 0, "host": "node17.cluster", "pid": 4242}]
+    text = subprocess.run(
+        [*CLI, "campaign", "status", "--name", "cl", "--runs-dir", str(tmp_path)],
+        capture_output=True,
+        text=True,
+    ).stdout
+    assert "point 0 held by node17.cluster pid 4242" in text and "running" in text
+    # the other run dies (its heartbeat stops): a run waiting for the point takes it over
+    (store.lease_path(0)).write_text(json.dumps(other.lease(0) | {"heartbeat": time.time() - 2}))
+    s = run_campaign(CampaignStore.open(tmp_path / "cl"), jobs=1, lease_timeout_s=3.0, poll_s=0.2)
+    assert s["solved_now"] == 1 and s["done"] == 4 and s["held_by_other_runs"] == []
+
+
+def socket_host() -> str:
+    import socket
+
+    return socket.gethostname()
+
+
+def _dead_pid() -> int:
+    p = subprocess.Popen([sys.executable, "-c", "pass"])
+    p.wait()
+    return p.pid
+
+
+@pytest.mark.slow
+def test_dask_worker_killed_mid_campaign_loses_only_its_point(tmp_path):
+    """A real scheduler and worker on 127.0.0.1; the worker is SIGKILLed while it solves, a new
+    one is started: every point done, each written once and whole."""
+    pytest.importorskip("distributed")
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    address = f"tcp://127.0.0.1:{port}"
+    bin_dir = os.path.dirname(sys.executable)
+    log = open(tmp_path / "dask.log", "wb")
+    procs = []
+
+    def start(*args):
+        p = subprocess.Popen(
+            [os.path.join(bin_dir, "dask"), *args],
+            stdout=log,
+            stderr=log,
+            cwd=tmp_path,
+            start_new_session=True,
+        )
+        procs.append(p)
+        return p
+
+    def worker():
+        return start(
+            "worker", address, "--nthreads", "1", "--no-nanny", "--host", "127.0.0.1", "--no-dashboard"
+        )
+
+    try:
+        start("scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard")
+        first = worker()
+        args = [
+            *CLI,
+            "campaign",
+            "run",
+            "--name",
+            "dk",
+            "--grid",
+            "c1=3:15:4,c5=100:500:2",
+            "--mesh",
+            "coarse",
+        ]
+        args += ["--steps", "4", "--scheduler", address, "--runs-dir", str(tmp_path), "--json"]
+        run = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        points = tmp_path / "dk" / "points"
+        deadline = time.time() + 240
+        while time.time() < deadline and len(list(points.glob("[0-9]*.npz"))) < 2 and run.poll() is None:
+            time.sleep(0.05)
+        time.sleep(0.3)  # into the next point
+        first.send_signal(signal.SIGKILL)
+        first.wait(timeout=30)
+        killed_at = len(list(points.glob("[0-9]*.npz")))
+        assert 2 <= killed_at < 8, "the kill must land part way"
+        worker()
+        out, err = run.communicate(timeout=400)
+        assert run.returncode == 0, err[-3000:]
+        summary = json.loads(out)
+        assert summary["done"] + summary["failed"] == 8 and summary["pending"] == 0
+        if summary["failed"]:  # recorded with its reason, never lost
+            assert all("worker lost" in f["error"] for f in summary["failures"])
+        index = pd.read_parquet(tmp_path / "dk" / "index.parquet")
+        assert index["attempts"].tolist() == [1] * 8  # each point recorded (written) once
+        files = sorted(p.name for p in points.iterdir())
+        assert files == [f"{i:05d}.npz" for i in index.loc[index.status == "done", "point"]]
+        assert CampaignStore.open(tmp_path / "dk", repair=False).problems == []  # whole files
+        for i in index.loc[index.status == "done", "point"]:
+            assert SimulationResult.load(points / f"{i:05d}.npz").force[-1] > 0
+    finally:
+        for p in procs:
+            if p.poll() is None:
+                p.send_signal(signal.SIGKILL)
+                p.wait(timeout=30)
+        log.close()
+
+
+def test_damaged_experiment_surrogate_and_budget_files_are_named_in_the_json_error_contract(tmp_path):
+    """Every loader names the file and what is wrong with it (``{"error": ...}``, exit 1), never a
+    traceback: a truncated DIC file of an experiment, a truncated surrogate file, an error budget
+    that is not one."""
+    import shutil
+
+    from typer.testing import CliRunner
+
+    from indentation_studio.studio.cli import app
+
+    exp = tmp_path / "exp"
+    shutil.copytree(os.path.join(os.path.dirname(__file__), "..", "examples", "synthetic-12-250"), exp)
+    (exp / "dic.npz").write_bytes((exp / "dic.npz").read_bytes()[:700])
+    res = CliRunner().invoke(app, ["check", "--experiment", str(exp), "--mesh", "coarse", "--json"])
+    assert res.exit_code == 1 and "Traceback" not in res.output
+    error = json.loads(res.stdout.strip().splitlines()[-1])["error"]
+    assert str(exp / "dic.npz") in error and "not a readable DIC file, truncated or damaged" in error
+    model = tmp_path / "cut.safetensors"
+    model.write_bytes(b"\x10\x00\x00\x00\x00\x00\x00\x00{}")
+    whole = tmp_path / "whole"
+    shutil.copytree(os.path.join(os.path.dirname(__file__), "..", "examples", "synthetic-12-250"), whole)
+    res = CliRunner().invoke(app, ["fit", "--experiment", str(whole), "--surrogate", str(model), "--json"])
+    assert res.exit_code == 1 and "Traceback" not in res.output
+    assert str(model) in json.loads(res.stdout.strip().splitlines()[-1])["error"]
+    from indentation_studio.surrogate.error_budgets import remaining_bias
+
+    budget = tmp_path / "error-budget.json"
+    budget.write_text(json.dumps({"rows": [{"model": "coarse", "c1_bias_pct": "x"}]}))
+    with pytest.raises(ValueError, match=r"error-budget\.json: 'coarse' has no numeric c1_bias_pct"):
+        remaining_bias(budget, "coarse")
