@@ -213,9 +213,12 @@ class _Dask:
             return []
         try:
             done, _ = wait(list(self.futures), timeout=timeout, return_when="FIRST_COMPLETED")
-        except TimeoutError:
-            return []
-        except Exception:  # distributed's own timeout class in some versions
+        except Exception as exc:  # a timeout (none finished yet), or the scheduler gone
+            if getattr(self.client, "status", "running") not in ("running", "connecting"):
+                raise CampaignError(
+                    f"lost the dask scheduler ({type(exc).__name__}: {exc}); the points in flight "
+                    "are released and the finished ones kept: run again"
+                ) from exc
             return []
         out = []
         for f in done:

@@ -324,12 +324,15 @@ class CampaignStore:
             raise CampaignError(f"{root}: no campaign here (campaign.json missing)")
         spec = _read_spec(meta, repair)
         store = cls(root, spec, cls._fresh_index(spec))
+        if not repair:  # read only (a store on a read-only share too): every write is a rename
+            store.index, store.problems = store._read_index()
+            store.verify(repair=False)
+            return store
         with store.locked():
-            store.index, store.problems = store._read_index(repair_notes=True)
-            store.verify(repair=repair)
-            if repair:
-                store._clean_temporaries()
-                store.write_index()
+            store.index, store.problems = store._read_index()
+            store.verify(repair=True)
+            store._clean_temporaries()
+            store.write_index()
         return store
 
     @staticmethod
@@ -345,7 +348,7 @@ class CampaignStore:
         table["finished"] = pd.array([None] * n, dtype="string")
         return _with_check_columns(table)
 
-    def _read_index(self, repair_notes: bool = False) -> tuple[pd.DataFrame, list[Problem]]:
+    def _read_index(self) -> tuple[pd.DataFrame, list[Problem]]:
         """The index on disk checked against the design: an unreadable file, or rows missing,
         repeated, of no point or of other parameters give a fresh row (the point files then
         restore what they hold). Call under the lock."""

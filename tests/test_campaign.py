@@ -206,6 +206,13 @@ def test_every_point_file_is_recorded_with_its_sha256_and_size(tmp_path):
     assert (tmp_path / "h" / "campaign.sha256").read_text().strip() == hashlib.sha256(
         (tmp_path / "h" / "campaign.json").read_bytes()
     ).hexdigest()
+    before = {p: p.stat().st_mtime_ns for p in (tmp_path / "h").rglob("*")}
+    (tmp_path / "h" / ".lock").unlink(missing_ok=True)
+    assert load_campaign("h", runs_dir=tmp_path).n == 4  # a loader only reads (a read-only share)
+    assert not (tmp_path / "h" / ".lock").exists()
+    assert {p: p.stat().st_mtime_ns for p in (tmp_path / "h").rglob("*")} == {
+        p: t for p, t in before.items() if p.name != ".lock"
+    }
 
 
 def test_truncated_point_file_is_named_by_status_and_loaders_and_solved_again_by_a_resume(tmp_path):
