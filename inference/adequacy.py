@@ -56,7 +56,6 @@ __all__ = [
     "chi_square_test",
     "dic_noise_mm",
     "force_noise_per_step",
-    "loud_warnings",
     "model_adequacy",
     "noise_model",
 ]
@@ -503,10 +502,3 @@ def fit_adequacy(
         )
     except (ValueError, np.linalg.LinAlgError) as exc:
         return None, f"the adequacy test could not be made: {exc}"
-
-
-def loud_warnings(adequacy: Adequacy | None, budget: dict) -> list[str]:
-    """fit.json's warnings from the adequacy test (when flagged) and the error budget (when none
-    is known for the test), beside their own entries ('adequacy', 'error_budget')."""
-    out = [adequacy.message()] if adequacy is not None and adequacy.flagged else []
-    return out + ([budget["warning"]] if budget.get("warning") else [])

@@ -22,7 +22,7 @@ from ..forward.predictor import FESolverPredictor
 from ..forward.solver import SimulationError
 from ..surrogate.base import FieldSurrogate
 from ..surrogate.error_budgets import surrogate_error_budget
-from .adequacy import fit_adequacy, loud_warnings
+from .adequacy import fit_adequacy
 from .budget_check import budget_status
 from .experiment_data import ExperimentData
 from .fit_inputs import FitInputs, prepare_fit
@@ -132,7 +132,7 @@ class ExperimentFit:
             "bounds_include": model_error_scope(self.model_error, contact=self.contact),
             "statistical_pct": self.statistical_pct.tolist(),
             "friction": self._friction_dict(),
-            "warnings": self.warnings + loud_warnings(self.adequacy, budget),
+            "warnings": self.warnings,
             "adequacy": self.adequacy.to_dict()
             if self.adequacy is not None
             else {"note": self.adequacy_note},

@@ -130,10 +130,9 @@ def fit(
             f"{m['model_pct'][1]:.2f} % (discrepancy {m['discrepancy_pct'][0]:.2f} / {m['discrepancy_pct'][1]:.2f}, "
             f"error budget {m['error_budget_pct'][0]:.2f} / {m['error_budget_pct'][1]:.2f})"
         )
-    loud = _loud_warnings(payload)
+    _loud_warnings(payload)
     for warning in payload["warnings"]:
-        if warning not in loud:
-            err.print(f"[yellow]warning:[/yellow] {warning}")
+        err.print(f"[yellow]warning:[/yellow] {warning}")
     fr = payload["friction"]
     if "mu_pct" in fr:
         limit = f" (on its range's {fr['mu_at_limit']} limit)" if fr["mu_at_limit"] else ""
@@ -160,10 +159,10 @@ def fit(
         )
 
 
-def _loud_warnings(payload: dict) -> list[str]:
+def _loud_warnings(payload: dict) -> None:
     """The adequacy flag (red) and a test without an error budget (yellow) as panels under the
-    headline numbers: they say the numbers above are not to be trusted as they stand. Returns
-    the warnings shown so (fit.json lists them among its warnings too)."""
+    headline numbers: they say the numbers above are not to be trusted as they stand (fit.json
+    holds them under 'adequacy' and 'error_budget')."""
     console = Console()
     adequacy = payload["adequacy"]
     if "flagged" not in adequacy:
@@ -196,8 +195,6 @@ def _loud_warnings(payload: dict) -> list[str]:
     if budget["warning"]:
         title = "[bold yellow]NO ERROR BUDGET FOR THIS TEST[/bold yellow]"
         console.print(Panel(budget["warning"], title=title, border_style="yellow"))
-    shown = [adequacy["message"]] if adequacy.get("flagged") else []
-    return shown + ([budget["warning"]] if budget["warning"] else [])
 
 
 def _noise_words(noise: dict) -> str:
