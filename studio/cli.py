@@ -46,6 +46,7 @@ from .options import (
 )
 from .progress import step_progress
 from .surrogate_cli import surrogate_app
+from .verification_cli import register as register_verification
 
 
 class StudioGroup(TyperGroup):
@@ -92,6 +93,7 @@ app.add_typer(design_app, name="design")
 app.add_typer(surrogate_app, name="surrogate")
 register_inference(app)
 register_import(app)
+register_verification(app)
 
 
 @app.command()

@@ -123,3 +123,22 @@ def test_the_study_resumes_from_its_runs(small_study):
     )
     stored = load_verification_study(out / "study.json")
     assert stored["family"]["ratio"] == 1.5 and stored["inputs"]["radii"] == [4.77]
+
+
+def test_the_command_runs_the_study_and_prints_one_json_object(small_study):
+    import json
+
+    from typer.testing import CliRunner
+
+    from indentation_studio.studio.cli import app
+
+    study, out, *_ = small_study
+    args = ["verification-study", "--family", "8x8:1.6:1.5", "--levels", "0,1,2", "--points", "10:350"]
+    args += ["--radii", "4.77", "--steps", "4", "--substeps", "1", "--out-dir", str(out), "--json"]
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code == 0, result.output
+    payload = json.loads(result.stdout)
+    stored = study.cases[0]["quantities"]["fit c5"]["values"]
+    assert payload["cases"][0]["quantities"]["fit c5"]["values"] == pytest.approx(list(stored), rel=1e-12)
+    bad = CliRunner().invoke(app, ["verification-study", "--family", "8x8:1.6", "--json"])
+    assert bad.exit_code == 1 and "CXYxCZ:H0:RATIO" in json.loads(bad.stdout)["error"]
