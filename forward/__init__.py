@@ -39,6 +39,8 @@ __getattr__, __dir__, __all__ = lazy.attach(
         "coulomb_contact": ["FrictionContactState", "contact_response", "tributary_areas"],
         "solver": ["EmbeddedSolver", "SimulationError", "simulate"],
         "threads": ["busy_cores", "solver_threads", "thread_limits"],
+        "mesh_family": ["MeshFamily"],
+        "grid_convergence": ["ConvergenceOfQuantity", "GridTriplet", "observed_order", "study_quantity"],
         "material": ["InvertedElementError"],
         "result": ["SimulationResult"],
         "predictor": [

@@ -11,23 +11,20 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from .. import forward, inference, studio  # lazy packages: a command imports what it runs
 from ..atomic_write import strict_json
-from ..forward.mesh_family import MeshFamily
-from ..forward.solver import SimulationError
 from ..forward.spec import SpecError
-from ..inference.verification_study import run_verification_study
-from .figures import save_figure, verification_figure
 from .options import JSON, KAPPA, STEP_SIZE, STEPS, err, fail, model_spec, say
 from .progress import step_progress
 
 
-def parse_family(text: str) -> MeshFamily:
+def parse_family(text: str) -> forward.MeshFamily:
     """'CXY x CZ : H0 : RATIO' (e.g. '8x8:1.2:1.5'): base cells along x (and y) and z, the base
     level's first cell (mm, both axes) and the refinement ratio."""
     try:
         cells, h0, ratio = text.split(":")
         cxy, cz = cells.lower().split("x")
-        return MeshFamily(int(cxy), int(cz), float(h0), float(h0), float(ratio))
+        return forward.MeshFamily(int(cxy), int(cz), float(h0), float(h0), float(ratio))
     except ValueError as exc:
         raise ValueError(f"--family {text!r}: use CXYxCZ:H0:RATIO, e.g. 8x8:1.2:1.5 ({exc})") from exc
 
@@ -84,7 +81,7 @@ def verification_study(
                 done[label] = done.get(label, 0) + 1
                 bar.update(sum(done.values()), f"{label} step {k}/{n}: {f:.1f} mN")
 
-            study = run_verification_study(
+            study = inference.run_verification_study(
                 spec,
                 fam,
                 level_list,
@@ -96,13 +93,14 @@ def verification_study(
                 progress=report,
                 say=say,
             )
-    except (SpecError, ValueError, SimulationError, OSError) as exc:
+    except (SpecError, ValueError, forward.SimulationError, OSError) as exc:
         fail(str(exc), as_json)
     payload = study.to_dict() | {"study_file": str(Path(out_dir) / "study.json")}
     if figure is not None and study.cases:
         case = study.cases[0]
         title = f"R = {case['radius']:g} mm, (c1, c5) = ({case['theta'][0]:g}, {case['theta'][1]:g}) kPa"
-        payload["figure"] = str(save_figure(verification_figure(case, title=title), figure))
+        fig = studio.figures.verification_figure(case, title=title)  # matplotlib: only for a figure
+        payload["figure"] = str(studio.figures.save_figure(fig, figure))
     if as_json:
         print(strict_json(payload))
         return
