@@ -22,10 +22,14 @@ The noise model:
   residual, moving every node's value by the field's gradient there (a rank-two term, solved
   by Woodbury's identity).
 
-Whitening ``z = L^-1 r`` with ``L L^T`` that covariance, the statistic is ``z^T z``; steps are
-independent. Where the fit is flagged, the parameters that sit at the end of their range or
-that were identified narrowly while the model misses (mu on a composite: it absorbs model
-error) are named.
+The model is compared as the data are seen: its own field sampled at the DIC points and put
+through the same planes (what a plane makes of a curved field is no noise). Whitening
+``z = L^-1 r`` with ``L L^T`` that covariance (steps independent), the statistic is the minimum
+of ``z^T z`` over theta to first order, one generalised least-squares step from the fit: the fit
+minimised the unwhitened sum, and can have moved theta to absorb part of a systematic
+difference. The parameters that sit at an end of their range are named and, where the fit is
+flagged, mu identified narrowly while the model misses (mu on a composite: it absorbs model
+error).
 """
 
 from __future__ import annotations
@@ -81,7 +85,6 @@ class NoiseModel:
     def to_dict(self) -> dict:
         return {
             "force_sd_mN": self.force_sd_mN.tolist(),
-            "force_sd_pct_median": None,  # set by Adequacy (relative to f_inf)
             "force_source": self.force_source,
             "dic_sd_mm": self.dic_sd_mm.tolist(),
             "dic_source": self.dic_source,
@@ -100,7 +103,7 @@ class Adequacy:
     p_value: float
     n: int
     p: int
-    terms: dict[str, dict]  # force, ux, uy, uz: {"statistic", "n"}
+    terms: dict[str, dict]  # force, ux, uy, uz at the fit; registration, refit: what they take off
     noise: NoiseModel
     force_sd_pct: float  # median force noise in percent of f_inf
     named: list[dict] = field(default_factory=list)  # {"parameter", "reason"}
@@ -118,12 +121,13 @@ class Adequacy:
     def message(self) -> str:
         """One line: the flag (or not) with its numbers."""
         head = CANNOT_EXPLAIN if self.flagged else "the model explains these data within their noise"
-        worst = max(self.terms.items(), key=lambda kv: kv[1]["statistic"] / max(kv[1]["n"], 1))
+        data = [(k, v) for k, v in self.terms.items() if v["n"]]  # not the registration's, the refit's
+        worst = max(data, key=lambda kv: kv[1]["statistic"] / kv[1]["n"])
         names = "".join(f"; {d['parameter']}: {d['reason']}" for d in self.named)
         return (
             f"{head}: chi-square {self.statistic:.4g} on {self.dof} degrees of freedom "
             f"({self.ratio:.3g} per degree), p = {self.p_value:.3g} (flagged below {self.alpha:g}); "
-            f"largest per point: {worst[0]} ({worst[1]['statistic'] / max(worst[1]['n'], 1):.3g}){names}"
+            f"largest per point: {worst[0]} ({worst[1]['statistic'] / worst[1]['n']:.3g}){names}"
         )
 
     def to_dict(self) -> dict:
@@ -385,21 +389,29 @@ def _gradients(
 
 
 def _named(fr: dict, flagged: bool, at_ends: list[dict]) -> list[dict]:
-    """The parameters a fit names: those at a range end and, when it is flagged, mu identified
-    (``fr``: fit.json's 'friction') while the model misses the data."""
+    """The parameters a fit names: those at a range end and, when it is flagged, mu fitted
+    (``fr``: fit.json's 'friction') while the model misses the data: identified (a narrow
+    interval: it absorbs model error) or pressed against an end of its range (its interval
+    reaching it: the fit moves it as far as it may to take up the misfit)."""
     named = list(at_ends)
-    if flagged and fr.get("mu_identified"):
-        lo, hi = fr["mu_interval"]
-        named.append(
-            {
-                "parameter": "mu",
-                "reason": (
-                    f"identified at {fr['mu']:.3g} (95 % within [{lo:.3g}, {hi:.3g}]) while the model misses "
-                    "the data: mu absorbs model error here, its value is not a friction coefficient"
-                ),
-            }
+    if not flagged or "mu" not in fr or any(d["parameter"] == "mu" for d in named):
+        return named
+    lo, hi = fr["mu_interval"]
+    ends = [side for side, reached in (fr.get("mu_reaches_range_end") or {}).items() if reached]
+    if fr.get("mu_identified"):
+        reason = (
+            f"identified at {fr['mu']:.3g} (95 % within [{lo:.3g}, {hi:.3g}]) while the model misses the "
+            "data: mu absorbs model error here, its value is not a friction coefficient"
         )
-    return named
+    elif ends:
+        reason = (
+            f"fitted at {fr['mu']:.3g}, its 95 % interval [{lo:.3g}, {hi:.3g}] reaching the range's "
+            f"{' and '.join(ends)} end while the model misses the data: mu moves to take up the misfit, "
+            "its value is not a friction coefficient"
+        )
+    else:
+        return named
+    return [*named, {"parameter": "mu", "reason": reason}]
 
 
 def model_adequacy(

@@ -113,6 +113,11 @@ def test_a_wrong_force_scale_is_flagged(model, tmp_path):
     inputs = SimpleNamespace(objective=objective, experiment=exp, dic=dic, eta=ETA)
     named = model_adequacy(inputs, fit, friction=friction).named
     assert [d["parameter"] for d in named] == ["mu"] and "absorbs model error" in named[0]["reason"]
+    # pressed against its range's end (the composite at R = 8 with mu identified: 0.111 in [0.1, 0.157])
+    pressed = {"mu_identified": False, "mu": 0.111, "mu_interval": [0.1, 0.157]}
+    pressed["mu_reaches_range_end"] = {"lower": True, "upper": False}
+    named = model_adequacy(inputs, fit, friction=pressed).named
+    assert [d["parameter"] for d in named] == ["mu"] and "range's lower end" in named[0]["reason"]
 
 
 def test_a_parameter_at_the_end_of_the_training_box_is_named():
