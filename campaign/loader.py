@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from ..forward.febio_equilibrium import check_equilibrium
+from ..forward.febio.equilibrium import check_equilibrium
 from ..forward.predictor import Prediction
 from ..forward.result import SimulationResult
 from .store import CampaignError, CampaignStore

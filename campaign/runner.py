@@ -33,7 +33,7 @@ from typing import Any
 
 import numpy as np
 
-from ..forward.febio_runner import find_febio
+from ..forward.febio.runner import find_febio
 from ..forward.spec import ModelSpec
 from .designs import Design, design_from_option
 from .store import (
@@ -76,12 +76,12 @@ def solve_point(
         with thread_limits(1):  # one worker per core: numba and MKL on one thread each
             spec = ModelSpec.from_dict(model).with_parameters(**dict(zip(parameters, values, strict=True)))
             if solver == "febio":
-                from ..forward.febio_equilibrium import EquilibriumTolerance
-                from ..forward.febio_runner import FebioSolver
+                from ..forward.febio.equilibrium import EquilibriumTolerance
+                from ..forward.febio.runner import FebioSolver
 
                 # steps FEBio accepted off equilibrium (after its one rerun, made only when a
                 # step is flagged) are kept as NaN forces: the point is done, its flagged steps
-                # counted (forward.febio_equilibrium; the loader and training handle them)
+                # counted (forward.febio.equilibrium; the loader and training handle them)
                 tolerance = EquilibriumTolerance(relative=equilibrium_rel or 0.02)
                 result = FebioSolver(spec, workdir=workdir, timeout_s=timeout_s, tolerance=tolerance).run()
             else:

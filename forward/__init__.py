@@ -7,6 +7,7 @@ import lazy_loader as lazy
 
 __getattr__, __dir__, __all__ = lazy.attach(
     __name__,
+    submodules=["febio"],
     submod_attrs={
         "spec": [
             "CompositeMaterial",
@@ -52,8 +53,8 @@ __getattr__, __dir__, __all__ = lazy.attach(
             "ReducedPredictor",
         ],
         "richardson": ["RichardsonPredictor"],
-        "feb_writer": ["FebSettings", "write_feb"],
-        "febio_runner": ["FebioSolver", "find_febio"],
+        "febio.writer": ["FebSettings", "write_feb"],
+        "febio.runner": ["FebioSolver", "find_febio"],
         "mesh_study": ["MeshErrors", "convergence_study", "mesh_errors"],
         "vtu_export": ["write_vtu_series"],
     },

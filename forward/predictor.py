@@ -18,6 +18,7 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
+from .febio.runner import FebioSolver, find_febio
 from .result import SimulationResult
 from .spec import ModelSpec, SpecError
 
@@ -118,7 +119,7 @@ class FESolverPredictor:
     """A Predictor that runs one FE simulation per parameter point.
 
     ``solver`` is ``"embedded"`` (sensitivities available: exact d force / d theta and
-    d u / d theta from the solver) or ``"febio"`` (needs FEBio 4, see forward.febio_runner;
+    d u / d theta from the solver) or ``"febio"`` (needs FEBio 4, see forward.febio.runner;
     steps FEBio accepted off equilibrium, even after its rerun, come back with NaN forces).
     ``n_jobs`` > 1 runs points in parallel with joblib processes.
     """
@@ -141,8 +142,6 @@ class FESolverPredictor:
                 f"the FE solvers take parameters ('c1', 'c5') or ('c1', 'c5', 'mu'), got {parameters}"
             )
         if solver == "febio":
-            from .febio_runner import find_febio
-
             find_febio()  # fail now, with the FEBIO_PATH message, not inside a worker
         self.spec = spec
         self.solver = solver
@@ -161,8 +160,6 @@ class FESolverPredictor:
             from .solver import simulate
 
             return simulate(spec, sensitivities=self.sensitivities or sensitivities)
-        from .febio_runner import FebioSolver
-
         workdir = self.workdir / f"point-{index:05d}" if self.workdir else None
         return FebioSolver(spec, workdir=workdir).run()
 

@@ -40,7 +40,7 @@ class SimulationResult:
     parameters: tuple[str, ...] = ("c1", "c5")
     full_displacement: np.ndarray | None = None  # (s, n, 3) mm: every node, when asked for (VTU export)
     # (s,) bool: steps a FEBio run accepted off equilibrium (force NaN there, see
-    # forward.febio_equilibrium); None when not checked (the embedded solver, old files)
+    # forward.febio.equilibrium); None when not checked (the embedded solver, old files)
     off_equilibrium: np.ndarray | None = None
     # (s, nt) int8: each top node's contact per step, 0 free, 1 stuck, 2 slipping (embedded
     # solver; None for FEBio runs and old files)

@@ -8,7 +8,9 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from .febio_equilibrium import equilibrium_notes
+from .febio.equilibrium import equilibrium_notes
+from .febio.readback import read_febio_run
+from .febio.runner import FebioSolver
 from .result import SimulationResult
 from .solver import EmbeddedSolver, SimulationError
 from .spec import ModelSpec
@@ -52,12 +54,8 @@ def run_simulation(
     engine = None
     try:
         if from_log is not None:
-            from .febio_readback import read_febio_run
-
             result = read_febio_run(Path(from_log), spec)
         elif solver == "febio":
-            from .febio_runner import FebioSolver
-
             engine = FebioSolver(spec, workdir=out.with_name(out.stem + ".febio"))
             result = engine.run(progress=progress)
         else:

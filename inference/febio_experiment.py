@@ -5,7 +5,7 @@ indenter's shadow, noise, a registration error; :func:`inference.synthetic_exper
 This is how the studio is checked against a solver it does not share code with: an experiment
 made by FEBio 4 (its sliding-elastic contact, its three-field element) is fitted by the studio's
 surrogate and FE model, as a measured one would be. Steps FEBio accepted off equilibrium
-(:mod:`forward.febio_equilibrium`) have no force and are left out of the experiment."""
+(:mod:`forward.febio.equilibrium`) have no force and are left out of the experiment."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..forward.febio_readback import logged_block_material, read_febio_run
+from ..forward.febio.readback import logged_block_material, read_febio_run
 from ..forward.predictor import Prediction, as_theta
 from ..forward.spec import Indenter, Material, MeshChoice, ModelSpec, Protocol
 from .synthetic_experiment import LAB_RECORDING, write_synthetic_experiment
@@ -88,7 +88,7 @@ def experiment_from_febio_run(
     experiment.json records the run (log, .feb, parameters) and excludes the steps FEBio
     accepted off equilibrium. Raises FebioLogError / FebioRunError naming what is wrong, and
     FileExistsError for an experiment folder already there (unless ``overwrite``)."""
-    from ..forward.febio_log import FebioLogError
+    from ..forward.febio.log import FebioLogError
 
     if (Path(out_dir) / "experiment.json").exists() and not overwrite:
         raise FileExistsError(

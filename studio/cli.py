@@ -133,7 +133,7 @@ def simulate(
     ``--solver febio`` runs the same model on FEBio 4 (FEBIO_PATH or PATH); its .feb, log and
     plot file stay in a folder beside the result file. Steps FEBio accepted off equilibrium are
     named on stderr and their forces are NaN (null in --json)."""
-    from ..forward.febio_log import FebioLogError
+    from ..forward.febio.log import FebioLogError
     from ..forward.simulation_run import run_simulation
     from ..forward.solver import SimulationError
 
@@ -218,7 +218,7 @@ def export_feb(
 ) -> None:
     """Write the model as a FEBio 4.0 .feb to run with febio4 or open in FEBio Studio
     (``--friction MU``: sliding-elastic with that friction coefficient, 0 frictionless)."""
-    from ..forward.feb_writer import write_feb
+    from ..forward.febio.writer import write_feb
 
     try:
         spec = model_spec(c1, c5, kappa, radius, steps, step_size, mesh, mesh_from, 2, friction)

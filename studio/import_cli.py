@@ -368,8 +368,8 @@ def import_febio_command(
     """A real FEBio run as a DIC-like experiment: its force and top-node field seen by DIC points
     (the indenter's shadow, noise, a registration error); steps FEBio accepted off equilibrium left
     out. For checking a fit against a solver the studio shares no code with."""
-    from ..forward.febio_log import FebioLogError
-    from ..forward.febio_readback import FebioRunError
+    from ..forward.febio.log import FebioLogError
+    from ..forward.febio.readback import FebioRunError
     from ..inference.febio_experiment import experiment_from_febio_run
 
     try:

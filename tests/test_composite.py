@@ -140,7 +140,7 @@ def test_composite_export_writes_two_materials_and_parts_and_reads_back(tmp_path
     import xml.etree.ElementTree as ET
 
     from indentation_studio.forward.feb_mesh import read_feb_block_mesh
-    from indentation_studio.forward.feb_writer import write_feb
+    from indentation_studio.forward.febio.writer import write_feb
     from indentation_studio.forward.spec import MeshChoice
 
     spec = ModelSpec.composite_phantom("composite-coarse")

@@ -8,7 +8,7 @@ import xml.etree.ElementTree as ET
 
 import pytest
 
-from indentation_studio.forward.feb_writer import check_material_ids, write_feb
+from indentation_studio.forward.febio.writer import check_material_ids, write_feb
 from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
 
 

@@ -14,9 +14,9 @@ import pytest
 from conftest import FEBIO_BASELINE
 from typer.testing import CliRunner
 
-from indentation_studio.forward.feb_writer import indenter_surface, top_faces, write_feb
-from indentation_studio.forward.febio_log import febio_result, read_febio_log
-from indentation_studio.forward.febio_runner import (
+from indentation_studio.forward.febio.writer import indenter_surface, top_faces, write_feb
+from indentation_studio.forward.febio.log import febio_result, read_febio_log
+from indentation_studio.forward.febio.runner import (
     FebioError,
     FebioNotFoundError,
     FebioSolver,

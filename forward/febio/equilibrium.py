@@ -41,7 +41,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .result import SYMMETRY_FACTOR, SimulationResult
+from ..result import SYMMETRY_FACTOR, SimulationResult
 
 #: Keys of ``SimulationResult.convergence`` used by the check (quarter-model values, mN).
 BOTTOM_KEY = "bottom_reaction_quarter"

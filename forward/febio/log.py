@@ -19,14 +19,16 @@ from typing import Any
 
 import numpy as np
 
-from .feb_writer import BOTTOM_DATA, INDENTER_DATA, TOP_DATA
-from .febio_equilibrium import (
+from ..mesh import build_mesh
+from ..result import SYMMETRY_FACTOR, SimulationResult
+from ..spec import ModelSpec
+from .equilibrium import (
     BOTTOM_KEY,
     DEFAULT_EQUILIBRIUM_TOLERANCE,
     EquilibriumTolerance,
     check_equilibrium,
 )
-from .result import SYMMETRY_FACTOR, SimulationResult
+from .writer import BOTTOM_DATA, INDENTER_DATA, TOP_DATA
 
 NORMAL_TERMINATION = "N O R M A L   T E R M I N A T I O N"
 ERROR_TERMINATION = "E R R O R   T E R M I N A T I O N"
@@ -204,8 +206,6 @@ def febio_result(
 
 def _top_coordinates(spec: dict[str, Any], top_ids: np.ndarray, fallback: np.ndarray) -> np.ndarray:
     """Reference coordinates of the logged top nodes from the mesh the spec names."""
-    from .mesh import build_mesh
-    from .spec import ModelSpec
 
     mesh = build_mesh(ModelSpec.from_dict(spec))
     where = {int(i): k for k, i in enumerate(mesh.node_ids)}

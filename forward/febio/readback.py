@@ -14,9 +14,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .feb_writer import INDENTER_DATA
-from .febio_equilibrium import DEFAULT_EQUILIBRIUM_TOLERANCE, EquilibriumTolerance
-from .febio_log import (
+from ..result import SimulationResult
+from ..solver import SimulationError
+from ..spec import ModelSpec
+from .equilibrium import DEFAULT_EQUILIBRIUM_TOLERANCE, EquilibriumTolerance
+from .log import (
     FebioLog,
     FebioLogError,
     depth_reached,
@@ -24,9 +26,7 @@ from .febio_log import (
     must_point_rows,
     read_febio_log,
 )
-from .result import SimulationResult
-from .solver import SimulationError
-from .spec import ModelSpec
+from .writer import INDENTER_DATA
 
 _MATERIAL_SECTION = re.compile(r"MATERIAL DATA\s*\n=+\s*\n(.*?)\n\s*\n", re.S)
 _PARAMETER = re.compile(r"^\s*(\w+) \.+ : (\S+)", re.M)

@@ -26,13 +26,13 @@ from collections.abc import Callable
 from dataclasses import asdict
 from pathlib import Path
 
-from .feb_writer import FebSettings, write_feb
-from .febio_equilibrium import DEFAULT_EQUILIBRIUM_TOLERANCE, EquilibriumTolerance, off_equilibrium_message
-from .febio_log import FebioLog, FebioLogError, depth_reached, febio_result, read_febio_log
-from .mesh import BlockMesh
-from .result import SimulationResult
-from .solver import SimulationError
-from .spec import ModelSpec
+from ..mesh import BlockMesh
+from ..result import SimulationResult
+from ..solver import SimulationError
+from ..spec import ModelSpec
+from .equilibrium import DEFAULT_EQUILIBRIUM_TOLERANCE, EquilibriumTolerance, off_equilibrium_message
+from .log import FebioLog, FebioLogError, depth_reached, febio_result, read_febio_log
+from .writer import FebSettings, write_feb
 
 EXECUTABLE_NAMES = ("febio4", "febio4.exe", "FEBio4", "febio")
 

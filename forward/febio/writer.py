@@ -30,10 +30,10 @@ from typing import Any
 
 import numpy as np
 
-from .. import __version__
-from ..atomic_write import atomic_write
-from .mesh import BlockMesh
-from .spec import ModelSpec
+from ... import __version__
+from ...atomic_write import atomic_write
+from ..mesh import BlockMesh, build_mesh
+from ..spec import ModelSpec
 
 #: Names shared by the writer, the log parser and the runner.
 TOP_DATA = "top_disp"
@@ -409,8 +409,6 @@ def write_feb(
 
     ``mesh`` defaults to the mesh the spec names (a preset or the hex8 block of a ``.feb``).
     """
-    from .mesh import build_mesh
-
     path = Path(path)
     mesh = mesh if mesh is not None else build_mesh(spec)
     settings = settings or FebSettings()
