@@ -14,7 +14,6 @@ import pytest
 from conftest import FEBIO_BASELINE
 from typer.testing import CliRunner
 
-from indentation_studio.forward.febio.writer import indenter_surface, top_faces, write_feb
 from indentation_studio.forward.febio.log import febio_result, read_febio_log
 from indentation_studio.forward.febio.runner import (
     FebioError,
@@ -22,6 +21,7 @@ from indentation_studio.forward.febio.runner import (
     FebioSolver,
     find_febio,
 )
+from indentation_studio.forward.febio.writer import indenter_surface, top_faces, write_feb
 from indentation_studio.forward.mesh import preset_mesh
 from indentation_studio.forward.spec import MeshChoice, ModelSpec
 from indentation_studio.studio.cli import app

@@ -23,7 +23,6 @@ from indentation_studio.campaign.designs import Design
 from indentation_studio.campaign.loader import force_table, load_campaign
 from indentation_studio.campaign.runner import run_campaign
 from indentation_studio.campaign.store import CampaignError, CampaignSpec, CampaignStore
-from indentation_studio.forward.febio.writer import FebSettings
 from indentation_studio.forward.febio.equilibrium import (
     EquilibriumTolerance,
     check_equilibrium,
@@ -33,6 +32,7 @@ from indentation_studio.forward.febio.equilibrium import (
 from indentation_studio.forward.febio.log import febio_result, read_febio_log
 from indentation_studio.forward.febio.readback import read_febio_run
 from indentation_studio.forward.febio.runner import FebioSolver
+from indentation_studio.forward.febio.writer import FebSettings
 from indentation_studio.forward.result import SimulationResult
 from indentation_studio.forward.spec import MeshChoice, ModelSpec
 from indentation_studio.studio.cli import app
