@@ -37,6 +37,7 @@ from ..forward.febio.runner import find_febio
 from ..forward.spec import ModelSpec
 from .designs import Design, design_from_option
 from .store import (
+    CAMPAIGN_EQUILIBRIUM_REL,
     DEFAULT_LEASE_TIMEOUT_S,
     CampaignError,
     CampaignSpec,
@@ -82,7 +83,7 @@ def solve_point(
                 # steps FEBio accepted off equilibrium (after its one rerun, made only when a
                 # step is flagged) are kept as NaN forces: the point is done, its flagged steps
                 # counted (forward.febio.equilibrium; the loader and training handle them)
-                tolerance = EquilibriumTolerance(relative=equilibrium_rel or 0.02)
+                tolerance = EquilibriumTolerance(relative=equilibrium_rel or CAMPAIGN_EQUILIBRIUM_REL)
                 result = FebioSolver(spec, workdir=workdir, timeout_s=timeout_s, tolerance=tolerance).run()
             else:
                 from ..forward.solver import EmbeddedSolver
