@@ -32,3 +32,18 @@ def test_readme_python_example_runs(tmp_path, monkeypatch):
     lo, hi = np.array(namespace["posterior"].to_dict()["ci95"]).T
     assert np.all((lo < result.theta) & (result.theta < hi))
     assert len(namespace["fig"].axes) == 4  # a 2 x 2 corner plot
+
+
+def test_readme_lab_commands_are_the_lab_examples():
+    """The README's three lab commands import the shipped lab example with the angle it was made with."""
+    import json
+
+    block = re.search(r"### A lab's files.*?```bash\n(.*?)```", README, flags=re.S).group(1)
+    commands = [c for c in block.replace("\\\n", " ").splitlines() if c.strip()]
+    assert [c.split()[1] for c in commands] == ["import", "check", "fit"]
+    about = json.loads((ROOT / "examples" / "lab-matchid" / "lab.json").read_text())
+    angle = float(commands[0].split("--fiber-angle")[1].split()[0])
+    assert angle == pytest.approx(about["fiber_angle_deg_as_the_camera_sees_it"], abs=0.01)
+    for name in ("matchid", "load_frame.csv", "frame_times.csv", "indenter.csv"):
+        assert f"examples/lab-matchid/{name}" in commands[0]
+        assert (ROOT / "examples" / "lab-matchid" / name).exists()
