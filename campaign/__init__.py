@@ -6,8 +6,9 @@ import lazy_loader as lazy
 __getattr__, __dir__, __all__ = lazy.attach(
     __name__,
     submod_attrs={
-        "designs": ["Design", "DesignError", "design_from_option", "paper_grid", "space_filling"],
-        "store": ["CampaignError", "CampaignSpec", "CampaignStore", "DiskFullError"],
+        "designs": ["Design", "design_from_option", "paper_grid", "space_filling"],
+        "errors": ["CampaignError", "DesignError", "DiskFullError"],
+        "store": ["CampaignSpec", "CampaignStore"],
         "loader": ["CampaignData", "StoredResponses", "force_table", "load_campaign", "open_campaign"],
         "runner": ["run_campaign", "run_named_campaign"],
     },

@@ -14,13 +14,11 @@ from pathlib import Path
 import numpy as np
 from scipy.stats import qmc
 
+from .errors import DesignError
+
 #: The paper's parameter box, kPa.
 PAPER_BOUNDS: dict[str, tuple[float, float]] = {"c1": (1.0, 21.0), "c5": (82.5, 578.0)}
 PAPER_COUNTS: dict[str, int] = {"c1": 25, "c5": 31}
-
-
-class DesignError(ValueError):
-    """A design that cannot be built; the message names the offending part."""
 
 
 @dataclass(frozen=True)

@@ -42,6 +42,7 @@ from ..atomic_write import atomic_write
 from ..forward.result import SimulationResult
 from ..forward.spec import ModelSpec
 from .designs import Design
+from .errors import CampaignError, DiskFullError
 
 SCHEMA = "indentation-studio/campaign/1"
 STATUSES = ("pending", "done", "failed")
@@ -50,15 +51,6 @@ STATUSES = ("pending", "done", "failed")
 CAMPAIGN_EQUILIBRIUM_REL = 0.02
 #: Index columns added by this version (older indexes get them on their first resume).
 CHECK_COLUMNS = ("sha256", "bytes", "attempts", "flagged_steps", "rerun_s")
-
-
-class CampaignError(ValueError):
-    """A campaign that cannot be created, resumed or read; the message says why."""
-
-
-class DiskFullError(CampaignError, OSError):
-    """The disk filled while writing into the store: nothing was written half (every write is a
-    temporary file renamed only when complete); the message names the file."""
 
 
 #: How long a run waits for the store's lock (held only for short updates) before giving up.

@@ -11,7 +11,7 @@ _lazy_getattr, __dir__, __all__ = lazy.attach(
     submod_attrs={
         "objective": ["PAPER_WEIGHTS", "Objective", "check_weights"],
         "reduced_objective": ["FieldObjective", "ReducedObjective", "objective_function"],
-        "certainty": ["bounds_pct", "combine", "s_from_data"],
+        "certainty": ["DESIGN_BOUNDS_INCLUDE", "bounds_pct", "combine", "s_from_data"],
         "study": ["DesignStudy", "fe_design_study", "friction_design_bounds"],
         "friction_treatment": ["FixedParameter", "FrictionTreatment", "friction_bounds"],
         "weights": ["PAPER_HESSIAN", "compare_with_paper", "optimise_weights", "table1"],

@@ -9,6 +9,9 @@ of our meshes and of FEBio's coincide when the grids do.
 
 from __future__ import annotations
 
+import numpy as np
+from scipy.optimize import brentq
+
 from .block_mesh import BlockMesh, grid_block
 from .composite_mesh import composite_mesh
 from .feb_mesh import read_feb_block_mesh
@@ -20,6 +23,7 @@ __all__ = [
     "BlockMesh",
     "GradedAxis",
     "MeshPreset",
+    "axis_coordinates",
     "build_mesh",
     "grid_block",
     "preset_mesh",
@@ -27,11 +31,31 @@ __all__ = [
 ]
 
 
+def axis_coordinates(axis: GradedAxis, length: float) -> np.ndarray:
+    """Node coordinates of ``axis`` from 0 (the fine end) to ``length``: ``n_core`` cells of ``h0``,
+    then ``n_graded`` cells growing geometrically (first one ``h0``) to fill the rest."""
+    core = axis.h0 * axis.n_core
+    rest = length - core
+    if rest <= 0:
+        raise ValueError(f"core {core:g} mm does not fit in {length:g} mm")
+    sizes = [axis.h0] * axis.n_core
+    if axis.n_graded > 0:
+        n = axis.n_graded
+        if rest <= axis.h0 * n:  # would need shrinking cells: fall back to uniform
+            sizes += [rest / n] * n
+        else:
+            r = brentq(lambda r: axis.h0 * (r**n - 1.0) / (r - 1.0) - rest, 1.0 + 1e-12, 10.0)
+            sizes += list(axis.h0 * r ** np.arange(n))
+    coords = np.concatenate([[0.0], np.cumsum(sizes)])
+    coords[-1] = length
+    return coords
+
+
 def structured_block(geometry: Geometry, preset: MeshPreset, name: str = "custom") -> BlockMesh:
     """The graded structured hex8 mesh of the quarter block for ``preset``."""
-    x = preset.xy.coordinates(geometry.half_x)
-    y = preset.xy.coordinates(geometry.half_y)
-    z = geometry.height - preset.z.coordinates(geometry.height)[::-1]
+    x = axis_coordinates(preset.xy, geometry.half_x)
+    y = axis_coordinates(preset.xy, geometry.half_y)
+    z = geometry.height - axis_coordinates(preset.z, geometry.height)[::-1]
     return grid_block(x, y, z, f"preset:{name}")
 
 

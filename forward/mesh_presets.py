@@ -6,9 +6,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
-from scipy.optimize import brentq
-
 
 @dataclass(frozen=True)
 class GradedAxis:
@@ -18,24 +15,6 @@ class GradedAxis:
     h0: float
     n_core: int
     n_graded: int
-
-    def coordinates(self, length: float) -> np.ndarray:
-        """Node coordinates from 0 (the fine end) to ``length``."""
-        core = self.h0 * self.n_core
-        rest = length - core
-        if rest <= 0:
-            raise ValueError(f"core {core:g} mm does not fit in {length:g} mm")
-        sizes = [self.h0] * self.n_core
-        if self.n_graded > 0:
-            n = self.n_graded
-            if rest <= self.h0 * n:  # would need shrinking cells: fall back to uniform
-                sizes += [rest / n] * n
-            else:
-                r = brentq(lambda r: self.h0 * (r**n - 1.0) / (r - 1.0) - rest, 1.0 + 1e-12, 10.0)
-                sizes += list(self.h0 * r ** np.arange(n))
-        coords = np.concatenate([[0.0], np.cumsum(sizes)])
-        coords[-1] = length
-        return coords
 
 
 @dataclass(frozen=True)

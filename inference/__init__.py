@@ -34,6 +34,7 @@ _lazy_getattr, __dir__, __all__ = lazy.attach(
             "import_matchid",
         ],
         "data_check": ["check_experiment"],
+        "adequacy": ["CANNOT_EXPLAIN", "Adequacy", "NoiseModel", "chi_square_test", "noise_model"],
         "error_budget": [
             "CONVERGED_FRACTION",
             "ErrorBudget",

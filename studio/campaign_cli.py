@@ -11,8 +11,7 @@ from rich.console import Console
 from rich.table import Table
 
 from ..atomic_write import atomic_write, strict_json
-from ..campaign.designs import DesignError
-from ..campaign.store import CampaignError
+from ..campaign.errors import CampaignError, DesignError
 from ..forward.spec import SpecError
 from .options import (
     FRICTION,

@@ -11,9 +11,8 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from .. import inference  # lazy: the command imports what it runs
+from .. import design, inference  # lazy packages: a command imports what it runs
 from ..atomic_write import atomic_write, atomic_write_json, strict_json
-from ..design.certainty import DESIGN_BOUNDS_INCLUDE
 from ..forward.spec import SpecError
 from .options import (
     FRICTION,
@@ -175,7 +174,7 @@ def bounds(
         "method": method,
         "reading": reading,
         "term_hessians": study.term_hessians.tolist(),
-        "bounds_include": DESIGN_BOUNDS_INCLUDE,
+        "bounds_include": design.DESIGN_BOUNDS_INCLUDE,
     }
     if as_json:
         print(strict_json(payload))
@@ -190,7 +189,7 @@ def bounds(
             f"mu +-{with_mu['identified_mu_pct']:.0f} %; a nuisance (log-uniform on {mu_prior}): "
             f"c1 +-{n[0]:.1f} %, c5 +-{n[1]:.1f} %"
         )
-    Console().print(f"bounds: {DESIGN_BOUNDS_INCLUDE}")
+    Console().print(f"bounds: {design.DESIGN_BOUNDS_INCLUDE}")
     Console().print(f"H(theta*) (normalised) = {np.array2string(H, precision=3)}")
 
 
@@ -430,7 +429,7 @@ def compare_cmd(
     if as_json:
         rows = json.loads(table.to_json(orient="records"))
         payload = {"rows": rows, "csv": str(csv), "png": str(png), "theta_star": [c1, c5]}
-        print(strict_json(payload | {"bounds_include": DESIGN_BOUNDS_INCLUDE}))
+        print(strict_json(payload | {"bounds_include": design.DESIGN_BOUNDS_INCLUDE}))
         return
     view = Table(
         title=f"candidate designs at theta* = {theta} kPa (fixed weights {weights}; optimised for {criterion})"
@@ -449,7 +448,7 @@ def compare_cmd(
             _fmt(r.optimised_weights),
         )
     Console(width=130).print(view)
-    Console().print(f"bounds: {DESIGN_BOUNDS_INCLUDE}")
+    Console().print(f"bounds: {design.DESIGN_BOUNDS_INCLUDE}")
     Console().print(f"wrote {csv} and {png}")
 
 

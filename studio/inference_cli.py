@@ -11,8 +11,8 @@ import typer
 from rich.console import Console
 from rich.panel import Panel
 
+from .. import inference  # lazy: a command imports what it runs
 from ..atomic_write import strict_json
-from ..inference.adequacy import CANNOT_EXPLAIN
 from .options import JSON, err, fail, say
 
 EXPERIMENT = Annotated[Path, typer.Option(help="experiment folder (README: experiment data format)")]
@@ -174,7 +174,7 @@ def _loud_warnings(payload: dict) -> None:
         )
         console.print(
             Panel(
-                f"[bold]{CANNOT_EXPLAIN}[/bold]\n"
+                f"[bold]{inference.CANNOT_EXPLAIN}[/bold]\n"
                 f"chi-square {adequacy['statistic']:.4g} on {adequacy['dof']} degrees of freedom "
                 f"({adequacy['per_degree']:.3g} per degree), p = {adequacy['p_value']:.3g} < {adequacy['alpha']:g}"
                 f"\nper term (statistic / points): {terms}"
