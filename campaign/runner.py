@@ -406,6 +406,7 @@ def run_named_campaign(
     name: str,
     design: Design | str,
     model: ModelSpec,
+    *,
     runs_dir: str | Path = "runs",
     solver: str = "embedded",
     jobs: int = 0,

@@ -33,6 +33,7 @@ class SimulationRun:
 def run_simulation(
     spec: ModelSpec,
     out: str | Path,
+    *,
     solver: str = "embedded",
     sensitivities: bool = False,
     vtu: str | Path | None = None,

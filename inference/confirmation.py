@@ -73,6 +73,7 @@ def confirm(
     experiment: str | Path | ExperimentData,
     surrogate: str | Path | FieldSurrogate,
     theta,
+    *,
     weights=PAPER_WEIGHTS,
     solver: str = "embedded",
     check_mesh: str | None = None,

@@ -314,6 +314,7 @@ def json_key(payload: dict) -> str:
 def campaign_error_budget(
     reference: str,
     models: Sequence[str],
+    *,
     weights=PAPER_WEIGHTS,
     force_noise: float = 0.02,
     dic_noise: float = 0.02,

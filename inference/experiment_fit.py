@@ -197,6 +197,7 @@ class ExperimentFit:
 def fit_experiment(
     experiment: str | Path | ExperimentData,
     surrogate: str | Path | FieldSurrogate,
+    *,
     weights=PAPER_WEIGHTS,
     refine: bool = True,
     paper_stop: bool = False,
@@ -204,7 +205,6 @@ def fit_experiment(
     exclude_steps=(),
     say: Callable[[str], None] | None = None,
     friction: FrictionTreatment | str | float | None = None,
-    *,
     force_noise: float | None = None,
     dic_noise: float | None = None,
 ) -> ExperimentFit:

@@ -322,6 +322,7 @@ def import_experiment(
 def import_matchid(
     folder: str | Path,
     out_dir: str | Path,
+    *,
     protocol: ProtocolInfo,
     force: ForceSource,
     indenter: IndenterSource,
@@ -340,6 +341,7 @@ def import_matchid(
 def import_duodic(
     path: str | Path,
     out_dir: str | Path,
+    *,
     protocol: ProtocolInfo,
     force: ForceSource,
     indenter: IndenterSource,
@@ -361,6 +363,7 @@ def import_dic_csv(
     source: str | Path,
     mapping,
     out_dir: str | Path,
+    *,
     protocol: ProtocolInfo,
     force: ForceSource,
     indenter: IndenterSource,

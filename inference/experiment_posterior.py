@@ -113,6 +113,7 @@ class ExperimentPosterior:
 def sample_posterior_for(
     experiment: str | Path | ExperimentData,
     surrogate: str | Path | FieldSurrogate,
+    *,
     weights=PAPER_WEIGHTS,
     walkers: int = 32,
     steps: int = 4000,

@@ -69,6 +69,7 @@ def febio_contact(feb_file: str | Path) -> dict:
 def experiment_from_febio_run(
     log_path: str | Path,
     out_dir: str | Path,
+    *,
     feb_file: str | Path | None = None,
     radius: float = 4.77,
     steps: int = 28,

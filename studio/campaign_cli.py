@@ -155,18 +155,29 @@ def run(
 
         try:
             # the material values of the base spec are placeholders: each point sets its own
-            base = model_spec(1.0, 1.0, kappa, radius, steps, step_size, mesh, mesh_from, substeps, friction)
+            base = model_spec(
+                1.0,
+                1.0,
+                kappa=kappa,
+                radius=radius,
+                steps=steps,
+                step_size=step_size,
+                mesh=mesh,
+                mesh_from=mesh_from,
+                substeps=substeps,
+                friction=friction,
+            )
             summary = run_named_campaign(
                 name,
                 grid,
                 base,
-                runs_dir,
-                solver.value,
-                jobs,
-                scheduler,
-                retry_failed,
-                timeout,
-                report,
+                runs_dir=runs_dir,
+                solver=solver.value,
+                jobs=jobs,
+                scheduler=scheduler,
+                retry_failed=retry_failed,
+                timeout_s=timeout,
+                progress=report,
                 lease_timeout_s=lease_timeout,
                 wait_for_held=wait,
                 equilibrium_rel=equilibrium_tol / 100.0,

@@ -157,16 +157,27 @@ def simulate(
     with step_progress(err, f"simulate ({solver.value})", steps) as bar:
         unit = "mm" if solver == SolverName.febio else "mN"
         try:
-            spec = model_spec(c1, c5, kappa, radius, steps, step_size, mesh, mesh_from, substeps, friction)
+            spec = model_spec(
+                c1,
+                c5,
+                kappa=kappa,
+                radius=radius,
+                steps=steps,
+                step_size=step_size,
+                mesh=mesh,
+                mesh_from=mesh_from,
+                substeps=substeps,
+                friction=friction,
+            )
             run = run_simulation(
                 spec,
                 out,
-                solver.value,
-                sensitivities,
-                vtu,
-                from_log,
-                lambda k, n, v: bar.update(k, f"{v:.2f} {unit}"),
-                say,
+                solver=solver.value,
+                sensitivities=sensitivities,
+                vtu=vtu,
+                from_log=from_log,
+                progress=lambda k, n, v: bar.update(k, f"{v:.2f} {unit}"),
+                say=say,
             )
         except (SpecError, ValueError, FileNotFoundError, SimulationError, FebioLogError, OSError) as exc:
             fail(str(exc), as_json)
@@ -221,7 +232,18 @@ def export_feb(
     from ..forward.febio.writer import write_feb
 
     try:
-        spec = model_spec(c1, c5, kappa, radius, steps, step_size, mesh, mesh_from, 2, friction)
+        spec = model_spec(
+            c1,
+            c5,
+            kappa=kappa,
+            radius=radius,
+            steps=steps,
+            step_size=step_size,
+            mesh=mesh,
+            mesh_from=mesh_from,
+            substeps=2,
+            friction=friction,
+        )
         path = write_feb(spec, out)
     except (SpecError, ValueError, OSError) as exc:
         fail(str(exc), as_json)
@@ -270,7 +292,17 @@ def mesh_study(
             bar.update(sum(done.values()), f"{mesh}: {f:.1f} mN")
 
         try:
-            spec = model_spec(c1, c5, kappa, radius, steps, step_size, reference, None, substeps)
+            spec = model_spec(
+                c1,
+                c5,
+                kappa=kappa,
+                radius=radius,
+                steps=steps,
+                step_size=step_size,
+                mesh=reference,
+                mesh_from=None,
+                substeps=substeps,
+            )
             rows = convergence_study(spec, names, reference, out_dir, report, say)
         except (SpecError, ValueError, SimulationError) as exc:
             fail(str(exc), as_json)

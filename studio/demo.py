@@ -95,9 +95,11 @@ def run_demo(
     out = runs_dir / name / "report"
     spec = spec or ModelSpec()  # the paper's baseline: R = 4.77 mm, 28 x 0.5 mm, default mesh
     grid = grid or ("paper" if full else "c1=1:21:9,c5=82.5:578:9")
-    summary = run_named_campaign(name, grid, spec, runs_dir, jobs=jobs, progress=_progress(name, say))
+    summary = run_named_campaign(
+        name, grid, spec, runs_dir=runs_dir, jobs=jobs, progress=_progress(name, say)
+    )
     run_named_campaign(
-        f"{name}-test", test_grid, spec, runs_dir, jobs=jobs, progress=_progress(f"{name}-test", say)
+        f"{name}-test", test_grid, spec, runs_dir=runs_dir, jobs=jobs, progress=_progress(f"{name}-test", say)
     )
     if summary["failed"]:
         say(
@@ -170,10 +172,12 @@ def _example(experiment, mlp, posterior_steps: int, out: Path, spec: ModelSpec, 
     """The shipped example: fit (MLP, then FE), posterior, FE confirmation, their figures."""
     truth = json.loads((Path(experiment) / "experiment.json").read_text()).get("synthetic", {}).get("theta")
     # the paper's contact, as the shipped example was made with it (a fit not told marginalises mu)
-    result = fit_experiment(experiment, mlp, ETA, say=say, friction="assumed")
+    result = fit_experiment(experiment, mlp, weights=ETA, say=say, friction="assumed")
     fit = result.fit
-    post = sample_posterior_for(experiment, mlp, ETA, 32, posterior_steps, fit=result.surrogate_fit, say=say)
-    check = confirm(experiment, mlp, fit.theta, ETA)
+    post = sample_posterior_for(
+        experiment, mlp, weights=ETA, walkers=32, steps=posterior_steps, fit=result.surrogate_fit, say=say
+    )
+    check = confirm(experiment, mlp, fit.theta, weights=ETA)
     _example_figures(out, result, post, check, truth, spec)
     return {
         "fit": {

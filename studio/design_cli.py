@@ -76,7 +76,18 @@ def _study(
 
     try:
         c1, c5 = (float(v) for v in theta.split(","))
-        spec = model_spec(c1, c5, kappa, radius, steps, step_size, mesh, mesh_from, substeps, friction)
+        spec = model_spec(
+            c1,
+            c5,
+            kappa=kappa,
+            radius=radius,
+            steps=steps,
+            step_size=step_size,
+            mesh=mesh,
+            mesh_from=mesh_from,
+            substeps=substeps,
+            friction=friction,
+        )
         err.print(f"design study at theta* = ({c1:g}, {c5:g}) kPa, R = {radius:g} mm, {method} Hessian ...")
         with_mu = friction is not None and friction > 0  # mu = 0: frictionless, no d/d(log mu)
         return fe_design_study(
@@ -411,7 +422,15 @@ def compare_cmd(
         c1, c5 = _floats(theta)
         max_depth = max(_floats(depths))
         spec = model_spec(
-            c1, c5, kappa, 4.77, int(np.ceil(max_depth / step_size - 1e-9)), step_size, mesh, mesh_from, 1
+            c1,
+            c5,
+            kappa=kappa,
+            radius=4.77,
+            steps=int(np.ceil(max_depth / step_size - 1e-9)),
+            step_size=step_size,
+            mesh=mesh,
+            mesh_from=mesh_from,
+            substeps=1,
         )
         fov_values = [None if v.strip() == "all" else float(v) for v in fovs.split(",")]
         candidates = candidate_grid(
@@ -487,13 +506,13 @@ def error_budget_cmd(
         budget = inference.campaign_error_budget(
             reference,
             model,
-            _floats(weights),
-            force_noise,
-            dic_noise,
-            fe_steps,
-            runs_dir,
-            err.print,
-            fov or None,
+            weights=_floats(weights),
+            force_noise=force_noise,
+            dic_noise=dic_noise,
+            fe_steps=fe_steps,
+            runs_dir=runs_dir,
+            progress=err.print,
+            fov_mm=fov or None,
             out=path,
         )
     except (SpecError, ValueError, OSError) as exc:

@@ -185,7 +185,17 @@ def import_matchid_command(
     try:
         with csv_encoding(encoding):
             protocol, force, ind, choice = _sources(locals())
-            result = import_matchid(dic, out, protocol, force, ind, choice, length_unit, max_sigma, overwrite)
+            result = import_matchid(
+                dic,
+                out,
+                protocol=protocol,
+                force=force,
+                indenter=ind,
+                frames=choice,
+                length_unit=length_unit,
+                max_sigma=max_sigma,
+                overwrite=overwrite,
+            )
     except (ValueError, OSError) as exc:
         fail(str(exc), as_json)
     _report(result.to_dict(), as_json)
@@ -235,15 +245,15 @@ def import_duodic_command(
             result = import_duodic(
                 mat,
                 out,
-                protocol,
-                force,
-                ind,
-                length_unit,
-                choice,
-                max_corr,
-                rigid_body_removed,
-                variable,
-                overwrite,
+                protocol=protocol,
+                force=force,
+                indenter=ind,
+                length_unit=length_unit,
+                frames=choice,
+                max_corr=max_corr,
+                rigid_body_removed=rigid_body_removed,
+                variable=variable,
+                overwrite=overwrite,
             )
     except (ValueError, OSError) as exc:
         fail(str(exc), as_json)
@@ -298,7 +308,16 @@ def import_csv_command(
             mapping = CSVMapping.parse(columns, positions=positions, length_unit=length_unit)
             protocol, force, ind, choice = _sources(locals())
             result = import_dic_csv(
-                dic, mapping, out, protocol, force, ind, choice, pattern, max_sigma, overwrite
+                dic,
+                mapping,
+                out,
+                protocol=protocol,
+                force=force,
+                indenter=ind,
+                frames=choice,
+                pattern=pattern,
+                max_sigma=max_sigma,
+                overwrite=overwrite,
             )
     except (ValueError, OSError) as exc:
         fail(str(exc), as_json)
@@ -376,18 +395,18 @@ def import_febio_command(
         path = experiment_from_febio_run(
             log,
             out,
-            feb,
-            radius,
-            steps,
-            step_size,
-            dic_noise,
-            force_noise,
-            misregistration,
-            fov,
-            points,
-            fiber_angle,
-            seed,
-            overwrite,
+            feb_file=feb,
+            radius=radius,
+            steps=steps,
+            step_size=step_size,
+            u_noise_mm=dic_noise,
+            f_noise=force_noise,
+            misregistration_mm=misregistration,
+            fov=fov,
+            points=points,
+            fiber_angle_deg=fiber_angle,
+            seed=seed,
+            overwrite=overwrite,
         )
     except (FebioLogError, FebioRunError, ValueError, OSError) as exc:
         fail(str(exc), as_json)

@@ -10,7 +10,9 @@ import typer
 from rich.console import Console
 
 from ..atomic_write import strict_json
+from ..forward.mesh_presets import COMPOSITE_MESH_PRESETS
 from ..forward.spec import (
+    CompositeMaterial,
     Contact,
     Geometry,
     Indenter,
@@ -42,10 +44,20 @@ def fail(message: str, as_json: bool, code: int = 1) -> None:
 
 
 def model_spec(
-    c1, c5, kappa, radius, steps, step_size, mesh, mesh_from, substeps, friction: float | None = None
+    c1: float,
+    c5: float,
+    *,
+    kappa: float,
+    radius: float,
+    steps: int,
+    step_size: float,
+    mesh: str,
+    mesh_from: Path | None,
+    substeps: int,
+    friction: float | None = None,
 ) -> ModelSpec:
-    from ..forward.mesh_presets import COMPOSITE_MESH_PRESETS
-    from ..forward.spec import CompositeMaterial
+    """The model spec the command-line options describe (a composite mesh preset gets the
+    phantom's constituents, 2.4.2)."""
 
     composite = CompositeMaterial() if mesh in COMPOSITE_MESH_PRESETS and not mesh_from else None
     return ModelSpec(

@@ -157,7 +157,15 @@ def train(
         err.print(f"training a {kind.value} surrogate on {campaign!r} ({kfold}-fold cross-validation) ...")
         budget = _budget_for(error_budget, budget_model, campaign, runs_dir)
         model = train_surrogate(
-            campaign, kind.value, input_scale, pca_tol, test_campaign, kfold, seed, runs_dir, budget
+            campaign,
+            kind.value,
+            input_scale=input_scale,
+            pca_tol=pca_tol,
+            test_campaign=test_campaign,
+            kfold=kfold,
+            seed=seed,
+            runs_dir=runs_dir,
+            error_budget=budget,
         )
         validation = model.meta["validation"]
         name = model.meta["campaign"].get("name", campaign)

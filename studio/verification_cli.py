@@ -72,7 +72,17 @@ def verification_study(
         level_list = [int(v) for v in _floats(levels, "--levels")]
         sub = [int(v) for v in _floats(substeps, "--substeps")]
         pts, rad = parse_points(points), _floats(radii, "--radii")
-        spec = model_spec(10.0, 350.0, kappa, rad[0] if rad else 4.77, steps, step_size, "default", None, 1)
+        spec = model_spec(
+            10.0,
+            350.0,
+            kappa=kappa,
+            radius=rad[0] if rad else 4.77,
+            steps=steps,
+            step_size=step_size,
+            mesh="default",
+            mesh_from=None,
+            substeps=1,
+        )
         total = len(pts) * len(rad) * steps * (len(level_list) + (len(sub) - 1) * substep_levels)
         with step_progress(err, "verification study", total) as bar:
             done: dict[str, int] = {}

@@ -47,6 +47,7 @@ def training_data(campaign: str | Path | CampaignData, runs_dir: str | Path = "r
 def train_surrogate(
     campaign: str | Path | CampaignData,
     kind: str = "gp",
+    *,
     input_scale: str = "log",
     pca_tol: float = 1e-3,
     test_campaign: str | Path | CampaignData | None = None,

@@ -71,10 +71,10 @@ def _camera_import(studio, name, position_noise=0.0, indenter_shift=0.0):
     import_matchid(
         root / "matchid",
         root / "exp",
-        protocol,
-        ForceSource(force_csv=studio["path"] / "force.csv"),
-        IndenterSource(root / "indenter.csv", columns=("x [mm]", "y [mm]", "z [mm]")),
-        FrameChoice(frames=(1, 2, 3, 4)),
+        protocol=protocol,
+        force=ForceSource(force_csv=studio["path"] / "force.csv"),
+        indenter=IndenterSource(root / "indenter.csv", columns=("x [mm]", "y [mm]", "z [mm]")),
+        frames=FrameChoice(frames=(1, 2, 3, 4)),
     )
     return load_experiment(root / "exp")
 

@@ -185,7 +185,7 @@ def test_friction_as_a_campaign_axis(tmp_path):
     from indentation_studio.campaign.runner import run_named_campaign
 
     base = ModelSpec(mesh=MeshChoice("coarse"), protocol=Protocol(step_size=0.5, steps=2))
-    summary = run_named_campaign("mu", "c1=5:10:2,c5=200:200:1,mu=0.3:3:2", base, tmp_path, jobs=1)
+    summary = run_named_campaign("mu", "c1=5:10:2,c5=200:200:1,mu=0.3:3:2", base, runs_dir=tmp_path, jobs=1)
     assert summary["done"] == 4 and summary["failed"] == 0
     data = load_campaign("mu", tmp_path)
     assert data.theta.shape == (4, 3) and data.parameters == ("c1", "c5", "mu")

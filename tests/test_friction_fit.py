@@ -96,7 +96,7 @@ def mu_surrogate(tmp_path_factory):
 
     runs = tmp_path_factory.mktemp("runs")
     base = ModelSpec(mesh=MeshChoice("coarse"), protocol=Protocol(step_size=0.5, steps=3))
-    summary = run_named_campaign("mu", "c1=6:12:2,c5=250:450:2,mu=0.2:2:3:log", base, runs, jobs=1)
+    summary = run_named_campaign("mu", "c1=6:12:2,c5=250:450:2,mu=0.2:2:3:log", base, runs_dir=runs, jobs=1)
     assert summary["done"] == 12
     return train_surrogate("mu", "gp", runs_dir=runs)
 

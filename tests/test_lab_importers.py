@@ -123,14 +123,30 @@ def _imports(lab):
         {"x": "X", "y": "Y", "z": "Z", "ux": "U", "uy": "V", "uz": "W", "sigma": "sigma"}, length_unit="mm"
     )
     return {
-        "matchid": lambda out: import_matchid(root / "matchid", out, PROTOCOL, record, indenter, by_time),
+        "matchid": lambda out: import_matchid(
+            root / "matchid", out, protocol=PROTOCOL, force=record, indenter=indenter, frames=by_time
+        ),
         "duodic-v7": lambda out: import_duodic(
-            root / "duodic_v7.mat", out, PROTOCOL, record, indenter, "mm", FrameChoice(frames=(1, 2, 3, 4))
+            root / "duodic_v7.mat",
+            out,
+            protocol=PROTOCOL,
+            force=record,
+            indenter=indenter,
+            length_unit="mm",
+            frames=FrameChoice(frames=(1, 2, 3, 4)),
         ),
         "duodic-v7.3": lambda out: import_duodic(
-            root / "duodic_v73.mat", out, PROTOCOL, record, indenter, "mm", FrameChoice(frames=(1, 2, 3, 4))
+            root / "duodic_v73.mat",
+            out,
+            protocol=PROTOCOL,
+            force=record,
+            indenter=indenter,
+            length_unit="mm",
+            frames=FrameChoice(frames=(1, 2, 3, 4)),
         ),
-        "csv": lambda out: import_dic_csv(root / "vic", vic, out, PROTOCOL, record, indenter, by_time),
+        "csv": lambda out: import_dic_csv(
+            root / "vic", vic, out, protocol=PROTOCOL, force=record, indenter=indenter, frames=by_time
+        ),
     }
 
 
@@ -205,10 +221,10 @@ def test_matchid_folder_with_a_frame_missing(lab, tmp_path):
         import_matchid(
             folder,
             out,
-            PROTOCOL,
-            ForceSource(load_frame=lab["root"] / "record.csv"),
-            IndenterSource(lab["studio"] / "indenter.csv", "mm"),
-            FrameChoice(times_file=lab["root"] / "frame_times.csv"),
+            protocol=PROTOCOL,
+            force=ForceSource(load_frame=lab["root"] / "record.csv"),
+            indenter=IndenterSource(lab["studio"] / "indenter.csv", "mm"),
+            frames=FrameChoice(times_file=lab["root"] / "frame_times.csv"),
         )
     _no_leftovers(out)
     # naming the frames of the steps explicitly, a frame that is not there is named with its step
@@ -216,10 +232,10 @@ def test_matchid_folder_with_a_frame_missing(lab, tmp_path):
         import_matchid(
             folder,
             out,
-            PROTOCOL,
-            ForceSource(load_frame=lab["root"] / "record.csv"),
-            IndenterSource(lab["studio"] / "indenter.csv", "mm"),
-            FrameChoice(frames=(2, 3, 6, 8)),
+            protocol=PROTOCOL,
+            force=ForceSource(load_frame=lab["root"] / "record.csv"),
+            indenter=IndenterSource(lab["studio"] / "indenter.csv", "mm"),
+            frames=FrameChoice(frames=(2, 3, 6, 8)),
         )
     _no_leftovers(out)
 
@@ -485,16 +501,23 @@ def test_force_csv_in_hold_form_needs_the_frames_named(lab, tmp_path):
     force = ForceSource(force_csv=studio / "force.csv")
     indenter = IndenterSource(studio / "indenter.csv", "mm")
     with pytest.raises(ExperimentDataError, match="name the DIC frame of every step"):
-        import_duodic(root / "duodic_v73.mat", tmp_path / "e", PROTOCOL, force, indenter, "mm")
+        import_duodic(
+            root / "duodic_v73.mat",
+            tmp_path / "e",
+            protocol=PROTOCOL,
+            force=force,
+            indenter=indenter,
+            length_unit="mm",
+        )
     _no_leftovers(tmp_path / "e")
     import_duodic(
         root / "duodic_v73.mat",
         tmp_path / "e",
-        PROTOCOL,
-        force,
-        indenter,
-        "mm",
-        FrameChoice(frames=(1, 2, 3, 4)),
+        protocol=PROTOCOL,
+        force=force,
+        indenter=indenter,
+        length_unit="mm",
+        frames=FrameChoice(frames=(1, 2, 3, 4)),
     )
     r, _ = _residuals(load_experiment(tmp_path / "e"), lab["model"], TRUE)
     r_studio, _ = _residuals(lab["exp"], lab["model"], TRUE)
