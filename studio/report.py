@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import html
+import math
+import os
 from pathlib import Path
 
 import pandas as pd
@@ -12,7 +14,10 @@ from ..atomic_write import atomic_write
 
 STYLE = """
 body { font-family: system-ui, sans-serif; max-width: 1100px; margin: 2em auto; color: #222; }
-table { border-collapse: collapse; margin: 1em 0; } td, th { border: 1px solid #ccc; padding: 4px 8px; }
+.table { overflow-x: auto; max-width: 100%; margin: 1em 0; }
+table { border-collapse: collapse; font-size: 0.9em; } td, th { border: 1px solid #ccc; padding: 3px 6px; }
+td { white-space: nowrap; } th { white-space: normal; max-width: 9em; vertical-align: bottom; }
+.docs { font-size: 0.9em; color: #555; }
 th { background: #f2f2f2; } img { max-width: 100%; border: 1px solid #ddd; } figcaption { color: #555; }
 .alarm { border: 3px solid #c00; background: #fee; padding: 0.6em 1em; margin: 1em 0; }
 .caution { border: 3px solid #c80; background: #ffd; padding: 0.6em 1em; margin: 1em 0; }
@@ -22,14 +27,32 @@ th { background: #f2f2f2; } img { max-width: 100%; border: 1px solid #ddd; } fig
 def _table(rows: list[dict], columns: dict[str, str]) -> str:
     head = "".join(f"<th>{html.escape(label)}</th>" for label in columns.values())
     body = "".join(
-        "<tr>" + "".join(f"<td>{html.escape(_fmt(r[key]))}</td>" for key in columns) + "</tr>" for r in rows
+        "<tr>"
+        + "".join(
+            f"<td>{html.escape(_fmt(r[key], MISSING.get(key, 'not computed')))}</td>" for key in columns
+        )
+        + "</tr>"
+        for r in rows
     )
-    return f"<table><tr>{head}</tr>{body}</table>"
+    return f"<div class='table'><table><tr>{head}</tr>{body}</table></div>"
 
 
-def _fmt(v) -> str:
+#: What a missing value means, by column (otherwise "not computed").
+MISSING = {"fov_mm": "whole top"}
+
+#: The docs page (under docs/) that explains each section of the report.
+SECTION_DOCS = {
+    "Table 1": "guide/design.md",
+    "Surrogates": "guide/surrogates.md",
+    "Which experiment to run": "guide/design.md",
+    "The example experiment": "guide/fit-and-posterior.md",
+    "Figures": "validation/index.md",
+}
+
+
+def _fmt(v, missing: str = "not computed") -> str:
     if isinstance(v, float):
-        return f"{v:.3g}"
+        return missing if math.isnan(v) else f"{v:.3g}"
     if isinstance(v, (list, tuple)):
         return "(" + ", ".join(_fmt(x) for x in v) + ")"
     return str(v)
@@ -69,12 +92,51 @@ def fit_warnings_html(fit: dict) -> str:
     return "".join(parts)
 
 
+def _docs_link(out: Path, title: str) -> str:
+    """A link from the report to the docs page that explains ``title``, when the docs are there
+    (a source checkout: the pages are read as Markdown, or as the built site under site/)."""
+    page = SECTION_DOCS.get(title)
+    root = Path(__file__).resolve().parents[1]
+    if page is None or not (root / "docs" / page).is_file():
+        return ""
+    built = root / "site" / page.replace(".md", "") / "index.html"
+    target = built if built.is_file() else root / "docs" / page
+    href = Path(os.path.relpath(target, out.resolve())).as_posix()
+    return (
+        f"<p class='docs'>What this section means: <a href='{html.escape(href)}'>{html.escape(page)}</a></p>"
+    )
+
+
+def _h2(out: Path, title: str, rest: str = "") -> str:
+    return f"<h2>{html.escape(title)}{html.escape(rest)}</h2>" + _docs_link(out, title)
+
+
+#: The columns of the design comparison (design.experiment_choice.compare_designs), as read.
+DESIGN_COLUMNS = {
+    "radius_mm": "R (mm)",
+    "max_depth_mm": "depth (mm)",
+    "steps": "steps",
+    "every": "every nth step",
+    "fov_mm": "field of view (mm)",
+    "s": "s",
+    "c1_pct": "c1 % (paper weights)",
+    "c5_pct": "c5 % (paper weights)",
+    "c1_pct_optimised": "c1 % (optimised)",
+    "c5_pct_optimised": "c5 % (optimised)",
+    "optimised_weights": "optimised weights (force, ux, uy, uz)",
+}
+
+
 def write_report(out: Path, results: dict, sections: list[tuple[str, str]]) -> Path:
-    """Write ``out/index.html`` from the demo's ``results`` and its figures."""
+    """Write ``out/index.html`` from the demo's ``results`` and its figures: tables that fit the
+    page (they scroll inside it when wider), missing values in words, and each section linked to
+    the docs page that explains it."""
     parts = [
         f"<h1>Indentation Studio demo</h1><p>version {__version__}; wall time {results['wall_s']:.0f} s</p>"
     ]
-    parts.append("<h2>Table 1 at theta* = {10, 350} kPa, s = 0.05 (exact Hessian, eq. 4 as printed)</h2>")
+    parts.append(
+        _h2(out, "Table 1", " at theta* = {10, 350} kPa, s = 0.05 (exact Hessian, eq. 4 as printed)")
+    )
     parts.append(
         _table(
             results["table1"],
@@ -95,7 +157,7 @@ def write_report(out: Path, results: dict, sections: list[tuple[str, str]]) -> P
     parts.append(
         f"<p>H(theta*) at the paper's combined weights: {_fmt(H)}; the paper's eq. 14: {_fmt(P)}.</p>"
     )
-    parts.append("<h2>Surrogates: errors at held-out points (percent)</h2>")
+    parts.append(_h2(out, "Surrogates", ": errors at held-out points (percent)"))
     rows = [{"kind": k, **v} for k, v in results["surrogate_test_errors"].items()]
     parts.append(
         _table(
@@ -112,10 +174,12 @@ def write_report(out: Path, results: dict, sections: list[tuple[str, str]]) -> P
     )
     csv = out / "design-comparison.csv"
     if csv.is_file():
-        parts.append("<h2>Which experiment to run</h2>")
-        parts.append(pd.read_csv(csv).to_html(index=False, float_format=lambda v: f"{v:.3g}"))
+        parts.append(_h2(out, "Which experiment to run"))
+        table = pd.read_csv(csv)
+        columns = {k: v for k, v in DESIGN_COLUMNS.items() if k in table.columns}
+        parts.append(_table(table.to_dict("records"), columns))
     fit, post = results["fit"], results["posterior"]
-    parts.append("<h2>The example experiment</h2>")
+    parts.append(_h2(out, "The example experiment"))
     parts.append(fit_warnings_html(fit))
     parts.append(
         f"<p>Fit (surrogate, then FE with exact sensitivities): c1 = {fit['theta'][0]:.3f} kPa +- "
@@ -127,7 +191,7 @@ def write_report(out: Path, results: dict, sections: list[tuple[str, str]]) -> P
         f"autocorrelation {_fmt(post['autocorrelation_steps'])} steps. FE confirmation: F(theta_hat) = "
         f"{results['confirmation']['F_fe']:.3g}.</p>"
     )
-    parts.append("<h2>Figures</h2>")
+    parts.append(_h2(out, "Figures"))
     for name, caption in sections:
         if name.endswith(".png"):
             parts.append(

@@ -1,0 +1,52 @@
+"""The demo's report as a page a person reads: tables that fit the page, missing values in words,
+each section linked to the docs page that explains it."""
+
+from __future__ import annotations
+
+import re
+
+import pandas as pd
+
+from indentation_studio.studio.report import write_report
+
+
+def _results() -> dict:
+    row = {"name": "force only", "paper_weights": [1.0, 0.0, 0.0, 0.0], "paper_c1_pct": 22.5}
+    row |= {"paper_c5_pct": 210.2, "c1_pct_at_paper_weights": 4.31, "c5_pct_at_paper_weights": 33.2}
+    row |= {"weights": [1.0, 0.0, 0.0, 0.0], "c1_pct": 4.31, "c5_pct": float("nan")}
+    errors = {"points": 16, "force_rms_pct": 0.36, "force_max_pct": 1.46}
+    errors |= {"displacement_rms_pct": 0.033, "displacement_max_pct": 0.95}
+    fit = {"theta": [11.7, 299.3], "bounds_pct": [3.24, 31.96], "statistical_pct": [0.49, 2.94], "F": 0.047}
+    fit |= {"s": 0.0103, "truth": [12.0, 250.0], "bounds_include": "statistical and the mesh's budget"}
+    post = {"median": [11.7, 300.0], "ci95": [[11.3, 12.1], [220.0, 412.0]], "acceptance_fraction": 0.71}
+    post |= {"autocorrelation_steps": [27.7, 28.4]}
+    return {
+        "wall_s": 842.0,
+        "table1": [row],
+        "hessian_at_paper_weights": [[19.5, 2.27], [2.27, 0.469]],
+        "paper_hessian": [[2.07, -0.12], [-0.12, 0.07]],
+        "surrogate_test_errors": {"gp": errors},
+        "fit": fit,
+        "posterior": post,
+        "confirmation": {"F_fe": 0.047},
+    }
+
+
+def test_report_tables_fit_the_page_and_say_what_is_missing(tmp_path):
+    rows = [
+        {"radius_mm": 4.77, "max_depth_mm": 14.0, "steps": 28, "every": 1, "fov_mm": float("nan"), "s": 0.05},
+        {"radius_mm": 8.0, "max_depth_mm": 14.0, "steps": 28, "every": 1, "fov_mm": 15.0, "s": 0.05},
+    ]
+    pd.DataFrame([r | {"c1_pct": 2.4, "c5_pct": 15.6} for r in rows]).to_csv(
+        tmp_path / "design-comparison.csv", index=False
+    )
+    page = write_report(tmp_path, _results(), []).read_text()
+    assert "nan" not in page.lower().replace("nanosecond", "")
+    assert page.count("whole top") == 1 and "<td>15</td>" in page  # the missing field of view, in words
+    assert "<td>not computed</td>" in page  # a value the table has no number for
+    # every table sits in a box that scrolls inside the page rather than running off its edge
+    assert page.count("<table>") == page.count("<div class='table'><table>") == 3
+    assert "overflow-x: auto" in page
+    links = re.findall(r"href='([^']+)'", page)
+    assert any(link.endswith("guide/design.md") or link.endswith("guide/design/index.html") for link in links)
+    assert any("fit-and-posterior" in link for link in links)
