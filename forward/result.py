@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from ..atomic_write import atomic_write
+from ..atomic_write import atomic_write_npz
 
 #: Whole specimen = this many quarter models (symmetry planes x = 0 and y = 0).
 SYMMETRY_FACTOR = 4
@@ -97,11 +97,7 @@ class SimulationResult:
             "force": "whole specimen = 4 x quarter model",
         }
 
-        def write(tmp: Path) -> None:
-            with open(tmp, "wb") as fh:
-                np.savez_compressed(fh, meta=np.array(json.dumps(meta)), **arrays)
-
-        return atomic_write(path, write)
+        return atomic_write_npz(path, meta=np.array(json.dumps(meta)), **arrays)
 
     @classmethod
     def load(cls, path: str | Path) -> SimulationResult:

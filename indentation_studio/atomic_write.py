@@ -12,7 +12,9 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-__all__ = ["atomic_write", "atomic_write_json", "strict_json"]
+import numpy as np
+
+__all__ = ["atomic_write", "atomic_write_json", "atomic_write_npz", "strict_json"]
 
 
 def atomic_write(path: str | Path, content: str | bytes | Callable[[Path], Any]) -> Path:
@@ -77,3 +79,14 @@ def atomic_write_json(path: str | Path, payload: Any, indent: int | None = 1) ->
     """``payload`` as JSON at ``path``, atomically (:func:`strict_json`: numpy as numbers, a
     number that is not finite as null)."""
     return atomic_write(path, strict_json(payload, indent=indent))
+
+
+def atomic_write_npz(path: str | Path, **arrays: Any) -> Path:
+    """``arrays`` as a compressed ``.npz`` at ``path``, atomically (written through a file object:
+    ``np.savez`` given a name would append ``.npz`` to the temporary one)."""
+
+    def write(tmp: Path) -> None:
+        with open(tmp, "wb") as fh:
+            np.savez_compressed(fh, **arrays)
+
+    return atomic_write(path, write)

@@ -10,18 +10,17 @@ from: the source, the frame of every step, every hold's rows and eq. 9 fit.
 
 from __future__ import annotations
 
-import os
-import shutil
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from ..atomic_write import atomic_write, atomic_write_json
+from ..atomic_write import atomic_write
 from .clock_offset import ClockOffset, find_clock_offset, indentation_signal
 from .dic_series import DICSeries, frames_by_list, frames_by_time
-from .experiment_data import ExperimentDataError, load_experiment
+from .experiment_data import ExperimentDataError
+from .experiment_folder import write_experiment_folder
 from .load_frame import LoadFrameColumns, find_holds, hold_force_table, read_load_frame
 from .table_columns import find_column, numeric_column, read_table
 from .units import resolve_unit
@@ -204,49 +203,6 @@ def _forces(
     )
 
 
-def _save_npz(path: Path, **arrays: np.ndarray) -> None:
-    with open(path, "wb") as fh:  # a file object: np.savez would append .npz to a temporary name
-        np.savez_compressed(fh, **arrays)
-
-
-def write_experiment_folder(
-    out_dir: Path,
-    meta: dict,
-    force: pd.DataFrame,
-    xyz: np.ndarray,
-    u: np.ndarray,
-    indenter_xyz: np.ndarray,
-    overwrite: bool = False,
-) -> Path:
-    """Write the experiment folder atomically (module docstring); returns its path."""
-    out = Path(out_dir)
-    if out.exists() and (not out.is_dir() or any(out.iterdir())) and not overwrite:
-        raise ExperimentDataError(f"{out}: exists and is not empty (overwrite it explicitly)")
-    tmp = out.parent / f".{out.name}.importing-{os.getpid()}"
-    shutil.rmtree(tmp, ignore_errors=True)
-    try:
-        atomic_write(tmp / "force.csv", force[["step", "time_s", "force_mN"]].to_csv(index=False))
-        atomic_write(tmp / "dic.npz", lambda p: _save_npz(p, xyz=xyz, u=u))
-        atomic_write(
-            tmp / "indenter.csv", pd.DataFrame(indenter_xyz, columns=["x", "y", "z"]).to_csv(index=False)
-        )
-        atomic_write_json(tmp / "experiment.json", meta)
-        try:
-            load_experiment(tmp)
-        except ExperimentDataError as exc:
-            raise ExperimentDataError(str(exc).replace(str(tmp), str(out))) from None
-        if out.exists():
-            backup = out.parent / f".{out.name}.replaced-{os.getpid()}"
-            os.replace(out, backup)
-            os.replace(tmp, out)
-            shutil.rmtree(backup, ignore_errors=True)
-        else:
-            os.replace(tmp, out)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
-    return out
-
-
 def import_experiment(
     dic: DICSeries,
     out_dir: str | Path,
@@ -305,7 +261,7 @@ def import_experiment(
             "notes": dic.notes,
         },
     }
-    out = write_experiment_folder(Path(out_dir), meta, table, xyz, u, indenter_xyz, overwrite)
+    out = write_experiment_folder(Path(out_dir), meta, table, xyz, u, indenter_xyz, overwrite=overwrite)
     return ImportResult(
         out,
         dic.source,

@@ -16,8 +16,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..atomic_write import atomic_write, atomic_write_json
 from ..forward.mesh_study import top_field_interpolator
+from .experiment_folder import write_experiment_folder
 from .experiment_processing import rotation_to_fibers
 
 #: How a lab records a model run by default (the FEBio run's and the composite's experiments): 0.02 mm
@@ -136,11 +136,6 @@ def write_experiment_from_model(
         f = force[s] * (1.0 + 0.3 * np.exp(-t / 8.0))
         f = f + f_noise * force[s] * rng.standard_normal(t.size)
         rows.append(pd.DataFrame({"step": s + 1, "time_s": t, "force_mN": f}))
-    out.mkdir(parents=True, exist_ok=True)
-    atomic_write(out / "force.csv", pd.concat(rows).to_csv(index=False))
-    atomic_write(out / "dic.npz", lambda tmp: _write_npz(tmp, xyz=xyz_dic, u=u_dic))
-    indenter = pd.DataFrame(cap @ Q.T + offset, columns=["x", "y", "z"])
-    atomic_write(out / "indenter.csv", indenter.to_csv(index=False))
     meta = {
         "radius_mm": radius,
         "step_size_mm": step_size,
@@ -163,8 +158,10 @@ def write_experiment_from_model(
             **({"source": source} if source else {}),
         },
     }
-    atomic_write_json(out / "experiment.json", meta)  # last: a folder without it is no experiment
-    return out
+    # the one validated, atomic writer of the format (files already beside it are kept)
+    return write_experiment_folder(
+        out, meta, pd.concat(rows), xyz_dic, u_dic, cap @ Q.T + offset, overwrite=True, keep_other_files=True
+    )
 
 
 def _model_of(predictor, source: dict | None) -> dict | None:
@@ -175,8 +172,3 @@ def _model_of(predictor, source: dict | None) -> dict | None:
     if model is not None and source and "contact" in source:
         model["contact"] = source["contact"]
     return model
-
-
-def _write_npz(path: Path, **arrays: np.ndarray) -> None:
-    with open(path, "wb") as fh:  # a file object: np.savez would append .npz to the temporary name
-        np.savez_compressed(fh, **arrays)

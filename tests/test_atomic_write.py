@@ -51,3 +51,15 @@ def test_json_is_strict_json_an_unbounded_number_null(tmp_path):
     assert json.loads(text) == {"mu_pct": None, "force": [1.5, None], "n": 3, "ok": True}
     path = atomic_write_json(tmp_path / "r.json", payload | {"where": tmp_path})
     assert json.loads(path.read_text(), parse_constant=pytest.fail)["where"] == str(tmp_path)
+
+
+def test_atomic_write_npz_round_trip_leaves_no_temporary(tmp_path):
+    import numpy as np
+
+    from indentation_studio.atomic_write import atomic_write_npz
+
+    a = np.arange(12.0).reshape(3, 4)
+    path = atomic_write_npz(tmp_path / "x.npz", a=a, b=np.array([1, 2]))
+    with np.load(path) as z:
+        assert np.array_equal(z["a"], a) and z["b"].tolist() == [1, 2]
+    assert [p.name for p in tmp_path.iterdir()] == ["x.npz"]  # no .npz.npz, no *.tmp
