@@ -8,6 +8,7 @@ from ..moved_names import moved_getattr
 
 _lazy_getattr, __dir__, __all__ = lazy.attach(
     __name__,
+    submodules=["lab"],
     submod_attrs={
         "experiment_data": ["ExperimentData", "ExperimentDataError", "load_experiment"],
         "experiment_processing": ["experiment_objective", "static_forces", "to_model_frame"],
@@ -26,7 +27,7 @@ _lazy_getattr, __dir__, __all__ = lazy.attach(
         "experiment_posterior": ["ExperimentPosterior", "sample_posterior_for"],
         "confirmation": ["Confirmation", "confirm"],
         "mesh_check": ["MeshCheck", "check_mesh_at"],
-        "experiment_import": [
+        "lab.experiment_import": [
             "import_dic_csv",
             "import_duodic",
             "import_experiment",

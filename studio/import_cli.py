@@ -1,6 +1,6 @@
 """``indent-studio import matchid | duodic | csv | load-frame | febio`` and ``indent-studio check``: a lab's
 files into the experiment format, and the data check before any fit. Each command parses its
-options, calls one library function (inference/experiment_import.py, studio/check_report.py) and
+options, calls one library function (inference/lab/experiment_import.py, studio/check_report.py) and
 prints one JSON object with ``--json``."""
 
 from __future__ import annotations
@@ -76,8 +76,8 @@ ENCODING = Annotated[
 
 
 def csv_encoding(encoding: str | None):
-    """The block's CSV files read as ``encoding`` (:func:`..inference.csv_text.csv_encoding`)."""
-    from ..inference.csv_text import csv_encoding as block
+    """The block's CSV files read as ``encoding`` (:func:`inference.lab.csv_text.csv_encoding`)."""
+    from ..inference.lab.csv_text import csv_encoding as block
 
     return block(encoding)
 
@@ -100,14 +100,14 @@ def _steps(text: str) -> tuple[int, ...]:
 
 def _sources(o: dict):
     """The protocol, force, indenter and frame choice of the import commands' common options."""
-    from ..inference.experiment_import import (
+    from ..inference.lab.experiment_import import (
         ForceSource,
         FrameChoice,
         IndenterSource,
         ProtocolInfo,
         parse_frames,
     )
-    from ..inference.load_frame import LoadFrameColumns
+    from ..inference.lab.load_frame import LoadFrameColumns
 
     protocol = ProtocolInfo(
         o["radius"],
@@ -180,7 +180,7 @@ def import_matchid_command(
     as_json: JSON = False,
 ) -> None:
     """A MatchID export folder (+ load-frame record, indenter points) into an experiment folder."""
-    from ..inference.experiment_import import import_matchid
+    from ..inference.lab.experiment_import import import_matchid
 
     try:
         with csv_encoding(encoding):
@@ -237,7 +237,7 @@ def import_duodic_command(
     as_json: JSON = False,
 ) -> None:
     """DuoDIC results (+ load-frame record, indenter points) into an experiment folder."""
-    from ..inference.experiment_import import import_duodic
+    from ..inference.lab.experiment_import import import_duodic
 
     try:
         with csv_encoding(encoding):
@@ -300,8 +300,8 @@ def import_csv_command(
     as_json: JSON = False,
 ) -> None:
     """Any DIC CSV export (VIC-3D, GOM, Ncorr) with a column mapping into an experiment folder."""
-    from ..inference.experiment_import import import_dic_csv
-    from ..inference.import_csv import CSVMapping
+    from ..inference.lab.experiment_import import import_dic_csv
+    from ..inference.lab.import_csv import CSVMapping
 
     try:
         with csv_encoding(encoding):
@@ -344,8 +344,8 @@ def import_load_frame_command(
     as_json: JSON = False,
 ) -> None:
     """Cut a load-frame record into the protocol's holds (one per step, eq. 9 fit each) as force.csv."""
-    from ..inference.experiment_import import ForceSource, ProtocolInfo, import_load_frame
-    from ..inference.load_frame import LoadFrameColumns
+    from ..inference.lab.experiment_import import ForceSource, ProtocolInfo, import_load_frame
+    from ..inference.lab.load_frame import LoadFrameColumns
 
     try:
         with csv_encoding(encoding):

@@ -17,15 +17,15 @@ from test_lab_importers import ETA, SPEC, TRUE, LinearPredictor
 
 from indentation_studio.forward.predictor import FESolverPredictor
 from indentation_studio.inference.experiment_data import ExperimentDataError, load_experiment
-from indentation_studio.inference.experiment_import import (
+from indentation_studio.inference.experiment_processing import experiment_objective, to_model_frame
+from indentation_studio.inference.inverse_fit import fit_parameters
+from indentation_studio.inference.lab.experiment_import import (
     ForceSource,
     FrameChoice,
     IndenterSource,
     ProtocolInfo,
     import_matchid,
 )
-from indentation_studio.inference.experiment_processing import experiment_objective, to_model_frame
-from indentation_studio.inference.inverse_fit import fit_parameters
 from indentation_studio.inference.synthetic_experiment import write_synthetic_experiment
 
 TILT = np.radians(16.0)

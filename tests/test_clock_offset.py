@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 from lab_files import sampled_record
 
-from indentation_studio.inference.clock_offset import find_clock_offset, indentation_signal
-from indentation_studio.inference.dic_series import DICSeries, frames_by_time
-from indentation_studio.inference.load_frame import LoadFrameRecord, find_holds
+from indentation_studio.inference.lab.clock_offset import find_clock_offset, indentation_signal
+from indentation_studio.inference.lab.dic_series import DICSeries, frames_by_time
+from indentation_studio.inference.lab.load_frame import LoadFrameRecord, find_holds
 
 TRUE_OFFSET = 12.3  # the DIC clock started 12.3 s after the load frame's
 

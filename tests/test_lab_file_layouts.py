@@ -19,13 +19,13 @@ from lab_files import (
     write_testsuite,
 )
 
-from indentation_studio.inference.csv_text import csv_encoding
-from indentation_studio.inference.duodic_results import read_duodic
 from indentation_studio.inference.experiment_data import ExperimentDataError
-from indentation_studio.inference.experiment_import import ProtocolInfo, import_load_frame
-from indentation_studio.inference.load_frame import read_load_frame
-from indentation_studio.inference.matchid_export import read_matchid
-from indentation_studio.inference.table_columns import read_table
+from indentation_studio.inference.lab.csv_text import csv_encoding
+from indentation_studio.inference.lab.duodic_results import read_duodic
+from indentation_studio.inference.lab.experiment_import import ProtocolInfo, import_load_frame
+from indentation_studio.inference.lab.load_frame import read_load_frame
+from indentation_studio.inference.lab.matchid_export import read_matchid
+from indentation_studio.inference.lab.table_columns import read_table
 
 
 def _dic(n=300, frames=4, seed=0):

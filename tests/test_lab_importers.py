@@ -24,9 +24,11 @@ from lab_files import (
 
 from indentation_studio.forward.predictor import FESolverPredictor, Prediction
 from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
-from indentation_studio.inference.duodic_results import read_duodic
 from indentation_studio.inference.experiment_data import ExperimentDataError, load_experiment
-from indentation_studio.inference.experiment_import import (
+from indentation_studio.inference.experiment_processing import experiment_objective, static_forces
+from indentation_studio.inference.inverse_fit import fit_parameters
+from indentation_studio.inference.lab.duodic_results import read_duodic
+from indentation_studio.inference.lab.experiment_import import (
     ForceSource,
     FrameChoice,
     IndenterSource,
@@ -36,11 +38,9 @@ from indentation_studio.inference.experiment_import import (
     import_load_frame,
     import_matchid,
 )
-from indentation_studio.inference.experiment_processing import experiment_objective, static_forces
-from indentation_studio.inference.import_csv import CSVMapping
-from indentation_studio.inference.inverse_fit import fit_parameters
-from indentation_studio.inference.load_frame import LoadFrameColumns
-from indentation_studio.inference.matchid_export import read_matchid
+from indentation_studio.inference.lab.import_csv import CSVMapping
+from indentation_studio.inference.lab.load_frame import LoadFrameColumns
+from indentation_studio.inference.lab.matchid_export import read_matchid
 from indentation_studio.inference.synthetic_experiment import write_synthetic_experiment
 
 SPEC = ModelSpec(mesh=MeshChoice("coarse"), protocol=Protocol(step_size=0.5, steps=4))
@@ -462,7 +462,7 @@ def test_data_check_warns_with_numbers(lab, tmp_path):
 def test_long_csv_with_ids_current_positions_and_units_in_the_header(lab, tmp_path):
     """One long file (GOM-like: a frame column, a point id, current positions, units in the
     headers, rows in any order, points missing from some frames) reads as the VIC-like folder."""
-    from indentation_studio.inference.import_csv import read_dic_csv
+    from indentation_studio.inference.lab.import_csv import read_dic_csv
 
     exp = lab["exp"]
     rows = []

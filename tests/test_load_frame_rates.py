@@ -13,8 +13,8 @@ import pytest
 from lab_files import sampled_record
 
 from indentation_studio.inference.experiment_data import ExperimentDataError
-from indentation_studio.inference.experiment_import import ProtocolInfo, import_load_frame
-from indentation_studio.inference.load_frame import LoadFrameRecord, find_holds
+from indentation_studio.inference.lab.experiment_import import ProtocolInfo, import_load_frame
+from indentation_studio.inference.lab.load_frame import LoadFrameRecord, find_holds
 
 RATES = (1, 10, 100, 1000)
 DRIFT = 0.02  # mN/s: 4 mN over the record, 2.4 times step 1's force

@@ -1,0 +1,347 @@
+"""A lab's files into the studio's experiment folder (:mod:`.experiment_data`): a DIC export
+(MatchID, DuoDIC or a mapped CSV), the force (the load frame's continuous record, cut into holds,
+or a force.csv already in hold form), the indenter's tracked points and the protocol.
+
+The folder is built beside its destination, validated by :func:`load_experiment`, and only then
+moved into place: a failed import leaves nothing behind (and an existing folder untouched).
+Every file goes through :func:`atomic_write`. ``experiment.json`` records where each part came
+from: the source, the frame of every step, every hold's rows and eq. 9 fit.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ...atomic_write import atomic_write
+from ..experiment_data import ExperimentDataError
+from ..experiment_folder import write_experiment_folder
+from .clock_offset import ClockOffset, find_clock_offset, indentation_signal
+from .dic_series import DICSeries, frames_by_list, frames_by_time
+from .load_frame import LoadFrameColumns, find_holds, hold_force_table, read_load_frame
+from .table_columns import find_column, numeric_column, read_table
+from .units import resolve_unit
+
+
+@dataclass(frozen=True)
+class ProtocolInfo:
+    """What the experiment.json states: the indenter's radius, the step size and count (mm), the
+    fiber direction in the DIC frame (degrees from x; None: estimate it), the steps left out."""
+
+    radius_mm: float
+    step_size_mm: float
+    steps: int
+    fiber_angle_deg: float | None = None
+    description: str = ""
+    excluded_steps: tuple[int, ...] = ()
+
+
+@dataclass(frozen=True)
+class ForceSource:
+    """Either the load frame's continuous record (``load_frame``, its columns and units, and how
+    holds are found: :func:`.load_frame.find_holds`) or a ``force_csv`` in the format's hold form."""
+
+    load_frame: Path | None = None
+    columns: LoadFrameColumns = field(default_factory=LoadFrameColumns)
+    contact_position_mm: float | None = None
+    position_sign: float | None = None
+    force_sign: float | None = None
+    level_tol: float = 0.1
+    min_hold_s: float = 5.0
+    tare: bool = True
+    force_csv: Path | None = None
+
+
+@dataclass(frozen=True)
+class FrameChoice:
+    """The DIC frame of each step: ``frames`` (one frame number per step), or by time: the last
+    frame during each hold, with frame times from the export, ``times_s`` (one per frame) or
+    ``times_file`` (a CSV of frame, time), plus ``time_offset_s`` onto the load frame's clock
+    (None: found from the data, :mod:`.clock_offset`)."""
+
+    frames: tuple[int, ...] | None = None
+    times_s: tuple[float, ...] | None = None
+    times_file: Path | None = None
+    time_unit: str | None = None
+    time_offset_s: float | None = None
+
+
+@dataclass(frozen=True)
+class IndenterSource:
+    """The indenter's tracked points in the reference state: a CSV of x, y, z (``columns``), a
+    MatchID export folder or a DuoDIC .mat of the indenter's region (its reference positions)."""
+
+    path: Path
+    length_unit: str | None = None
+    columns: tuple[str, str, str] = ("x", "y", "z")
+
+
+@dataclass
+class ImportResult:
+    experiment: Path
+    source: str
+    points: int
+    frames: list[int]
+    points_per_step: list[int]
+    indenter_points: int
+    holds: list[dict] = field(default_factory=list)
+    tare_mN: float = 0.0
+    notes: list[str] = field(default_factory=list)
+
+    def to_dict(self) -> dict:
+        out = asdict(self)
+        out["experiment"] = str(self.experiment)
+        return out
+
+
+def parse_frames(text: str) -> tuple[int, ...]:
+    """``1:28`` (inclusive), ``2:56:2`` or ``3,5,9`` as frame numbers."""
+    out: list[int] = []
+    try:
+        for part in filter(None, (p.strip() for p in text.split(","))):
+            if ":" in part:
+                a, b, *s = (int(v) for v in part.split(":"))
+                out.extend(range(a, b + 1, s[0] if s else 1))
+            else:
+                out.append(int(part))
+    except ValueError as exc:
+        raise ExperimentDataError(f"frames: {text!r} is not a list like 1:28, 2:56:2 or 3,5,9") from exc
+    return tuple(out)
+
+
+def read_indenter_points(source: IndenterSource) -> np.ndarray:
+    """The indenter's points (n, 3) in mm from a CSV, a MatchID folder or a DuoDIC .mat."""
+    path = Path(source.path)
+    if path.is_dir():
+        from .matchid_export import read_matchid
+
+        return read_matchid(path, source.length_unit, allow_gaps=True).xyz
+    if path.suffix.lower() == ".mat":
+        from .duodic_results import read_duodic
+
+        if source.length_unit is None:
+            raise ExperimentDataError(f"{path}: DuoDIC stores no units; declare the indenter's length unit")
+        return read_duodic(path, source.length_unit).xyz
+    table = read_table(path)
+    cols = []
+    for name in source.columns:
+        header = find_column(table, name, path)
+        cols.append(
+            numeric_column(table, header, path, False)
+            * resolve_unit(header, source.length_unit, "length", str(path))
+        )
+    return np.column_stack(cols)
+
+
+def _frame_times(dic: DICSeries, choice: FrameChoice) -> np.ndarray | None:
+    if choice.times_s is not None:
+        return np.asarray(choice.times_s, float)
+    if choice.times_file is None:
+        return dic.times_s
+    path = Path(choice.times_file)
+    table = read_table(path)
+    fcol = next((c for c in table.columns if c.lower().startswith(("frame", "image"))), None)
+    tcol = next((c for c in table.columns if c.lower().startswith("time")), None)
+    if fcol is None or tcol is None:
+        raise ExperimentDataError(f"{path}: needs a frame (or image) column and a time column")
+    frames = numeric_column(table, fcol, path, False).astype(int)
+    times = numeric_column(table, tcol, path, False) * resolve_unit(tcol, choice.time_unit, "time", str(path))
+    lookup = dict(zip(frames.tolist(), times.tolist(), strict=True))
+    missing = [int(f) for f in dic.frame_ids if int(f) not in lookup]
+    if missing:
+        raise ExperimentDataError(f"{path}: no time for frame(s) {', '.join(map(str, missing[:10]))}")
+    return np.array([lookup[int(f)] for f in dic.frame_ids])
+
+
+def _forces(
+    protocol: ProtocolInfo, source: ForceSource
+) -> tuple[pd.DataFrame, np.ndarray | None, list, float, dict]:
+    """The hold readings (step, time_s, force_mN), the hold windows on the record's clock (or None)
+    the holds as dicts, the tare and what the record said of the contact point and the drift."""
+    if (source.load_frame is None) == (source.force_csv is None):
+        raise ExperimentDataError(
+            "give the force as either a load-frame record or a force.csv, not both or neither"
+        )
+    if source.force_csv is not None:
+        path = Path(source.force_csv)
+        table = read_table(path)
+        columns = {c: find_column(table, c, path) for c in ("step", "time_s", "force_mN")}
+        return table.rename(columns={v: k for k, v in columns.items()}), None, [], 0.0, {}
+    record = read_load_frame(source.load_frame, source.columns)
+    search = find_holds(
+        record,
+        protocol.step_size_mm,
+        protocol.steps,
+        protocol.radius_mm,
+        contact_position_mm=source.contact_position_mm,
+        position_sign=source.position_sign,
+        force_sign=source.force_sign,
+        level_tol=source.level_tol,
+        min_hold_s=source.min_hold_s,
+        tare=source.tare,
+        excluded_steps=protocol.excluded_steps,
+    )
+    windows = np.full((protocol.steps, 2), np.nan)  # a missing (excluded) step's hold stays NaN
+    for h in search.holds:
+        windows[h.step - 1] = (h.start_s, h.end_s)
+    info = {
+        "contact_position_mm": search.contact_position_mm,
+        "contact_from": search.contact_from,
+        "drift_mN_per_s": search.drift_mN_per_s,
+        "notes": list(record.notes) + list(search.notes),
+        "_track": (record.time_s, search.position_sign * (record.position_mm - search.contact_position_mm)),
+    }
+    return (
+        hold_force_table(record, search),
+        windows,
+        [h.to_dict() for h in search.holds],
+        search.tare_mN,
+        info,
+    )
+
+
+def import_experiment(
+    dic: DICSeries,
+    out_dir: str | Path,
+    protocol: ProtocolInfo,
+    force: ForceSource,
+    indenter: IndenterSource,
+    frames: FrameChoice = FrameChoice(),
+    overwrite: bool = False,
+    source_format: str = "",
+) -> ImportResult:
+    """Assemble and write an experiment folder from a read DIC export (module docstring)."""
+    table, windows, holds, tare, record_info = _forces(protocol, force)
+    track = record_info.pop("_track", None)
+    clock = None
+    if frames.frames is not None:
+        index = frames_by_list(dic, frames.frames, protocol.steps)
+    elif windows is not None:
+        times = _frame_times(dic, frames)
+        if times is None:
+            raise ExperimentDataError(
+                f"{dic.source}: the export has no frame times; give them, or name the frame of every step"
+            )
+        if frames.time_offset_s is None:
+            clock = find_clock_offset(times, indentation_signal(dic), *track, windows)
+        else:
+            given = frames.time_offset_s
+            clock = ClockOffset(given, given, given, np.nan, np.nan, np.nan, "given")
+        index = frames_by_time(dic, windows, clock.offset_s, times)
+    else:
+        raise ExperimentDataError(
+            "name the DIC frame of every step (frames), or give the load-frame record so that frames are matched "
+            "to its holds by time"
+        )
+    u = np.where((index >= 0)[:, None, None], dic.u[index], np.nan)
+    seen = np.isfinite(u).all(axis=2).any(axis=0)
+    xyz, u = dic.xyz[seen], u[:, seen]
+    indenter_xyz = read_indenter_points(indenter)
+    frame_ids = [int(dic.frame_ids[i]) if i >= 0 else None for i in index]
+    meta = {
+        "radius_mm": protocol.radius_mm,
+        "step_size_mm": protocol.step_size_mm,
+        "steps": protocol.steps,
+        "fiber_angle_deg": protocol.fiber_angle_deg,
+        "excluded_steps": sorted(protocol.excluded_steps),
+        "description": protocol.description,
+        "imported": {
+            "format": source_format,
+            "dic_source": dic.source,
+            "frames": {str(k + 1): f for k, f in enumerate(frame_ids)},
+            "force_source": str(force.load_frame or force.force_csv),
+            "holds": holds,
+            "tare_mN": tare,
+            "load_frame": record_info,
+            "clock_offset": None if clock is None else clock.to_dict(),
+            "indenter_source": str(indenter.path),
+            "notes": dic.notes,
+        },
+    }
+    out = write_experiment_folder(Path(out_dir), meta, table, xyz, u, indenter_xyz, overwrite=overwrite)
+    return ImportResult(
+        out,
+        dic.source,
+        len(xyz),
+        frame_ids,
+        np.isfinite(u).all(axis=2).sum(axis=1).tolist(),
+        len(indenter_xyz),
+        holds,
+        tare,
+        list(dic.notes) + record_info.get("notes", []) + ([clock.describe()] if clock is not None else []),
+    )
+
+
+def import_matchid(
+    folder: str | Path,
+    out_dir: str | Path,
+    *,
+    protocol: ProtocolInfo,
+    force: ForceSource,
+    indenter: IndenterSource,
+    frames: FrameChoice = FrameChoice(),
+    length_unit: str | None = None,
+    max_sigma: float | None = None,
+    overwrite: bool = False,
+) -> ImportResult:
+    """A MatchID export folder (:mod:`.matchid_export`) into an experiment folder."""
+    from .matchid_export import read_matchid
+
+    dic = read_matchid(folder, length_unit, max_sigma=max_sigma, allow_gaps=frames.frames is not None)
+    return import_experiment(dic, out_dir, protocol, force, indenter, frames, overwrite, "MatchID CSV")
+
+
+def import_duodic(
+    path: str | Path,
+    out_dir: str | Path,
+    *,
+    protocol: ProtocolInfo,
+    force: ForceSource,
+    indenter: IndenterSource,
+    length_unit: str,
+    frames: FrameChoice = FrameChoice(),
+    max_corr: float | None = None,
+    rigid_body_removed: bool = False,
+    variable: str | None = None,
+    overwrite: bool = False,
+) -> ImportResult:
+    """A DuoDIC results .mat (:mod:`.duodic_results`) into an experiment folder."""
+    from .duodic_results import read_duodic
+
+    dic = read_duodic(path, length_unit, variable, max_corr, rigid_body_removed)
+    return import_experiment(dic, out_dir, protocol, force, indenter, frames, overwrite, "DuoDIC .mat")
+
+
+def import_dic_csv(
+    source: str | Path,
+    mapping,
+    out_dir: str | Path,
+    *,
+    protocol: ProtocolInfo,
+    force: ForceSource,
+    indenter: IndenterSource,
+    frames: FrameChoice = FrameChoice(),
+    pattern: str = "*.csv",
+    max_sigma: float | None = None,
+    overwrite: bool = False,
+) -> ImportResult:
+    """A mapped DIC CSV export (:mod:`.import_csv`) into an experiment folder."""
+    from .import_csv import read_dic_csv
+
+    dic = read_dic_csv(source, mapping, pattern, max_sigma, allow_gaps=frames.frames is not None)
+    return import_experiment(dic, out_dir, protocol, force, indenter, frames, overwrite, "mapped CSV")
+
+
+def import_load_frame(
+    record: str | Path, out_csv: str | Path, protocol: ProtocolInfo, force: ForceSource = ForceSource()
+) -> dict:
+    """The load frame's record cut into the protocol's holds, written as a ``force.csv`` in the
+    format's hold form; returns the holds (rows, times, depth, eq. 9 fit) and the tare."""
+    source = replace(force, load_frame=Path(record), force_csv=None)
+    table, _, holds, tare, info = _forces(protocol, source)
+    info.pop("_track", None)
+    atomic_write(Path(out_csv), table.to_csv(index=False))
+    return {"force_csv": str(out_csv), "holds": holds, "tare_mN": tare, "readings": len(table), **info}

@@ -1,0 +1,324 @@
+"""The load frame's continuous record (time, indenter position, force) cut into the holds of the
+protocol, each assigned its step and fitted with eq. 9 (paper 2.7).
+
+The stage moves by one step, stops, and holds while the force relaxes; the balance or load cell
+reads all along, at any rate (1 Hz .. 1 kHz). The depth is the position from the contact point
+(given, or where the force leaves its unloaded baseline), signed so that it grows into the
+specimen. A run of readings whose depth sits within ``level_tol`` step sizes of a whole number k
+of steps is trimmed to the stretch where the stage stood still (:mod:`.hold_detection`: within a
+band of a few times the position's noise, so a ramp's readings never count in a hold); lasting at
+least ``min_hold_s`` it is step k's hold. A stretch that stands still elsewhere (off every level)
+is a slipped step and an error naming its rows; so are a hold beyond the protocol, a step held
+twice, and a count of holds that differs from the protocol's steps (both counts named, and the
+levels and durations where the stage did stand still). The readings before step 1 (depth 0) tare
+the force; unloaded readings after the last hold give the load cell's drift, taken off.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ..experiment_data import ExperimentDataError
+from ..experiment_processing import RelaxationFit, relaxation_fit
+from ..hold_checks import check_hold_forces
+from .hold_detection import OFF, describe_stretches, force_onset, still_stretches
+from .table_columns import find_column, first_row, numeric_column, read_table
+from .units import resolve_unit
+
+_TIME_NAMES = ("time", "t", "elapsed")
+_POSITION_NAMES = (
+    "position",
+    "pos",
+    "displacement",
+    "disp",
+    "depth",
+    "extension",
+    "z",
+    "stage",
+    "crosshead",
+)
+_FORCE_NAMES = ("force", "load", "f", "weight", "mass", "reading")
+
+
+@dataclass(frozen=True)
+class LoadFrameColumns:
+    """Column names of the record (None: found by their usual names) and their units (None: read
+    from the header; a unit declared here must agree with a unit the header states)."""
+
+    time: str | None = None
+    position: str | None = None
+    force: str | None = None
+    time_unit: str | None = None
+    position_unit: str | None = None
+    force_unit: str | None = None
+
+
+@dataclass
+class LoadFrameRecord:
+    path: Path
+    time_s: np.ndarray
+    position_mm: np.ndarray
+    force_mN: np.ndarray
+    columns: dict[str, str]
+    notes: list[str] = field(default_factory=list)
+    first_line: int = 2  # the file line of the first reading (2: the header is line 1)
+
+
+@dataclass
+class Hold:
+    """One step's hold: rows of the record (as an editor counts them, header = row 1), times on the
+    record's clock, its depth, and its eq. 9 fit."""
+
+    step: int
+    first_row: int
+    last_row: int
+    start_s: float
+    end_s: float
+    depth_mm: float
+    readings: int
+    f_inf_mN: float
+    f_inf_std_mN: float
+    amplitude_mN: float
+    rate_per_s: float
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+def _guess(table: pd.DataFrame, given: str | None, names: tuple[str, ...], path: Path, role: str) -> str:
+    """The column of ``role``: ``given``, else the first whose name starts with one of ``names``,
+    else the first with one of them as a word (``Axial Force`` for a force, as MTS names it)."""
+    if given is not None:
+        return find_column(table, given, path, role)
+    from .table_columns import bare_name
+
+    words = {
+        c: bare_name(c).lower().replace("_", " ").replace("-", " ").replace(".", " ").split()
+        for c in table.columns
+    }
+    for c in table.columns:
+        if words[c] and words[c][0] in names:
+            return c
+    for c in table.columns:
+        if any(w in names for w in words[c][1:]):
+            return c
+    raise ExperimentDataError(
+        f"{path}: no {role} column found by name (has {', '.join(table.columns)}); name it explicitly"
+    )
+
+
+def read_load_frame(path: str | Path, columns: LoadFrameColumns = LoadFrameColumns()) -> LoadFrameRecord:
+    """Read the record; times in s, positions in mm and forces in mN after the units (declared or
+    from the headers); readings ordered in time (an error naming the row where time goes back)."""
+    path = Path(path)
+    table = read_table(path)
+    t_col = _guess(table, columns.time, _TIME_NAMES, path, "time")
+    p_col = _guess(table, columns.position, _POSITION_NAMES, path, "position")
+    f_col = _guess(table, columns.force, _FORCE_NAMES, path, "force")
+    t = numeric_column(table, t_col, path, False) * resolve_unit(t_col, columns.time_unit, "time", str(path))
+    p = numeric_column(table, p_col, path, False) * resolve_unit(
+        p_col, columns.position_unit, "length", str(path)
+    )
+    f = numeric_column(table, f_col, path, False) * resolve_unit(
+        f_col, columns.force_unit, "force", str(path)
+    )
+    back = np.flatnonzero(np.diff(t) <= 0)
+    if back.size:
+        raise ExperimentDataError(
+            f"{path}: row {back[0] + 1 + first_row(table)}, column '{t_col}': time {t[back[0] + 1]:g} s does not follow {t[back[0]]:g} s"
+        )
+    return LoadFrameRecord(
+        path,
+        t,
+        p,
+        f,
+        {"time": t_col, "position": p_col, "force": f_col},
+        list(table.attrs.get("notes", [])),
+        first_row(table),
+    )
+
+
+@dataclass
+class HoldSearch:
+    holds: list[Hold]
+    tare_mN: float
+    position_sign: float
+    force_sign: float
+    contact_position_mm: float
+    contact_from: str = "given"  # "given", "force onset" or "first reading"
+    drift_mN_per_s: float = 0.0  # the load cell's drift, from the unloaded readings before and after
+    tare_time_s: float = 0.0  # the time the tare was read at (the drift's origin)
+    notes: list[str] = field(default_factory=list)
+
+    def baseline(self, t: np.ndarray) -> np.ndarray:
+        """The unloaded reading at times ``t``: the tare and the drift since it was read."""
+        return self.tare_mN + self.drift_mN_per_s * (np.asarray(t, float) - self.tare_time_s)
+
+
+def _contact(record: LoadFrameRecord, given: float | None) -> tuple[float, str]:
+    if given is not None:
+        return float(given), "given"
+    i = force_onset(record.force_mN, record.time_s)
+    if i is None:
+        return float(record.position_mm[0]), "first reading"
+    return float(record.position_mm[i]), "force onset"
+
+
+def find_holds(
+    record: LoadFrameRecord,
+    step_size: float,
+    steps: int,
+    radius: float,
+    contact_position_mm: float | None = None,
+    position_sign: float | None = None,
+    force_sign: float | None = None,
+    level_tol: float = 0.1,
+    min_hold_s: float = 5.0,
+    tare: bool = True,
+    excluded_steps: tuple[int, ...] = (),
+    drift: bool = True,
+) -> HoldSearch:
+    """The protocol's holds in ``record`` (module docstring), each fitted with eq. 9.
+
+    ``contact_position_mm`` is the position at zero depth (default: where the force leaves its
+    unloaded baseline, :func:`.hold_detection.force_onset`; the first reading when it never
+    does); ``position_sign`` +1 when the position grows into the specimen, -1 when it falls
+    (default: the sign of the largest excursion); ``force_sign`` makes compression positive
+    (default: the sign of the force at the deepest hold). A step of ``excluded_steps`` may have no
+    hold and its readings are not checked. With ``drift``, unloaded readings after the last hold
+    (the indenter withdrawn to the contact point or above) give the load cell's drift since the
+    tare, which is taken off every reading (linear in time)."""
+    where = str(record.path)
+    r0 = record.first_line
+    p0, contact_from = _contact(record, contact_position_mm)
+    excursion = record.position_mm - p0
+    sign = float(
+        position_sign if position_sign is not None else np.sign(excursion[np.argmax(np.abs(excursion))])
+    )
+    if sign == 0:
+        raise ExperimentDataError(f"{where}: the position never changes: no hold found")
+    depth = sign * excursion
+    t = record.time_s
+    stretches = still_stretches(t, depth, step_size, level_tol)
+    held = [(k, s) for k, s in stretches if s.duration_s >= min_hold_s and s.readings >= 4]
+    seen = [(k, s) for k, s in stretches if s.duration_s >= min(1.0, min_hold_s) and s.readings >= 4]
+    saw = (
+        f"the stage stood still at {describe_stretches([x for x in seen if x[1].depth_mm > -step_size])} "
+        f"(depths from the contact at {p0:g} mm, {contact_from})"
+    )
+    # a stretch that stands still off every level: a step that slipped or stopped short
+    for k, s in held:
+        if k == OFF and 0 < s.depth_mm < steps * step_size:
+            d = s.depth_mm
+            raise ExperimentDataError(
+                f"{where}: rows {s.first + r0}..{s.last + r0} (t = {s.start_s:g} .. {s.end_s:g} s) hold at depth "
+                f"{d:.4g} mm, between steps {int(d // step_size)} and {int(d // step_size) + 1} of {step_size:g} mm: "
+                "a slipped step?"
+            )
+    level_runs = [(k, s.first, s.last) for k, s in held if k >= 1]
+    if not level_runs:
+        raise ExperimentDataError(
+            f"{where}: no hold found: the position never stays within {level_tol * step_size:g} mm of a multiple of "
+            f"the {step_size:g} mm step for {min_hold_s:g} s; {saw} (step size, units, contact or --min-hold "
+            "wrong?)"
+        )
+    levels = [k for k, _, _ in level_runs]
+    for i, k in enumerate(levels):
+        if k > steps:
+            _, a, b = level_runs[i]
+            raise ExperimentDataError(
+                f"{where}: found {len(set(levels))} holds but the protocol has {steps} steps: rows {a + r0}..{b + r0} "
+                f"hold at step {k} ({k * step_size:g} mm); {saw}"
+            )
+        if levels.count(k) > 1:
+            rows = [f"{a + r0}..{b + r0}" for kk, a, b in level_runs if kk == k]
+            raise ExperimentDataError(f"{where}: step {k} is held more than once (rows {', '.join(rows)})")
+    missing = sorted(set(range(1, steps + 1)) - set(levels) - set(excluded_steps))
+    if missing:
+        raise ExperimentDataError(
+            f"{where}: found {len(levels)} holds but the protocol has {steps} steps (no hold at step(s) "
+            f"{', '.join(map(str, missing[:10]))}); {saw}"
+        )
+    search = HoldSearch([], 0.0, sign, 1.0, p0, contact_from)
+    first_hold, last_hold = min(a for _, a, _ in level_runs), max(b for _, _, b in level_runs)
+    before = [s for k, s in stretches if k == 0 and s.last < first_hold and s.readings >= 3]
+    if tare and before:
+        s = before[-1]
+        search.tare_mN = float(np.median(record.force_mN[s.first : s.last + 1]))
+        search.tare_time_s = 0.5 * (s.start_s + s.end_s)
+        after = [
+            s
+            for k, s in stretches
+            if s.first > last_hold and s.depth_mm <= level_tol * step_size and s.readings >= 3
+        ]
+        if drift and after:
+            e = after[-1]
+            end_f = float(np.median(record.force_mN[e.first : e.last + 1]))
+            end_t = 0.5 * (e.start_s + e.end_s)
+            search.drift_mN_per_s = (end_f - search.tare_mN) / (end_t - search.tare_time_s)
+            search.notes.append(
+                f"load-cell drift {search.drift_mN_per_s:.3g} mN/s taken off (unloaded {search.tare_mN:.4g} mN at "
+                f"t = {search.tare_time_s:g} s, {end_f:.4g} mN at t = {end_t:g} s)"
+            )
+    f_all = record.force_mN - search.baseline(t)
+    _, a, b = max(level_runs)
+    search.force_sign = float(
+        force_sign if force_sign is not None else np.sign(np.median(f_all[a : b + 1])) or 1.0
+    )
+    for k, a, b in sorted(level_runs):
+        tt, ff = t[a : b + 1] - t[a], search.force_sign * f_all[a : b + 1]
+        try:
+            fit = relaxation_fit(tt, ff)
+        except ExperimentDataError as exc:
+            if k not in excluded_steps:
+                raise ExperimentDataError(f"{where}: step {k} (rows {a + r0}..{b + r0}): {exc}") from None
+            fit = RelaxationFit(np.nan, np.nan, np.nan, np.nan)
+        search.holds.append(
+            Hold(
+                k,
+                a + r0,
+                b + r0,
+                float(t[a]),
+                float(t[b]),
+                float(np.median(depth[a : b + 1])),
+                b - a + 1,
+                fit.f_inf,
+                fit.f_inf_std,
+                fit.amplitude,
+                fit.rate,
+            )
+        )
+    table = hold_force_table(record, search)
+    check_hold_forces(
+        table,
+        radius,
+        step_size,
+        where,
+        rows=np.concatenate([np.arange(h.first_row, h.last_row + 1) for h in search.holds]),
+        force_column=record.columns["force"],
+        excluded_steps=excluded_steps,
+    )
+    return search
+
+
+def hold_force_table(record: LoadFrameRecord, search: HoldSearch) -> pd.DataFrame:
+    """The readings of every hold in the experiment format's ``force.csv`` layout: ``step``,
+    ``time_s`` from the start of that hold, ``force_mN`` (tared, compression positive)."""
+    parts = []
+    for h in search.holds:
+        a, b = h.first_row - record.first_line, h.last_row - record.first_line
+        parts.append(
+            pd.DataFrame(
+                {
+                    "step": h.step,
+                    "time_s": record.time_s[a : b + 1] - record.time_s[a],
+                    "force_mN": search.force_sign
+                    * (record.force_mN[a : b + 1] - search.baseline(record.time_s[a : b + 1])),
+                }
+            )
+        )
+    return pd.concat(parts, ignore_index=True)
