@@ -72,7 +72,18 @@ def per_call_ms(f, repeats: int = 300) -> float:
 def timed_posterior(objective, model, sigma: float, start, walkers: int, steps: int, reduced: bool):
     c0, t0 = time.process_time(), time.perf_counter()
     box = (model.scaler.lo, model.scaler.hi)
-    post = sample_posterior(objective, model, ETA, sigma, box, start, walkers, steps, seed=1, reduced=reduced)
+    post = sample_posterior(
+        objective,
+        model,
+        ETA,
+        s=sigma,
+        box=box,
+        start=start,
+        walkers=walkers,
+        steps=steps,
+        seed=1,
+        reduced=reduced,
+    )
     return post, time.perf_counter() - t0, time.process_time() - c0
 
 

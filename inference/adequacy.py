@@ -280,6 +280,7 @@ def chi_square_test(
     residuals: np.ndarray,
     objective,
     eta,
+    *,
     noise: NoiseModel,
     plan: NodeInterpolation,
     gradients: np.ndarray,
@@ -441,7 +442,15 @@ def model_adequacy(
     if fit.prediction is not None:
         bias = operator_bias(fit.prediction, plan, dic, steps, objective.measured)
     statistic, dof, terms = chi_square_test(
-        fit.residuals, objective, inputs.eta, noise, plan, grads, fit.theta.size, bias, fit.jacobian
+        fit.residuals,
+        objective,
+        inputs.eta,
+        noise=noise,
+        plan=plan,
+        gradients=grads,
+        p=fit.theta.size,
+        operator_bias=bias,
+        jacobian=fit.jacobian,
     )
     p_value = float(stats.chi2.sf(statistic, dof)) if dof > 0 else float("nan")
     force_pct = float(np.median(100.0 * noise.force_sd_mN / np.abs(f_inf)))

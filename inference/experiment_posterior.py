@@ -175,12 +175,12 @@ def sample_posterior_for(
         inputs.objective,
         predictor,
         inputs.eta,
-        sigma,
-        box,
-        centre,
-        walkers,
-        steps,
-        seed,
+        s=sigma,
+        box=box,
+        start=centre,
+        walkers=walkers,
+        steps=steps,
+        seed=seed,
         log_uniform=log_uniform,
     )
     if (

@@ -68,6 +68,7 @@ def sample_posterior(
     objective: Objective,
     predictor,
     eta,
+    *,
     s: float,
     box: tuple[np.ndarray, np.ndarray],
     start: np.ndarray,
@@ -75,7 +76,6 @@ def sample_posterior(
     steps: int = 3000,
     seed: int = 0,
     progress: bool = False,
-    *,
     reduced: bool | None = None,
     log_uniform: tuple[int, ...] = (),
 ) -> Posterior:

@@ -161,7 +161,11 @@ def test_surrogate_split_reuses_the_fe_models_row():
     reference = [_reference(FINER)]
     models = {"coarse": fe, "emulator": _Emulator(fe, 1.01)}
     budget = compute_error_budget(
-        reference, models, {"emulator": Counting(COARSE)}, fe_steps=2, fe_names={"emulator": "coarse"}
+        reference,
+        models,
+        fe_models={"emulator": Counting(COARSE)},
+        fe_steps=2,
+        fe_names={"emulator": "coarse"},
     )
     fe_row, em_row = budget.table.iloc[0], budget.table.iloc[1]
     assert calls == []  # the FE fit was taken from the 'coarse' row
@@ -170,7 +174,7 @@ def test_surrogate_split_reuses_the_fe_models_row():
     assert abs(em_row.c5_surrogate_pct) > 0.1  # a 1 % force error does move the fit
     # without the name the split fits the FE model itself, to the same numbers
     again = compute_error_budget(
-        reference, {"emulator": models["emulator"]}, {"emulator": Counting(COARSE)}, fe_steps=2
+        reference, {"emulator": models["emulator"]}, fe_models={"emulator": Counting(COARSE)}, fe_steps=2
     )
     assert calls and again.table.iloc[0].c5_discretisation_pct == pytest.approx(fe_row.c5_bias_pct, abs=1e-9)
 

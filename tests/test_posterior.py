@@ -68,7 +68,9 @@ def test_gaussian_posterior_matches_closed_form(linear_target):
     sd = np.sqrt(np.diag(cov))
     box = (theta_ls - 40 * sd, theta_ls + 40 * sd)  # uniform prior far wider than the posterior
     walkers, steps = 32, 3000
-    post = sample_posterior(objective, model, PAPER_WEIGHTS, s, box, theta_ls, walkers, steps, seed=3)
+    post = sample_posterior(
+        objective, model, PAPER_WEIGHTS, s=s, box=box, start=theta_ls, walkers=walkers, steps=steps, seed=3
+    )
     assert post.converged
     tau = float(np.max(post.autocorrelation_steps))
     n_eff = walkers * steps / 2 / tau  # at most half the chain is burnt
@@ -87,7 +89,15 @@ def test_carried_posterior_is_shifted_and_widened_by_the_mesh_check(linear_targe
     s = 0.01
     sd = np.sqrt(np.diag(s**2 * np.linalg.inv(J.T @ J)))
     post = sample_posterior(
-        objective, model, PAPER_WEIGHTS, s, (theta_ls * 0.5, theta_ls * 1.5), theta_ls, 16, 1500, seed=1
+        objective,
+        model,
+        PAPER_WEIGHTS,
+        s=s,
+        box=(theta_ls * 0.5, theta_ls * 1.5),
+        start=theta_ls,
+        walkers=16,
+        steps=1500,
+        seed=1,
     )
     shift_pct, gci_pct = np.array([-3.0, 12.0]), np.array([8.0, 15.0])
     moved = carried_to_finer_mesh(post, theta_ls, shift_pct, gci_pct, seed=2)

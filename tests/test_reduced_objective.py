@@ -141,7 +141,9 @@ def test_posterior_is_the_same_chain_on_either_path(surrogate, measured):
     box = (surrogate.scaler.lo, surrogate.scaler.hi)
     start = np.array([10.0, 280.0])
     runs = {
-        path: sample_posterior(measured, surrogate, eta, 0.05, box, start, 8, 300, seed=4, reduced=path)
+        path: sample_posterior(
+            measured, surrogate, eta, s=0.05, box=box, start=start, walkers=8, steps=300, seed=4, reduced=path
+        )
         for path in (True, False)
     }
     fast, slow = runs[True], runs[False]
@@ -150,7 +152,9 @@ def test_posterior_is_the_same_chain_on_either_path(surrogate, measured):
     np.testing.assert_allclose(fast.samples, slow.samples, rtol=1e-9)
     assert fast.acceptance_fraction == slow.acceptance_fraction > 0.1
     # the default picks the reduced path for a surrogate
-    again = sample_posterior(measured, surrogate, eta, 0.05, box, start, 8, 300, seed=4)
+    again = sample_posterior(
+        measured, surrogate, eta, s=0.05, box=box, start=start, walkers=8, steps=300, seed=4
+    )
     assert again.objective_path == "reduced"
     np.testing.assert_array_equal(again.samples, fast.samples)
 

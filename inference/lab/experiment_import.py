@@ -206,6 +206,7 @@ def _forces(
 def import_experiment(
     dic: DICSeries,
     out_dir: str | Path,
+    *,
     protocol: ProtocolInfo,
     force: ForceSource,
     indenter: IndenterSource,
@@ -291,7 +292,16 @@ def import_matchid(
     from .matchid_export import read_matchid
 
     dic = read_matchid(folder, length_unit, max_sigma=max_sigma, allow_gaps=frames.frames is not None)
-    return import_experiment(dic, out_dir, protocol, force, indenter, frames, overwrite, "MatchID CSV")
+    return import_experiment(
+        dic,
+        out_dir,
+        protocol=protocol,
+        force=force,
+        indenter=indenter,
+        frames=frames,
+        overwrite=overwrite,
+        source_format="MatchID CSV",
+    )
 
 
 def import_duodic(
@@ -312,7 +322,16 @@ def import_duodic(
     from .duodic_results import read_duodic
 
     dic = read_duodic(path, length_unit, variable, max_corr, rigid_body_removed)
-    return import_experiment(dic, out_dir, protocol, force, indenter, frames, overwrite, "DuoDIC .mat")
+    return import_experiment(
+        dic,
+        out_dir,
+        protocol=protocol,
+        force=force,
+        indenter=indenter,
+        frames=frames,
+        overwrite=overwrite,
+        source_format="DuoDIC .mat",
+    )
 
 
 def import_dic_csv(
@@ -332,7 +351,16 @@ def import_dic_csv(
     from .import_csv import read_dic_csv
 
     dic = read_dic_csv(source, mapping, pattern, max_sigma, allow_gaps=frames.frames is not None)
-    return import_experiment(dic, out_dir, protocol, force, indenter, frames, overwrite, "mapped CSV")
+    return import_experiment(
+        dic,
+        out_dir,
+        protocol=protocol,
+        force=force,
+        indenter=indenter,
+        frames=frames,
+        overwrite=overwrite,
+        source_format="mapped CSV",
+    )
 
 
 def import_load_frame(
