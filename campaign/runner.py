@@ -33,7 +33,9 @@ from typing import Any
 
 import numpy as np
 
-from ..forward.febio.runner import find_febio
+from ..forward.febio.equilibrium import EquilibriumTolerance
+from ..forward.febio.runner import FebioSolver, find_febio
+from ..forward.solver import EmbeddedSolver
 from ..forward.spec import ModelSpec
 from .designs import Design, design_from_option
 from .store import (
@@ -72,27 +74,21 @@ def solve_point(
         "error": None,
     }
     try:
-        from ..forward.solver import thread_limits
+        spec = ModelSpec.from_dict(model).with_parameters(**dict(zip(parameters, values, strict=True)))
+        if solver == "febio":
+            # steps FEBio accepted off equilibrium (after its one rerun, made only when a
+            # step is flagged) are kept as NaN forces: the point is done, its flagged steps
+            # counted (forward.febio.equilibrium; the loader and training handle them)
+            tolerance = EquilibriumTolerance(relative=equilibrium_rel or CAMPAIGN_EQUILIBRIUM_REL)
+            result = FebioSolver(spec, workdir=workdir, timeout_s=timeout_s, tolerance=tolerance).run()
+        else:
 
-        with thread_limits(1):  # one worker per core: numba and MKL on one thread each
-            spec = ModelSpec.from_dict(model).with_parameters(**dict(zip(parameters, values, strict=True)))
-            if solver == "febio":
-                from ..forward.febio.equilibrium import EquilibriumTolerance
-                from ..forward.febio.runner import FebioSolver
+            def deadline(k: int, n: int, f: float) -> None:
+                if timeout_s is not None and time.perf_counter() - t0 > timeout_s:
+                    raise PointTimeout(f"timeout: {timeout_s:g} s exceeded after step {k} of {n}")
 
-                # steps FEBio accepted off equilibrium (after its one rerun, made only when a
-                # step is flagged) are kept as NaN forces: the point is done, its flagged steps
-                # counted (forward.febio.equilibrium; the loader and training handle them)
-                tolerance = EquilibriumTolerance(relative=equilibrium_rel or CAMPAIGN_EQUILIBRIUM_REL)
-                result = FebioSolver(spec, workdir=workdir, timeout_s=timeout_s, tolerance=tolerance).run()
-            else:
-                from ..forward.solver import EmbeddedSolver
-
-                def deadline(k: int, n: int, f: float) -> None:
-                    if timeout_s is not None and time.perf_counter() - t0 > timeout_s:
-                        raise PointTimeout(f"timeout: {timeout_s:g} s exceeded after step {k} of {n}")
-
-                result = EmbeddedSolver(spec).run(progress=deadline)
+            # one thread: a worker among as many as the cores (forward.threads)
+            result = EmbeddedSolver(spec).run(progress=deadline, threads=1)
         row.update(status="done", result=result, **_result_row(result))
     except Exception as exc:  # recorded, never propagated: one bad point must not stop a campaign
         partial = getattr(exc, "partial", None)

@@ -16,6 +16,7 @@ from ..design.friction_treatment import FrictionTreatment, friction_bounds
 from ..design.objective import PAPER_WEIGHTS
 from ..surrogate.base import FieldSurrogate
 from .experiment_data import ExperimentData
+from .experiment_fit import _mu_range, _stick_mesh_budget, fit_on_surrogate_with_mu, surrogate_with_mu
 from .fit_inputs import FitInputs, prepare_fit
 from .inverse_fit import FitResult, fit_parameters
 from .mesh_check import load_mesh_check
@@ -154,8 +155,6 @@ def sample_posterior_for(
                 "friction: a posterior samples the surrogate, and this one has no mu; train one on a "
                 "campaign with a mu axis (campaign run --grid ...,mu=LO:HI:N:log) or fit with --friction"
             )
-        from .experiment_fit import _mu_range, fit_on_surrogate_with_mu, surrogate_with_mu
-
         if treatment.mode == "assumed":
             raise ValueError(
                 "friction: this surrogate was trained with mu as a parameter; say how the posterior "
@@ -186,8 +185,6 @@ def sample_posterior_for(
     if (
         "mu" in model.parameters
     ):  # the stick-measured mesh budget of (c1, c5) (experiment_fit._stick_mesh_budget)
-        from .experiment_fit import _stick_mesh_budget
-
         contact = treatment.describe(inputs.spec.contact.describe(), mu_range)
         model_error = _stick_mesh_budget(model, contact, inputs.spec.contact.describe())
         if model_error is not None and fit.theta.size == 3:  # mu sampled: no budget of its own

@@ -49,3 +49,20 @@ def test_busy_cores_reads_the_kernel_and_limits_are_restored():
     with threads.thread_limits(1):
         assert numba.get_num_threads() == 1
     assert numba.get_num_threads() == before
+
+
+def test_a_campaign_worker_solves_on_one_thread(monkeypatch):
+    """A worker is one of as many as the cores: it must not take the idle cores itself."""
+    from indentation_studio.campaign import runner
+
+    seen = []
+    original = EmbeddedSolver.run
+
+    def run(self, *args, **kwargs):
+        seen.append(kwargs.get("threads"))
+        return original(self, *args, **kwargs)
+
+    monkeypatch.setattr(runner.EmbeddedSolver, "run", run)
+    spec = ModelSpec(mesh=MeshChoice("coarse"), protocol=Protocol(step_size=0.5, steps=2))
+    row = runner.solve_point(0, spec.to_dict(), "embedded", ("c1", "c5"), [10.0, 350.0], None)
+    assert row["status"] == "done" and seen == [1]

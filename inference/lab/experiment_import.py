@@ -21,7 +21,10 @@ from ..experiment_data import ExperimentDataError
 from ..experiment_folder import write_experiment_folder
 from .clock_offset import ClockOffset, find_clock_offset, indentation_signal
 from .dic_series import DICSeries, frames_by_list, frames_by_time
+from .duodic_results import read_duodic
+from .import_csv import read_dic_csv
 from .load_frame import LoadFrameColumns, find_holds, hold_force_table, read_load_frame
+from .matchid_export import read_matchid
 from .table_columns import find_column, numeric_column, read_table
 from .units import resolve_unit
 
@@ -116,12 +119,8 @@ def read_indenter_points(source: IndenterSource) -> np.ndarray:
     """The indenter's points (n, 3) in mm from a CSV, a MatchID folder or a DuoDIC .mat."""
     path = Path(source.path)
     if path.is_dir():
-        from .matchid_export import read_matchid
-
         return read_matchid(path, source.length_unit, allow_gaps=True).xyz
     if path.suffix.lower() == ".mat":
-        from .duodic_results import read_duodic
-
         if source.length_unit is None:
             raise ExperimentDataError(f"{path}: DuoDIC stores no units; declare the indenter's length unit")
         return read_duodic(path, source.length_unit).xyz
@@ -289,8 +288,6 @@ def import_matchid(
     overwrite: bool = False,
 ) -> ImportResult:
     """A MatchID export folder (:mod:`.matchid_export`) into an experiment folder."""
-    from .matchid_export import read_matchid
-
     dic = read_matchid(folder, length_unit, max_sigma=max_sigma, allow_gaps=frames.frames is not None)
     return import_experiment(
         dic,
@@ -319,8 +316,6 @@ def import_duodic(
     overwrite: bool = False,
 ) -> ImportResult:
     """A DuoDIC results .mat (:mod:`.duodic_results`) into an experiment folder."""
-    from .duodic_results import read_duodic
-
     dic = read_duodic(path, length_unit, variable, max_corr, rigid_body_removed)
     return import_experiment(
         dic,
@@ -348,8 +343,6 @@ def import_dic_csv(
     overwrite: bool = False,
 ) -> ImportResult:
     """A mapped DIC CSV export (:mod:`.import_csv`) into an experiment folder."""
-    from .import_csv import read_dic_csv
-
     dic = read_dic_csv(source, mapping, pattern, max_sigma, allow_gaps=frames.frames is not None)
     return import_experiment(
         dic,

@@ -23,10 +23,10 @@ import numpy as np
 import pandas as pd
 
 from ..experiment_data import ExperimentDataError
-from ..experiment_processing import RelaxationFit, relaxation_fit
 from ..hold_checks import check_hold_forces
+from ..relaxation import RelaxationFit, relaxation_fit
 from .hold_detection import OFF, describe_stretches, force_onset, still_stretches
-from .table_columns import find_column, first_row, numeric_column, read_table
+from .table_columns import bare_name, find_column, first_row, numeric_column, read_table
 from .units import resolve_unit
 
 _TIME_NAMES = ("time", "t", "elapsed")
@@ -94,8 +94,6 @@ def _guess(table: pd.DataFrame, given: str | None, names: tuple[str, ...], path:
     else the first with one of them as a word (``Axial Force`` for a force, as MTS names it)."""
     if given is not None:
         return find_column(table, given, path, role)
-    from .table_columns import bare_name
-
     words = {
         c: bare_name(c).lower().replace("_", " ").replace("-", " ").replace(".", " ").split()
         for c in table.columns

@@ -12,6 +12,7 @@ import numpy as np
 import pandas as pd
 
 from ..experiment_data import ExperimentDataError
+from .csv_text import parse_csv_text
 
 _UNIT_SUFFIX = re.compile(r"\s*[\[(][^\])]*[\])]\s*$")
 
@@ -27,8 +28,6 @@ def read_table(path: Path, encoding: str | None = None) -> pd.DataFrame:
     before the data, :mod:`.csv_text`) with its headers stripped; an error naming the file when
     it cannot be read. ``table.attrs``: ``first_data_line`` (the file line of the first row, so
     that errors name rows as an editor counts them), ``encoding``, ``notes``."""
-    from .csv_text import parse_csv_text
-
     if not path.is_file():
         raise ExperimentDataError(f"{path}: missing file")
     text = parse_csv_text(path, encoding)
