@@ -1,13 +1,6 @@
 """Moved to :mod:`indentation_studio.forward.febio.equilibrium` (the FEBio backend is one subpackage);
 this path is kept for one version."""
 
-from typing import Any
+from ..moved_names import moved_module
 
-from ..moved_names import warn_moved_module
-from .febio import equilibrium as _moved
-
-warn_moved_module(__name__, "indentation_studio.forward.febio.equilibrium")
-
-
-def __getattr__(name: str) -> Any:
-    return getattr(_moved, name)
+__getattr__ = moved_module(__name__, "indentation_studio.forward.febio.equilibrium")

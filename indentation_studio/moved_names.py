@@ -8,7 +8,7 @@ import warnings
 from collections.abc import Callable
 from typing import Any
 
-__all__ = ["REMOVED_IN", "moved_getattr", "warn_moved_module"]
+__all__ = ["REMOVED_IN", "moved_getattr", "moved_module", "warn_moved_module"]
 
 #: The version in which the old paths go.
 REMOVED_IN = "0.3"
@@ -36,5 +36,17 @@ def moved_getattr(
             )
             return getattr(importlib.import_module(moved[name]), name)
         return fallback(name)
+
+    return __getattr__
+
+
+def moved_module(old: str, new: str) -> Callable[[str], Any]:
+    """The body of a moved module's old path: warn now that ``old`` is ``new`` and return the
+    ``__getattr__`` that reads every name from ``new``."""
+    warn_moved_module(old, new)
+    module = importlib.import_module(new)
+
+    def __getattr__(name: str) -> Any:
+        return getattr(module, name)
 
     return __getattr__

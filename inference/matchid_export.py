@@ -1,13 +1,6 @@
 """Moved to :mod:`indentation_studio.inference.lab.matchid_export` (the readers of a lab's files are one
 subpackage); this path is kept for one version."""
 
-from typing import Any
+from ..moved_names import moved_module
 
-from ..moved_names import warn_moved_module
-from .lab import matchid_export as _moved
-
-warn_moved_module(__name__, "indentation_studio.inference.lab.matchid_export")
-
-
-def __getattr__(name: str) -> Any:
-    return getattr(_moved, name)
+__getattr__ = moved_module(__name__, "indentation_studio.inference.lab.matchid_export")
