@@ -12,14 +12,18 @@ that design (:func:`design.weights.optimise_weights`).
 from __future__ import annotations
 
 import itertools
+import json
 from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
 
+from ..atomic_write import atomic_write
 from ..forward.predictor import FESolverPredictor, Prediction
 from ..forward.spec import Indenter, ModelSpec, Protocol
-from .certainty import bounds_pct, combine, gauss_newton_term_hessians
+from .certainty import DESIGN_BOUNDS_INCLUDE, bounds_pct, combine, gauss_newton_term_hessians
 from .objective import PAPER_WEIGHTS, Objective, check_weights
 from .weights import optimise_weights
 
@@ -128,3 +132,72 @@ def candidate_grid(
 ) -> list[Candidate]:
     """Every combination of the given design choices."""
     return [Candidate(*c) for c in itertools.product(radii, depths, every, fovs, noise)]
+
+
+@dataclass
+class DesignComparison:
+    """The candidate designs' bounds (:func:`compare_designs`' table) at theta* and the CSV they
+    were written to."""
+
+    table: pd.DataFrame
+    theta_star: tuple[float, float]
+    csv: Path
+
+    def to_dict(self, *, png: str | Path | None = None) -> dict[str, Any]:
+        """The comparison as ``design compare --json`` prints it.
+
+        Parameters
+        ----------
+        png : str or Path, optional
+            The plot of the comparison, if one was drawn.
+
+        Returns
+        -------
+        dict
+            The rows, the CSV and PNG files, theta* and what the bounds include.
+        """
+        rows = json.loads(self.table.to_json(orient="records"))
+        payload = {"rows": rows, "csv": str(self.csv), "png": str(png) if png is not None else None}
+        return payload | {"theta_star": list(self.theta_star), "bounds_include": DESIGN_BOUNDS_INCLUDE}
+
+
+def compare_candidate_designs(
+    spec: ModelSpec,
+    out_dir: str | Path,
+    *,
+    radii=(4.77, 8.0),
+    depths=(7.0, 10.5, 14.0),
+    every=(1,),
+    fovs=(None,),
+    noise=(0.05,),
+    weights=PAPER_COMBINED_WEIGHTS,
+    criterion: str = "combined",
+    reading: str = "paper",
+    progress=None,
+) -> DesignComparison:
+    """Every candidate design of the given choices (:func:`candidate_grid`) compared at the
+    spec's own (c1, c5), the table written to ``out_dir/design-comparison.csv``.
+
+    Parameters
+    ----------
+    spec : ModelSpec
+        The model at theta*; its step size is the protocol's.
+    out_dir : str or Path
+        The folder for the CSV (made if missing).
+    radii, depths, every, fovs, noise
+        The design choices (see :class:`Candidate`).
+    weights, criterion, reading, progress
+        As :func:`compare_designs`.
+
+    Returns
+    -------
+    DesignComparison
+        The table and its CSV.
+    """
+    theta_star = (spec.material.c1, spec.material.c5)
+    candidates = candidate_grid(radii, depths, every, fovs, noise)
+    table = compare_designs(spec, candidates, theta_star, weights, criterion, reading, progress=progress)
+    Path(out_dir).mkdir(parents=True, exist_ok=True)
+    csv = Path(out_dir) / "design-comparison.csv"
+    atomic_write(csv, table.to_csv(index=False))
+    return DesignComparison(table, theta_star, csv)

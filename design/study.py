@@ -4,6 +4,7 @@ sensitivities (Gauss-Newton) or finite differences on any Predictor, and the bou
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from scipy import stats
@@ -11,6 +12,7 @@ from scipy import stats
 from ..forward.predictor import FESolverPredictor, Prediction
 from ..forward.spec import ModelSpec
 from .certainty import (
+    DESIGN_BOUNDS_INCLUDE,
     bounds_pct,
     combine,
     finite_difference_term_hessians,
@@ -19,6 +21,7 @@ from .certainty import (
 )
 from .friction_treatment import FrictionTreatment, friction_bounds
 from .objective import Objective
+from .weights import PAPER_HESSIAN, ComparisonRow, compare_with_paper
 
 
 @dataclass
@@ -106,3 +109,175 @@ def friction_design_bounds(study: DesignStudy, eta, s: float, mu_prior: tuple[fl
         "nuisance_mu_share_pct": nuisance["mu_share_pct"],
         "mu_prior": list(mu_prior),
     }
+
+
+def model_design_study(
+    spec: ModelSpec,
+    *,
+    method: str = "exact",
+    reading: str = "paper",
+    h: float | tuple[float, ...] = 0.02,
+    n_jobs: int = 1,
+) -> DesignStudy:
+    """The design study at the model's own (c1, c5): theta* is the spec's material, and with a
+    friction coefficient mu > 0 its contact's mu too (3 x 3 Hessians; mu = 0, frictionless, has
+    no d/d(log mu): (c1, c5) alone).
+
+    Parameters
+    ----------
+    spec : ModelSpec
+        The model at theta*.
+    method, reading, h, n_jobs
+        As :func:`fe_design_study`.
+
+    Returns
+    -------
+    DesignStudy
+        The term Hessians at theta*.
+    """
+    mu = spec.contact.friction
+    with_mu = mu is not None and mu > 0
+    theta = (spec.material.c1, spec.material.c5, *((mu,) if with_mu else ()))
+    parameters = ("c1", "c5", "mu") if with_mu else ("c1", "c5")
+    return fe_design_study(spec, theta, method, reading, h=h, n_jobs=n_jobs, parameters=parameters)
+
+
+@dataclass
+class DesignBounds:
+    """The certainty bounds (eq. 6) of c1 and c5 for one set of weights at a study's theta*; with
+    friction, the three treatments of mu (:func:`friction_design_bounds`)."""
+
+    study: DesignStudy
+    weights: np.ndarray
+    s: float
+    bounds_pct: np.ndarray
+    friction: dict[str, Any] | None
+
+    def to_dict(self) -> dict[str, Any]:
+        """The bounds as ``design bounds --json`` prints them.
+
+        Returns
+        -------
+        dict
+            c1_pct, c5_pct, friction, hessian, weights, s, method, reading, term_hessians and
+            what the bounds include.
+        """
+        return {
+            "c1_pct": float(self.bounds_pct[0]),
+            "c5_pct": float(self.bounds_pct[1]),
+            "friction": self.friction,
+            "hessian": self.study.hessian(self.weights).tolist(),
+            "weights": self.weights.tolist(),
+            "s": self.s,
+            "method": self.study.method,
+            "reading": self.study.reading,
+            "term_hessians": self.study.term_hessians.tolist(),
+            "bounds_include": DESIGN_BOUNDS_INCLUDE,
+        }
+
+
+def design_bounds(
+    study: DesignStudy, eta, s: float = 0.05, *, mu_prior: tuple[float, float] = (0.1, 3.0)
+) -> DesignBounds:
+    """The bounds of c1 and c5 for the weights ``eta``; on a model with friction mu, with mu known,
+    identified and a nuisance with a log-uniform prior on ``mu_prior`` (mu = 0: known only).
+
+    Parameters
+    ----------
+    study : DesignStudy
+        The study (:func:`model_design_study`); its spec's contact says the friction.
+    eta : array_like
+        The objective's weights (force, ux, uy, uz).
+    s : float
+        The noise level of eq. 6.
+    mu_prior : tuple of float
+        The range of mu's log-uniform prior as a nuisance.
+
+    Returns
+    -------
+    DesignBounds
+        The bounds, percent.
+    """
+    eta = np.asarray(eta, float)
+    mu = study.spec.get("contact", {}).get("friction")
+    friction = None
+    if mu is None:
+        b = study.bounds(eta, s)
+    elif mu == 0:  # the end of mu's range, where mu has no log: the frictionless bounds alone
+        b = study.bounds(eta, s)
+        friction = {"mu": 0.0, "known_pct": b.tolist(), "identified_pct": None, "nuisance_pct": None}
+        friction["note"] = "mu = 0 (frictionless): only the bounds with mu known; give mu > 0 for the others"
+    else:
+        friction = friction_design_bounds(study, eta, s, mu_prior)
+        b = np.array(friction["known_pct"])
+    return DesignBounds(study, eta, s, b, friction)
+
+
+@dataclass
+class WeightsTable:
+    """Table 1 at a study's theta*: each row's paper weights and bounds beside ours at them and at
+    our optimum (:func:`design.weights.compare_with_paper`)."""
+
+    study: DesignStudy
+    rows: list[ComparisonRow]
+    s: float
+    criterion: str
+    fd_step: str | None = None
+
+    @property
+    def hessian_paper_weights(self) -> np.ndarray:
+        """H(theta*) at the paper's combined weights (its eq. 14 beside it)."""
+        return self.study.hessian(self.rows[-1].paper_weights)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The table as ``design weights --json`` prints (and ``--out`` writes) it.
+
+        Returns
+        -------
+        dict
+            Our rows, the paper's rows, s, criterion, method, reading, the fd step, theta*, the
+            Hessians (combined, at the paper's weights, the paper's, per term) and the spec.
+        """
+        rows, study = self.rows, self.study
+        return {
+            "rows": [
+                {"name": r.name, "weights": list(r.weights), "c1_pct": r.c1_pct, "c5_pct": r.c5_pct}
+                for r in rows
+            ],
+            "paper_rows": [r.__dict__ for r in rows],
+            "s": self.s,
+            "criterion": self.criterion,
+            "method": study.method,
+            "reading": study.reading,
+            "fd_step": self.fd_step if study.method == "fd" else None,
+            "theta_star": study.theta_star.tolist(),
+            "hessian_combined": study.hessian(rows[-1].weights).tolist(),
+            "hessian_paper_weights": self.hessian_paper_weights.tolist(),
+            "paper_hessian": [list(r) for r in PAPER_HESSIAN],
+            "term_hessians": study.term_hessians.tolist(),
+            "spec": study.spec,
+        }
+
+
+def weights_table(
+    study: DesignStudy, s: float = 0.05, criterion: str = "combined", *, fd_step: str | None = None
+) -> WeightsTable:
+    """Table 1 of a study: the paper's rows beside ours.
+
+    Parameters
+    ----------
+    study : DesignStudy
+        The study at theta*.
+    s : float
+        The noise level of eq. 6.
+    criterion : str
+        What our weights optimise: c1, c5, combined or det.
+    fd_step : str or None
+        The finite-difference step as given (recorded with an fd study).
+
+    Returns
+    -------
+    WeightsTable
+        The table.
+    """
+    return WeightsTable(study, compare_with_paper(study.term_hessians, s, criterion), s, criterion, fd_step)

@@ -38,6 +38,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
             "stretch_block",
         ],
         "coulomb_contact": ["FrictionContactState", "contact_response", "tributary_areas"],
+        "contact_points": ["CONTACT_INTEGRATIONS", "ContactPoints", "contact_points", "top_faces"],
         "solver": ["EmbeddedSolver", "SimulationError", "simulate"],
         "threads": ["busy_cores", "solver_threads", "thread_limits"],
         "mesh_family": ["MeshFamily"],
@@ -57,5 +58,6 @@ __getattr__, __dir__, __all__ = lazy.attach(
         "febio.runner": ["FebioSolver", "find_febio"],
         "mesh_study": ["MeshErrors", "convergence_study", "mesh_errors"],
         "vtu_export": ["write_vtu_series"],
+        "simulation_run": ["SimulationRun", "default_result_file", "feb_beside_log", "run_simulation"],
     },
 )

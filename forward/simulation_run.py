@@ -4,9 +4,12 @@ of the whole block as VTU for ParaView."""
 
 from __future__ import annotations
 
+import math
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from .febio.equilibrium import equilibrium_notes
 from .febio.readback import read_febio_run
@@ -15,24 +18,94 @@ from .result import SimulationResult
 from .solver import EmbeddedSolver, SimulationError
 from .spec import ModelSpec
 
-__all__ = ["SimulationRun", "run_simulation"]
+__all__ = ["SimulationRun", "default_result_file", "feb_beside_log", "run_simulation"]
 
 SOLVERS = ("embedded", "febio")
 
 
 @dataclass
 class SimulationRun:
-    """The result, where it was written, the VTU series (if asked for) and warnings to show."""
+    """The result, where it was written, the VTU series (if asked for), warnings to show and the
+    wall time of the run (s)."""
 
     result: SimulationResult
     result_file: Path
     vtu_series: Path | None
     warnings: list[str]
+    wall_s: float = math.nan
+
+    def to_dict(self) -> dict[str, Any]:
+        """The run as the command line's ``simulate --json`` prints it.
+
+        Returns
+        -------
+        dict
+            Depths (mm), whole-specimen forces (mN; a step off equilibrium: None), wall time,
+            Newton iterations, the result file, solver and mesh, the VTU series, the depths off
+            equilibrium and FEBio's rerun record.
+        """
+        result, mesh = self.result, self.result.spec.get("mesh", {})
+        return {
+            "depth_mm": result.depth.tolist(),
+            "force_mN": [float(f) if math.isfinite(f) else None for f in result.force],
+            "force_is": "whole specimen (4 x quarter model)",
+            "wall_s": self.wall_s,
+            "newton_iterations": result.newton_iterations,
+            "result_file": str(self.result_file),
+            "solver": result.solver["name"],
+            "mesh": result.solver.get("mesh", {"source": str(mesh.get("feb_file") or mesh.get("preset"))}),
+            "vtu_series": str(self.vtu_series) if self.vtu_series else None,
+            "off_equilibrium_depths_mm": result.off_equilibrium_depths,
+            "febio_rerun": result.solver.get("rerun"),
+        }
+
+
+def default_result_file(spec: ModelSpec, solver: str = "embedded") -> Path:
+    """Where a simulation's result goes unless told: under ``runs/simulations/``, named by its
+    material, radius, contact (runs with another contact kept apart), mesh and solver.
+
+    Parameters
+    ----------
+    spec : ModelSpec
+        The model.
+    solver : str
+        'embedded' or 'febio'.
+
+    Returns
+    -------
+    Path
+        ``runs/simulations/c1=.._c5=.._R=..[_mu=..]_<mesh>_<solver>.npz``.
+    """
+    tag = Path(spec.mesh.feb_file).stem if spec.mesh.feb_file else spec.mesh.preset
+    mu = spec.contact.friction
+    contact = "" if mu is None else f"_mu={mu:g}"
+    m = spec.material
+    return (
+        Path("runs/simulations")
+        / f"c1={m.c1:g}_c5={m.c5:g}_R={spec.indenter.radius:g}{contact}_{tag}_{solver}.npz"
+    )
+
+
+def feb_beside_log(log: str | Path) -> Path | None:
+    """The .feb file beside a FEBio log (the run's model), or None if there is none.
+
+    Parameters
+    ----------
+    log : str or Path
+        A FEBio log file.
+
+    Returns
+    -------
+    Path or None
+        ``<log>.feb`` if that file exists.
+    """
+    feb = Path(log).with_suffix(".feb")
+    return feb if feb.is_file() else None
 
 
 def run_simulation(
     spec: ModelSpec,
-    out: str | Path,
+    out: str | Path | None = None,
     *,
     solver: str = "embedded",
     sensitivities: bool = False,
@@ -42,16 +115,21 @@ def run_simulation(
     say: Callable[[str], None] | None = None,
 ) -> SimulationRun:
     """Solve ``spec`` on ``solver`` ('embedded' or 'febio'; ``from_log`` reads an existing FEBio run
-    back instead) and write the result to ``out``. ``progress(step, steps, value)`` gets the force
+    back instead) and write the result to ``out`` (default: :func:`default_result_file`). ``progress(step, steps, value)`` gets the force
     (embedded) or the depth (FEBio). A failed simulation keeps its finished steps in
     ``<out>.partial.npz`` and raises :class:`SimulationError` naming the depth reached."""
-    out = Path(out)
+    t0 = time.perf_counter()
     if solver not in SOLVERS:
         raise ValueError(f"unknown solver {solver!r}; use one of {', '.join(SOLVERS)}")
     if (solver == "febio" or from_log is not None) and (sensitivities or vtu is not None):
         raise ValueError(
             "--sensitivities and --vtu need the embedded solver (FEBio writes its own .xplt for FEBio Studio)"
         )
+    out = (
+        Path(out)
+        if out is not None
+        else default_result_file(spec, "febio" if from_log is not None else solver)
+    )
     engine = None
     try:
         if from_log is not None:
@@ -74,4 +152,4 @@ def run_simulation(
         from .vtu_export import write_vtu_series
 
         pvd = write_vtu_series(result, engine.mesh, vtu)
-    return SimulationRun(result, path, pvd, list(equilibrium_notes(result)))
+    return SimulationRun(result, path, pvd, list(equilibrium_notes(result)), time.perf_counter() - t0)

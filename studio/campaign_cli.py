@@ -10,24 +10,11 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from .. import campaign  # lazy: a command imports what it runs
 from ..atomic_write import atomic_write, strict_json
 from ..campaign.errors import CampaignError, DesignError
 from ..forward.spec import SpecError
-from .options import (
-    FRICTION,
-    JSON,
-    KAPPA,
-    MESH,
-    MESH_FROM,
-    RADIUS,
-    STEP_SIZE,
-    STEPS,
-    SUBSTEPS,
-    SolverName,
-    err,
-    fail,
-    model_spec,
-)
+from .options import JSON, MODEL_FLAGS, ModelOptions, SolverName, err, fail, model_options
 from .progress import step_progress
 
 campaign_app = typer.Typer(help="Many simulations over a parameter design, resumable, in parallel.")
@@ -90,60 +77,63 @@ def _print_summary(summary: dict[str, Any], title: str) -> None:
         )
 
 
+GRID = Annotated[
+    str,
+    typer.Option(
+        help="paper | FILE.csv | c1=LO:HI:N,c5=LO:HI:N | lhs:N[:SEED] | sobol:N[:SEED]; "
+        "mu=LO:HI:N[:log] adds friction as a third axis (:log spaces it in log)"
+    ),
+]
+SOLVER = Annotated[SolverName, typer.Option(help="FE solver")]
+JOBS = Annotated[int, typer.Option(help="parallel processes (default: all cores)")]
+SCHEDULER = Annotated[
+    str | None, typer.Option(help="dask.distributed scheduler address, e.g. tcp://10.0.0.1:8786")
+]
+TIMEOUT = Annotated[float | None, typer.Option(help="per-point timeout, s")]
+RETRY_FAILED = Annotated[bool, typer.Option(help="solve the failed points again")]
+VERIFY_ONLY = Annotated[
+    bool,
+    typer.Option(help="check the store's files against their hashes and report; repair and solve nothing"),
+]
+WAIT = Annotated[
+    bool,
+    typer.Option(
+        help="wait for the points another run of this campaign holds (--no-wait: return, listing them)"
+    ),
+]
+LEASE_TIMEOUT = Annotated[
+    float, typer.Option(help="s without a heartbeat after which a run's claim on a point is taken over")
+]
+EQUILIBRIUM_TOL = Annotated[
+    float,
+    typer.Option(
+        help="FEBio: flag a step whose imbalance exceeds this % of the step's own force (its force null)"
+    ),
+]
+
+
 @campaign_app.command("run")
+# the material of the base spec is a placeholder: each point sets its own
+@model_options(*(f for f in MODEL_FLAGS if f not in ("c1", "c5")), c1=1.0, c5=1.0)
 def run(
     name: NAME,
-    grid: Annotated[
-        str,
-        typer.Option(
-            help="paper | FILE.csv | c1=LO:HI:N,c5=LO:HI:N | lhs:N[:SEED] | sobol:N[:SEED]; "
-            "mu=LO:HI:N[:log] adds friction as a third axis (:log spaces it in log)"
-        ),
-    ] = "paper",
-    kappa: KAPPA = 1000.0,
-    radius: RADIUS = 4.77,
-    steps: STEPS = 28,
-    step_size: STEP_SIZE = 0.5,
-    mesh: MESH = "default",
-    mesh_from: MESH_FROM = None,
-    substeps: SUBSTEPS = 1,
-    friction: FRICTION = None,
-    solver: Annotated[SolverName, typer.Option(help="FE solver")] = SolverName.embedded,
-    jobs: Annotated[int, typer.Option(help="parallel processes (default: all cores)")] = 0,
-    scheduler: Annotated[
-        str | None, typer.Option(help="dask.distributed scheduler address, e.g. tcp://10.0.0.1:8786")
-    ] = None,
-    timeout: Annotated[float | None, typer.Option(help="per-point timeout, s")] = None,
-    retry_failed: Annotated[bool, typer.Option(help="solve the failed points again")] = False,
-    verify_only: Annotated[
-        bool,
-        typer.Option(
-            help="check the store's files against their hashes and report; repair and solve nothing"
-        ),
-    ] = False,
-    wait: Annotated[
-        bool,
-        typer.Option(
-            help="wait for the points another run of this campaign holds (--no-wait: return, listing them)"
-        ),
-    ] = True,
-    lease_timeout: Annotated[
-        float,
-        typer.Option(help="s without a heartbeat after which a run's claim on a point is taken over"),
-    ] = 120.0,
-    equilibrium_tol: Annotated[
-        float,
-        typer.Option(
-            help="FEBio: flag a step whose imbalance exceeds this % of the step's own force (its force null)"
-        ),
-    ] = 2.0,
+    grid: GRID = "paper",
+    *,
+    model: ModelOptions,
+    solver: SOLVER = SolverName.embedded,
+    jobs: JOBS = 0,
+    scheduler: SCHEDULER = None,
+    timeout: TIMEOUT = None,
+    retry_failed: RETRY_FAILED = False,
+    verify_only: VERIFY_ONLY = False,
+    wait: WAIT = True,
+    lease_timeout: LEASE_TIMEOUT = 120.0,
+    equilibrium_tol: EQUILIBRIUM_TOL = 2.0,
     runs_dir: RUNS_DIR = Path("runs"),
     as_json: JSON = False,
 ) -> None:
     """Run (or resume) a campaign; finished points are skipped, failures recorded. Every point
     file is checked against its hash first: one that fails is named and solved again."""
-    from ..campaign.runner import run_named_campaign
-
     where = f"dask {scheduler}" if scheduler else f"{jobs or 'all'} processes"
     err.print(f"campaign {name}: grid {grid}, {where}, store {Path(runs_dir) / name}", highlight=False)
     t0 = time.perf_counter()
@@ -154,23 +144,10 @@ def run(
             bar.update(done, f"done {counts['done']} failed {counts['failed']}  {rate:.1f} points/min", total)
 
         try:
-            # the material values of the base spec are placeholders: each point sets its own
-            base = model_spec(
-                1.0,
-                1.0,
-                kappa=kappa,
-                radius=radius,
-                steps=steps,
-                step_size=step_size,
-                mesh=mesh,
-                mesh_from=mesh_from,
-                substeps=substeps,
-                friction=friction,
-            )
-            summary = run_named_campaign(
+            summary = campaign.run_named_campaign(
                 name,
                 grid,
-                base,
+                model.spec(),
                 runs_dir=runs_dir,
                 solver=solver.value,
                 jobs=jobs,
@@ -197,10 +174,8 @@ def status(name: NAME, runs_dir: RUNS_DIR = Path("runs"), as_json: JSON = False)
     """Done (and with how many FEBio steps flagged), failed and pending points, wall time,
     failures with their reasons, the point files that fail their check (reported, not repaired:
     `campaign run` solves them again) and the runs holding points (host, pid, start)."""
-    from ..campaign.loader import open_campaign
-
     try:
-        store = open_campaign(name, runs_dir, repair=False)
+        store = campaign.open_campaign(name, runs_dir, repair=False)
     except (CampaignError, OSError) as exc:
         fail(str(exc), as_json)
     summary = store.summary()
@@ -218,11 +193,9 @@ def export(
     as_json: JSON = False,
 ) -> None:
     """A tidy table of force per step (point, c1, c5, step, depth_mm, force_mN) for pandas."""
-    from ..campaign.loader import force_table, open_campaign
-
     try:
-        store = open_campaign(name, runs_dir)
-        table = force_table(store)
+        store = campaign.open_campaign(name, runs_dir)
+        table = campaign.force_table(store)
         if out.suffix not in (".csv", ".parquet"):
             raise ValueError(f"{out}: use a .parquet or .csv file name")
         csv = out.suffix == ".csv"

@@ -6,7 +6,6 @@ on stdout; progress and logs go to stderr.
 
 from __future__ import annotations
 
-import math
 import os
 import sys
 import time
@@ -19,6 +18,7 @@ from rich.console import Console
 from rich.table import Table
 from typer.core import TyperGroup
 
+from .. import forward  # lazy: a command imports what it runs
 from ..atomic_write import strict_json
 from ..forward.spec import SpecError
 from .campaign_cli import campaign_app
@@ -26,24 +26,7 @@ from .composite_cli import composite_app
 from .design_cli import design_app
 from .import_cli import register as register_import
 from .inference_cli import register as register_inference
-from .options import (
-    C1,
-    C5,
-    FRICTION,
-    JSON,
-    KAPPA,
-    MESH,
-    MESH_FROM,
-    RADIUS,
-    STEP_SIZE,
-    STEPS,
-    SUBSTEPS,
-    SolverName,
-    err,
-    fail,
-    model_spec,
-    say,
-)
+from .options import JSON, MODEL_FLAGS, ModelOptions, SolverName, err, fail, model_options, say
 from .progress import step_progress
 from .surrogate_cli import surrogate_app
 from .verification_cli import register as register_verification
@@ -97,18 +80,10 @@ register_verification(app)
 
 
 @app.command()
+@model_options()
 def simulate(
-    c1: C1 = 10.0,
-    c5: C5 = 350.0,
-    kappa: KAPPA = 1000.0,
-    radius: RADIUS = 4.77,
-    steps: STEPS = 28,
-    step_size: STEP_SIZE = 0.5,
-    mesh: MESH = "default",
-    mesh_from: MESH_FROM = None,
+    model: ModelOptions,
     solver: Annotated[SolverName, typer.Option(help="FE solver")] = SolverName.embedded,
-    substeps: SUBSTEPS = 1,
-    friction: FRICTION = None,
     sensitivities: Annotated[
         bool, typer.Option(help="also d(force, displacement)/d(c1, c5) (and d/d(mu) with --friction)")
     ] = False,
@@ -133,44 +108,17 @@ def simulate(
     ``--solver febio`` runs the same model on FEBio 4 (FEBIO_PATH or PATH); its .feb, log and
     plot file stay in a folder beside the result file. Steps FEBio accepted off equilibrium are
     named on stderr and their forces are NaN (null in --json)."""
-    from ..forward.febio.log import FebioLogError
-    from ..forward.simulation_run import run_simulation
-    from ..forward.solver import SimulationError
-
     if from_log is not None:
         solver = SolverName.febio
-        mesh_from = mesh_from or (
-            from_log.with_suffix(".feb") if from_log.with_suffix(".feb").is_file() else None
-        )
-        if mesh_from is None:
-            fail(
-                f"--from-log {from_log}: no {from_log.with_suffix('.feb').name} beside it; give --mesh-from",
-                as_json,
-            )
-    tag = Path(mesh_from).stem if mesh_from else mesh
-    contact = "" if friction is None else f"_mu={friction:g}"  # runs with other contacts kept apart
-    out = (
-        out
-        or Path("runs/simulations") / f"c1={c1:g}_c5={c5:g}_R={radius:g}{contact}_{tag}_{solver.value}.npz"
-    )
-    t0 = time.perf_counter()
-    with step_progress(err, f"simulate ({solver.value})", steps) as bar:
-        unit = "mm" if solver == SolverName.febio else "mN"
+        model = model.replace(mesh_from=model.mesh_from or forward.feb_beside_log(from_log))
+        if model.mesh_from is None:
+            name = from_log.with_suffix(".feb").name
+            fail(f"--from-log {from_log}: no {name} beside it; give --mesh-from", as_json)
+    unit = "mm" if solver == SolverName.febio else "mN"
+    with step_progress(err, f"simulate ({solver.value})", model.steps) as bar:
         try:
-            spec = model_spec(
-                c1,
-                c5,
-                kappa=kappa,
-                radius=radius,
-                steps=steps,
-                step_size=step_size,
-                mesh=mesh,
-                mesh_from=mesh_from,
-                substeps=substeps,
-                friction=friction,
-            )
-            run = run_simulation(
-                spec,
+            run = forward.run_simulation(
+                model.spec(),
                 out,
                 solver=solver.value,
                 sensitivities=sensitivities,
@@ -179,29 +127,28 @@ def simulate(
                 progress=lambda k, n, v: bar.update(k, f"{v:.2f} {unit}"),
                 say=say,
             )
-        except (SpecError, ValueError, FileNotFoundError, SimulationError, FebioLogError, OSError) as exc:
+        except (
+            SpecError,
+            ValueError,
+            FileNotFoundError,
+            forward.SimulationError,
+            forward.febio.FebioLogError,
+            OSError,
+        ) as exc:
             fail(str(exc), as_json)
-    result, path, pvd = run.result, run.result_file, run.vtu_series
     for note in run.warnings:
         err.print(f"[bold yellow]warning:[/] {note}", soft_wrap=True, highlight=False)
-    payload: dict[str, Any] = {
-        "depth_mm": result.depth.tolist(),
-        "force_mN": [float(f) if math.isfinite(f) else None for f in result.force],
-        "force_is": "whole specimen (4 x quarter model)",
-        "wall_s": time.perf_counter() - t0,
-        "newton_iterations": result.newton_iterations,
-        "result_file": str(path),
-        "solver": result.solver["name"],
-        "mesh": result.solver.get("mesh", {"source": str(mesh_from or mesh)}),
-        "vtu_series": str(pvd) if pvd else None,
-        "off_equilibrium_depths_mm": result.off_equilibrium_depths,
-        "febio_rerun": result.solver.get("rerun"),
-    }
     if as_json:
-        print(strict_json(payload))
+        print(strict_json(run.to_dict()))
         return
+    _print_simulation(run, model, solver.value)
+
+
+def _print_simulation(run: forward.SimulationRun, model: ModelOptions, solver: str) -> None:
+    """A simulation's forces per depth as a table, and its wall time and result file."""
+    result, mesh = run.result, run.to_dict()["mesh"]["source"]
     table = Table(
-        title=f"c1 = {c1:g} kPa, c5 = {c5:g} kPa, R = {radius:g} mm, {solver.value}, mesh {payload['mesh']['source']}"
+        title=f"c1 = {model.c1:g} kPa, c5 = {model.c5:g} kPa, R = {model.radius:g} mm, {solver}, mesh {mesh}"
     )
     table.add_column("depth [mm]", justify="right")
     table.add_column("force [mN] (whole specimen)", justify="right")
@@ -209,42 +156,21 @@ def simulate(
         table.add_row(f"{d:.2f}", f"{f:.2f}")
     Console().print(table)
     Console().print(
-        f"wall time {payload['wall_s']:.2f} s, {result.newton_iterations} Newton iterations, result: {path}"
+        f"wall time {run.wall_s:.2f} s, {result.newton_iterations} Newton iterations, result: {run.result_file}"
     )
 
 
 @app.command("export-feb")
+@model_options(*(f for f in MODEL_FLAGS if f != "substeps"), substeps=2)
 def export_feb(
     out: Annotated[Path, typer.Option(help="the .feb file to write")],
-    c1: C1 = 10.0,
-    c5: C5 = 350.0,
-    kappa: KAPPA = 1000.0,
-    radius: RADIUS = 4.77,
-    steps: STEPS = 28,
-    step_size: STEP_SIZE = 0.5,
-    mesh: MESH = "default",
-    mesh_from: MESH_FROM = None,
-    friction: FRICTION = None,
+    model: ModelOptions,
     as_json: JSON = False,
 ) -> None:
     """Write the model as a FEBio 4.0 .feb to run with febio4 or open in FEBio Studio
     (``--friction MU``: sliding-elastic with that friction coefficient, 0 frictionless)."""
-    from ..forward.febio.writer import write_feb
-
     try:
-        spec = model_spec(
-            c1,
-            c5,
-            kappa=kappa,
-            radius=radius,
-            steps=steps,
-            step_size=step_size,
-            mesh=mesh,
-            mesh_from=mesh_from,
-            substeps=2,
-            friction=friction,
-        )
-        path = write_feb(spec, out)
+        path = forward.write_feb(model.spec(), out)
     except (SpecError, ValueError, OSError) as exc:
         fail(str(exc), as_json)
     if as_json:
@@ -256,18 +182,14 @@ def export_feb(
 
 
 @app.command("mesh-study")
+@model_options("c1", "c5", "kappa", "radius", "steps", "step_size", "substeps", c1=9.4, c5=321.0)
 def mesh_study(
     presets: Annotated[
         str, typer.Option(help="comma-separated presets to compare with 'reference'")
     ] = "coarse,default,fine",
     reference: Annotated[str, typer.Option(help="the 'ground truth' preset")] = "reference",
-    c1: C1 = 9.4,
-    c5: C5 = 321.0,
-    kappa: KAPPA = 1000.0,
-    radius: RADIUS = 4.77,
-    steps: STEPS = 28,
-    step_size: STEP_SIZE = 0.5,
-    substeps: SUBSTEPS = 1,
+    *,
+    model: ModelOptions,
     out_dir: Annotated[
         Path | None,
         typer.Option(
@@ -279,12 +201,8 @@ def mesh_study(
     """Mesh convergence (eq. 1a, 1b) of presets against a reference mesh (paper: c1 = 9.4, c5 = 321).
     With --out-dir, a mesh already solved there for the same model spec is read back instead of
     solved again (the reference takes many minutes)."""
-    from ..forward.mesh_presets import MESH_PRESETS
-    from ..forward.mesh_study import convergence_study
-    from ..forward.solver import SimulationError
-
     names = [p.strip() for p in presets.split(",") if p.strip()]
-    with step_progress(err, "mesh study", steps * (len(names) + 1)) as bar:
+    with step_progress(err, "mesh study", model.steps * (len(names) + 1)) as bar:
         done = {name: 0 for name in [*names, reference]}
 
         def report(mesh: str, k: int, n: int, f: float) -> None:
@@ -292,31 +210,19 @@ def mesh_study(
             bar.update(sum(done.values()), f"{mesh}: {f:.1f} mN")
 
         try:
-            spec = model_spec(
-                c1,
-                c5,
-                kappa=kappa,
-                radius=radius,
-                steps=steps,
-                step_size=step_size,
-                mesh=reference,
-                mesh_from=None,
-                substeps=substeps,
-            )
-            rows = convergence_study(spec, names, reference, out_dir, report, say)
-        except (SpecError, ValueError, SimulationError) as exc:
+            spec = model.replace(mesh=reference).spec()
+            rows = forward.convergence_study(spec, names, reference, out_dir, report, say)
+        except (SpecError, ValueError, forward.SimulationError) as exc:
             fail(str(exc), as_json)
     if as_json:
-        print(
-            strict_json(
-                {
-                    "reference": reference,
-                    "reference_nodes": MESH_PRESETS[reference].node_count(),
-                    "rows": rows,
-                }
-            )
-        )
+        nodes = forward.MESH_PRESETS[reference].node_count()
+        print(strict_json({"reference": reference, "reference_nodes": nodes, "rows": rows}))
         return
+    _print_mesh_study(rows, reference)
+
+
+def _print_mesh_study(rows: list[dict[str, Any]], reference: str) -> None:
+    """The mesh study's rows as a table."""
     table = Table(title=f"mesh convergence against '{reference}' (eq. 1a, 1b)")
     columns = (
         "preset",

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Annotated
 
@@ -11,23 +10,10 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from .. import design, inference  # lazy packages: a command imports what it runs
-from ..atomic_write import atomic_write, atomic_write_json, strict_json
+from .. import design, inference, studio  # lazy packages: a command imports what it runs
+from ..atomic_write import atomic_write_json, strict_json
 from ..forward.spec import SpecError
-from .options import (
-    FRICTION,
-    JSON,
-    KAPPA,
-    MESH,
-    MESH_FROM,
-    RADIUS,
-    STEP_SIZE,
-    STEPS,
-    SUBSTEPS,
-    err,
-    fail,
-    model_spec,
-)
+from .options import JSON, MODEL_FLAGS, ModelOptions, err, fail, model_options
 
 design_app = typer.Typer(
     help="Experiment design: certainty bounds and objective weights (paper 2.6, Table 1)."
@@ -57,47 +43,17 @@ def _fd_step(text: str):
 
 
 def _study(
-    theta,
-    kappa,
-    radius,
-    steps,
-    step_size,
-    mesh,
-    mesh_from,
-    substeps,
-    method,
-    reading,
-    as_json,
-    fd_step,
-    jobs,
-    friction: float | None = None,
+    model: ModelOptions, theta: str, method: str, reading: str, fd_step: str, jobs: int, as_json: bool
 ):
-    from ..design.study import fe_design_study
-
+    """The design study at theta* = ``theta`` ('c1,c5') on the model of the command's options."""
     try:
         c1, c5 = (float(v) for v in theta.split(","))
-        spec = model_spec(
-            c1,
-            c5,
-            kappa=kappa,
-            radius=radius,
-            steps=steps,
-            step_size=step_size,
-            mesh=mesh,
-            mesh_from=mesh_from,
-            substeps=substeps,
-            friction=friction,
+        spec = model.replace(c1=c1, c5=c5).spec()
+        err.print(
+            f"design study at theta* = ({c1:g}, {c5:g}) kPa, R = {model.radius:g} mm, {method} Hessian ..."
         )
-        err.print(f"design study at theta* = ({c1:g}, {c5:g}) kPa, R = {radius:g} mm, {method} Hessian ...")
-        with_mu = friction is not None and friction > 0  # mu = 0: frictionless, no d/d(log mu)
-        return fe_design_study(
-            spec,
-            (c1, c5, friction) if with_mu else (c1, c5),
-            method=method,
-            reading=reading,
-            h=_fd_step(fd_step),
-            n_jobs=jobs,
-            parameters=("c1", "c5", "mu") if with_mu else ("c1", "c5"),
+        return design.model_design_study(
+            spec, method=method, reading=reading, h=_fd_step(fd_step), n_jobs=jobs
         )
     except (SpecError, ValueError) as exc:
         fail(str(exc), as_json)
@@ -111,167 +67,104 @@ def _pair(c1: float, c5: float) -> str:
     return f"{c1:.1f} / {c5:.1f}"
 
 
+MU_PRIOR = Annotated[
+    str, typer.Option(help="with --friction: the range LO:HI of mu's log-uniform prior as a nuisance")
+]
+CRITERION = Annotated[str, typer.Option(help="c1, c5, combined (sum of squared bounds) or det")]
+WEIGHTS_OUT = Annotated[Path | None, typer.Option(help="also write the table as JSON here")]
+
+
 @design_app.command("bounds")
+@model_options(*(f for f in MODEL_FLAGS if f not in ("c1", "c5")))
 def bounds(
     weights: Annotated[str, typer.Option(help="eta = force,ux,uy,uz on the simplex")] = "0.45,0.35,0.2,0",
     s: S = 0.05,
     theta: THETA = "10,350",
-    kappa: KAPPA = 1000.0,
-    radius: RADIUS = 4.77,
-    steps: STEPS = 28,
-    step_size: STEP_SIZE = 0.5,
-    mesh: MESH = "default",
-    mesh_from: MESH_FROM = None,
-    substeps: SUBSTEPS = 1,
+    *,
+    model: ModelOptions,
     method: METHOD = "exact",
     reading: READING = "paper",
     fd_step: FD_STEP = "0.02",
     jobs: JOBS = 1,
-    friction: FRICTION = None,
-    mu_prior: Annotated[
-        str, typer.Option(help="with --friction: the range LO:HI of mu's log-uniform prior as a nuisance")
-    ] = "0.1:3",
+    mu_prior: MU_PRIOR = "0.1:3",
     as_json: JSON = False,
 ) -> None:
     """Certainty bounds of c1 and c5 (eq. 6) for one set of objective weights. With ``--friction
     MU`` the model has Coulomb friction mu and the bounds are given three ways: mu known,
     identified with (c1, c5), and a nuisance with a log-uniform prior (``--mu-prior``)."""
-    from ..design.objective import check_weights
-
     try:
-        eta = check_weights([float(v) for v in weights.split(",")])
+        eta = design.check_weights([float(v) for v in weights.split(",")])
         prior = tuple(float(v) for v in mu_prior.split(":"))
         if len(prior) != 2 or not 0 < prior[0] < prior[1]:
             raise ValueError(f"--mu-prior {mu_prior!r}: expected LO:HI with 0 < LO < HI")
     except ValueError as exc:
         fail(str(exc), as_json)
-    study = _study(
-        theta,
-        kappa,
-        radius,
-        steps,
-        step_size,
-        mesh,
-        mesh_from,
-        substeps,
-        method,
-        reading,
-        as_json,
-        fd_step,
-        jobs,
-        friction,
-    )
-    H = study.hessian(eta)
-    b = study.bounds(eta, s) if not friction else None
-    with_mu = None
-    if friction == 0:  # the end of mu's range, where mu has no log: the frictionless bounds alone
-        with_mu = {"mu": 0.0, "known_pct": b.tolist(), "identified_pct": None, "nuisance_pct": None}
-        with_mu["note"] = "mu = 0 (frictionless): only the bounds with mu known; give mu > 0 for the others"
-    elif friction is not None:
-        from ..design.study import friction_design_bounds
-
-        try:
-            with_mu = friction_design_bounds(study, eta, s, prior)
-        except ValueError as exc:
-            fail(str(exc), as_json)
-        b = np.array(with_mu["known_pct"])
-    payload = {
-        "c1_pct": float(b[0]),
-        "c5_pct": float(b[1]),
-        "friction": with_mu,
-        "hessian": H.tolist(),
-        "weights": eta.tolist(),
-        "s": s,
-        "method": method,
-        "reading": reading,
-        "term_hessians": study.term_hessians.tolist(),
-        "bounds_include": design.DESIGN_BOUNDS_INCLUDE,
-    }
+    study = _study(model, theta, method, reading, fd_step, jobs, as_json)
+    try:
+        result = design.design_bounds(study, eta, s, mu_prior=prior)
+    except ValueError as exc:
+        fail(str(exc), as_json)
     if as_json:
-        print(strict_json(payload))
+        print(strict_json(result.to_dict()))
         return
-    Console().print(f"weights {_fmt(eta)}: c1 +-{b[0]:.1f} %, c5 +-{b[1]:.1f} %   (s = {s:g})")
+    _print_bounds(result, mu_prior)
+
+
+def _print_bounds(result: design.DesignBounds, mu_prior: str) -> None:
+    """The bounds of c1 and c5 (and with friction, mu's three treatments) and the Hessian."""
+    b, with_mu, s = result.bounds_pct, result.friction, result.s
+    Console().print(f"weights {_fmt(result.weights)}: c1 +-{b[0]:.1f} %, c5 +-{b[1]:.1f} %   (s = {s:g})")
     if with_mu is not None and "note" in with_mu:
         Console().print(f"  {with_mu['note']}")
     elif with_mu is not None:
         i, n = with_mu["identified_pct"], with_mu["nuisance_pct"]
         Console().print(
-            f"  mu = {friction:g} known: the above; identified with them: c1 +-{i[0]:.1f} %, c5 +-{i[1]:.1f} %, "
+            f"  mu = {with_mu['mu']:g} known: the above; identified with them: c1 +-{i[0]:.1f} %, c5 +-{i[1]:.1f} %, "
             f"mu +-{with_mu['identified_mu_pct']:.0f} %; a nuisance (log-uniform on {mu_prior}): "
             f"c1 +-{n[0]:.1f} %, c5 +-{n[1]:.1f} %"
         )
     Console().print(f"bounds: {design.DESIGN_BOUNDS_INCLUDE}")
+    H = result.study.hessian(result.weights)
     Console().print(f"H(theta*) (normalised) = {np.array2string(H, precision=3)}")
 
 
 @design_app.command("weights")
+@model_options(*(f for f in MODEL_FLAGS if f not in ("c1", "c5", "friction")))
 def weights_cmd(
-    criterion: Annotated[
-        str, typer.Option(help="c1, c5, combined (sum of squared bounds) or det")
-    ] = "combined",
+    criterion: CRITERION = "combined",
     s: S = 0.05,
     theta: THETA = "10,350",
-    kappa: KAPPA = 1000.0,
-    radius: RADIUS = 4.77,
-    steps: STEPS = 28,
-    step_size: STEP_SIZE = 0.5,
-    mesh: MESH = "default",
-    mesh_from: MESH_FROM = None,
-    substeps: SUBSTEPS = 1,
+    *,
+    model: ModelOptions,
     method: METHOD = "exact",
     reading: READING = "paper",
     fd_step: FD_STEP = "0.02",
     jobs: JOBS = 1,
-    out: Annotated[Path | None, typer.Option(help="also write the table as JSON here")] = None,
+    out: WEIGHTS_OUT = None,
     as_json: JSON = False,
 ) -> None:
     """The layout of Table 1: force only; deformation only; optimal for c1; for c5; combined; each
     row beside the paper's bounds and ours at the paper's weights."""
-    from ..design.weights import PAPER_HESSIAN, compare_with_paper
-
-    study = _study(
-        theta,
-        kappa,
-        radius,
-        steps,
-        step_size,
-        mesh,
-        mesh_from,
-        substeps,
-        method,
-        reading,
-        as_json,
-        fd_step,
-        jobs,
-    )
+    study = _study(model, theta, method, reading, fd_step, jobs, as_json)
     try:
-        rows = compare_with_paper(study.term_hessians, s, criterion)
+        table = design.weights_table(study, s, criterion, fd_step=fd_step)
     except ValueError as exc:
         fail(str(exc), as_json)
-    H_paper_weights = study.hessian(rows[-1].paper_weights)
-    payload = {
-        "rows": [
-            {"name": r.name, "weights": list(r.weights), "c1_pct": r.c1_pct, "c5_pct": r.c5_pct} for r in rows
-        ],
-        "paper_rows": [r.__dict__ for r in rows],
-        "s": s,
-        "criterion": criterion,
-        "method": method,
-        "reading": reading,
-        "fd_step": fd_step if method == "fd" else None,
-        "theta_star": study.theta_star.tolist(),
-        "hessian_combined": study.hessian(rows[-1].weights).tolist(),
-        "hessian_paper_weights": H_paper_weights.tolist(),
-        "paper_hessian": [list(r) for r in PAPER_HESSIAN],
-        "term_hessians": study.term_hessians.tolist(),
-        "spec": study.spec,
-    }
+    payload = table.to_dict()
     if out is not None:
         atomic_write_json(out, payload)
     if as_json:
         print(strict_json(payload))
         return
-    table = Table(title=f"Table 1 at theta* = {theta} kPa, s = {s:g} ({method} Hessian, {reading} reading)")
+    _print_weights(table, theta)
+
+
+def _print_weights(table: design.WeightsTable, theta: str) -> None:
+    """Table 1 beside the paper's, and H(theta*) at the paper's weights beside its eq. 14."""
+    study = table.study
+    view = Table(
+        title=f"Table 1 at theta* = {theta} kPa, s = {table.s:g} ({study.method} Hessian, {study.reading} reading)"
+    )
     for col in (
         "+- % of c1 / c5",
         "paper",
@@ -280,9 +173,9 @@ def weights_cmd(
         "ours, optimised",
         "our weights",
     ):
-        table.add_column(col)
-    for r in rows:
-        table.add_row(
+        view.add_column(col)
+    for r in table.rows:
+        view.add_row(
             r.name,
             _pair(r.paper_c1_pct, r.paper_c5_pct),
             _fmt(r.paper_weights),
@@ -290,9 +183,9 @@ def weights_cmd(
             _pair(r.c1_pct, r.c5_pct),
             _fmt(r.weights),
         )
-    Console(width=130).print(table)
-    H = H_paper_weights
-    P = PAPER_HESSIAN
+    Console(width=130).print(view)
+    H = table.hessian_paper_weights
+    P = design.PAPER_HESSIAN
     Console(width=130).print(
         f"H(theta*) at the paper's combined weights: [[{H[0, 0]:.3g}, {H[0, 1]:.3g}], [{H[1, 0]:.3g}, {H[1, 1]:.3g}]]"
         f"   (paper eq. 14: [[{P[0][0]}, {P[0][1]}], [{P[1][0]}, {P[1][1]}]])"
@@ -359,16 +252,15 @@ def map_cmd(
 ) -> None:
     """Fig. 8: the objective over a campaign's (c1, c5) points against the response at theta*
     (simulated on the campaign's model with sensitivities), the certainty ellipse and theta*."""
-    from ..design.objective_over_plane import campaign_objective_map
-    from .figures import objective_map_figure, save_figure
-
     try:
         theta_star = _floats(theta)
         err.print(f"simulating theta* = {theta} kPa on the campaign's model with sensitivities ...")
-        omap = campaign_objective_map(campaign, theta_star, _floats(weights), s, reading)
+        omap = design.campaign_objective_map(campaign, theta_star, _floats(weights), s, reading)
         name = Path(campaign).name
         title = f"F over {len(omap.F)} simulations, weights {_fmt(omap.eta)}, R = {omap.radius:g} mm"
-        path = save_figure(objective_map_figure(omap, title), out or Path("runs") / name / "figure8.png")
+        path = studio.save_figure(
+            studio.objective_map_figure(omap, title), out or Path("runs") / name / "figure8.png"
+        )
     except (ValueError, OSError) as exc:
         fail(str(exc), as_json)
     b = omap.bounds_pct
@@ -390,6 +282,7 @@ def _floats(text: str) -> list[float]:
 
 
 @design_app.command("compare")
+@model_options("kappa", "step_size", "mesh", "mesh_from")
 def compare_cmd(
     radii: Annotated[str, typer.Option(help="indenter radii, mm")] = "4.77,8",
     depths: Annotated[str, typer.Option(help="maximum depths, mm")] = "5,7,10.5,14",
@@ -401,10 +294,8 @@ def compare_cmd(
     ] = "0.45,0.35,0.2,0",
     criterion: Annotated[str, typer.Option(help="weight optimum: c1, c5, combined or det")] = "combined",
     theta: THETA = "10,350",
-    kappa: KAPPA = 1000.0,
-    step_size: STEP_SIZE = 0.5,
-    mesh: MESH = "default",
-    mesh_from: MESH_FROM = None,
+    *,
+    model: ModelOptions,
     reading: READING = "paper",
     out_dir: Annotated[Path, typer.Option(help="folder for design-comparison.csv and .png")] = Path(
         "runs/design"
@@ -413,49 +304,42 @@ def compare_cmd(
 ) -> None:
     """Which experiment to run: bounds of every candidate design (radius x depth x sampling x field
     of view x noise), as a table and a plot (one simulation with sensitivities per radius)."""
-    import numpy as np
-
-    from ..design.experiment_choice import candidate_grid, compare_designs
-    from .figures import design_comparison_figure, save_figure
-
     try:
         c1, c5 = _floats(theta)
-        max_depth = max(_floats(depths))
-        spec = model_spec(
-            c1,
-            c5,
-            kappa=kappa,
-            radius=4.77,
-            steps=int(np.ceil(max_depth / step_size - 1e-9)),
-            step_size=step_size,
-            mesh=mesh,
-            mesh_from=mesh_from,
-            substeps=1,
-        )
-        fov_values = [None if v.strip() == "all" else float(v) for v in fovs.split(",")]
-        candidates = candidate_grid(
-            _floats(radii), _floats(depths), [int(v) for v in _floats(every)], fov_values, _floats(noise)
-        )
-        table = compare_designs(
-            spec, candidates, (c1, c5), _floats(weights), criterion, reading, progress=err.print
+        steps = int(np.ceil(max(_floats(depths)) / model.step_size - 1e-9))  # the deepest candidate's
+        comparison = design.compare_candidate_designs(
+            model.replace(c1=c1, c5=c5, steps=steps).spec(),
+            out_dir,
+            radii=_floats(radii),
+            depths=_floats(depths),
+            every=[int(v) for v in _floats(every)],
+            fovs=[None if v.strip() == "all" else float(v) for v in fovs.split(",")],
+            noise=_floats(noise),
+            weights=_floats(weights),
+            criterion=criterion,
+            reading=reading,
+            progress=err.print,
         )
     except (SpecError, ValueError) as exc:
         fail(str(exc), as_json)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    csv = out_dir / "design-comparison.csv"
-    atomic_write(csv, table.to_csv(index=False))
-    png = save_figure(design_comparison_figure(table), out_dir / "design-comparison.png")
-    if as_json:
-        rows = json.loads(table.to_json(orient="records"))
-        payload = {"rows": rows, "csv": str(csv), "png": str(png), "theta_star": [c1, c5]}
-        print(strict_json(payload | {"bounds_include": design.DESIGN_BOUNDS_INCLUDE}))
-        return
-    view = Table(
-        title=f"candidate designs at theta* = {theta} kPa (fixed weights {weights}; optimised for {criterion})"
+    png = studio.save_figure(
+        studio.design_comparison_figure(comparison.table), Path(out_dir) / "design-comparison.png"
     )
+    if as_json:
+        print(strict_json(comparison.to_dict(png=png)))
+        return
+    _print_comparison(
+        comparison, f"theta* = {theta} kPa (fixed weights {weights}; optimised for {criterion})"
+    )
+    Console().print(f"wrote {comparison.csv} and {png}")
+
+
+def _print_comparison(comparison: design.DesignComparison, at: str) -> None:
+    """The candidate designs' bounds as a table."""
+    view = Table(title=f"candidate designs at {at}")
     for col in ("R mm", "depth mm", "steps", "FOV mm", "s", "c1 / c5 fixed", "c1 / c5 optimised", "weights"):
         view.add_column(col)
-    for r in table.itertuples():
+    for r in comparison.table.itertuples():
         view.add_row(
             f"{r.radius_mm:g}",
             f"{r.max_depth_mm:g}",
@@ -468,7 +352,6 @@ def compare_cmd(
         )
     Console(width=130).print(view)
     Console().print(f"bounds: {design.DESIGN_BOUNDS_INCLUDE}")
-    Console().print(f"wrote {csv} and {png}")
 
 
 @design_app.command("error-budget")

@@ -2,9 +2,14 @@
 
 from __future__ import annotations
 
+import dataclasses
+import functools
+import inspect
+from collections.abc import Callable
+from dataclasses import dataclass
 from enum import StrEnum
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 from rich.console import Console
@@ -43,33 +48,71 @@ def fail(message: str, as_json: bool, code: int = 1) -> None:
     raise typer.Exit(code)
 
 
-def model_spec(
-    c1: float,
-    c5: float,
-    *,
-    kappa: float,
-    radius: float,
-    steps: int,
-    step_size: float,
-    mesh: str,
-    mesh_from: Path | None,
-    substeps: int,
-    friction: float | None = None,
-) -> ModelSpec:
-    """The model spec the command-line options describe (a composite mesh preset gets the
-    phantom's constituents, 2.4.2)."""
+@dataclass(frozen=True, kw_only=True)
+class ModelOptions:
+    """The model a command's options describe, built once from the typer parameters (see
+    :func:`model_options`); its defaults are the paper's baseline.
 
-    composite = CompositeMaterial() if mesh in COMPOSITE_MESH_PRESETS and not mesh_from else None
-    return ModelSpec(
-        composite=composite,  # a composite mesh preset: the phantom's constituents (2.4.2)
-        geometry=Geometry(),
-        indenter=Indenter(radius),
-        protocol=Protocol(step_size=step_size, steps=steps),
-        material=Material(c1=c1, c5=c5, kappa=kappa),
-        mesh=MeshChoice(preset=mesh, feb_file=str(mesh_from) if mesh_from else None),
-        solver=SolverOptions(substeps=substeps),
-        contact=Contact(friction=friction),
-    )
+    Parameters
+    ----------
+    c1, c5, kappa : float
+        The material (eq. 3), kPa.
+    radius : float
+        The sphere's radius, mm.
+    steps : int
+        Indentation steps.
+    step_size : float
+        Depth per step, mm.
+    mesh : str
+        A mesh preset; a composite preset gets the phantom's constituents (2.4.2), not c1 and c5.
+    mesh_from : Path or None
+        The hex8 block mesh of this FEBio .feb file instead of a preset.
+    substeps : int
+        Solver increments per step.
+    friction : float or None
+        Coulomb's friction coefficient mu (0: frictionless); None: the paper's near-perfect stick.
+    """
+
+    c1: float = 10.0
+    c5: float = 350.0
+    kappa: float = 1000.0
+    radius: float = 4.77
+    steps: int = 28
+    step_size: float = 0.5
+    mesh: str = "default"
+    mesh_from: Path | None = None
+    substeps: int = 1
+    friction: float | None = None
+
+    def spec(self) -> ModelSpec:
+        """The model spec of these options.
+
+        Returns
+        -------
+        ModelSpec
+            The spec (a composite mesh preset without ``mesh_from`` gets the phantom's
+            constituents, 2.4.2).
+
+        Raises
+        ------
+        SpecError
+            An option out of its range, named by the spec's field.
+        """
+        composite = self.mesh in COMPOSITE_MESH_PRESETS and not self.mesh_from
+        return ModelSpec(
+            composite=CompositeMaterial() if composite else None,
+            geometry=Geometry(),
+            indenter=Indenter(self.radius),
+            protocol=Protocol(step_size=self.step_size, steps=self.steps),
+            material=Material(c1=self.c1, c5=self.c5, kappa=self.kappa),
+            mesh=MeshChoice(preset=self.mesh, feb_file=str(self.mesh_from) if self.mesh_from else None),
+            solver=SolverOptions(substeps=self.substeps),
+            contact=Contact(friction=self.friction),
+        )
+
+    def replace(self, **changes: Any) -> ModelOptions:
+        """These options with ``changes`` (field name -> value), e.g. a command's fixed mesh."""
+        return dataclasses.replace(self, **changes)
 
 
 C1 = Annotated[float, typer.Option(help="c1, kPa (eq. 3)")]
@@ -96,3 +139,76 @@ FRICTION = Annotated[
     ),
 ]
 JSON = Annotated[bool, typer.Option("--json", help="print one JSON object on stdout")]
+
+#: The flag of each :class:`ModelOptions` field, in the order the commands list them.
+MODEL_FLAGS = {
+    "c1": C1,
+    "c5": C5,
+    "kappa": KAPPA,
+    "radius": RADIUS,
+    "steps": STEPS,
+    "step_size": STEP_SIZE,
+    "mesh": MESH,
+    "mesh_from": MESH_FROM,
+    "substeps": SUBSTEPS,
+    "friction": FRICTION,
+}
+
+
+def model_options(*flags: str, **values: Any) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+    """Give a command the model flags ``flags`` in place of its ``model: ModelOptions`` parameter.
+
+    Typer sees the flags (``--c1``, ``--radius``, ...) where ``model`` stands in the command's
+    signature; the command gets one :class:`ModelOptions` built from them.
+
+    Parameters
+    ----------
+    *flags : str
+        The :class:`ModelOptions` fields the command has flags for; none: all of them.
+    **values
+        A flag's default (a field in ``flags``), or the value of a field without a flag (e.g.
+        ``substeps=2``); other fields keep :class:`ModelOptions`'s defaults.
+
+    Returns
+    -------
+    Callable
+        The decorator.
+    """
+    names = flags or tuple(MODEL_FLAGS)
+    unknown = sorted(set(names) - set(MODEL_FLAGS))
+    if unknown:
+        raise TypeError(f"model_options: no ModelOptions field {', '.join(unknown)}")
+    fixed = {k: v for k, v in values.items() if k not in names}
+    defaults = {f.name: f.default for f in dataclasses.fields(ModelOptions)}
+
+    def decorate(command: Callable[..., Any]) -> Callable[..., Any]:
+        signature = inspect.signature(command, eval_str=True)
+        params = list(signature.parameters.values())
+        at = [p.name for p in params].index("model")
+        flags_ = [
+            inspect.Parameter(
+                n,
+                inspect.Parameter.KEYWORD_ONLY,
+                default=values.get(n, defaults[n]),
+                annotation=MODEL_FLAGS[n],
+            )
+            for n in names
+        ]
+        taken = sorted({p.name for p in params} & set(names))
+        if taken:
+            raise TypeError(f"{command.__name__}: parameter(s) {', '.join(taken)} are model flags already")
+
+        @functools.wraps(command)
+        def run(*args: Any, **kwargs: Any) -> Any:
+            model = ModelOptions(**fixed, **{n: kwargs.pop(n) for n in names})
+            return command(*args, model=model, **kwargs)
+
+        new = params[:at] + flags_ + params[at + 1 :]
+        run.__signature__ = signature.replace(
+            parameters=[p.replace(kind=inspect.Parameter.KEYWORD_ONLY) for p in new]
+        )
+        run.__annotations__ = {p.name: p.annotation for p in new}
+        del run.__wrapped__  # typer reads the signature above, not the command's
+        return run
+
+    return decorate

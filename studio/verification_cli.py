@@ -14,7 +14,7 @@ from rich.table import Table
 from .. import forward, inference, studio  # lazy packages: a command imports what it runs
 from ..atomic_write import strict_json
 from ..forward.spec import SpecError
-from .options import JSON, KAPPA, STEP_SIZE, STEPS, err, fail, model_spec, say
+from .options import JSON, ModelOptions, err, fail, model_options, say
 from .progress import step_progress
 
 
@@ -44,6 +44,7 @@ def _floats(text: str, option: str) -> list[float]:
         raise ValueError(f"{option} {text!r}: use comma-separated numbers") from exc
 
 
+@model_options("kappa", "steps", "step_size")
 def verification_study(
     family: Annotated[
         str, typer.Option(help="CXYxCZ:H0:RATIO, the base level and the ratio")
@@ -55,9 +56,8 @@ def verification_study(
         str, typer.Option(help="increments per step; all of them on the finest levels")
     ] = "1,2,4",
     substep_levels: Annotated[int, typer.Option(help="how many finest levels get every substep count")] = 2,
-    kappa: KAPPA = 1000.0,
-    steps: STEPS = 28,
-    step_size: STEP_SIZE = 0.5,
+    *,
+    model: ModelOptions,
     out_dir: Annotated[
         Path, typer.Option(help="every run and study.json; a run already there is read back")
     ] = Path("runs/verification"),
@@ -72,18 +72,8 @@ def verification_study(
         level_list = [int(v) for v in _floats(levels, "--levels")]
         sub = [int(v) for v in _floats(substeps, "--substeps")]
         pts, rad = parse_points(points), _floats(radii, "--radii")
-        spec = model_spec(
-            10.0,
-            350.0,
-            kappa=kappa,
-            radius=rad[0] if rad else 4.77,
-            steps=steps,
-            step_size=step_size,
-            mesh="default",
-            mesh_from=None,
-            substeps=1,
-        )
-        total = len(pts) * len(rad) * steps * (len(level_list) + (len(sub) - 1) * substep_levels)
+        spec = model.replace(radius=rad[0] if rad else model.radius).spec()
+        total = len(pts) * len(rad) * model.steps * (len(level_list) + (len(sub) - 1) * substep_levels)
         with step_progress(err, "verification study", total) as bar:
             done: dict[str, int] = {}
 
