@@ -103,11 +103,12 @@ def contact_response(
     tau_hat = tau / safe_size[:, None]
     pushed = p > 0.0
     cone_p = np.where(pushed, p, 0.0)
-    cone = mu * cone_p
-    slipping = active & (size > cone) & (size > 0.0)
+    stick = np.isinf(mu)  # mu = inf: stick by the penalty spring, no cone to reach
+    cone = np.zeros_like(p) if stick else mu * cone_p
+    slipping = active & (size > cone) & (size > 0.0) & ~stick
     s3, s33 = slipping[:, None], slipping[:, None, None]
     proj = (cone / safe_size)[:, None, None] * (eye - tau_hat[:, :, None] * tau_hat[:, None, :])
-    grow = (mu * pushed)[:, None, None] * tau_hat[:, :, None]  # the cone grows with p
+    grow = (0.0 if stick else mu) * pushed[:, None, None] * tau_hat[:, :, None]  # the cone grows with p
     dt_dr = np.where(s33, proj @ dtau_dr + grow * dp_dr[:, None, :], dtau_dr)
     dt_da = np.where(s33, proj @ dtau_da + grow * dp_da[:, None, :], dtau_da)
     traction = np.where(s3, cone[:, None] * tau_hat, tau)
@@ -325,24 +326,3 @@ class FrictionContactState:
         """The part of d f / d theta at fixed node positions (anchors' derivatives and mu),
         (nt, 3, p): the right-hand side's contact part in the sensitivity solve."""
         return self.force_derivative(resp, np.zeros((resp.force.shape[0], 3, n_params)))
-
-
-def tributary_areas(nodes: np.ndarray, elements: np.ndarray, top: np.ndarray) -> np.ndarray:
-    """Each top node's share of the top face, mm^2 (nt,): a quarter of the area of every top
-    face of a hex8 element it belongs to (faces whose four nodes are all top nodes)."""
-    on_top = np.zeros(nodes.shape[0], dtype=bool)
-    on_top[top] = True
-    faces = [(4, 5, 6, 7), (0, 1, 2, 3)]  # hex8 faces that can lie on the top
-    area = np.zeros(nodes.shape[0])
-    for face in faces:
-        quads = elements[:, face]
-        quads = quads[on_top[quads].all(axis=1)]
-        if quads.size == 0:
-            continue
-        xy = nodes[quads][:, :, :2]
-        shoelace = 0.5 * np.abs(
-            np.einsum("ij,ij->i", xy[:, :, 0], np.roll(xy[:, :, 1], -1, axis=1))
-            - np.einsum("ij,ij->i", xy[:, :, 1], np.roll(xy[:, :, 0], -1, axis=1))
-        )
-        np.add.at(area, quads.ravel(), np.repeat(shoelace / 4.0, 4))
-    return area[top]

@@ -29,7 +29,8 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from .. import __version__
-from .coulomb_contact import FrictionContactState, tributary_areas
+from .contact_quadrature import ContactPoints, contact_points
+from .coulomb_contact import FrictionContactState
 from .element_moduli import element_moduli
 from .hex8_mean_dilatation import ReferenceGeometry, element_state
 from .linear_solver import ConstrainedSymmetricSolver, LinearSolveError, LowRankUpdate
@@ -86,6 +87,9 @@ FRICTION_NEWTON = 60
 #: factorisation when it moved by more than this fraction of the node's penalty: a node that came
 #: into contact, left it, or slips (EmbeddedSolver._contact_correction).
 CONTACT_BLOCK_CHANGE = 1e-3
+#: A penalty contact point changes status only where that changes its force by more than this
+#: fraction of the indenter's force (EmbeddedSolver._status_tolerance).
+STATUS_FORCE_FRACTION = 1e-7
 #: With friction, a step made with a fresh factorisation is GMRES on the tangent to this relative
 #: residual, in at most this many iterations (EmbeddedSolver._fresh_step).
 FRESH_RTOL = 1e-8
@@ -138,8 +142,11 @@ class EmbeddedSolver:
         fixed[self.mesh.xsym, 0] = True
         fixed[self.mesh.ysym, 1] = True
         self.bc_fixed = fixed
-        #: Coulomb's mu, or None for the exact node-wise stick
+        #: Coulomb's mu, or None for stick
         self.friction = spec.contact.friction
+        #: a penalty contact (friction, or the surface-integrated stick: mu = inf) at contact
+        #: points (forward.contact_quadrature), or the exact node-wise stick
+        self._penalised = spec.contact.penalised
         self.linear = ConstrainedSymmetricSolver(
             self.pattern,
             linear_solver,
@@ -150,7 +157,7 @@ class EmbeddedSolver:
         )
         #: whether the tangent is symmetric (CG) or not (GMRES): the slip tangent is unsymmetric
         self._tangent_symmetric = self.friction is None
-        #: with friction, the top nodes' contact blocks in the tangent (nt, 3, 3) at the last
+        #: with a penalty contact, its cells' blocks in the tangent (nc, k, 3, k, 3) at the last
         #: assembly, and (symmetrised) in the factorisation in hand
         self._contact_blocks: np.ndarray | None = None
         self._factored_contact_blocks: np.ndarray | None = None
@@ -172,10 +179,12 @@ class EmbeddedSolver:
         #: enter :meth:`assemble`), None outside an increment or with the stick contact
         self._friction_state: FrictionContactState | None = None
         self._friction_depth = 0.0
-        if self.friction is not None:
-            area = tributary_areas(self.mesh.nodes, self.mesh.elements, self.top)
-            self._contact_eps = spec.contact.penalty * area  # mN/mm per node
-            self._top_block_slots = self._diagonal_block_slots(self.top)
+        self._points: ContactPoints | None = None
+        if self._penalised:
+            self._points = contact_points(self.mesh, spec.contact.integration, order=spec.contact.order)
+            self._contact_eps = spec.contact.penalty * self._points.area  # mN/mm per point
+            self._cell_eps = self._points.cell_scale(self._contact_eps)
+            self._cell_slots = self._points.slots(self.pattern, self.top)
 
         self._full: list[np.ndarray] | None = None  # every node's displacement per step, when asked for
         self.stats = {
@@ -192,22 +201,11 @@ class EmbeddedSolver:
         }
 
     # ------------------------------------------------------------------ numerics
-    def _diagonal_block_slots(self, nodes: np.ndarray) -> np.ndarray:
-        """Positions in the CSR data of each node's 3 x 3 diagonal block, (len(nodes), 3, 3)."""
-        p = self.pattern
-        dofs = 3 * nodes[:, None] + np.arange(3)  # (m, 3)
-        rows = np.broadcast_to(dofs[:, :, None], (nodes.size, 3, 3))
-        cols = np.broadcast_to(dofs[:, None, :], (nodes.size, 3, 3))
-        keys = p.row.astype(np.int64) * p.n_dofs + p.indices  # ascending: CSR order
-        slots = np.minimum(np.searchsorted(keys, rows.astype(np.int64) * p.n_dofs + cols), keys.size - 1)
-        if not (np.array_equal(p.indices[slots], cols) and np.array_equal(p.row[slots], rows)):
-            raise RuntimeError("the sparsity pattern lacks a top node's diagonal block")
-        return slots
-
     def assemble(self, u: np.ndarray, tangent: bool = True, parameter_derivatives: bool = False):
-        """Global internal force (3n,), tangent (CSR) and, if asked, dR/dtheta (3n, 2). With
-        Coulomb friction, in an increment, the sphere's forces on the top nodes are taken off the
-        internal force and their derivative off the tangent (:mod:`forward.coulomb_contact`)."""
+        """Global internal force (3n,), tangent (CSR) and, if asked, dR/dtheta (3n, 2). With a
+        penalty contact, in an increment, the sphere's forces (at the contact points, carried to
+        the top nodes) are taken off the internal force and their derivative off the tangent
+        (:mod:`forward.coulomb_contact`, :mod:`forward.contact_quadrature`)."""
         t = time.perf_counter()
         m = self._mat
         st = element_state(
@@ -227,26 +225,32 @@ class EmbeddedSolver:
         if parameter_derivatives:
             dR = np.stack([self.pattern.vector(st.dforce_dtheta[:, k]) for k in range(2)], axis=1)
         if self._friction_state is not None:
-            resp = self._friction_state.response(u[self.top], self._friction_depth)
-            R.reshape(-1, 3)[self.top] -= resp.force
-            self._contact_blocks = -resp.df_dr
+            pts = self._points
+            resp = self._friction_state.response(pts.to_points(u[self.top]), self._friction_depth)
+            R.reshape(-1, 3)[self.top] -= pts.to_nodes(resp.force)
+            self._contact_blocks = -pts.cell_blocks(resp.df_dr)
             if K is not None:
-                K.data[self._top_block_slots] -= resp.df_dr
+                K.data += self._scatter_cells(self._contact_blocks)
         self.stats["assemblies"] += 1
         self.stats["tangent_assemblies"] += int(tangent)
         self.stats["assembly_s"] += time.perf_counter() - t
         return R, K, dR
 
+    def _scatter_cells(self, blocks: np.ndarray) -> np.ndarray:
+        """The contact cells' ``blocks`` (nc, k, 3, k, 3) summed into a CSR data array."""
+        return np.bincount(self._cell_slots.ravel(), weights=blocks.ravel(), minlength=self.pattern.nnz)
+
     def _factorize(self, K: sp.csr_matrix, constrained: np.ndarray) -> None:
-        """Factorise K; with friction, its symmetric part (the contact blocks of slipping nodes
+        """Factorise K; with friction, its symmetric part (the contact blocks of slipping points
         are K's only unsymmetric entries; :meth:`_contact_correction` puts them back)."""
         t = time.perf_counter()
-        if not self._tangent_symmetric:
-            K = K.copy()
-            blocks = K.data[self._top_block_slots]
-            K.data[self._top_block_slots] = 0.5 * (blocks + blocks.transpose(0, 2, 1))
+        if self._penalised and self._contact_blocks is not None:
             contact = self._contact_blocks
-            self._factored_contact_blocks = 0.5 * (contact + contact.transpose(0, 2, 1))
+            symmetric = 0.5 * (contact + contact.transpose(0, 3, 4, 1, 2))
+            if not self._tangent_symmetric:
+                K = K.copy()
+                K.data += self._scatter_cells(symmetric - contact)
+            self._factored_contact_blocks = symmetric
         self.linear.factorize(K, constrained)
         dt = time.perf_counter() - t
         self.stats["factorizations"] += 1
@@ -345,7 +349,8 @@ class EmbeddedSolver:
         many nodes as the factorisation keeps columns for (``max_extra``), the largest changes
         first."""
         if (
-            self._tangent_symmetric
+            not self._penalised
+            or self._contact_blocks is None
             or self._factored_contact_blocks is None
             or self.linear.factor_mask is None
         ):
@@ -360,18 +365,21 @@ class EmbeddedSolver:
     def _contact_update(self, cmask: np.ndarray) -> LowRankUpdate | None:
         """:meth:`_contact_correction` made anew."""
         change = self._contact_blocks - self._factored_contact_blocks
-        size = np.abs(change).max(axis=(1, 2)) / self._contact_eps
-        nodes = np.flatnonzero(size > CONTACT_BLOCK_CHANGE)
-        if nodes.size == 0:
+        size = np.abs(change).max(axis=(1, 2, 3, 4)) / self._cell_eps
+        cells = np.flatnonzero(size > CONTACT_BLOCK_CHANGE)
+        if cells.size == 0:
             return None
-        cap = max(1, self.linear.max_extra // 3)
-        if nodes.size > cap:
-            nodes = nodes[np.argsort(-size[nodes], kind="stable")[:cap]]
-        dofs = (3 * self.top[nodes][:, None] + np.arange(3)).ravel()
-        m = nodes.size
-        D = np.zeros((m, 3, m, 3))  # block diagonal, node by node
-        D[np.arange(m), :, np.arange(m), :] = change[nodes]
-        D = D.reshape(dofs.size, dofs.size)
+        k = change.shape[1]
+        cap = max(1, self.linear.max_extra // (3 * k))
+        if cells.size > cap:
+            cells = cells[np.argsort(-size[cells], kind="stable")[:cap]]
+        cell_dofs = self._points.cell_dofs(self.top)[cells]  # (m, k, 3)
+        dofs, local = np.unique(cell_dofs, return_inverse=True)
+        local = local.reshape(cell_dofs.shape)
+        rows = np.broadcast_to(local[:, :, :, None, None], change[cells].shape)
+        cols = np.broadcast_to(local[:, None, None, :, :], change[cells].shape)
+        D = np.zeros((dofs.size, dofs.size))  # the changed cells' blocks, summed where they share nodes
+        np.add.at(D, (rows.ravel(), cols.ravel()), change[cells].ravel())
         held = cmask[dofs]  # supports and symmetry planes stay eliminated
         D[held, :] = 0.0
         D[:, held] = 0.0
@@ -526,8 +534,10 @@ class EmbeddedSolver:
         slipping node passes its anchor (:meth:`FrictionContactState.step_fraction`): with
         ``halve``, alpha halved until the residual falls below ``norm`` (else the best trial);
         without, the whole step if it lowers the residual, else None."""
-        c, top = self._friction_state, self.top
-        du = du * c.step_fraction(u.reshape(-1, 3)[top], -du.reshape(-1, 3)[top], self._friction_depth)
+        c, top, pts = self._friction_state, self.top, self._points
+        du = du * c.step_fraction(
+            pts.to_points(u.reshape(-1, 3)[top]), pts.to_points(-du.reshape(-1, 3)[top]), self._friction_depth
+        )
         alpha, best = 1.0, None
         for _ in range(MAX_HALVINGS + 2 if halve else 1):
             trial = u - alpha * du
@@ -614,17 +624,18 @@ class EmbeddedSolver:
         du_start: np.ndarray | None,
         du_pred: np.ndarray | None = None,
     ) -> tuple[_Equilibrium, FrictionContactState, int, int, np.ndarray | None]:
-        """Solve the increment d0 -> d1 with Coulomb friction: Newton solves with the sphere's
-        penalty forces in the residual and each node's status held, until the statuses the
-        solution calls for are those it was solved with; then the anchors of slipping nodes move
-        (:meth:`FrictionContactState.settle`)."""
+        """Solve the increment d0 -> d1 with a penalty contact: Newton solves with the sphere's
+        penalty forces in the residual and each contact point's status held, until the statuses
+        the solution calls for are those it was solved with; then the anchors of slipping points
+        move (:meth:`FrictionContactState.settle`)."""
         c = contact.copy()
         top = self.top
-        s0_top = du_start[top] if du_start is not None else None
-        sp_top = du_pred[top] if du_pred is not None else None
-        c.anchor_newcomers(u[top], d0, u_pred[top], d1, s0_top, sp_top)
+        at_points = self._points.to_points
+        s0_top = at_points(du_start[top]) if du_start is not None else None
+        sp_top = at_points(du_pred[top]) if du_pred is not None else None
+        c.anchor_newcomers(at_points(u[top]), d0, at_points(u_pred[top]), d1, s0_top, sp_top)
         tol = 1e-9 * self.sphere.radius
-        c.status = c.settled_status(u_pred[top], d1, tol)
+        c.status = c.settled_status(at_points(u_pred[top]), d1, tol)
         cmask = self.bc_fixed.ravel()
         trial, iters, seen = u_pred, 0, set()
         self._friction_state, self._friction_depth = c, d1
@@ -633,7 +644,7 @@ class EmbeddedSolver:
                 eq = self._equilibrate_friction(trial, cmask)
                 iters += eq.iterations
                 trial = eq.u
-                wanted = c.settled_status(eq.u[top], d1, tol)
+                wanted = c.settled_status(at_points(eq.u[top]), d1, self._status_tolerance(c, eq.u))
                 log.debug("friction pass %d: %d statuses change", passes, int((wanted != c.status).sum()))
                 if np.array_equal(wanted, c.status):
                     break
@@ -652,24 +663,34 @@ class EmbeddedSolver:
                 raise _IncrementFailed(str(exc)) from exc
         finally:
             self._friction_state = None
-        c.settle(eq.u[top], d1, sens[top] if sens is not None else None)
+        c.settle(at_points(eq.u[top]), d1, at_points(sens[top]) if sens is not None else None)
         return eq, c, iters, passes, sens
+
+    def _status_tolerance(self, contact: FrictionContactState, u: np.ndarray) -> np.ndarray:
+        """How far (mm) each contact point may be inside the sphere while free, or outside its
+        anchor's plane while held, before its status changes: the gap at which its penalty force
+        is ``STATUS_FORCE_FRACTION`` of the indenter's force (at least 1e-9 R). A point at the
+        contact's edge whose force is that small otherwise toggles from pass to pass."""
+        resp = contact.response(self._points.to_points(u[self.top]), self._friction_depth)
+        total = max(float(np.abs(resp.pressure).sum()), self._force_scale)
+        return np.maximum(1e-9 * self.sphere.radius, STATUS_FORCE_FRACTION * total / self._contact_eps)
 
     def _friction_sensitivity(
         self, eq: _Equilibrium, cmask: np.ndarray, contact: FrictionContactState
     ) -> np.ndarray:
-        """d u / d theta (n, 3, 3) for theta = (c1, c5, mu) of a converged frictional state:
-        (K - df/du) du = -dR/dtheta + (d f / d theta at fixed positions: the anchors' history
-        and mu), solved by GMRES on the exact tangent preconditioned with the factorisation in
-        hand, or by factorising it."""
-        resp = contact.response(eq.u[self.top], self._friction_depth)
-        b = np.zeros((self.n_dofs, 3))
+        """d u / d theta (n, 3, p) for theta = (c1, c5, mu) (p = 3) of a converged frictional
+        state, or (c1, c5) (p = 2) of the penalty stick: (K - df/du) du = -dR/dtheta + (d f /
+        d theta at fixed positions: the anchors' history and mu), solved by Krylov on the exact
+        tangent preconditioned with the factorisation in hand, or by factorising it."""
+        pts, n_p = self._points, contact.n_params
+        resp = contact.response(pts.to_points(eq.u[self.top]), self._friction_depth)
+        b = np.zeros((self.n_dofs, n_p))
         b[:, :2] = -eq.dR
-        explicit = contact.explicit_force_derivative(resp, 3)  # (nt, 3, 3)
-        b.reshape(-1, 3, 3)[self.top] += explicit
+        explicit = contact.explicit_force_derivative(resp, n_p)  # (points, 3, p)
+        b.reshape(-1, 3, n_p)[self.top] += pts.to_nodes(explicit)
         b[cmask] = 0.0
         x = np.zeros_like(b)
-        for k in range(3):
+        for k in range(n_p):
             col = self._krylov(eq.K, cmask, b[:, k], SENSITIVITY_RTOL, self._krylov_maxiter())
             if col is None:  # factorise: with the contact correction GMRES converges at once
                 self._factorize(eq.K, cmask)
@@ -677,7 +698,7 @@ class EmbeddedSolver:
                 if col is None:
                     raise LinearSolveError("the sensitivity solve did not converge")
             x[:, k] = col
-        return x.reshape(-1, 3, 3)
+        return x.reshape(-1, 3, n_p)
 
     def _state_sensitivity(
         self, eq: _Equilibrium, cmask: np.ndarray, contact: StickContactState
@@ -747,10 +768,16 @@ class EmbeddedSolver:
         u = np.zeros((n, 3))
         last_inc = np.zeros((n, 3))
         last_dd = 0.0
-        friction = self.friction is not None
-        n_p = 3 if friction else 2  # theta = (c1, c5), and mu with friction
+        friction = self._penalised  # a penalty contact at contact points (friction or stick)
+        n_p = 2 if self.friction is None else 3  # theta = (c1, c5), and mu with friction
         contact = (
-            FrictionContactState(self.sphere, self.mesh.nodes[self.top], self._contact_eps, self.friction)
+            FrictionContactState(
+                self.sphere,
+                self._points.xyz0,
+                self._contact_eps,
+                np.inf if self.friction is None else self.friction,
+                n_params=n_p,
+            )
             if friction
             else StickContactState(self.sphere, self.mesh.nodes[self.top])
         )
@@ -841,15 +868,28 @@ class EmbeddedSolver:
                 u_sens.append(du_dtheta[self.top].copy())
             for key, val in rec.items():
                 conv[key].append(val)
-            conv["attached_nodes"].append(int(contact.attached.sum()))
-            slipping = contact.slipping if friction else False  # the stick contact has no slip
-            self._status.append(contact.attached.astype(np.int8) + slipping)
-            if friction:
-                conv.setdefault("slipping_nodes", [0]).append(int(contact.slipping.sum()))
+            attached = self._points.any_per_node(contact.attached) if friction else contact.attached
+            slipping = self._points.any_per_node(contact.slipping) if friction else False
+            conv["attached_nodes"].append(int(attached.sum()))
+            self._status.append(attached.astype(np.int8) + slipping)
+            if self.friction is not None:
+                conv.setdefault("slipping_nodes", [0]).append(int(np.sum(slipping)))
             conv["wall_s"].append(time.perf_counter() - t_step)
             if progress is not None:
                 progress(k, proto.steps, forces[-1])
         return self._result(depths, forces, disp, conv, f_sens, u_sens, sensitivities, t_start)
+
+    def _contact_description(self) -> str:
+        """One line on the contact this run used (the result file's ``solver.contact``)."""
+        c = self.spec.contact
+        if not c.penalised:
+            return "rigid sphere, node-to-surface stick (attach at path crossing, release on tension)"
+        if c.integration == "node":
+            where = f"node-to-surface penalty ({c.penalty:g} kPa/mm by tributary area)"
+        else:
+            where = f"surface-to-surface penalty ({c.penalty:g} kPa/mm at {c.order}x{c.order} Gauss points per top face)"
+        law = "stick (mu = inf)" if c.friction is None else f"Coulomb friction mu = {c.friction:g}"
+        return f"rigid sphere, {where}, {law} (return map from anchors)"
 
     def _result(self, depths, forces, disp, conv, f_sens, u_sens, sensitivities, t_start) -> SimulationResult:
         mesh = self.mesh
@@ -865,12 +905,7 @@ class EmbeddedSolver:
                 "name": self.name,
                 "version": __version__,
                 "element": "hex8 three-field (mean dilatation), 2x2x2 Gauss",
-                "contact": (
-                    "rigid sphere, node-to-surface stick (attach at path crossing, release on tension)"
-                    if self.friction is None
-                    else f"rigid sphere, node-to-surface penalty ({self.spec.contact.penalty:g} kPa/mm by "
-                    f"tributary area), Coulomb friction mu = {self.friction:g} (return map from anchors)"
-                ),
+                "contact": self._contact_description(),
                 "sensitivity_parameters": ["c1", "c5"] + ([] if self.friction is None else ["mu"]),
                 "linear_solver": self.linear_solver,
                 "factorisation": "single precision" if self.linear.single_precision else "double precision",

@@ -239,13 +239,18 @@ DEFAULT_CONTACT_PENALTY = 1.0e5
 class Contact:
     """The indenter's contact with the top face.
 
-    ``friction`` None (the default) is the paper's near-perfect stick, imposed exactly node by
-    node (:mod:`forward.stick_contact`); a number is Coulomb's friction coefficient mu >= 0
-    (0: frictionless), imposed by a penalty of ``penalty`` kPa per mm of penetration
-    (:mod:`forward.coulomb_contact`)."""
+    ``friction`` None (the default) is the paper's near-perfect stick; a number is Coulomb's
+    friction coefficient mu >= 0 (0: frictionless). ``integration`` says where the contact is
+    evaluated (:mod:`forward.contact_quadrature`): ``"node"`` (the default) node by node, the stick
+    imposed exactly (:mod:`forward.stick_contact`) and friction by a penalty;
+    ``"surface"``: at ``order`` x ``order`` Gauss points of every top face, stick and friction
+    by a penalty (:mod:`forward.coulomb_contact`). The penalty is ``penalty`` kPa per mm of
+    penetration (and of elastic slip under stick)."""
 
     friction: float | None = None
     penalty: float = DEFAULT_CONTACT_PENALTY
+    integration: str = "node"
+    order: int = 2
 
     def __post_init__(self) -> None:
         if self.friction is not None:
@@ -262,11 +267,26 @@ class Contact:
                 )
             object.__setattr__(self, "friction", mu)
         object.__setattr__(self, "penalty", _finite_positive("contact.penalty", self.penalty))
+        if self.integration not in ("node", "surface"):
+            raise SpecError("contact.integration", f"must be 'node' or 'surface', got {self.integration!r}")
+        if int(self.order) != self.order or not 1 <= self.order <= 8:
+            raise SpecError("contact.order", f"must be a whole number from 1 to 8, got {self.order!r}")
+        object.__setattr__(self, "order", int(self.order))
+
+    @property
+    def penalised(self) -> bool:
+        """Whether the contact is a penalty (friction, or any surface contact), not the exact
+        node-wise stick."""
+        return self.friction is not None or self.integration == "surface"
 
     def describe(self) -> str:
+        where = (
+            "" if self.integration == "node" else f", surface-integrated ({self.order}x{self.order} per face)"
+        )
         if self.friction is None:
-            return "perfect stick"
-        return "frictionless" if self.friction == 0 else f"Coulomb friction mu = {self.friction:g}"
+            return ("perfect stick" if self.integration == "node" else "stick by penalty") + where
+        law = "frictionless" if self.friction == 0 else f"Coulomb friction mu = {self.friction:g}"
+        return law + where
 
 
 @dataclass(frozen=True)
@@ -356,6 +376,8 @@ class ModelSpec:
         d["material"]["fiber"] = list(self.material.fiber)
         if self.contact == Contact():
             del d["contact"]
+        elif self.contact.integration == "node":  # as written before surface contact existed
+            del d["contact"]["integration"], d["contact"]["order"]
         if self.composite is None:
             del d["composite"]
         return d

@@ -7,12 +7,12 @@ import dataclasses
 import numpy as np
 import pytest
 
+from indentation_studio.forward.contact_quadrature import tributary_areas
 from indentation_studio.forward.coulomb_contact import (
     CONTACT,
     FREE,
     capsule_projection,
     contact_response,
-    tributary_areas,
 )
 from indentation_studio.forward.mesh import preset_mesh
 from indentation_studio.forward.result import SimulationResult

@@ -1,0 +1,205 @@
+"""Where the indenter's penalty contact is evaluated on the block's top face.
+
+A penalty contact (:mod:`forward.coulomb_contact`) computes the sphere's force at *contact
+points*, each with its own anchor, status and penalty; this module maps those points to and from
+the top nodes. Two placements:
+
+* ``node``: one point per top node, its penalty the node's tributary area (node to surface);
+* ``surface``: ``order`` x ``order`` Gauss points on every top face, interpolated from the face's
+  four nodes with the bilinear shape functions, each with its Gauss weight x area (surface to
+  surface, integrated over the faces as FEBio's sliding-elastic contact and mortar methods do).
+
+Points are grouped in *cells* (a top node, or a top face) of ``k`` nodes and ``q`` points. The
+force on the nodes is N^T f, the tangent's contact part N^T (df/dr) N, assembled cell by cell
+into the CSR slots of the body's stiffness (every cell's nodes share an element, so the pattern
+holds them).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from .block_mesh import BlockMesh
+from .sparse_assembly import SparsePattern
+
+__all__ = ["CONTACT_INTEGRATIONS", "ContactPoints", "contact_points", "top_faces", "tributary_areas"]
+
+#: The placements of :func:`contact_points`.
+CONTACT_INTEGRATIONS = ("node", "surface")
+
+#: hex8 faces that can lie on the top, each in a cyclic order of its corners
+_TOP_FACES = ((4, 5, 6, 7), (0, 1, 2, 3))
+
+
+def top_faces(mesh: BlockMesh) -> np.ndarray:
+    """The top face's quads, (nf, 4) node ids (into the mesh) in cyclic order: faces of hex8
+    elements whose four nodes all lie on the top."""
+    on_top = np.zeros(mesh.n_nodes, dtype=bool)
+    on_top[mesh.top] = True
+    quads = [mesh.elements[:, face] for face in _TOP_FACES]
+    quads = np.concatenate([q[on_top[q].all(axis=1)] for q in quads])
+    return quads
+
+
+def tributary_areas(nodes: np.ndarray, elements: np.ndarray, top: np.ndarray) -> np.ndarray:
+    """Each top node's share of the top face, mm^2 (nt,): a quarter of the area of every top
+    face of a hex8 element it belongs to (faces whose four nodes are all top nodes)."""
+    on_top = np.zeros(nodes.shape[0], dtype=bool)
+    on_top[top] = True
+    quads = np.concatenate([q[on_top[q].all(axis=1)] for q in (elements[:, f] for f in _TOP_FACES)])
+    xy = nodes[quads][:, :, :2]
+    shoelace = 0.5 * np.abs(
+        np.einsum("ij,ij->i", xy[:, :, 0], np.roll(xy[:, :, 1], -1, axis=1))
+        - np.einsum("ij,ij->i", xy[:, :, 1], np.roll(xy[:, :, 0], -1, axis=1))
+    )
+    area = np.zeros(nodes.shape[0])
+    np.add.at(area, quads.ravel(), np.repeat(shoelace / 4.0, 4))
+    return area[top]
+
+
+@dataclass(frozen=True)
+class ContactPoints:
+    """Contact points on the top face, grouped in cells (module docstring).
+
+    Attributes
+    ----------
+    integration : str
+        ``"node"`` or ``"surface"``.
+    cell_nodes : ndarray, shape (nc, k)
+        Each cell's nodes, as indices into the mesh's top nodes.
+    shape : ndarray, shape (nc, q, k)
+        The value of each cell node's shape function at each of the cell's points.
+    area : ndarray, shape (nc * q,)
+        Each point's share of the top face, mm^2 (its penalty is ``penalty * area``).
+    xyz0 : ndarray, shape (nc * q, 3)
+        The points' reference positions.
+    n_top : int
+        The number of top nodes.
+    """
+
+    integration: str
+    cell_nodes: np.ndarray
+    shape: np.ndarray
+    area: np.ndarray
+    xyz0: np.ndarray
+    n_top: int
+
+    @property
+    def n_points(self) -> int:
+        return int(self.area.size)
+
+    @property
+    def interpolation(self) -> sp.csr_matrix:
+        """N (n_points, n_top): point values from top-node values."""
+        nc, q, k = self.shape.shape
+        rows = np.repeat(np.arange(nc * q), k)
+        cols = np.repeat(self.cell_nodes, q, axis=0).ravel()
+        return sp.csr_matrix((self.shape.ravel(), (rows, cols)), shape=(nc * q, self.n_top))
+
+    def to_points(self, top_values: np.ndarray) -> np.ndarray:
+        """Values at the points (n_points, ...) from values at the top nodes (n_top, ...)."""
+        nc, q, _ = self.shape.shape
+        cell = top_values[self.cell_nodes]  # (nc, k, ...)
+        return np.einsum("cqk,ck...->cq...", self.shape, cell).reshape(nc * q, *top_values.shape[1:])
+
+    def to_nodes(self, point_values: np.ndarray) -> np.ndarray:
+        """Work-conjugate node values N^T v (n_top, ...) of point values (n_points, ...): the
+        nodal forces of point forces."""
+        nc, q, _ = self.shape.shape
+        tail = point_values.shape[1:]
+        per = np.einsum("cqk,cq...->ck...", self.shape, point_values.reshape(nc, q, *tail))
+        out = np.zeros((self.n_top, *tail))
+        np.add.at(out, self.cell_nodes, per)
+        return out
+
+    def any_per_node(self, flags: np.ndarray) -> np.ndarray:
+        """Top nodes (n_top,) that carry a weight of at least one flagged point."""
+        nc, q, _ = self.shape.shape
+        hit = (flags.reshape(nc, q)[:, :, None] & (self.shape > 0.0)).any(axis=1)  # (nc, k)
+        out = np.zeros(self.n_top, dtype=bool)
+        np.logical_or.at(out, self.cell_nodes, hit)
+        return out
+
+    def cell_blocks(self, point_blocks: np.ndarray) -> np.ndarray:
+        """N^T B N cell by cell: (nc, k, 3, k, 3) from point 3 x 3 blocks B (n_points, 3, 3)."""
+        nc, q, _ = self.shape.shape
+        B = point_blocks.reshape(nc, q, 3, 3)
+        return np.einsum("cqa,cqb,cqij->caibj", self.shape, self.shape, B)
+
+    def cell_scale(self, eps: np.ndarray) -> np.ndarray:
+        """Each cell's penalty, mN/mm (nc,): the sum of its points' (what a block's change is
+        measured against)."""
+        nc, q, _ = self.shape.shape
+        return eps.reshape(nc, q).sum(axis=1)
+
+    def cell_dofs(self, top: np.ndarray) -> np.ndarray:
+        """Global dofs of each cell's nodes (nc, k, 3), ``top`` the mesh's top node ids."""
+        return 3 * top[self.cell_nodes][:, :, None] + np.arange(3)
+
+    def slots(self, pattern: SparsePattern, top: np.ndarray) -> np.ndarray:
+        """Positions in the CSR data of every entry of every cell block, (nc, k, 3, k, 3)."""
+        dofs = self.cell_dofs(top)
+        nc, k, _ = dofs.shape
+        rows = np.broadcast_to(dofs[:, :, :, None, None], (nc, k, 3, k, 3)).astype(np.int64)
+        cols = np.broadcast_to(dofs[:, None, None, :, :], (nc, k, 3, k, 3)).astype(np.int64)
+        keys = pattern.row.astype(np.int64) * pattern.n_dofs + pattern.indices
+        wanted = rows * pattern.n_dofs + cols
+        slots = np.minimum(np.searchsorted(keys, wanted), keys.size - 1)
+        if not np.array_equal(keys[slots], wanted):
+            raise RuntimeError("the sparsity pattern lacks a contact cell's block")
+        return slots
+
+
+def contact_points(mesh: BlockMesh, integration: str = "node", *, order: int = 2) -> ContactPoints:
+    """The contact points of ``mesh``'s top face.
+
+    Parameters
+    ----------
+    mesh : BlockMesh
+        The block.
+    integration : {"node", "surface"}
+        One point per top node, or ``order`` x ``order`` Gauss points per top face.
+    order : int, optional
+        Gauss points per face edge (surface only).
+
+    Returns
+    -------
+    ContactPoints
+        The points, their cells, shape functions and areas.
+    """
+    top = np.asarray(mesh.top)
+    index = np.full(mesh.n_nodes, -1)
+    index[top] = np.arange(top.size)
+    quads = top_faces(mesh)
+    xy = mesh.nodes[quads][:, :, :2]  # (nf, 4, 2)
+    if integration == "node":
+        area = tributary_areas(mesh.nodes, mesh.elements, top)
+        nt = top.size
+        return ContactPoints(
+            "node", np.arange(nt)[:, None], np.ones((nt, 1, 1)), area, mesh.nodes[top].copy(), nt
+        )
+    if integration != "surface":
+        raise ValueError(f"unknown contact integration {integration!r}; use one of {CONTACT_INTEGRATIONS}")
+    if int(order) != order or order < 1:
+        raise ValueError(f"the surface contact's order must be a whole number >= 1, got {order!r}")
+    g, w = np.polynomial.legendre.leggauss(int(order))
+    xi, eta = (a.ravel() for a in np.meshgrid(g, g, indexing="ij"))
+    wq = np.outer(w, w).ravel()
+    corners = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]], dtype=float)
+    N = 0.25 * (1 + xi[:, None] * corners[:, 0]) * (1 + eta[:, None] * corners[:, 1])  # (q, 4)
+    dN = np.stack(
+        [
+            0.25 * corners[:, 0] * (1 + eta[:, None] * corners[:, 1]),
+            0.25 * corners[:, 1] * (1 + xi[:, None] * corners[:, 0]),
+        ],
+        axis=1,
+    )  # (q, 2, 4)
+    J = np.einsum("qak,fkb->fqab", dN, xy)  # (nf, q, 2, 2)
+    detJ = np.abs(np.linalg.det(J))
+    nf, q = quads.shape[0], xi.size
+    shape = np.broadcast_to(N, (nf, q, 4)).copy()
+    xyz0 = np.einsum("qk,fkj->fqj", N, mesh.nodes[quads]).reshape(nf * q, 3)
+    return ContactPoints("surface", index[quads], shape, (detJ * wq).ravel(), xyz0, top.size)
