@@ -31,7 +31,13 @@ _lazy_getattr, __dir__, __all__ = lazy.attach(
             "compare_candidate_designs",
             "compare_designs",
         ],
-        "constituents": ["fit_equibiaxial", "parallel_fiber_stresses", "rule_of_mixtures"],
+        "constituents": [
+            "Baseline",
+            "baseline_from_constituents",
+            "fit_equibiaxial",
+            "parallel_fiber_stresses",
+            "rule_of_mixtures",
+        ],
         "composite_homogenisation": ["CompositeHomogenisation", "composite_equibiaxial_fit"],
     },
 )

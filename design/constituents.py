@@ -17,8 +17,11 @@ standard errors (scipy.optimize.curve_fit's covariance).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
 
 import numpy as np
+import pandas as pd
 from scipy.optimize import curve_fit
 
 from ..forward.material import equibiaxial_stress_incompressible
@@ -139,3 +142,69 @@ def fit_equibiaxial(stretch, sigma_fiber, sigma_transverse) -> Fit:
         return np.concatenate([a, b])
 
     return _fit(model, np.concatenate([lam, lam]), np.concatenate([s11, s22]), ("c1", "c5"), (1.0, 10.0))
+
+
+@dataclass(frozen=True)
+class Baseline:
+    """theta* from the constituents (eq. 11) and, if equibiaxial data were given, their eq. 10 fit."""
+
+    c1: float
+    c5: float
+    fiber_volume_fraction: float
+    equibiaxial_fit: Fit | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        """The baseline as ``design baseline --json`` prints it.
+
+        Returns
+        -------
+        dict
+            c1, c5 (kPa), the source, and the eq. 10 fit's values, standard errors and RMS.
+        """
+        payload: dict[str, Any] = {"c1": self.c1, "c5": self.c5, "source": "eq. 11 (rule of mixtures)"}
+        fit = self.equibiaxial_fit
+        if fit is not None:
+            payload["equibiaxial_fit"] = {
+                "values": fit.values,
+                "std_errors": fit.std_errors,
+                "rms_kPa": fit.rms_kPa,
+            }
+        return payload
+
+
+def baseline_from_constituents(
+    mu_matrix: float,
+    c1_fiber: float,
+    c2_fiber: float,
+    fiber_volume_fraction: float,
+    *,
+    equibiaxial: str | Path | None = None,
+) -> Baseline:
+    """The baseline theta* of eq. 11 and, with a CSV of equibiaxial data, the eq. 10 fit of it.
+
+    Parameters
+    ----------
+    mu_matrix, c1_fiber, c2_fiber, fiber_volume_fraction
+        As :func:`rule_of_mixtures`.
+    equibiaxial : str or Path, optional
+        A CSV with columns stretch, sigma_fiber and sigma_transverse (kPa).
+
+    Returns
+    -------
+    Baseline
+        (c1, c5) of eq. 11 and the fit.
+
+    Raises
+    ------
+    ValueError
+        A constituent out of range, or a column missing from the CSV.
+    """
+    c1, c5 = rule_of_mixtures(mu_matrix, c1_fiber, c2_fiber, fiber_volume_fraction)
+    fit = None
+    if equibiaxial is not None:
+        table = pd.read_csv(equibiaxial)
+        missing = {"stretch", "sigma_fiber", "sigma_transverse"} - set(table.columns)
+        if missing:
+            raise ValueError(f"{equibiaxial}: missing column(s) {', '.join(sorted(missing))}")
+        fit = fit_equibiaxial(table["stretch"], table["sigma_fiber"], table["sigma_transverse"])
+    return Baseline(c1, c5, fiber_volume_fraction, fit)

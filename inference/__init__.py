@@ -48,10 +48,13 @@ _lazy_getattr, __dir__, __all__ = lazy.attach(
         "febio_experiment": ["RecordedRun", "experiment_from_febio_run", "febio_contact"],
         "composite_experiment": [
             "CompositeComparison",
+            "CompositeExperiment",
+            "compare_with_fit",
             "compare_with_homogeneous",
             "composite_indentation",
             "experiment_from_composite",
             "fitted_model",
+            "write_composite_experiment",
         ],
     },
 )

@@ -13,9 +13,12 @@ composite: force against depth and the top-surface field, where the fibers show.
 
 from __future__ import annotations
 
+import json
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -29,11 +32,14 @@ from .synthetic_experiment import LAB_RECORDING, write_experiment_from_model
 
 __all__ = [
     "CompositeComparison",
+    "CompositeExperiment",
+    "compare_with_fit",
     "compare_with_homogeneous",
     "composite_indentation",
     "experiment_from_composite",
     "fitted_model",
     "top_fiber_bands",
+    "write_composite_experiment",
 ]
 
 #: The result file a composite experiment folder keeps beside the experiment.
@@ -79,6 +85,95 @@ def composite_indentation(
     spec = composite_spec(radius, preset, steps, step_size, friction)
     run = run_simulation(spec, out / RESULT_FILE, progress=progress, say=say)
     return run.result, experiment_from_composite(run.result, out, **experiment_options)
+
+
+@dataclass
+class CompositeExperiment:
+    """A composite indentation written as an experiment folder: the result, the folder, the
+    result file it came from and the wall time (s)."""
+
+    result: SimulationResult
+    experiment: Path
+    result_file: Path
+    wall_s: float
+
+    def to_dict(self) -> dict[str, Any]:
+        """The experiment as ``composite indent --json`` prints it.
+
+        Returns
+        -------
+        dict
+            The folder, the result file, depths, forces, the mesh, Newton iterations and the
+            simulation's and the whole run's wall times.
+        """
+        result = self.result
+        return {
+            "experiment": str(self.experiment),
+            "result_file": str(self.result_file),
+            "depth_mm": result.depth.tolist(),
+            "force_mN": result.force.tolist(),
+            "mesh": result.solver.get("mesh"),
+            "newton_iterations": result.newton_iterations,
+            "simulation_wall_s": result.wall_s,
+            "wall_s": self.wall_s,
+        }
+
+
+def write_composite_experiment(
+    out_dir: str | Path,
+    *,
+    from_result: str | Path | None = None,
+    radius: float = 4.77,
+    preset: str = "composite",
+    steps: int = 28,
+    step_size: float = 0.5,
+    friction: float | None = None,
+    progress: Callable[[int, int, float], None] | None = None,
+    say: Callable[[str], None] | None = None,
+    seed: int = 0,
+    overwrite: bool = False,
+) -> CompositeExperiment:
+    """The experiment folder ``out_dir`` of a composite indentation: run now
+    (:func:`composite_indentation`), or written from the result file ``from_result`` (no run).
+
+    Parameters
+    ----------
+    out_dir : str or Path
+        The experiment folder (a run keeps its result in it).
+    from_result : str or Path, optional
+        A composite result (.npz) to write the experiment from instead of running.
+    radius, preset, steps, step_size, friction
+        The run's model (:func:`composite_spec`).
+    progress, say
+        The run's progress and messages (:func:`composite_indentation`).
+    seed : int
+        The noise seed.
+    overwrite : bool
+        Replace an experiment already in ``out_dir``.
+
+    Returns
+    -------
+    CompositeExperiment
+        The result, the folder and the result file.
+    """
+    t0 = time.perf_counter()
+    if from_result is not None:
+        result = SimulationResult.load(from_result)
+        folder = experiment_from_composite(result, out_dir, seed=seed, overwrite=overwrite)
+        return CompositeExperiment(result, folder, Path(from_result), time.perf_counter() - t0)
+    result, folder = composite_indentation(
+        out_dir,
+        radius,
+        preset,
+        steps,
+        step_size,
+        friction,
+        progress=progress,
+        say=say,
+        seed=seed,
+        overwrite=overwrite,
+    )
+    return CompositeExperiment(result, folder, Path(out_dir) / RESULT_FILE, time.perf_counter() - t0)
 
 
 def experiment_from_composite(
@@ -183,8 +278,6 @@ class CompositeComparison:
 def fitted_model(fit: str | Path | dict) -> tuple[tuple[float, float], float | None]:
     """(c1, c5) of a fit (its fit.json, or that dict) and its mu (held, identified or
     marginalised; None where the surrogate's contact was assumed): the homogeneous model it found."""
-    import json
-
     values = json.loads(Path(fit).read_text()) if not isinstance(fit, dict) else fit
     try:
         theta = (float(values["c1"]), float(values["c5"]))
@@ -193,6 +286,55 @@ def fitted_model(fit: str | Path | dict) -> tuple[tuple[float, float], float | N
     friction = values.get("friction") or {}
     mu = friction.get("mu") if friction.get("treatment") != "assumed" else None
     return theta, None if mu is None else float(mu)
+
+
+def compare_with_fit(
+    result: SimulationResult | str | Path,
+    *,
+    c1: float | None = None,
+    c5: float | None = None,
+    fit: str | Path | dict | None = None,
+    mesh: str = "default",
+    friction: float | None = None,
+    progress: Callable[[int, int, float], None] | None = None,
+) -> CompositeComparison:
+    """:func:`compare_with_homogeneous` at (c1, c5) given, or a fit's (:func:`fitted_model`; a
+    value given overrides the fit's).
+
+    Parameters
+    ----------
+    result : SimulationResult, str or Path
+        The composite's result.
+    c1, c5 : float, optional
+        The homogeneous model's moduli, kPa (default: the fit's).
+    fit : str, Path or dict, optional
+        A fit.json (or its dict) whose (c1, c5) and mu to use.
+    mesh : str
+        The homogeneous model's mesh preset.
+    friction : float, optional
+        The homogeneous model's Coulomb mu (default: the fit's mu, else the composite's contact).
+    progress : callable, optional
+        The homogeneous run's progress.
+
+    Returns
+    -------
+    CompositeComparison
+        The two models side by side.
+
+    Raises
+    ------
+    ValueError
+        Neither (c1, c5) nor a fit given.
+    """
+    if fit is not None:
+        (c1_fit, c5_fit), mu_fit = fitted_model(fit)
+        c1 = c1_fit if c1 is None else c1
+        c5 = c5_fit if c5 is None else c5
+        friction = mu_fit if friction is None else friction  # the model the fit found
+    if c1 is None or c5 is None:
+        raise ValueError("give --c1 and --c5, or --fit")
+    contact = "composite" if friction is None else friction
+    return compare_with_homogeneous(result, (c1, c5), mesh, progress=progress, friction=contact)
 
 
 def compare_with_homogeneous(

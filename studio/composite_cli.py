@@ -6,13 +6,17 @@
 
 from __future__ import annotations
 
+import json
+from contextlib import nullcontext
 from pathlib import Path
 from typing import Annotated
 
 import typer
 from rich.console import Console
 
+from .. import design, forward, inference, studio  # lazy packages: a command imports what it runs
 from ..atomic_write import strict_json
+from ..forward.spec import SpecError
 from .options import FRICTION, JSON, RADIUS, STEP_SIZE, STEPS, err, fail, say
 from .progress import step_progress
 
@@ -35,17 +39,15 @@ def equibiaxial(
 ) -> None:
     """Stretch the phantom equibiaxially (fibers along y, top free) and fit eq. 10 to its
     volume-averaged true stresses; eq. 11's rule of mixtures beside it."""
-    from ..design.composite_homogenisation import composite_equibiaxial_fit
-    from ..forward.spec import SpecError
-
     try:
-        done = composite_equibiaxial_fit(max_stretch, steps, cell, bulk_to_shear)
+        done = design.composite_equibiaxial_fit(max_stretch, steps, cell, bulk_to_shear)
         if figure is not None:
-            from .figures import equibiaxial_figure, save_figure
-
             r = done.stretch
-            save_figure(
-                equibiaxial_figure(r.stretch_x, r.sigma_fiber, r.sigma_transverse, done.fit.values), figure
+            studio.figures.save_figure(
+                studio.figures.equibiaxial_figure(
+                    r.stretch_x, r.sigma_fiber, r.sigma_transverse, done.fit.values
+                ),
+                figure,
             )
     except (SpecError, ValueError, RuntimeError, OSError) as exc:
         fail(str(exc), as_json)
@@ -85,57 +87,32 @@ def indent(
     """Indent the composite phantom (its fibers and matrix, the paper's stick) and write the run as
     a DIC-like experiment (0.02 mm DIC noise, 2 % force noise, 0.1 mm misregistration) that
     ``indent-studio fit --experiment OUT`` identifies with the homogeneous model."""
-    import time
-
-    from ..forward.result import SimulationResult
-    from ..forward.solver import SimulationError
-    from ..forward.spec import SpecError
-    from ..inference.composite_experiment import (
-        RESULT_FILE,
-        composite_indentation,
-        experiment_from_composite,
-    )
-
-    t0 = time.perf_counter()
+    run_now = from_result is None  # a progress bar only for a run
     try:
-        if from_result is not None:
-            result = SimulationResult.load(from_result)
-            folder = experiment_from_composite(result, out, seed=seed, overwrite=overwrite)
-            result_file = from_result
-        else:
-            with step_progress(err, "composite indentation", steps) as bar:
-                result, folder = composite_indentation(
-                    out,
-                    radius,
-                    mesh,
-                    steps,
-                    step_size,
-                    friction,
-                    progress=lambda k, n, f: bar.update(k, f"{f:.1f} mN"),
-                    say=say,
-                    seed=seed,
-                    overwrite=overwrite,
-                )
-            result_file = out / RESULT_FILE
-    except (SpecError, ValueError, FileExistsError, SimulationError, OSError) as exc:
+        with step_progress(err, "composite indentation", steps) if run_now else nullcontext() as bar:
+            done = inference.write_composite_experiment(
+                out,
+                from_result=from_result,
+                radius=radius,
+                preset=mesh,
+                steps=steps,
+                step_size=step_size,
+                friction=friction,
+                progress=lambda k, n, f: bar.update(k, f"{f:.1f} mN"),
+                say=say,
+                seed=seed,
+                overwrite=overwrite,
+            )
+    except (SpecError, ValueError, FileExistsError, forward.SimulationError, OSError) as exc:
         fail(str(exc), as_json)
-    payload = {
-        "experiment": str(folder),
-        "result_file": str(result_file),
-        "depth_mm": result.depth.tolist(),
-        "force_mN": result.force.tolist(),
-        "mesh": result.solver.get("mesh"),
-        "newton_iterations": result.newton_iterations,
-        "simulation_wall_s": result.wall_s,
-        "wall_s": time.perf_counter() - t0,
-    }
     if as_json:
-        print(strict_json(payload))
+        print(strict_json(done.to_dict()))
         return
+    result = done.result
     Console().print(
         f"composite R = {result.spec['indenter']['radius']:g} mm: {result.force[-1]:.1f} mN at "
         f"{result.depth[-1]:g} mm ({result.solver['mesh']['nodes']} nodes, {result.wall_s:.0f} s); "
-        f"experiment: {folder}"
+        f"experiment: {done.experiment}"
     )
 
 
@@ -159,35 +136,18 @@ def compare(
 ) -> None:
     """The homogeneous model at (c1, c5) beside the composite: force against depth and the
     top-surface field at the last step, where the top fibers show."""
-    import json
-
-    from ..forward.solver import SimulationError
-    from ..forward.spec import SpecError
-    from ..inference.composite_experiment import compare_with_homogeneous, fitted_model
-
     try:
-        if fit is not None:
-            (c1_fit, c5_fit), mu_fit = fitted_model(fit)
-            c1 = c1_fit if c1 is None else c1
-            c5 = c5_fit if c5 is None else c5
-            friction = mu_fit if friction is None else friction  # the model the fit found
-        if c1 is None or c5 is None:
-            raise ValueError("give --c1 and --c5, or --fit")
-        done = compare_with_homogeneous(
-            result, (c1, c5), mesh, friction="composite" if friction is None else friction
-        )
+        done = inference.compare_with_fit(result, c1=c1, c5=c5, fit=fit, mesh=mesh, friction=friction)
         if figure is not None:
-            from .figures import composite_comparison_figure, save_figure
-
-            save_figure(composite_comparison_figure(done), figure)
-    except (SpecError, ValueError, KeyError, SimulationError, OSError, json.JSONDecodeError) as exc:
+            studio.figures.save_figure(studio.figures.composite_comparison_figure(done), figure)
+    except (SpecError, ValueError, KeyError, forward.SimulationError, OSError, json.JSONDecodeError) as exc:
         fail(f"{exc}", as_json)
     payload = done.to_dict() | {"figure": str(figure) if figure is not None else None}
     if as_json:
         print(strict_json(payload))
         return
     Console().print(
-        f"homogeneous {{c1, c5}} = {{{c1:g}, {c5:g}}} kPa against the composite: force gap at the last "
+        f"homogeneous {{c1, c5}} = {{{done.theta[0]:g}, {done.theta[1]:g}}} kPa against the composite: force gap at the last "
         f"step {100 * payload['force_rel_gap_last']:+.1f} % (largest {100 * payload['force_rel_gap_max']:.1f} %); "
         f"field rms gap (x, y, z) {', '.join(f'{v:.3f}' for v in payload['field_rms_gap_mm'].values())} mm"
     )

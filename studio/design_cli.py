@@ -207,32 +207,16 @@ def baseline_cmd(
     as_json: JSON = False,
 ) -> None:
     """Baseline theta* from the constituents (eq. 11) and, if given, the eq. 10 fit of equibiaxial data."""
-    import pandas as pd
-
-    from ..design.constituents import fit_equibiaxial, rule_of_mixtures
-
     try:
-        c1, c5 = rule_of_mixtures(mu_matrix, fiber_c1, fiber_c2, fvf)
-        payload = {"c1": c1, "c5": c5, "source": "eq. 11 (rule of mixtures)"}
-        if equibiaxial is not None:
-            table = pd.read_csv(equibiaxial)
-            missing = {"stretch", "sigma_fiber", "sigma_transverse"} - set(table.columns)
-            if missing:
-                raise ValueError(f"{equibiaxial}: missing column(s) {', '.join(sorted(missing))}")
-            fit = fit_equibiaxial(table["stretch"], table["sigma_fiber"], table["sigma_transverse"])
-            payload["equibiaxial_fit"] = {
-                "values": fit.values,
-                "std_errors": fit.std_errors,
-                "rms_kPa": fit.rms_kPa,
-            }
+        base = design.baseline_from_constituents(mu_matrix, fiber_c1, fiber_c2, fvf, equibiaxial=equibiaxial)
     except (OSError, ValueError, RuntimeError) as exc:
         fail(str(exc), as_json)
     if as_json:
-        print(strict_json(payload))
+        print(strict_json(base.to_dict()))
         return
-    Console().print(f"eq. 11: c1 = {c1:.2f} kPa, c5 = {c5:.1f} kPa (FVF {fvf:g})")
-    if "equibiaxial_fit" in payload:
-        v, e = fit.values, fit.std_errors
+    Console().print(f"eq. 11: c1 = {base.c1:.2f} kPa, c5 = {base.c5:.1f} kPa (FVF {fvf:g})")
+    if base.equibiaxial_fit is not None:
+        v, e = base.equibiaxial_fit.values, base.equibiaxial_fit.std_errors
         Console().print(
             f"eq. 10 fit: c1 = {v['c1']:.2f} +- {e['c1']:.2f} kPa, c5 = {v['c5']:.1f} +- {e['c5']:.1f} kPa"
         )
@@ -281,25 +265,31 @@ def _floats(text: str) -> list[float]:
     return [float(v) for v in text.split(",") if v.strip()]
 
 
+RADII = Annotated[str, typer.Option(help="indenter radii, mm")]
+DEPTHS = Annotated[str, typer.Option(help="maximum depths, mm")]
+EVERY = Annotated[str, typer.Option(help="measure every k-th 0.5 mm step (k values)")]
+FOVS = Annotated[str, typer.Option(help="DIC field-of-view radii, mm ('all' = whole top)")]
+NOISE_LEVELS = Annotated[str, typer.Option("--s", help="noise levels s")]
+FIXED_WEIGHTS = Annotated[str, typer.Option(help="fixed weights to report beside the optimum")]
+OPTIMUM = Annotated[str, typer.Option(help="weight optimum: c1, c5, combined or det")]
+COMPARISON_DIR = Annotated[Path, typer.Option(help="folder for design-comparison.csv and .png")]
+
+
 @design_app.command("compare")
 @model_options("kappa", "step_size", "mesh", "mesh_from")
 def compare_cmd(
-    radii: Annotated[str, typer.Option(help="indenter radii, mm")] = "4.77,8",
-    depths: Annotated[str, typer.Option(help="maximum depths, mm")] = "5,7,10.5,14",
-    every: Annotated[str, typer.Option(help="measure every k-th 0.5 mm step (k values)")] = "1",
-    fovs: Annotated[str, typer.Option(help="DIC field-of-view radii, mm ('all' = whole top)")] = "all",
-    noise: Annotated[str, typer.Option("--s", help="noise levels s")] = "0.05",
-    weights: Annotated[
-        str, typer.Option(help="fixed weights to report beside the optimum")
-    ] = "0.45,0.35,0.2,0",
-    criterion: Annotated[str, typer.Option(help="weight optimum: c1, c5, combined or det")] = "combined",
+    radii: RADII = "4.77,8",
+    depths: DEPTHS = "5,7,10.5,14",
+    every: EVERY = "1",
+    fovs: FOVS = "all",
+    noise: NOISE_LEVELS = "0.05",
+    weights: FIXED_WEIGHTS = "0.45,0.35,0.2,0",
+    criterion: OPTIMUM = "combined",
     theta: THETA = "10,350",
     *,
     model: ModelOptions,
     reading: READING = "paper",
-    out_dir: Annotated[Path, typer.Option(help="folder for design-comparison.csv and .png")] = Path(
-        "runs/design"
-    ),
+    out_dir: COMPARISON_DIR = Path("runs/design"),
     as_json: JSON = False,
 ) -> None:
     """Which experiment to run: bounds of every candidate design (radius x depth x sampling x field
@@ -354,29 +344,38 @@ def _print_comparison(comparison: design.DesignComparison, at: str) -> None:
     Console().print(f"bounds: {design.DESIGN_BOUNDS_INCLUDE}")
 
 
+REFERENCE = Annotated[
+    str, typer.Option(help="campaign of noise-free responses on a finer mesh: its points are the tests")
+]
+BUDGET_MODELS = Annotated[
+    list[str],
+    typer.Option(
+        help="a mesh preset, a .feb file or a surrogate file; repeat for several; PRESET@stick or "
+        "PRESET@mu=VALUE: that mesh with another contact (a stick model fitted to frictional data)"
+    ),
+]
+WEIGHTS = Annotated[str, typer.Option(help="eta = force,ux,uy,uz on the simplex")]
+FORCE_NOISE = Annotated[float, typer.Option(help="relative force noise per step")]
+DIC_NOISE = Annotated[float, typer.Option(help="DIC noise per node, mm")]
+FE_STEPS = Annotated[int, typer.Option(help="Gauss-Newton steps of an FE model's fit")]
+FOV = Annotated[float, typer.Option(help="DIC field of view: radius around the axis, mm (0: whole top)")]
+BUDGET_OUT = Annotated[
+    Path | None, typer.Option(help="JSON to write (default runs/<reference>/error-budget.json)")
+]
+RUNS_DIR = Annotated[Path, typer.Option(help="where campaigns live")]
+
+
 @design_app.command("error-budget")
 def error_budget_cmd(
-    reference: Annotated[
-        str, typer.Option(help="campaign of noise-free responses on a finer mesh: its points are the tests")
-    ],
-    model: Annotated[
-        list[str],
-        typer.Option(
-            help="a mesh preset, a .feb file or a surrogate file; repeat for several; PRESET@stick or "
-            "PRESET@mu=VALUE: that mesh with another contact (a stick model fitted to frictional data)"
-        ),
-    ],
-    weights: Annotated[str, typer.Option(help="eta = force,ux,uy,uz on the simplex")] = "0.45,0.35,0.2,0",
-    force_noise: Annotated[float, typer.Option(help="relative force noise per step")] = 0.02,
-    dic_noise: Annotated[float, typer.Option(help="DIC noise per node, mm")] = 0.02,
-    fe_steps: Annotated[int, typer.Option(help="Gauss-Newton steps of an FE model's fit")] = 3,
-    fov: Annotated[
-        float, typer.Option(help="DIC field of view: radius around the axis, mm (0: whole top)")
-    ] = 25.0,
-    out: Annotated[
-        Path | None, typer.Option(help="JSON to write (default runs/<reference>/error-budget.json)")
-    ] = None,
-    runs_dir: Annotated[Path, typer.Option(help="where campaigns live")] = Path("runs"),
+    reference: REFERENCE,
+    model: BUDGET_MODELS,
+    weights: WEIGHTS = "0.45,0.35,0.2,0",
+    force_noise: FORCE_NOISE = 0.02,
+    dic_noise: DIC_NOISE = 0.02,
+    fe_steps: FE_STEPS = 3,
+    fov: FOV = 25.0,
+    out: BUDGET_OUT = None,
+    runs_dir: RUNS_DIR = Path("runs"),
     as_json: JSON = False,
 ) -> None:
     """The error budget of models: the bias each causes in a fit of the reference's noise-free
@@ -405,6 +404,12 @@ def error_budget_cmd(
     if as_json:
         print(strict_json(payload))
         return
+    _print_budget(budget, reference)
+    Console().print(f"wrote {path}")
+
+
+def _print_budget(budget: inference.ErrorBudget, reference: str) -> None:
+    """Each model's bias per test point beside the 95 % half-width, and whether it converged."""
     view = Table(title=f"error budget against {reference} ({budget.reference['points']} test points)")
     for col in (
         "model",
@@ -439,4 +444,3 @@ def error_budget_cmd(
             f"(at most {r['c1_max_bias_over_half_width']:.2f} and {r['c5_max_bias_over_half_width']:.2f} of the "
             f"half-width): {'converged' if r['converged'] else 'NOT converged'} for this test"
         )
-    Console().print(f"wrote {path}")

@@ -11,7 +11,7 @@ import typer
 from rich.console import Console
 from rich.panel import Panel
 
-from .. import inference  # lazy: a command imports what it runs
+from .. import inference, studio  # lazy: a command imports what it runs
 from ..atomic_write import strict_json
 from .options import JSON, err, fail, say
 
@@ -62,6 +62,26 @@ POSTERIOR_FRICTION = Annotated[
     ),
 ]
 
+REFINE = Annotated[bool, typer.Option(help="refine on the FE solver with exact sensitivities")]
+PAPER_STOP = Annotated[bool, typer.Option(help="stop as soon as F < 3e-2 (the paper's rule)")]
+WALKERS = Annotated[int, typer.Option(help="emcee walkers")]
+CHAIN_STEPS = Annotated[int, typer.Option(help="emcee steps per walker")]
+SEED = Annotated[int, typer.Option(help="random seed")]
+MESH_CHECK = Annotated[
+    Path | None,
+    typer.Option(
+        help="a fit.json or confirm.json made with --check-mesh: carry the posterior to the "
+        "finer mesh (shifted by the check's shift, spread by that mesh's GCI)"
+    ),
+]
+FITTED_C1 = Annotated[float, typer.Option(help="fitted c1, kPa")]
+FITTED_C5 = Annotated[float, typer.Option(help="fitted c5, kPa")]
+CONFIRM_SOLVER = Annotated[str, typer.Option(help="embedded or febio")]
+CONFIRM_FRICTION = Annotated[
+    float | None,
+    typer.Option(help="run with this Coulomb mu (a fit that marginalised mu: fit.json's friction.mu)"),
+]
+
 
 def _weights(text: str) -> list[float]:
     return [float(v) for v in text.split(",")]
@@ -75,8 +95,8 @@ def fit(
     experiment: EXPERIMENT,
     surrogate: SURROGATE,
     weights: WEIGHTS = "0.45,0.35,0.2,0",
-    refine: Annotated[bool, typer.Option(help="refine on the FE solver with exact sensitivities")] = True,
-    paper_stop: Annotated[bool, typer.Option(help="stop as soon as F < 3e-2 (the paper's rule)")] = False,
+    refine: REFINE = True,
+    paper_stop: PAPER_STOP = False,
     check_mesh: CHECK_MESH = None,
     exclude_steps: EXCLUDE = "",
     friction: FIT_FRICTION = None,
@@ -92,10 +112,8 @@ def fit(
     marginalises it with (c1, c5) (README, "Friction"). Every fit is tested for model adequacy
     (its residuals against the data's noise: chi-square, flagged beyond the 0.1 % tail) and says
     when no error budget is known for its test."""
-    from ..inference.experiment_fit import fit_experiment
-
     try:
-        result = fit_experiment(
+        result = inference.fit_experiment(
             experiment,
             surrogate,
             weights=_weights(weights),
@@ -115,6 +133,11 @@ def fit(
     if as_json:
         print(strict_json(payload))
         return
+    _print_fit(result, payload, check_mesh)
+
+
+def _print_fit(result: inference.ExperimentFit, payload: dict, check_mesh: str | None) -> None:
+    """A fit's (c1, c5) and bounds, its model error, adequacy and warnings, mu and the mesh check."""
     if payload["excluded_steps"]:
         Console().print(f"steps left out of the fit: {payload['excluded_steps']}")
     final = result.fit
@@ -211,16 +234,10 @@ def posterior(
     experiment: EXPERIMENT,
     surrogate: SURROGATE,
     weights: WEIGHTS = "0.45,0.35,0.2,0",
-    walkers: Annotated[int, typer.Option(help="emcee walkers")] = 32,
-    steps: Annotated[int, typer.Option(help="emcee steps per walker")] = 4000,
-    seed: Annotated[int, typer.Option(help="random seed")] = 0,
-    mesh_check: Annotated[
-        Path | None,
-        typer.Option(
-            help="a fit.json or confirm.json made with --check-mesh: carry the posterior to the "
-            "finer mesh (shifted by the check's shift, spread by that mesh's GCI)"
-        ),
-    ] = None,
+    walkers: WALKERS = 32,
+    steps: CHAIN_STEPS = 4000,
+    seed: SEED = 0,
+    mesh_check: MESH_CHECK = None,
     exclude_steps: EXCLUDE = "",
     friction: POSTERIOR_FRICTION = None,
     out: OUT = None,
@@ -230,12 +247,9 @@ def posterior(
     F(theta_hat) / (n - p) of the surrogate fit; uniform prior on the surrogate's training box;
     corner plot with the eq. 6 ellipse. On a surrogate trained with mu as a parameter,
     ``--friction`` holds mu or samples it (marginalise: log-uniform prior) with (c1, c5)."""
-    from ..inference.experiment_posterior import sample_posterior_for
-    from .figures import corner_figure, save_figure
-
     folder = out or Path(experiment) / "results"
     try:
-        result = sample_posterior_for(
+        result = inference.sample_posterior_for(
             experiment,
             surrogate,
             weights=_weights(weights),
@@ -249,9 +263,8 @@ def posterior(
             friction=friction,
         )
         fit_ = result.fit
-        png = save_figure(
-            corner_figure(result.posterior, result.marker, fit_.hessian, fit_.s), folder / "corner.png", 120
-        )
+        corner = studio.corner_figure(result.posterior, result.marker, fit_.hessian, fit_.s)
+        png = studio.save_figure(corner, folder / "corner.png", 120)
         result.save(folder, corner_png=str(png))
     except (ValueError, OSError, RuntimeError) as exc:
         fail(str(exc), as_json)
@@ -259,6 +272,11 @@ def posterior(
     if as_json:
         print(strict_json(payload))
         return
+    _print_posterior(result, payload, png)
+
+
+def _print_posterior(result: inference.ExperimentPosterior, payload: dict, png: Path) -> None:
+    """Each parameter's median, interval and sd, the chain's convergence and the mesh carry."""
     for k, name in enumerate(result.posterior.parameters):
         lo, hi = payload["ci95"][k]
         Console().print(
@@ -283,16 +301,13 @@ def posterior(
 def confirm(
     experiment: EXPERIMENT,
     surrogate: SURROGATE,
-    c1: Annotated[float, typer.Option(help="fitted c1, kPa")],
-    c5: Annotated[float, typer.Option(help="fitted c5, kPa")],
+    c1: FITTED_C1,
+    c5: FITTED_C5,
     weights: WEIGHTS = "0.45,0.35,0.2,0",
-    solver: Annotated[str, typer.Option(help="embedded or febio")] = "embedded",
+    solver: CONFIRM_SOLVER = "embedded",
     check_mesh: CHECK_MESH = None,
     exclude_steps: EXCLUDE = "",
-    friction: Annotated[
-        float | None,
-        typer.Option(help="run with this Coulomb mu (a fit that marginalised mu: fit.json's friction.mu)"),
-    ] = None,
+    friction: CONFIRM_FRICTION = None,
     out: OUT = None,
     as_json: JSON = False,
 ) -> None:
@@ -300,10 +315,8 @@ def confirm(
     is from that run (with --friction, the FE run has that friction coefficient). With --check-mesh, the parameter shift the finer mesh would give, the fit's
     bounds with the mesh's uncertainty added, and the fit carried to the finer mesh. Written to
     confirm.json (``indent-studio posterior --mesh-check`` reads it)."""
-    from ..inference.confirmation import confirm as confirm_fit
-
     try:
-        result = confirm_fit(
+        result = inference.confirm(
             experiment,
             surrogate,
             [c1, c5],
@@ -321,6 +334,11 @@ def confirm(
     if as_json:
         print(strict_json(payload))
         return
+    _print_confirmation(payload, solver)
+
+
+def _print_confirmation(payload: dict, solver: str) -> None:
+    """F on the FE model beside the surrogate's, their difference, and the mesh check."""
     Console().print(
         f"F(theta_hat) on {solver}: {payload['F_fe']:.4g} (surrogate {payload['F_surrogate']:.4g}); surrogate vs "
         f"FE: force {payload['force_diff_max_pct']:.2f} %, field {payload['displacement_diff_max_pct']:.2f} % of max |u|"

@@ -44,19 +44,6 @@ def _errors_table(title: str, rows: dict[str, dict]) -> None:
     Console(width=120).print(table)
 
 
-def _budget_for(
-    error_budget: Path | None, budget_model: str | None, campaign: str, runs_dir: Path
-) -> dict | None:
-    """What ``error_budget`` leaves for the campaign's mesh (named ``budget_model`` in it); None
-    when no file is given (the training then takes the shipped budget for that mesh, if any)."""
-    from ..campaign.loader import open_campaign
-
-    if error_budget is None:
-        return None
-    mesh = open_campaign(campaign, runs_dir).spec.model.mesh
-    return surrogate.remaining_bias(error_budget, budget_model or mesh.preset or str(mesh.feb_file))
-
-
 def _say_budget(budget: dict | None, what: str) -> None:
     if budget is not None:
         Console().print(
@@ -77,6 +64,20 @@ BUDGET_MODEL = Annotated[
 ]
 
 
+KIND = Annotated[Kind, typer.Option(help="gp (scikit-learn) or mlp (torch)")]
+INPUT_SCALE = Annotated[str, typer.Option(help="linear or log scaling of the parameters")]
+PCA_TOL = Annotated[float, typer.Option(help="PCA reconstruction tolerance (relative)")]
+TEST_CAMPAIGN = Annotated[str | None, typer.Option(help="a campaign of points to test on")]
+KFOLD = Annotated[int, typer.Option(help="k-fold cross-validation on the training campaign (0: none)")]
+SEED = Annotated[int, typer.Option(help="random seed")]
+MODEL_OUT = Annotated[
+    Path | None, typer.Option(help="model file (default runs/<campaign>/surrogate-<kind>.safetensors)")
+]
+MF_OUT = Annotated[
+    Path | None, typer.Option(help="model file (default runs/<campaign>/surrogate-mf.safetensors)")
+]
+
+
 @surrogate_app.command("train-mf")
 def train_mf(
     low: Annotated[Path, typer.Option(help="the low-fidelity surrogate file (trained on a large campaign)")],
@@ -88,43 +89,34 @@ def train_mf(
     test_campaign: Annotated[
         str | None, typer.Option(help="a high-fidelity campaign of points to test on")
     ] = None,
-    seed: Annotated[int, typer.Option(help="random seed")] = 0,
-    out: Annotated[
-        Path | None, typer.Option(help="model file (default runs/<campaign>/surrogate-mf.safetensors)")
-    ] = None,
+    seed: SEED = 0,
+    out: MF_OUT = None,
     runs_dir: RUNS_DIR = Path("runs"),
     as_json: JSON = False,
 ) -> None:
     """Train a multi-fidelity surrogate: the low-fidelity surrogate corrected by a GP of its
     discrepancy from the high-fidelity campaign; fits on it refine on the high-fidelity mesh and carry
     the discrepancy's uncertainty (and the error budget's remaining bias) in their bounds."""
-    from ..surrogate.persistence import save_surrogate
-    from ..surrogate.training import train_multi_fidelity
-
     try:
-        budget = _budget_for(error_budget, budget_model, campaign, runs_dir)
-        err.print(f"training a multi-fidelity surrogate: {low} corrected by {campaign!r} ...")
-        model = train_multi_fidelity(
-            low, campaign, test_campaign=test_campaign, seed=seed, runs_dir=runs_dir, error_budget=budget
+        trained = surrogate.train_and_save_multi_fidelity(
+            low,
+            campaign,
+            test_campaign=test_campaign,
+            seed=seed,
+            out=out,
+            error_budget=error_budget,
+            budget_model=budget_model,
+            runs_dir=runs_dir,
+            say=err.print,
         )
-        name = model.meta["campaign"].get("name", campaign)
-        path = save_surrogate(model, out or Path(runs_dir) / name / "surrogate-mf.safetensors")
     except (ValueError, OSError) as exc:
         fail(str(exc), as_json)
-    payload = {
-        "model_file": str(path),
-        "kind": "mf",
-        "validation": model.meta["validation"],
-        "discrepancy_kfold": model.meta.get("discrepancy_kfold"),
-        "error_budget": model.meta.get("error_budget"),
-    }
     if as_json:
-        print(strict_json(payload))
+        print(strict_json(trained.to_dict()))
         return
-    _errors_table(f"multi-fidelity surrogate {path}", model.meta["validation"])
-    budget = model.meta.get("error_budget")
-    _say_budget(budget, "the high-fidelity mesh")
-    if budget is None:
+    _errors_table(f"multi-fidelity surrogate {trained.model_file}", trained.model.meta["validation"])
+    _say_budget(trained.error_budget, "the high-fidelity mesh")
+    if trained.error_budget is None:
         Console().print(
             "no error budget known for that mesh: fits will carry the discrepancy's uncertainty only"
         )
@@ -133,30 +125,21 @@ def train_mf(
 @surrogate_app.command("train")
 def train(
     campaign: CAMPAIGN,
-    kind: Annotated[Kind, typer.Option(help="gp (scikit-learn) or mlp (torch)")] = Kind.gp,
-    input_scale: Annotated[str, typer.Option(help="linear or log scaling of the parameters")] = "log",
-    pca_tol: Annotated[float, typer.Option(help="PCA reconstruction tolerance (relative)")] = 1e-3,
-    test_campaign: Annotated[str | None, typer.Option(help="a campaign of points to test on")] = None,
-    kfold: Annotated[
-        int, typer.Option(help="k-fold cross-validation on the training campaign (0: none)")
-    ] = 0,
-    seed: Annotated[int, typer.Option(help="random seed")] = 0,
-    out: Annotated[
-        Path | None, typer.Option(help="model file (default runs/<campaign>/surrogate-<kind>.safetensors)")
-    ] = None,
+    kind: KIND = Kind.gp,
+    input_scale: INPUT_SCALE = "log",
+    pca_tol: PCA_TOL = 1e-3,
+    test_campaign: TEST_CAMPAIGN = None,
+    kfold: KFOLD = 0,
+    seed: SEED = 0,
+    out: MODEL_OUT = None,
     error_budget: ERROR_BUDGET = None,
     budget_model: BUDGET_MODEL = None,
     runs_dir: RUNS_DIR = Path("runs"),
     as_json: JSON = False,
 ) -> None:
     """Train a surrogate on a campaign, validate it, and save it next to the campaign."""
-    from ..surrogate.persistence import save_surrogate
-    from ..surrogate.training import train_surrogate
-
     try:
-        err.print(f"training a {kind.value} surrogate on {campaign!r} ({kfold}-fold cross-validation) ...")
-        budget = _budget_for(error_budget, budget_model, campaign, runs_dir)
-        model = train_surrogate(
+        trained = surrogate.train_and_save(
             campaign,
             kind.value,
             input_scale=input_scale,
@@ -164,30 +147,22 @@ def train(
             test_campaign=test_campaign,
             kfold=kfold,
             seed=seed,
+            out=out,
+            error_budget=error_budget,
+            budget_model=budget_model,
             runs_dir=runs_dir,
-            error_budget=budget,
+            say=err.print,
         )
-        validation = model.meta["validation"]
-        name = model.meta["campaign"].get("name", campaign)
-        path = save_surrogate(model, out or Path(runs_dir) / name / f"surrogate-{kind.value}.safetensors")
     except (ValueError, OSError) as exc:
         fail(str(exc), as_json)
-    payload = {
-        "model_file": str(path),
-        "kind": kind.value,
-        "error_budget": model.meta.get("error_budget"),
-        "fit_s": model.meta["fit_s"],
-        "force_components": model.meta["force_components"],
-        "field_components": model.meta["field_components"],
-        **{f"{name}_errors": e for name, e in validation.items()},
-    }
     if as_json:
-        print(strict_json(payload))
+        print(strict_json(trained.to_dict()))
         return
-    _errors_table(f"{kind.value} surrogate of {campaign!r}: errors (percent)", validation)
-    Console().print(f"saved {path} (fit {model.meta['fit_s']:.1f} s)")
-    _say_budget(model.meta.get("error_budget"), "its mesh")
-    if model.meta.get("error_budget") is None:
+    meta = trained.model.meta
+    _errors_table(f"{kind.value} surrogate of {campaign!r}: errors (percent)", meta["validation"])
+    Console().print(f"saved {trained.model_file} (fit {meta['fit_s']:.1f} s)")
+    _say_budget(trained.error_budget, "its mesh")
+    if trained.error_budget is None:
         Console().print(
             "no error budget known for its mesh and test: fits will say their bounds hold no model error"
         )

@@ -44,24 +44,28 @@ def _floats(text: str, option: str) -> list[float]:
         raise ValueError(f"{option} {text!r}: use comma-separated numbers") from exc
 
 
+FAMILY = Annotated[str, typer.Option(help="CXYxCZ:H0:RATIO, the base level and the ratio")]
+LEVELS = Annotated[str, typer.Option(help="comma-separated levels (0 the coarsest)")]
+POINTS = Annotated[str, typer.Option(help="c1:c5 pairs, kPa")]
+RADII = Annotated[str, typer.Option(help="indenter radii, mm")]
+SUBSTEP_COUNTS = Annotated[str, typer.Option(help="increments per step; all of them on the finest levels")]
+SUBSTEP_LEVELS = Annotated[int, typer.Option(help="how many finest levels get every substep count")]
+OUT_DIR = Annotated[Path, typer.Option(help="every run and study.json; a run already there is read back")]
+FIGURE = Annotated[Path | None, typer.Option(help="PNG of the first case's convergence (log-log)")]
+
+
 @model_options("kappa", "steps", "step_size")
 def verification_study(
-    family: Annotated[
-        str, typer.Option(help="CXYxCZ:H0:RATIO, the base level and the ratio")
-    ] = "8x8:1.2:1.5",
-    levels: Annotated[str, typer.Option(help="comma-separated levels (0 the coarsest)")] = "0,1,2,3",
-    points: Annotated[str, typer.Option(help="c1:c5 pairs, kPa")] = "3:540,11:330,19:120",
-    radii: Annotated[str, typer.Option(help="indenter radii, mm")] = "4.77,8",
-    substeps: Annotated[
-        str, typer.Option(help="increments per step; all of them on the finest levels")
-    ] = "1,2,4",
-    substep_levels: Annotated[int, typer.Option(help="how many finest levels get every substep count")] = 2,
+    family: FAMILY = "8x8:1.2:1.5",
+    levels: LEVELS = "0,1,2,3",
+    points: POINTS = "3:540,11:330,19:120",
+    radii: RADII = "4.77,8",
+    substeps: SUBSTEP_COUNTS = "1,2,4",
+    substep_levels: SUBSTEP_LEVELS = 2,
     *,
     model: ModelOptions,
-    out_dir: Annotated[
-        Path, typer.Option(help="every run and study.json; a run already there is read back")
-    ] = Path("runs/verification"),
-    figure: Annotated[Path | None, typer.Option(help="PNG of the first case's convergence (log-log)")] = None,
+    out_dir: OUT_DIR = Path("runs/verification"),
+    figure: FIGURE = None,
     as_json: JSON = False,
 ) -> None:
     """Verification study (Roache's GCI, ASME V&V 20): observed orders, asymptotic range,
@@ -97,13 +101,25 @@ def verification_study(
         fail(str(exc), as_json)
     payload = study.to_dict() | {"study_file": str(Path(out_dir) / "study.json")}
     if figure is not None and study.cases:
-        case = study.cases[0]
-        title = f"R = {case['radius']:g} mm, (c1, c5) = ({case['theta'][0]:g}, {case['theta'][1]:g}) kPa"
-        fig = studio.figures.verification_figure(case, title=title)  # matplotlib: only for a figure
-        payload["figure"] = str(studio.figures.save_figure(fig, figure))
+        payload["figure"] = str(_save_figure(study.cases[0], figure))
     if as_json:
         print(strict_json(payload))
         return
+    _print_study(study)
+    if "figure" in payload:
+        Console().print(f"figure: {payload['figure']}")
+
+
+def _save_figure(case: dict, path: Path) -> Path:
+    """The convergence of one case (log-log) as a PNG at ``path``."""
+    title = f"R = {case['radius']:g} mm, (c1, c5) = ({case['theta'][0]:g}, {case['theta'][1]:g}) kPa"
+    fig = studio.figures.verification_figure(case, title=title)  # matplotlib: only for a figure
+    return studio.figures.save_figure(fig, path)
+
+
+def _print_study(study: inference.VerificationStudy) -> None:
+    """Per case: each quantity's values, orders, asymptotic range, extrapolation and GCI; then the
+    increments' study on the finest levels."""
     console = Console()
     for case in study.cases:
         table = Table(
@@ -136,8 +152,6 @@ def verification_study(
                 f"GCI {inc['gci_pct']:.3f} %",
                 highlight=False,
             )
-    if "figure" in payload:
-        console.print(f"figure: {payload['figure']}")
 
 
 def register(app: typer.Typer) -> None:

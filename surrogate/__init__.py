@@ -19,6 +19,12 @@ __getattr__, __dir__, __all__ = lazy.attach(
             "training_data",
         ],
         "persistence": ["SurrogateFileError", "load_surrogate", "save_surrogate"],
+        "trained": [
+            "TrainedSurrogate",
+            "budget_for_campaign",
+            "train_and_save",
+            "train_and_save_multi_fidelity",
+        ],
         "pickle_conversion": ["convert_pickled_surrogate"],
         "validation": ["k_fold_errors", "prediction_errors"],
         "error_budgets": [
