@@ -45,7 +45,12 @@ _lazy_getattr, __dir__, __all__ = lazy.attach(
             "resolve_model",
         ],
         "verification_study": ["VerificationStudy", "parameter_bias", "run_verification_study"],
-        "febio_experiment": ["RecordedRun", "experiment_from_febio_run", "febio_contact"],
+        "febio_experiment": [
+            "RecordedRun",
+            "experiment_from_febio_run",
+            "febio_contact",
+            "febio_experiment_summary",
+        ],
         "composite_experiment": [
             "CompositeComparison",
             "CompositeExperiment",

@@ -9,7 +9,9 @@ surrogate and FE model, as a measured one would be. Steps FEBio accepted off equ
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -18,7 +20,7 @@ from ..forward.predictor import Prediction, as_theta
 from ..forward.spec import Indenter, Material, MeshChoice, ModelSpec, Protocol
 from .synthetic_experiment import LAB_RECORDING, write_synthetic_experiment
 
-__all__ = ["RecordedRun", "experiment_from_febio_run", "febio_contact"]
+__all__ = ["RecordedRun", "experiment_from_febio_run", "febio_contact", "febio_experiment_summary"]
 
 
 class RecordedRun:
@@ -137,3 +139,31 @@ def experiment_from_febio_run(
         misregistration_mm=misregistration_mm,
         source=source,
     )
+
+
+def febio_experiment_summary(folder: str | Path) -> dict[str, Any]:
+    """What ``import febio --json`` prints of an experiment made from a FEBio run.
+
+    Parameters
+    ----------
+    folder : str or Path
+        The experiment folder :func:`experiment_from_febio_run` wrote.
+
+    Returns
+    -------
+    dict
+        The folder, the run's (c1, c5), the steps left out, the depths FEBio accepted off
+        equilibrium and a warning naming those steps (if any).
+    """
+    meta = json.loads((Path(folder) / "experiment.json").read_text())
+    src = meta["synthetic"]["source"]
+    excluded = meta.get("excluded_steps", [])
+    return {
+        "experiment": str(folder),
+        "theta": [src["c1"], src["c5"]],
+        "excluded_steps": excluded,
+        "off_equilibrium_depths_mm": src["off_equilibrium_depths_mm"],
+        "warnings": [f"steps FEBio accepted off equilibrium left out: {meta['excluded_steps']}"]
+        if excluded
+        else [],
+    }

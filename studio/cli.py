@@ -79,28 +79,32 @@ register_import(app)
 register_verification(app)
 
 
+SOLVER = Annotated[SolverName, typer.Option(help="FE solver")]
+SENSITIVITIES = Annotated[
+    bool, typer.Option(help="also d(force, displacement)/d(c1, c5) (and d/d(mu) with --friction)")
+]
+RESULT_OUT = Annotated[Path | None, typer.Option(help="result file (.npz); default under runs/simulations/")]
+VTU = Annotated[
+    Path | None, typer.Option(help="also write the whole block per step as VTU (+ .pvd) for ParaView here")
+]
+FROM_LOG = Annotated[
+    Path | None,
+    typer.Option(
+        help="read back this FEBio log instead of running FEBio (implies --solver febio; the model "
+        "options must be the run's; --mesh-from defaults to the .feb beside the log)"
+    ),
+]
+
+
 @app.command()
 @model_options()
 def simulate(
     model: ModelOptions,
-    solver: Annotated[SolverName, typer.Option(help="FE solver")] = SolverName.embedded,
-    sensitivities: Annotated[
-        bool, typer.Option(help="also d(force, displacement)/d(c1, c5) (and d/d(mu) with --friction)")
-    ] = False,
-    out: Annotated[
-        Path | None, typer.Option(help="result file (.npz); default under runs/simulations/")
-    ] = None,
-    vtu: Annotated[
-        Path | None,
-        typer.Option(help="also write the whole block per step as VTU (+ .pvd) for ParaView here"),
-    ] = None,
-    from_log: Annotated[
-        Path | None,
-        typer.Option(
-            help="read back this FEBio log instead of running FEBio (implies --solver febio; the model "
-            "options must be the run's; --mesh-from defaults to the .feb beside the log)"
-        ),
-    ] = None,
+    solver: SOLVER = SolverName.embedded,
+    sensitivities: SENSITIVITIES = False,
+    out: RESULT_OUT = None,
+    vtu: VTU = None,
+    from_log: FROM_LOG = None,
     as_json: JSON = False,
 ) -> None:
     """One indentation simulation (default: the paper's baseline, R = 4.77 mm, 28 x 0.5 mm).

@@ -64,24 +64,29 @@ def equibiaxial(
     )
 
 
+EXPERIMENT_OUT = Annotated[Path, typer.Option(help="experiment folder to write (the result is kept in it)")]
+COMPOSITE_MESH = Annotated[
+    str,
+    typer.Option(help="composite mesh preset: composite (paper size), composite-medium or composite-coarse"),
+]
+FROM_RESULT = Annotated[
+    Path | None, typer.Option(help="write the experiment from this composite result (.npz), no run")
+]
+SEED = Annotated[int, typer.Option(help="noise seed")]
+OVERWRITE = Annotated[bool, typer.Option(help="replace an experiment already in --out")]
+
+
 @composite_app.command("indent")
 def indent(
-    out: Annotated[Path, typer.Option(help="experiment folder to write (the result is kept in it)")],
+    out: EXPERIMENT_OUT,
     radius: RADIUS = 4.77,
-    mesh: Annotated[
-        str,
-        typer.Option(
-            help="composite mesh preset: composite (paper size), composite-medium or composite-coarse"
-        ),
-    ] = "composite",
+    mesh: COMPOSITE_MESH = "composite",
     steps: STEPS = 28,
     step_size: STEP_SIZE = 0.5,
     friction: FRICTION = None,
-    from_result: Annotated[
-        Path | None, typer.Option(help="write the experiment from this composite result (.npz), no run")
-    ] = None,
-    seed: Annotated[int, typer.Option(help="noise seed")] = 0,
-    overwrite: Annotated[bool, typer.Option(help="replace an experiment already in --out")] = False,
+    from_result: FROM_RESULT = None,
+    seed: SEED = 0,
+    overwrite: OVERWRITE = False,
     as_json: JSON = False,
 ) -> None:
     """Indent the composite phantom (its fibers and matrix, the paper's stick) and write the run as

@@ -5,14 +5,16 @@ prints one JSON object with ``--json``."""
 
 from __future__ import annotations
 
-import json
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
+from .. import forward, inference  # lazy: a command imports what it runs
 from ..atomic_write import strict_json
-from .options import JSON, err, fail
+from .options import JSON, REQUIRED, err, fail, option_group
 
 import_app = typer.Typer(help="Import a lab's files (DIC export, load-frame record) as an experiment folder.")
 
@@ -75,13 +77,6 @@ ENCODING = Annotated[
 ]
 
 
-def csv_encoding(encoding: str | None):
-    """The block's CSV files read as ``encoding`` (:func:`inference.lab.csv_text.csv_encoding`)."""
-    from ..inference.lab.csv_text import csv_encoding as block
-
-    return block(encoding)
-
-
 def _offset(text: str) -> float | None:
     if text.strip().lower() == "auto":
         return None
@@ -98,41 +93,153 @@ def _steps(text: str) -> tuple[int, ...]:
         raise ValueError(f"--exclude-steps: {text!r} is not a list of steps like 3,7") from exc
 
 
-def _sources(o: dict):
-    """The protocol, force, indenter and frame choice of the import commands' common options."""
-    from ..inference.lab.experiment_import import (
-        ForceSource,
-        FrameChoice,
-        IndenterSource,
-        ProtocolInfo,
-        parse_frames,
-    )
-    from ..inference.lab.load_frame import LoadFrameColumns
+@dataclass(frozen=True, kw_only=True)
+class LabOptions:
+    """The options the import commands share, built once from their flags (:func:`lab_options`):
+    the protocol, where the force comes from (a load-frame record and how to read it, or a
+    force.csv), the indenter points, the DIC frame of each step, and how the files are read."""
 
-    protocol = ProtocolInfo(
-        o["radius"],
-        o["step_size"],
-        o["steps"],
-        o["fiber_angle"],
-        o["description"],
-        _steps(o["exclude_steps"]),
-    )
-    columns = LoadFrameColumns(
-        o["time_col"], o["position_col"], o["force_col"], o["time_unit"], o["position_unit"], o["force_unit"]
-    )
-    force = ForceSource(
-        load_frame=o["load_frame"],
-        columns=columns,
-        contact_position_mm=o["contact_position"],
-        min_hold_s=o["min_hold"],
-        force_csv=o["force_csv"],
-    )
-    frames = FrameChoice(
-        frames=parse_frames(o["frames"]) if o["frames"] else None,
-        times_file=o["frame_times"],
-        time_offset_s=_offset(o["time_offset"]),
-    )
-    return protocol, force, IndenterSource(o["indenter"], o["indenter_unit"]), frames
+    radius: float
+    step_size: float
+    steps: int
+    indenter: Path | None = None
+    load_frame: Path | None = None
+    force_csv: Path | None = None
+    fiber_angle: float | None = None
+    exclude_steps: str = ""
+    frames: str | None = None
+    frame_times: Path | None = None
+    time_offset: str = "auto"
+    indenter_unit: str | None = None
+    time_col: str | None = None
+    position_col: str | None = None
+    force_col: str | None = None
+    time_unit: str | None = None
+    position_unit: str | None = None
+    force_unit: str | None = None
+    contact_position: float | None = None
+    min_hold: float = 5.0
+    description: str = ""
+    overwrite: bool = False
+    encoding: str | None = None
+
+    def csv_encoding(self):
+        """The block in which CSV files are read as ``encoding`` (:func:`inference.lab.csv_text.csv_encoding`)."""
+        return inference.lab.csv_encoding(self.encoding)
+
+    def protocol(self) -> inference.lab.ProtocolInfo:
+        """The protocol: radius, step size, steps, fiber angle, description and steps left out."""
+        return inference.lab.ProtocolInfo(
+            self.radius,
+            self.step_size,
+            self.steps,
+            self.fiber_angle,
+            self.description,
+            _steps(self.exclude_steps),
+        )
+
+    def force(self) -> inference.lab.ForceSource:
+        """Where the force comes from: the load-frame record (its columns, units, contact, holds) or a force.csv."""
+        columns = inference.lab.LoadFrameColumns(
+            self.time_col,
+            self.position_col,
+            self.force_col,
+            self.time_unit,
+            self.position_unit,
+            self.force_unit,
+        )
+        return inference.lab.ForceSource(
+            load_frame=self.load_frame,
+            columns=columns,
+            contact_position_mm=self.contact_position,
+            min_hold_s=self.min_hold,
+            force_csv=self.force_csv,
+        )
+
+    def indenter_points(self) -> inference.lab.IndenterSource:
+        """The indenter points and their length unit."""
+        return inference.lab.IndenterSource(self.indenter, self.indenter_unit)
+
+    def frame_choice(self) -> inference.lab.FrameChoice:
+        """The DIC frame of every step: given, matched by time, and the clocks' offset."""
+        return inference.lab.FrameChoice(
+            frames=inference.lab.parse_frames(self.frames) if self.frames else None,
+            times_file=self.frame_times,
+            time_offset_s=_offset(self.time_offset),
+        )
+
+    def sources(self) -> dict:
+        """The importers' shared keywords: protocol, force, indenter, frames and overwrite."""
+        return {
+            "protocol": self.protocol(),
+            "force": self.force(),
+            "indenter": self.indenter_points(),
+            "frames": self.frame_choice(),
+            "overwrite": self.overwrite,
+        }
+
+
+#: The flag of each :class:`LabOptions` field.
+LAB_FLAGS = {
+    "radius": RADIUS,
+    "step_size": STEP_SIZE,
+    "steps": STEPS,
+    "indenter": INDENTER,
+    "load_frame": LOAD_FRAME,
+    "force_csv": FORCE_CSV,
+    "fiber_angle": FIBER,
+    "exclude_steps": EXCLUDE,
+    "frames": FRAMES,
+    "frame_times": FRAME_TIMES,
+    "time_offset": TIME_OFFSET,
+    "indenter_unit": INDENTER_UNIT,
+    "time_col": TIME_COL,
+    "position_col": POSITION_COL,
+    "force_col": FORCE_COL,
+    "time_unit": TIME_UNIT,
+    "position_unit": POSITION_UNIT,
+    "force_unit": FORCE_UNIT,
+    "contact_position": CONTACT,
+    "min_hold": MIN_HOLD,
+    "description": DESCRIPTION,
+    "overwrite": OVERWRITE,
+    "encoding": ENCODING,
+}
+#: The flags of the load-frame record alone (``import load-frame``).
+RECORD_FLAGS = (
+    "radius",
+    "step_size",
+    "steps",
+    "exclude_steps",
+    "time_col",
+    "position_col",
+    "force_col",
+    "time_unit",
+    "position_unit",
+    "force_unit",
+    "contact_position",
+    "min_hold",
+    "encoding",
+)
+
+
+def lab_options(*flags: str, **values: Any) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+    """Give an import command the lab flags ``flags`` (none: all) in place of its ``lab: LabOptions``
+    parameter (:func:`studio.options.option_group`); ``values``: flag defaults, as there.
+
+    Parameters
+    ----------
+    *flags : str
+        The :class:`LabOptions` fields the command has flags for.
+    **values
+        A flag's default, or the value of a field without a flag.
+
+    Returns
+    -------
+    Callable
+        The decorator.
+    """
+    return option_group(LabOptions, LAB_FLAGS, "lab", flags, values)
 
 
 def _report(result: dict, as_json: bool) -> None:
@@ -146,55 +253,36 @@ def _report(result: dict, as_json: bool) -> None:
             err.print(f"[yellow]warning:[/] {line}")
 
 
+MAX_SIGMA = Annotated[float | None, typer.Option(help="drop points whose stats.Sigma exceeds this, mm")]
+DUODIC_UNIT = Annotated[str, typer.Option(help="the calibration target's length unit (DuoDIC stores none)")]
+MAX_CORR = Annotated[float | None, typer.Option(help="drop points whose corrComb exceeds this")]
+RIGID_BODY_REMOVED = Annotated[bool, typer.Option(help="use Disp.DispVec_ARBM")]
+VARIABLE = Annotated[str | None, typer.Option(help="the structure's name in the file")]
+COLUMNS = Annotated[
+    str,
+    typer.Option(help="mapping, e.g. x=X,y=Y,z=Z,ux=U,uy=V,uz=W,sigma=sigma (id=a+b; frame=..; time=..)"),
+]
+POSITIONS = Annotated[str, typer.Option(help="x, y, z are the 'reference' or the 'current' positions")]
+PATTERN = Annotated[str, typer.Option(help="file pattern in the folder")]
+CSV_MAX_SIGMA = Annotated[float | None, typer.Option(help="drop points whose sigma exceeds this")]
+
+
 @import_app.command("matchid")
+@lab_options(indenter=REQUIRED)
 def import_matchid_command(
     dic: Annotated[Path, typer.Option(help="folder of MatchID CSV exports, one per image")],
     out: OUT,
-    radius: RADIUS,
-    step_size: STEP_SIZE,
-    steps: STEPS,
-    indenter: INDENTER,
-    load_frame: LOAD_FRAME = None,
-    force_csv: FORCE_CSV = None,
-    fiber_angle: FIBER = None,
-    exclude_steps: EXCLUDE = "",
-    frames: FRAMES = None,
-    frame_times: FRAME_TIMES = None,
-    time_offset: TIME_OFFSET = "auto",
+    *,
+    lab: LabOptions,
     length_unit: LENGTH_UNIT = None,
-    max_sigma: Annotated[
-        float | None, typer.Option(help="drop points whose stats.Sigma exceeds this, mm")
-    ] = None,
-    indenter_unit: INDENTER_UNIT = None,
-    time_col: TIME_COL = None,
-    position_col: POSITION_COL = None,
-    force_col: FORCE_COL = None,
-    time_unit: TIME_UNIT = None,
-    position_unit: POSITION_UNIT = None,
-    force_unit: FORCE_UNIT = None,
-    contact_position: CONTACT = None,
-    min_hold: MIN_HOLD = 5.0,
-    description: DESCRIPTION = "",
-    overwrite: OVERWRITE = False,
-    encoding: ENCODING = None,
+    max_sigma: MAX_SIGMA = None,
     as_json: JSON = False,
 ) -> None:
     """A MatchID export folder (+ load-frame record, indenter points) into an experiment folder."""
-    from ..inference.lab.experiment_import import import_matchid
-
     try:
-        with csv_encoding(encoding):
-            protocol, force, ind, choice = _sources(locals())
-            result = import_matchid(
-                dic,
-                out,
-                protocol=protocol,
-                force=force,
-                indenter=ind,
-                frames=choice,
-                length_unit=length_unit,
-                max_sigma=max_sigma,
-                overwrite=overwrite,
+        with lab.csv_encoding():
+            result = inference.lab.import_matchid(
+                dic, out, **lab.sources(), length_unit=length_unit, max_sigma=max_sigma
             )
     except (ValueError, OSError) as exc:
         fail(str(exc), as_json)
@@ -202,58 +290,29 @@ def import_matchid_command(
 
 
 @import_app.command("duodic")
+@lab_options(indenter=REQUIRED)
 def import_duodic_command(
     mat: Annotated[Path, typer.Option(help="DuoDIC results (DIC3DPPresults.mat), MATLAB v7 or v7.3")],
     out: OUT,
-    radius: RADIUS,
-    step_size: STEP_SIZE,
-    steps: STEPS,
-    indenter: INDENTER,
-    length_unit: Annotated[
-        str, typer.Option(help="the calibration target's length unit (DuoDIC stores none)")
-    ],
-    load_frame: LOAD_FRAME = None,
-    force_csv: FORCE_CSV = None,
-    fiber_angle: FIBER = None,
-    exclude_steps: EXCLUDE = "",
-    frames: FRAMES = None,
-    frame_times: FRAME_TIMES = None,
-    time_offset: TIME_OFFSET = "auto",
-    max_corr: Annotated[float | None, typer.Option(help="drop points whose corrComb exceeds this")] = None,
-    rigid_body_removed: Annotated[bool, typer.Option(help="use Disp.DispVec_ARBM")] = False,
-    variable: Annotated[str | None, typer.Option(help="the structure's name in the file")] = None,
-    indenter_unit: INDENTER_UNIT = None,
-    time_col: TIME_COL = None,
-    position_col: POSITION_COL = None,
-    force_col: FORCE_COL = None,
-    time_unit: TIME_UNIT = None,
-    position_unit: POSITION_UNIT = None,
-    force_unit: FORCE_UNIT = None,
-    contact_position: CONTACT = None,
-    min_hold: MIN_HOLD = 5.0,
-    description: DESCRIPTION = "",
-    overwrite: OVERWRITE = False,
-    encoding: ENCODING = None,
+    length_unit: DUODIC_UNIT,
+    *,
+    lab: LabOptions,
+    max_corr: MAX_CORR = None,
+    rigid_body_removed: RIGID_BODY_REMOVED = False,
+    variable: VARIABLE = None,
     as_json: JSON = False,
 ) -> None:
     """DuoDIC results (+ load-frame record, indenter points) into an experiment folder."""
-    from ..inference.lab.experiment_import import import_duodic
-
     try:
-        with csv_encoding(encoding):
-            protocol, force, ind, choice = _sources(locals())
-            result = import_duodic(
+        with lab.csv_encoding():
+            result = inference.lab.import_duodic(
                 mat,
                 out,
-                protocol=protocol,
-                force=force,
-                indenter=ind,
+                **lab.sources(),
                 length_unit=length_unit,
-                frames=choice,
                 max_corr=max_corr,
                 rigid_body_removed=rigid_body_removed,
                 variable=variable,
-                overwrite=overwrite,
             )
     except (ValueError, OSError) as exc:
         fail(str(exc), as_json)
@@ -261,63 +320,25 @@ def import_duodic_command(
 
 
 @import_app.command("csv")
+@lab_options(indenter=REQUIRED)
 def import_csv_command(
     dic: Annotated[Path, typer.Option(help="folder of per-frame CSVs, or one CSV with a frame column")],
-    columns: Annotated[
-        str,
-        typer.Option(help="mapping, e.g. x=X,y=Y,z=Z,ux=U,uy=V,uz=W,sigma=sigma (id=a+b; frame=..; time=..)"),
-    ],
+    columns: COLUMNS,
     out: OUT,
-    radius: RADIUS,
-    step_size: STEP_SIZE,
-    steps: STEPS,
-    indenter: INDENTER,
-    positions: Annotated[
-        str, typer.Option(help="x, y, z are the 'reference' or the 'current' positions")
-    ] = "reference",
-    pattern: Annotated[str, typer.Option(help="file pattern in the folder")] = "*.csv",
-    load_frame: LOAD_FRAME = None,
-    force_csv: FORCE_CSV = None,
-    fiber_angle: FIBER = None,
-    exclude_steps: EXCLUDE = "",
-    frames: FRAMES = None,
-    frame_times: FRAME_TIMES = None,
-    time_offset: TIME_OFFSET = "auto",
+    *,
+    lab: LabOptions,
+    positions: POSITIONS = "reference",
+    pattern: PATTERN = "*.csv",
     length_unit: LENGTH_UNIT = None,
-    max_sigma: Annotated[float | None, typer.Option(help="drop points whose sigma exceeds this")] = None,
-    indenter_unit: INDENTER_UNIT = None,
-    time_col: TIME_COL = None,
-    position_col: POSITION_COL = None,
-    force_col: FORCE_COL = None,
-    time_unit: TIME_UNIT = None,
-    position_unit: POSITION_UNIT = None,
-    force_unit: FORCE_UNIT = None,
-    contact_position: CONTACT = None,
-    min_hold: MIN_HOLD = 5.0,
-    description: DESCRIPTION = "",
-    overwrite: OVERWRITE = False,
-    encoding: ENCODING = None,
+    max_sigma: CSV_MAX_SIGMA = None,
     as_json: JSON = False,
 ) -> None:
     """Any DIC CSV export (VIC-3D, GOM, Ncorr) with a column mapping into an experiment folder."""
-    from ..inference.lab.experiment_import import import_dic_csv
-    from ..inference.lab.import_csv import CSVMapping
-
     try:
-        with csv_encoding(encoding):
-            mapping = CSVMapping.parse(columns, positions=positions, length_unit=length_unit)
-            protocol, force, ind, choice = _sources(locals())
-            result = import_dic_csv(
-                dic,
-                mapping,
-                out,
-                protocol=protocol,
-                force=force,
-                indenter=ind,
-                frames=choice,
-                pattern=pattern,
-                max_sigma=max_sigma,
-                overwrite=overwrite,
+        with lab.csv_encoding():
+            mapping = inference.lab.CSVMapping.parse(columns, positions=positions, length_unit=length_unit)
+            result = inference.lab.import_dic_csv(
+                dic, mapping, out, **lab.sources(), pattern=pattern, max_sigma=max_sigma
             )
     except (ValueError, OSError) as exc:
         fail(str(exc), as_json)
@@ -325,74 +346,60 @@ def import_csv_command(
 
 
 @import_app.command("load-frame")
+@lab_options(*RECORD_FLAGS)
 def import_load_frame_command(
     record: Annotated[Path, typer.Option(help="the load frame's continuous record (CSV)")],
     out: Annotated[Path, typer.Option(help="force.csv to write (hold form)")],
-    radius: RADIUS,
-    step_size: STEP_SIZE,
-    steps: STEPS,
-    exclude_steps: EXCLUDE = "",
-    time_col: TIME_COL = None,
-    position_col: POSITION_COL = None,
-    force_col: FORCE_COL = None,
-    time_unit: TIME_UNIT = None,
-    position_unit: POSITION_UNIT = None,
-    force_unit: FORCE_UNIT = None,
-    contact_position: CONTACT = None,
-    min_hold: MIN_HOLD = 5.0,
-    encoding: ENCODING = None,
+    *,
+    lab: LabOptions,
     as_json: JSON = False,
 ) -> None:
     """Cut a load-frame record into the protocol's holds (one per step, eq. 9 fit each) as force.csv."""
-    from ..inference.lab.experiment_import import ForceSource, ProtocolInfo, import_load_frame
-    from ..inference.lab.load_frame import LoadFrameColumns
-
     try:
-        with csv_encoding(encoding):
-            protocol = ProtocolInfo(radius, step_size, steps, excluded_steps=_steps(exclude_steps))
-            columns = LoadFrameColumns(
-                time_col, position_col, force_col, time_unit, position_unit, force_unit
-            )
-            result = import_load_frame(
-                record,
-                out,
-                protocol,
-                ForceSource(columns=columns, contact_position_mm=contact_position, min_hold_s=min_hold),
-            )
+        with lab.csv_encoding():
+            result = inference.lab.import_load_frame(record, out, lab.protocol(), lab.force())
     except (ValueError, OSError) as exc:
         fail(str(exc), as_json)
     _report(result, as_json)
 
 
+FEBIO_LOG = Annotated[Path, typer.Option(help="the FEBio 4 run's log file (its material echoed in it)")]
+FEB = Annotated[Path | None, typer.Option(help="the run's .feb (default: beside the log)")]
+RUN_RADIUS = Annotated[float, typer.Option(help="the run's indenter radius, mm")]
+RUN_STEPS = Annotated[int, typer.Option(help="the run's number of steps")]
+RUN_STEP_SIZE = Annotated[float, typer.Option(help="the run's depth per step, mm")]
+DIC_NOISE = Annotated[float, typer.Option(help="DIC displacement noise (sd), mm")]
+FORCE_NOISE = Annotated[float, typer.Option(help="force noise (sd) relative to the force")]
+MISREGISTRATION = Annotated[float, typer.Option(help="registration error of the indentation point, mm")]
+FOV = Annotated[float, typer.Option(help="DIC field of view (radius from the indenter), mm")]
+DIC_POINTS = Annotated[int, typer.Option(help="DIC points over the field of view")]
+RUN_FIBER = Annotated[float, typer.Option(help="fiber direction in the DIC frame, degrees")]
+SEED = Annotated[int, typer.Option(help="random seed of the noise and the DIC points")]
+
+
 @import_app.command("febio")
 def import_febio_command(
-    log: Annotated[Path, typer.Option(help="the FEBio 4 run's log file (its material echoed in it)")],
+    log: FEBIO_LOG,
     out: OUT,
-    feb: Annotated[Path | None, typer.Option(help="the run's .feb (default: beside the log)")] = None,
-    radius: Annotated[float, typer.Option(help="the run's indenter radius, mm")] = 4.77,
-    steps: Annotated[int, typer.Option(help="the run's number of steps")] = 28,
-    step_size: Annotated[float, typer.Option(help="the run's depth per step, mm")] = 0.5,
-    dic_noise: Annotated[float, typer.Option(help="DIC displacement noise (sd), mm")] = 0.02,
-    force_noise: Annotated[float, typer.Option(help="force noise (sd) relative to the force")] = 0.02,
-    misregistration: Annotated[
-        float, typer.Option(help="registration error of the indentation point, mm")
-    ] = 0.1,
-    fov: Annotated[float, typer.Option(help="DIC field of view (radius from the indenter), mm")] = 25.0,
-    points: Annotated[int, typer.Option(help="DIC points over the field of view")] = 6000,
-    fiber_angle: Annotated[float, typer.Option(help="fiber direction in the DIC frame, degrees")] = 60.0,
-    seed: Annotated[int, typer.Option(help="random seed of the noise and the DIC points")] = 0,
+    feb: FEB = None,
+    radius: RUN_RADIUS = 4.77,
+    steps: RUN_STEPS = 28,
+    step_size: RUN_STEP_SIZE = 0.5,
+    dic_noise: DIC_NOISE = 0.02,
+    force_noise: FORCE_NOISE = 0.02,
+    misregistration: MISREGISTRATION = 0.1,
+    fov: FOV = 25.0,
+    points: DIC_POINTS = 6000,
+    fiber_angle: RUN_FIBER = 60.0,
+    seed: SEED = 0,
     overwrite: OVERWRITE = False,
     as_json: JSON = False,
 ) -> None:
     """A real FEBio run as a DIC-like experiment: its force and top-node field seen by DIC points
     (the indenter's shadow, noise, a registration error); steps FEBio accepted off equilibrium left
     out. For checking a fit against a solver the studio shares no code with."""
-    from ..forward.febio.log import FebioLogError
-    from ..forward.febio.readback import FebioRunError
-    from ..inference.febio_experiment import experiment_from_febio_run
-
     try:
-        path = experiment_from_febio_run(
+        path = inference.experiment_from_febio_run(
             log,
             out,
             feb_file=feb,
@@ -408,20 +415,9 @@ def import_febio_command(
             seed=seed,
             overwrite=overwrite,
         )
-    except (FebioLogError, FebioRunError, ValueError, OSError) as exc:
+    except (forward.febio.FebioLogError, forward.febio.FebioRunError, ValueError, OSError) as exc:
         fail(str(exc), as_json)
-    meta = json.loads((path / "experiment.json").read_text())
-    src = meta["synthetic"]["source"]
-    result = {
-        "experiment": str(path),
-        "theta": [src["c1"], src["c5"]],
-        "excluded_steps": meta.get("excluded_steps", []),
-        "off_equilibrium_depths_mm": src["off_equilibrium_depths_mm"],
-        "warnings": [f"steps FEBio accepted off equilibrium left out: {meta['excluded_steps']}"]
-        if meta.get("excluded_steps")
-        else [],
-    }
-    _report(result, as_json)
+    _report(inference.febio_experiment_summary(path), as_json)
 
 
 def register(app: typer.Typer) -> None:

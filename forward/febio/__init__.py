@@ -11,7 +11,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
         "writer": ["FebSettings", "write_feb"],
         "runner": ["FebioNotFoundError", "FebioSolver", "find_febio", "require_equilibrium"],
         "log": ["FebioLog", "FebioLogError", "read_febio_log"],
-        "readback": ["read_febio_run"],
+        "readback": ["FebioRunError", "read_febio_run"],
         "equilibrium": ["EquilibriumTolerance", "check_equilibrium", "equilibrium_notes"],
     },
 )

@@ -10,14 +10,21 @@ __getattr__, __dir__, __all__ = lazy.attach(
     __name__,
     submod_attrs={
         "experiment_import": [
+            "ForceSource",
+            "FrameChoice",
+            "IndenterSource",
+            "ProtocolInfo",
             "import_dic_csv",
             "import_duodic",
             "import_experiment",
             "import_load_frame",
             "import_matchid",
+            "parse_frames",
         ],
         "dic_series": ["DICSeries"],
-        "load_frame": ["find_holds", "read_load_frame"],
+        "load_frame": ["LoadFrameColumns", "find_holds", "read_load_frame"],
+        "import_csv": ["CSVMapping"],
+        "csv_text": ["csv_encoding"],
         "clock_offset": ["find_clock_offset"],
     },
 )
