@@ -83,3 +83,52 @@ def test_simulate_vtu_series_for_paraview(tmp_path):
     m = meshio.read(tmp_path / "vtu" / "step_002.vtu")
     u = m.point_data["displacement"]
     assert m.cells_dict["hexahedron"].shape[1] == 8 and u[:, 2].min() == pytest.approx(-1.0, abs=1e-6)
+
+
+def test_model_options_give_a_command_its_flags_and_one_object():
+    """@model_options puts the named flags where `model` stands (defaults given or the paper's),
+    fixes the fields without a flag, and hands the command one ModelOptions."""
+    from typing import Annotated
+
+    import typer
+
+    from indentation_studio.studio.options import REQUIRED, ModelOptions, model_options, option_group
+
+    seen = {}
+    mini = typer.Typer()
+
+    @mini.command()
+    @model_options("c1", "radius", "friction", c1=3.0, substeps=2)
+    def show(name: str = "x", *, model: ModelOptions, as_json: bool = False) -> None:
+        seen["model"], seen["name"] = model, name
+
+    res = runner.invoke(mini, ["--radius", "8", "--friction", "0.3", "--name", "y"])
+    assert res.exit_code == 0, res.output
+    assert seen["name"] == "y"
+    assert seen["model"] == ModelOptions(c1=3.0, radius=8.0, friction=0.3, substeps=2)
+    spec = seen["model"].spec()
+    assert (spec.material.c1, spec.indenter.radius, spec.contact.friction) == (3.0, 8.0, 0.3)
+    assert spec.solver.substeps == 2
+    assert "--c5" not in runner.invoke(mini, ["--help"]).output  # only the flags named
+
+    kappa_flag = Annotated[float, typer.Option(help="kappa, kPa")]
+
+    @mini.command()
+    @option_group(ModelOptions, {"kappa": kappa_flag}, "model", ("kappa",), {"kappa": REQUIRED})
+    def needs(*, model: ModelOptions) -> None:
+        seen["kappa"] = model.kappa
+
+    assert runner.invoke(mini, ["needs"]).exit_code == 2  # a required flag missing: click's usage error
+    assert runner.invoke(mini, ["needs", "--kappa", "500"]).exit_code == 0 and seen["kappa"] == 500
+
+
+def test_default_result_file_names_material_radius_contact_mesh_and_solver():
+    from indentation_studio.forward.simulation_run import default_result_file
+    from indentation_studio.studio.options import ModelOptions
+
+    spec = ModelOptions(c1=9.4, radius=8, mesh="coarse", friction=0.3).spec()
+    assert (
+        str(default_result_file(spec, "febio"))
+        == "runs/simulations/c1=9.4_c5=350_R=8_mu=0.3_coarse_febio.npz"
+    )
+    assert default_result_file(ModelOptions().spec()).name == "c1=10_c5=350_R=4.77_default_embedded.npz"

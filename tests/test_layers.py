@@ -14,8 +14,9 @@ import networkx as nx
 ROOT = Path(__file__).resolve().parents[1]
 #: Bottom to top. ``indentation_studio`` is the root package's own modules (atomic writes, moved names).
 LAYERS = ("indentation_studio", "forward", "campaign", "surrogate", "design", "inference", "studio")
-#: Own-module imports inside functions: 119 before the layers were checked, 76 since; it may only fall.
-MAX_IMPORTS_IN_FUNCTIONS = 76
+#: Own-module imports inside functions: 119 before the layers were checked, 76 since, 25 once the
+#: commands reached the library through the lazy packages; it may only fall.
+MAX_IMPORTS_IN_FUNCTIONS = 25
 
 
 def _modules() -> dict[str, Path]:
