@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -136,13 +137,7 @@ def run(
     file is checked against its hash first: one that fails is named and solved again."""
     where = f"dask {scheduler}" if scheduler else f"{jobs or 'all'} processes"
     err.print(f"campaign {name}: grid {grid}, {where}, store {Path(runs_dir) / name}", highlight=False)
-    t0 = time.perf_counter()
     with step_progress(err, f"campaign {name}", 1) as bar:
-
-        def report(done: int, total: int, counts: dict[str, int]) -> None:
-            rate = done / max(time.perf_counter() - t0, 1e-9) * 60.0
-            bar.update(done, f"done {counts['done']} failed {counts['failed']}  {rate:.1f} points/min", total)
-
         try:
             summary = campaign.run_named_campaign(
                 name,
@@ -154,7 +149,7 @@ def run(
                 scheduler=scheduler,
                 retry_failed=retry_failed,
                 timeout_s=timeout,
-                progress=report,
+                progress=_points_progress(bar),
                 lease_timeout_s=lease_timeout,
                 wait_for_held=wait,
                 equilibrium_rel=equilibrium_tol / 100.0,
@@ -167,6 +162,17 @@ def run(
         return
     title = f"campaign {name}: " + ("checked" if verify_only else f"{summary['wall_s']:.1f} s")
     _print_summary(summary, title)
+
+
+def _points_progress(bar) -> Callable[[int, int, dict[str, int]], None]:
+    """The runner's progress on ``bar``: points finished, done and failed, points a minute."""
+    t0 = time.perf_counter()
+
+    def report(done: int, total: int, counts: dict[str, int]) -> None:
+        rate = done / max(time.perf_counter() - t0, 1e-9) * 60.0
+        bar.update(done, f"done {counts['done']} failed {counts['failed']}  {rate:.1f} points/min", total)
+
+    return report
 
 
 @campaign_app.command("status")

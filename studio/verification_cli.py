@@ -4,6 +4,7 @@ family of systematically refined meshes, refined increments, observed orders and
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated
 
@@ -79,12 +80,6 @@ def verification_study(
         spec = model.replace(radius=rad[0] if rad else model.radius).spec()
         total = len(pts) * len(rad) * model.steps * (len(level_list) + (len(sub) - 1) * substep_levels)
         with step_progress(err, "verification study", total) as bar:
-            done: dict[str, int] = {}
-
-            def report(label: str, k: int, n: int, f: float) -> None:
-                done[label] = done.get(label, 0) + 1
-                bar.update(sum(done.values()), f"{label} step {k}/{n}: {f:.1f} mN")
-
             study = inference.run_verification_study(
                 spec,
                 fam,
@@ -94,7 +89,7 @@ def verification_study(
                 substeps=sub,
                 substep_levels=substep_levels,
                 out_dir=out_dir,
-                progress=report,
+                progress=_steps_progress(bar),
                 say=say,
             )
     except (SpecError, ValueError, forward.SimulationError, OSError) as exc:
@@ -108,6 +103,17 @@ def verification_study(
     _print_study(study)
     if "figure" in payload:
         Console().print(f"figure: {payload['figure']}")
+
+
+def _steps_progress(bar) -> Callable[[str, int, int, float], None]:
+    """The study's progress on ``bar``: steps solved over every run, the last run's step and force."""
+    done: dict[str, int] = {}
+
+    def report(label: str, k: int, n: int, f: float) -> None:
+        done[label] = done.get(label, 0) + 1
+        bar.update(sum(done.values()), f"{label} step {k}/{n}: {f:.1f} mN")
+
+    return report
 
 
 def _save_figure(case: dict, path: Path) -> Path:
