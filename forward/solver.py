@@ -30,7 +30,7 @@ import scipy.sparse.linalg as spla
 
 from .. import __version__
 from .contact_quadrature import ContactPoints, contact_points
-from .coulomb_contact import FrictionContactState
+from .coulomb_contact import FREE, FrictionContactState
 from .element_moduli import element_moduli
 from .hex8_mean_dilatation import ReferenceGeometry, element_state
 from .linear_solver import ConstrainedSymmetricSolver, LinearSolveError, LowRankUpdate
@@ -90,6 +90,12 @@ CONTACT_BLOCK_CHANGE = 1e-3
 #: A penalty contact point changes status only where that changes its force by more than this
 #: fraction of the indenter's force (EmbeddedSolver._status_tolerance).
 STATUS_FORCE_FRACTION = 1e-7
+#: From this contact pass of an increment on, a penalty contact point may come into contact but
+#: not leave it (a set that wanders without repeating itself otherwise never settles).
+HOLDING_PASS = 4
+#: A penalty contact's statuses follow the state in the first this many Newton iterations of a
+#: solve (EmbeddedSolver._statuses_follow), then stay as they are until the solve ends.
+STATUS_NEWTON_UPDATES = 8
 #: With friction, a step made with a fresh factorisation is GMRES on the tangent to this relative
 #: residual, in at most this many iterations (EmbeddedSolver._fresh_step).
 FRESH_RTOL = 1e-8
@@ -179,6 +185,8 @@ class EmbeddedSolver:
         #: enter :meth:`assemble`), None outside an increment or with the stick contact
         self._friction_state: FrictionContactState | None = None
         self._friction_depth = 0.0
+        #: late in an increment's contact passes, points may come into contact but not leave it
+        self._holding = False
         self._points: ContactPoints | None = None
         if self._penalised:
             self._points = contact_points(self.mesh, spec.contact.integration, order=spec.contact.order)
@@ -525,7 +533,26 @@ class EmbeddedSolver:
             u, R = step
             exact = np.linalg.norm(np.where(cmask, 0.0, R)) >= norm
             K, last = None, norm
+            if it <= STATUS_NEWTON_UPDATES and self._statuses_follow(u):
+                # the residual with the statuses this state calls for; the next step is a Newton step
+                R, _, _ = self.assemble(u.reshape(-1, 3), tangent=False)
+                last, exact, stale_steps = np.inf, False, MAX_STALE_STEPS
         raise _IncrementFailed(f"Newton did not converge in {FRICTION_NEWTON} iterations")
+
+    def _statuses_follow(self, u: np.ndarray) -> bool:
+        """Within a Newton solve, hold the contact statuses the state ``u`` calls for (a
+        semi-smooth Newton step on the active set); whether they changed."""
+        c = self._friction_state
+        top = u.reshape(-1, 3)[self.top]
+        wanted = c.settled_status(
+            self._points.to_points(top), self._friction_depth, self._status_tolerance(c, u.reshape(-1, 3))
+        )
+        if self._holding:
+            wanted = np.maximum(wanted, c.status)
+        if np.array_equal(wanted, c.status):
+            return False
+        c.status = wanted
+        return True
 
     def _damped_step(
         self, u: np.ndarray, du: np.ndarray, norm: float, cmask: np.ndarray, halve: bool
@@ -638,18 +665,26 @@ class EmbeddedSolver:
         c.status = c.settled_status(at_points(u_pred[top]), d1, tol)
         cmask = self.bc_fixed.ravel()
         trial, iters, seen = u_pred, 0, set()
-        self._friction_state, self._friction_depth = c, d1
+        self._friction_state, self._friction_depth, self._holding = c, d1, False
         try:
             for passes in range(1, self.spec.solver.max_contact_passes + 1):
                 eq = self._equilibrate_friction(trial, cmask)
                 iters += eq.iterations
                 trial = eq.u
                 wanted = c.settled_status(at_points(eq.u[top]), d1, self._status_tolerance(c, eq.u))
-                log.debug("friction pass %d: %d statuses change", passes, int((wanted != c.status).sum()))
+                log.debug(
+                    "friction pass %d: %d come into contact, %d leave it",
+                    passes,
+                    int(((wanted != FREE) & (c.status == FREE)).sum()),
+                    int(((wanted == FREE) & (c.status != FREE)).sum()),
+                )
                 if np.array_equal(wanted, c.status):
                     break
                 seen.add(c.status.tobytes())
-                if wanted.tobytes() in seen:  # the statuses cycle: keep every node in contact
+                self._holding = passes >= HOLDING_PASS  # the set wanders: from now on nothing leaves
+                if (
+                    wanted.tobytes() in seen or self._holding
+                ):  # the statuses cycle: keep every node in contact
                     wanted = np.maximum(wanted, c.status)
                     if np.array_equal(wanted, c.status):
                         log.debug("friction pass %d: contact set cycles; kept the nodes it holds", passes)
