@@ -112,3 +112,33 @@ def test_a_spec_with_the_node_wise_contact_writes_what_it_wrote_before():
     assert set(d["contact"]) == {"friction", "penalty"}
     s = dataclasses.replace(ModelSpec(), contact=SURFACE)
     assert ModelSpec.from_dict(s.to_dict()) == s
+
+
+@pytest.mark.parametrize(
+    "contact", [Contact(), Contact(friction=0.3), SURFACE, Contact(integration="surface", friction=0.3)]
+)
+def test_every_contact_meets_the_solver_through_one_interface(contact):
+    """The contract of forward.indenter_contact: a start state, increments solved by the contact,
+    the indenter force equal to the top nodes' reactions, sensitivities for its parameters, the
+    top nodes' statuses and a description."""
+    from indentation_studio.forward.indenter_contact import IndenterContact
+    from indentation_studio.forward.result import SYMMETRY_FACTOR
+
+    spec = ModelSpec(mesh=MeshChoice("coarse"), protocol=Protocol(step_size=0.5, steps=2), contact=contact)
+    solver = EmbeddedSolver(spec)
+    assert isinstance(solver.contact, IndenterContact)
+    r = solver.run(sensitivities=True)
+    assert r.parameters == solver.contact.parameters
+    assert r.parameters == (("c1", "c5") if contact.friction is None else ("c1", "c5", "mu"))
+    assert r.force_sensitivity.shape == (3, len(r.parameters))
+    assert r.solver["contact"] == solver.contact.describe()
+    # the force the contact reports is what the body carries: the top nodes' vertical reactions
+    # at the last converged state (internal force of the body alone, contact forces not in it)
+    full = solver.run(full_field=True)
+    R, _, _ = solver.assemble(full.full_displacement[-1])
+    carried = -SYMMETRY_FACTOR * R.reshape(-1, 3)[solver.top, 2].sum()
+    assert carried == pytest.approx(full.force[-1], rel=2e-3)
+    status = r.contact_status[-1]
+    assert status.shape == (solver.top.size,) and status.max() <= 2 and (status > 0).any()
+    if contact.friction is None:
+        assert (status < 2).all()  # stick: nothing slips

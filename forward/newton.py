@@ -1,0 +1,275 @@
+"""Newton-Raphson for the embedded solver: the linear steps (factorisations, Krylov solves
+preconditioned with the factorisation in hand, back-substitutions) and the Newton solve with
+prescribed dofs, shared by every contact (:mod:`forward.indenter_contact`).
+
+:class:`NewtonSystem` is the base of :class:`forward.solver.EmbeddedSolver`: it holds the linear
+solver and the statistics, and asks the contact in use (``self.contact``) what the tangent's
+factorisation leaves out (:meth:`IndenterContact.for_factorisation`,
+:meth:`IndenterContact.correction`) and whether the tangent is symmetric.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Protocol
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from .linear_solver import LinearSolveError, LowRankUpdate
+from .material import InvertedElementError
+
+if TYPE_CHECKING:
+    from .block_mesh import BlockMesh
+    from .linear_solver import ConstrainedSymmetricSolver
+    from .sparse_assembly import SparsePattern
+    from .spec import ModelSpec
+    from .stick_contact import RigidSphere
+
+__all__ = ["Equilibrium", "IncrementFailed", "NewtonSystem", "TangentContact"]
+
+log = logging.getLogger(__name__)
+
+
+class IncrementFailed(Exception):
+    """An increment that did not converge (cut back by the solver's driver)."""
+
+
+#: A correction keeps the current factorisation while the residual shrinks at least this much.
+REFACTOR_RATIO = 0.3
+#: ... and for at most this many corrections in a row.
+MAX_STALE_STEPS = 6
+#: A Newton step that inverts an element is halved at most this many times.
+MAX_HALVINGS = 6
+#: Newton steps are solved by CG preconditioned with the factorisation in hand to this relative
+#: residual, in at most this many iterations, before a new factorisation is made.
+KRYLOV_RTOL = 1e-2
+KRYLOV_MAXITER = 8
+#: ... or more where a factorisation costs many back-substitutions (large meshes).
+KRYLOV_MAXITER_LARGE = 30
+KRYLOV_DOFS_PER_ITERATION = 3000
+#: Relative residual of the sensitivity solves (their CG runs on the exact converged tangent).
+SENSITIVITY_RTOL = 1e-11
+#: Meshes with at least this many dofs factorise in single precision (PARDISO): the factorisation
+#: only preconditions CG and makes corrections that Newton's residual checks, and costs half.
+SINGLE_PRECISION_DOFS = 20_000
+#: With friction, a step made with a fresh factorisation is GMRES on the tangent to this relative
+#: residual, in at most this many iterations (EmbeddedSolver._fresh_step).
+FRESH_RTOL = 1e-8
+FRESH_MAXITER = 50
+
+
+@dataclass
+class Equilibrium:
+    """A converged state: displacements, internal force (= external at equilibrium), tangent and
+    (with sensitivities) dR/dtheta."""
+
+    u: np.ndarray  # (n, 3)
+    R: np.ndarray  # (3n,) internal force = external force at equilibrium
+    K: sp.csr_matrix
+    iterations: int
+    dR: np.ndarray | None = None  # (3n, p): d(internal force)/d(theta) at u
+
+
+class TangentContact(Protocol):
+    """What the linear steps ask of the contact in use (forward.indenter_contact.IndenterContact)."""
+
+    symmetric: bool
+
+    def for_factorisation(self, K: sp.csr_matrix) -> sp.csr_matrix: ...
+
+    def correction(self, cmask: np.ndarray) -> LowRankUpdate | None: ...
+
+
+class NewtonSystem:
+    """The linear steps and the constrained Newton solve of the embedded solver (module
+    docstring). Subclasses set the attributes below and provide ``assemble``."""
+
+    spec: ModelSpec
+    mesh: BlockMesh
+    pattern: SparsePattern
+    linear: ConstrainedSymmetricSolver
+    contact: TangentContact
+    stats: dict
+    n_dofs: int
+    top: np.ndarray
+    bc_fixed: np.ndarray
+    sphere: RigidSphere
+    force_scale: float
+    want_sensitivities: bool
+
+    def assemble(
+        self, u: np.ndarray, tangent: bool = True, parameter_derivatives: bool = False
+    ) -> tuple[np.ndarray, sp.csr_matrix | None, np.ndarray | None]:
+        """Internal force, tangent and dR/dtheta at ``u`` (the subclass's)."""
+        raise NotImplementedError
+
+    def factorize(self, K: sp.csr_matrix, constrained: np.ndarray) -> None:
+        """Factorise K; with friction, its symmetric part (the contact blocks of slipping points
+        are K's only unsymmetric entries; :meth:`IndenterContact.correction` puts them back)."""
+        t = time.perf_counter()
+        self.linear.factorize(self.contact.for_factorisation(K), constrained)
+        dt = time.perf_counter() - t
+        self.stats["factorizations"] += 1
+        self.stats["factorize_s"] += dt
+        self.stats["solve_s"] += dt
+
+    def krylov_maxiter(self) -> int:
+        """CG iterations worth trying before a factorisation. A factorisation's cost grows faster
+        than a back-substitution's with the mesh, so larger meshes try more: one iteration per
+        ``KRYLOV_DOFS_PER_ITERATION`` dofs, within ``KRYLOV_MAXITER`` .. ``KRYLOV_MAXITER_LARGE``
+        (a fixed rule, not a timing, so that a run is reproducible to the last digit)."""
+        return int(np.clip(self.n_dofs // KRYLOV_DOFS_PER_ITERATION, KRYLOV_MAXITER, KRYLOV_MAXITER_LARGE))
+
+    def krylov(
+        self, K: sp.csr_matrix, cmask: np.ndarray, rhs: np.ndarray, rtol: float, maxiter: int
+    ) -> np.ndarray | None:
+        """CG (GMRES when K is unsymmetric) on K x = rhs with the dofs in ``cmask`` eliminated, preconditioned with the
+        factorisation in hand (with ``cmask``'s extra constraints by its Schur complement);
+        None when it does not reach ``rtol`` in ``maxiter`` iterations."""
+        t = time.perf_counter()
+
+        def matvec(x: np.ndarray) -> np.ndarray:
+            y = K @ np.where(cmask, 0.0, x)
+            y[cmask] = x[cmask]
+            return y
+
+        n = self.n_dofs
+        A = spla.LinearOperator((n, n), matvec=matvec, dtype=float)
+        correction = self.contact.correction(cmask)
+        M = spla.LinearOperator((n, n), matvec=lambda r: self.precondition(r, cmask, correction), dtype=float)
+        its = [0]
+
+        def count(_x: np.ndarray) -> None:
+            its[0] += 1
+
+        if self.contact.symmetric:
+            x, info = spla.cg(A, rhs, rtol=rtol, maxiter=maxiter, M=M, callback=count)
+        else:
+            x, info = spla.gmres(
+                A, rhs, rtol=rtol, restart=maxiter, maxiter=1, M=M, callback=count, callback_type="pr_norm"
+            )
+        dt = time.perf_counter() - t
+        self.stats["krylov_iterations"] += its[0]
+        self.stats["krylov_s"] += dt
+        self.stats["solve_s"] += dt
+        if info != 0 or not np.all(np.isfinite(x)):
+            return None
+        self.stats["krylov_steps"] += 1
+        return np.where(cmask, 0.0, x)
+
+    def newton_step(
+        self, K: sp.csr_matrix, cmask: np.ndarray, rhs: np.ndarray, rtol: float = KRYLOV_RTOL
+    ) -> np.ndarray:
+        """Solve K x = rhs with the dofs in ``cmask`` eliminated: by conjugate gradients (GMRES
+        with friction) preconditioned with the factorisation in hand (to ``rtol``; a tangent
+        assembly and a few back-substitutions instead of a factorisation) when that factorisation
+        covers the constraints (its own plus nodes attached since,
+        :meth:`ConstrainedSymmetricSolver.covers`), else, or when it does not get there, by
+        factorising K."""
+        if self.linear.covers(cmask):
+            x = self.krylov(K, cmask, rhs, rtol, self.krylov_maxiter())
+            if x is not None:
+                return x
+        return self.fresh_step(K, cmask, rhs)
+
+    def fresh_step(self, K: sp.csr_matrix, cmask: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+        """Solve K x = rhs with a factorisation of K made here: one back-substitution; with
+        friction GMRES on K itself, preconditioned with it, to ``FRESH_RTOL`` (the factorisation is
+        of K's symmetric part, its contact blocks put back by :meth:`IndenterContact.correction` for at
+        most ``max_extra // 3`` nodes, and in single precision on large meshes), else that
+        factorisation's own step."""
+        self.factorize(K, cmask)
+        if self.contact.symmetric:
+            return self.solve(rhs, cmask)
+        x = self.krylov(K, cmask, rhs, FRESH_RTOL, FRESH_MAXITER)
+        # where GMRES does not get there (a correction capped far below the contact set), the
+        # factorisation's own step, checked by the damped Newton's residual like any other
+        return x if x is not None else self.solve(rhs, cmask)
+
+    def solve(self, rhs: np.ndarray, cmask: np.ndarray) -> np.ndarray:
+        """One back-substitution with the factorisation in hand, ``cmask``'s dofs held at zero."""
+        t = time.perf_counter()
+        x = self.precondition(rhs, cmask, self.contact.correction(cmask))
+        self.stats["solves"] += 1
+        self.stats["solve_s"] += time.perf_counter() - t
+        return x
+
+    def precondition(self, r: np.ndarray, cmask: np.ndarray, correction: LowRankUpdate | None) -> np.ndarray:
+        """The factorisation in hand applied to ``r`` (``cmask``'s dofs held at zero), with the
+        contact blocks' ``correction`` (:meth:`IndenterContact.correction`)."""
+        y = self.linear.solve_constrained(r, cmask)
+        if correction is None:
+            return y
+        y = correction.apply(y)
+        y[cmask] = 0.0
+        return y
+
+    def equilibrate(self, u0: np.ndarray, cmask: np.ndarray, target: np.ndarray) -> Equilibrium:
+        """Newton-Raphson to equilibrium with the dofs in ``cmask`` prescribed to ``target``.
+
+        The first iteration carries the prescribed increments into the body through the exact
+        tangent (consistent predictor). The corrections reuse that factorisation while the
+        residual contracts by at least ``REFACTOR_RATIO`` per iteration (``MAX_STALE_STEPS`` in
+        a row at most) and take a Newton step with the tangent at the current state otherwise
+        (:meth:`newton_step`), so most corrections cost a residual and a back-substitution. A correction with an old factorisation that makes
+        the residual worse is undone and redone as a full Newton step; a step that inverts an
+        element is halved. The residual is checked on the free dofs against the reactions."""
+        opts = self.spec.solver
+        u = u0.reshape(-1).copy()
+        jump = np.zeros(self.n_dofs)
+        jump[cmask] = target - u[cmask]
+        want_dR = self.want_sensitivities
+        try:
+            R, K, _ = self.assemble(u.reshape(-1, 3))
+            rhs = -(R + K @ jump)
+            rhs[cmask] = 0.0
+            # the first step: the constrained dofs jump to their targets, the free ones follow by
+            # a Newton step; if that inverts an element, it is halved like any other (below)
+            u_prev = u + jump
+            du = -self.newton_step(K, cmask, rhs)
+            u = u_prev - du
+            last = np.inf  # residual norm before the last step
+            fresh_step = False  # the last step was taken with a factorisation made at its start
+            halvings = 0
+            stale_steps = 0  # corrections in a row with the same factorisation
+            for it in range(1, opts.max_newton + 1):
+                try:
+                    R, _, _ = self.assemble(u.reshape(-1, 3), tangent=False)
+                except InvertedElementError:
+                    if halvings >= MAX_HALVINGS:
+                        raise
+                    halvings += 1  # the step inverted an element: halve it
+                    log.debug("newton %d: an element inverted, step halved (%d)", it, halvings)
+                    du *= 0.5
+                    u = u_prev - du
+                    continue
+                norm = np.linalg.norm(np.where(cmask, 0.0, R))
+                ref = max(np.linalg.norm(R[cmask]), self.force_scale)
+                log.debug("newton %d: residual %.3e of %.3e", it, norm, ref)
+                at_round_off = fresh_step and norm > 0.5 * last and norm <= 1e-6 * ref
+                if norm <= opts.residual_tol * ref or at_round_off:
+                    K = dR = None
+                    if want_dR:
+                        _, K, dR = self.assemble(u.reshape(-1, 3), parameter_derivatives=True)
+                    return Equilibrium(u.reshape(-1, 3), R, K, it, dR)
+                if norm > last and not fresh_step:  # a step with an old factorisation made it worse: undo it
+                    u, norm = u_prev, last
+                    R, _, _ = self.assemble(u.reshape(-1, 3), tangent=False)
+                worn = norm > REFACTOR_RATIO * last or stale_steps >= MAX_STALE_STEPS
+                r_free = np.where(cmask, 0.0, R)
+                fresh_step = worn or norm == last
+                if fresh_step:  # a Newton step with the tangent here
+                    du = self.newton_step(self.assemble(u.reshape(-1, 3))[1], cmask, r_free)
+                    stale_steps = 0
+                else:  # a correction with the factorisation made elsewhere
+                    du = self.solve(r_free, cmask)
+                last, u_prev = norm, u.copy()
+                u = u - du
+                stale_steps += 1
+        except (InvertedElementError, LinearSolveError) as exc:
+            raise IncrementFailed(str(exc)) from exc
+        raise IncrementFailed(f"Newton did not converge in {opts.max_newton} iterations")

@@ -1,0 +1,398 @@
+"""The indenter's penalty contact behind :class:`forward.indenter_contact.IndenterContact`: stick
+(mu = inf) or Coulomb friction at contact points on the top face, node by node or at Gauss
+points of the top faces (:mod:`forward.contact_quadrature`), with the contact law of
+:mod:`forward.coulomb_contact`.
+
+In an increment the sphere's forces at the points are carried to the top nodes (N^T f) and taken
+off the body's internal force, and their derivative (N^T df/dr N, cell by cell) off its tangent
+(:meth:`PenaltyContact.add_to_system`). Each increment is solved by damped Newton with the points'
+statuses held, re-solved until the statuses the solution calls for are those it was solved with
+(:meth:`PenaltyContact.increment`); the statuses also follow the state in a solve's first Newton
+iterations. The factorisation is of the tangent's symmetric part; the contact blocks that changed
+since (points in or out, slip) are put back by a low-rank update (:meth:`PenaltyContact.correction`).
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+import scipy.sparse as sp
+
+from .contact_quadrature import contact_points
+from .coulomb_contact import FREE, FrictionContactState
+from .indenter_contact import IndenterContact
+from .linear_solver import LinearSolveError, LowRankUpdate
+from .material import InvertedElementError
+from .newton import (
+    KRYLOV_RTOL,
+    MAX_HALVINGS,
+    MAX_STALE_STEPS,
+    REFACTOR_RATIO,
+    SENSITIVITY_RTOL,
+    Equilibrium,
+    IncrementFailed,
+    NewtonSystem,
+)
+
+__all__ = ["PenaltyContact"]
+
+log = logging.getLogger(__name__)
+
+#: With Coulomb friction, each Newton solve takes at most this many damped steps
+#: (EmbeddedSolver._equilibrate_friction).
+FRICTION_NEWTON = 60
+#: A top node's contact block (its 3 x 3 share of the tangent) counts as changed since the
+#: factorisation when it moved by more than this fraction of the node's penalty: a node that came
+#: into contact, left it, or slips (EmbeddedSolver._contact_correction).
+CONTACT_BLOCK_CHANGE = 1e-3
+#: A penalty contact point changes status only where that changes its force by more than this
+#: fraction of the indenter's force (EmbeddedSolver._status_tolerance).
+STATUS_FORCE_FRACTION = 1e-7
+#: From this contact pass of an increment on, a penalty contact point may come into contact but
+#: not leave it (a set that wanders without repeating itself otherwise never settles).
+HOLDING_PASS = 4
+#: A penalty contact's statuses follow the state in the first this many Newton iterations of a
+#: solve (EmbeddedSolver._statuses_follow), then stay as they are until the solve ends.
+STATUS_NEWTON_UPDATES = 8
+
+
+class PenaltyContact(IndenterContact):
+    """Stick or Coulomb friction by a penalty at contact points (module docstring)."""
+
+    def __init__(self, solver: NewtonSystem) -> None:
+        super().__init__(solver)
+        spec = solver.spec.contact
+        #: Coulomb's mu, or None for stick (mu = inf)
+        self.friction = spec.friction
+        self.parameters = ("c1", "c5") if spec.friction is None else ("c1", "c5", "mu")
+        #: the slip tangent is unsymmetric (GMRES); the stick's is symmetric (CG)
+        self.symmetric = spec.friction is None
+        self._points = contact_points(solver.mesh, spec.integration, order=spec.order)
+        self._contact_eps = spec.penalty * self._points.area  # mN/mm per point
+        self._cell_eps = self._points.cell_scale(self._contact_eps)
+        self._cell_slots = self._points.slots(solver.pattern, solver.top)
+        #: its cells' blocks in the tangent (nc, k, 3, k, 3) at the last assembly, and
+        #: (symmetrised) in the factorisation in hand
+        self._contact_blocks: np.ndarray | None = None
+        self._factored_contact_blocks: np.ndarray | None = None
+        #: the last correction with the blocks and the factorisation count it was made for
+        self._correction: tuple[np.ndarray, int, LowRankUpdate | None] | None = None
+        #: the state of the increment being solved (its forces and tangent enter the system),
+        #: None outside an increment
+        self._state: FrictionContactState | None = None
+        self._depth = 0.0
+        #: late in an increment's contact passes, points may come into contact but not leave it
+        self._holding = False
+
+    # ------------------------------------------------------------------ the interface
+    def start(self) -> FrictionContactState:
+        s = self.solver
+        return FrictionContactState(
+            s.sphere,
+            self._points.xyz0,
+            self._contact_eps,
+            np.inf if self.friction is None else self.friction,
+            n_params=len(self.parameters),
+        )
+
+    def add_to_system(self, u: np.ndarray, R: np.ndarray, K: sp.csr_matrix | None) -> None:
+        if self._state is None:
+            return
+        s, pts = self.solver, self._points
+        resp = self._state.response(pts.to_points(u[s.top]), self._depth)
+        R.reshape(-1, 3)[s.top] -= pts.to_nodes(resp.force)
+        self._contact_blocks = -pts.cell_blocks(resp.df_dr)
+        if K is not None:
+            K.data += self.scatter_cells(self._contact_blocks)
+
+    def for_factorisation(self, K: sp.csr_matrix) -> sp.csr_matrix:
+        """K with the contact blocks made symmetric (recorded for :meth:`correction`)."""
+        if self._contact_blocks is None:
+            return K
+        contact = self._contact_blocks
+        symmetric = 0.5 * (contact + contact.transpose(0, 3, 4, 1, 2))
+        self._factored_contact_blocks = symmetric
+        if self.symmetric:
+            return K
+        K = K.copy()
+        K.data += self.scatter_cells(symmetric - contact)
+        return K
+
+    def quarter_force(self, eq: Equilibrium, state: FrictionContactState) -> float:
+        return -float(np.sum(state.force[:, 2]))
+
+    def quarter_force_sensitivity(
+        self, eq: Equilibrium, state: FrictionContactState, du_dtheta: np.ndarray
+    ) -> np.ndarray:
+        return -state.dforce[:, 2].sum(axis=0)
+
+    def node_status(self, state: FrictionContactState) -> tuple[np.ndarray, np.ndarray]:
+        return self._points.any_per_node(state.attached), self._points.any_per_node(state.slipping)
+
+    def describe(self) -> str:
+        c = self.solver.spec.contact
+        if c.integration == "node":
+            where = f"node-to-surface penalty ({c.penalty:g} kPa/mm by tributary area)"
+        else:
+            where = (
+                f"surface-to-surface penalty ({c.penalty:g} kPa/mm at {c.order}x{c.order} Gauss points "
+                "per top face)"
+            )
+        law = "stick (mu = inf)" if c.friction is None else f"Coulomb friction mu = {c.friction:g}"
+        return f"rigid sphere, {where}, {law} (return map from anchors)"
+
+    # ------------------------------------------------------------------ its numerics
+    def scatter_cells(self, blocks: np.ndarray) -> np.ndarray:
+        """The contact cells' ``blocks`` (nc, k, 3, k, 3) summed into a CSR data array."""
+        s = self.solver
+        return np.bincount(self._cell_slots.ravel(), weights=blocks.ravel(), minlength=s.pattern.nnz)
+
+    def correction(self, cmask: np.ndarray) -> LowRankUpdate | None:
+        """With friction, what turns the factorisation in hand (of the tangent's symmetric part
+        when it was made) into the tangent now as far as the top nodes' contact blocks go: the
+        blocks that changed by more than ``CONTACT_BLOCK_CHANGE`` of their node's penalty since
+        (nodes that came into contact or left it, slipping nodes, whose blocks are unsymmetric),
+        by :class:`LowRankUpdate`. None when nothing changed (or without friction). At most as
+        many nodes as the factorisation keeps columns for (``max_extra``), the largest changes
+        first."""
+        s = self.solver
+        if (
+            self._contact_blocks is None
+            or self._factored_contact_blocks is None
+            or s.linear.factor_mask is None
+        ):
+            return None
+        made = self._correction  # the same blocks and factorisation: the same correction
+        if made is not None and made[0] is self._contact_blocks and made[1] == s.stats["factorizations"]:
+            return made[2]
+        update = self._update(cmask)
+        self._correction = (self._contact_blocks, s.stats["factorizations"], update)
+        return update
+
+    def _update(self, cmask: np.ndarray) -> LowRankUpdate | None:
+        """:meth:`correction` made anew."""
+        s = self.solver
+        change = self._contact_blocks - self._factored_contact_blocks
+        size = np.abs(change).max(axis=(1, 2, 3, 4)) / self._cell_eps
+        cells = np.flatnonzero(size > CONTACT_BLOCK_CHANGE)
+        if cells.size == 0:
+            return None
+        k = change.shape[1]
+        cap = max(1, s.linear.max_extra // (3 * k))
+        if cells.size > cap:
+            cells = cells[np.argsort(-size[cells], kind="stable")[:cap]]
+        cell_dofs = self._points.cell_dofs(s.top)[cells]  # (m, k, 3)
+        dofs, local = np.unique(cell_dofs, return_inverse=True)
+        local = local.reshape(cell_dofs.shape)
+        rows = np.broadcast_to(local[:, :, :, None, None], change[cells].shape)
+        cols = np.broadcast_to(local[:, None, None, :, :], change[cells].shape)
+        D = np.zeros((dofs.size, dofs.size))  # the changed cells' blocks, summed where they share nodes
+        np.add.at(D, (rows.ravel(), cols.ravel()), change[cells].ravel())
+        held = cmask[dofs]  # supports and symmetry planes stay eliminated
+        D[held, :] = 0.0
+        D[:, held] = 0.0
+        return LowRankUpdate(s.linear, dofs, D)
+
+    def equilibrate(self, u0: np.ndarray, cmask: np.ndarray) -> Equilibrium:
+        """Newton-Raphson to equilibrium with the frictional contact's forces in the residual
+        (the supports in ``cmask`` held at zero), damped. As in :meth:`NewtonSystem.equilibrate`, corrections
+        reuse the factorisation in hand while the residual contracts by at least
+        ``REFACTOR_RATIO`` (``MAX_STALE_STEPS`` in a row at most), and take a Newton step with
+        the tangent at the current state otherwise (:meth:`NewtonSystem.newton_step`). Every step is
+        shortened so that no slipping node passes its anchor
+        (:meth:`FrictionContactState.step_fraction`); a Newton step is then halved until the
+        residual falls (a full step can overshoot where a node slides along the indenter, with
+        little but the body's shear stiffness to hold it, against the penalty's stiffness
+        across), and a correction that does not lower it is replaced by a Newton step."""
+        s = self.solver
+        opts = s.spec.solver
+        u = u0.reshape(-1).copy()
+        try:
+            R, K, _ = s.assemble(u.reshape(-1, 3))
+        except InvertedElementError as exc:
+            raise IncrementFailed(str(exc)) from exc
+        last, stale_steps, fresh_step, exact = np.inf, MAX_STALE_STEPS, True, False
+        for it in range(1, FRICTION_NEWTON + 1):
+            norm = np.linalg.norm(np.where(cmask, 0.0, R))
+            ref = max(np.linalg.norm(R[cmask]), s.force_scale)
+            log.debug("newton %d: residual %.3e of %.3e", it, norm, ref)
+            at_round_off = fresh_step and norm > 0.5 * last and norm <= 1e-6 * ref  # no more to gain
+            if norm <= opts.residual_tol * ref or at_round_off:
+                K_out = dR = None
+                if s.want_sensitivities:
+                    _, K_out, dR = s.assemble(u.reshape(-1, 3), parameter_derivatives=True)
+                return Equilibrium(u.reshape(-1, 3), R, K_out, it, dR)
+            r_free = np.where(cmask, 0.0, R)
+            step = None
+            worn = norm > REFACTOR_RATIO * last or stale_steps >= MAX_STALE_STEPS
+            if not worn and s.linear.covers(cmask):  # a correction with the factorisation in hand
+                try:
+                    step = self._damped_step(u, s.solve(r_free, cmask), norm, cmask, halve=False)
+                except LinearSolveError:
+                    step = None
+                stale_steps += 1
+            fresh_step = step is None
+            if fresh_step:  # a Newton step with the tangent here
+                if K is None:
+                    _, K, _ = s.assemble(u.reshape(-1, 3))
+                try:
+                    if exact:  # the last step did not lower the residual: a factorisation here
+                        du = s.fresh_step(K, cmask, r_free)
+                    else:  # an inexact Newton step, as exact as the residual is far above the reactions
+                        du = s.newton_step(K, cmask, r_free, KRYLOV_RTOL * min(1.0, ref / norm))
+                except LinearSolveError as exc:
+                    raise IncrementFailed(str(exc)) from exc
+                step = self._damped_step(u, du, norm, cmask, halve=True)
+                stale_steps = 0
+            u, R = step
+            exact = np.linalg.norm(np.where(cmask, 0.0, R)) >= norm
+            K, last = None, norm
+            if it <= STATUS_NEWTON_UPDATES and self._statuses_follow(u):
+                # the residual with the statuses this state calls for; the next step is a Newton step
+                R, _, _ = s.assemble(u.reshape(-1, 3), tangent=False)
+                last, exact, stale_steps = np.inf, False, MAX_STALE_STEPS
+        raise IncrementFailed(f"Newton did not converge in {FRICTION_NEWTON} iterations")
+
+    def _statuses_follow(self, u: np.ndarray) -> bool:
+        """Within a Newton solve, hold the contact statuses the state ``u`` calls for (a
+        semi-smooth Newton step on the active set); whether they changed."""
+        s = self.solver
+        c = self._state
+        top = u.reshape(-1, 3)[s.top]
+        wanted = c.settled_status(
+            self._points.to_points(top), self._depth, self._status_tolerance(c, u.reshape(-1, 3))
+        )
+        if self._holding:
+            wanted = np.maximum(wanted, c.status)
+        if np.array_equal(wanted, c.status):
+            return False
+        c.status = wanted
+        return True
+
+    def _damped_step(
+        self, u: np.ndarray, du: np.ndarray, norm: float, cmask: np.ndarray, halve: bool
+    ) -> tuple[np.ndarray, np.ndarray] | None:
+        """The state ``u - alpha du`` and its residual, ``du`` first shortened so that no
+        slipping node passes its anchor (:meth:`FrictionContactState.step_fraction`): with
+        ``halve``, alpha halved until the residual falls below ``norm`` (else the best trial);
+        without, the whole step if it lowers the residual, else None."""
+        s = self.solver
+        c, top, pts = self._state, s.top, self._points
+        du = du * c.step_fraction(
+            pts.to_points(u.reshape(-1, 3)[top]), pts.to_points(-du.reshape(-1, 3)[top]), self._depth
+        )
+        alpha, best = 1.0, None
+        for _ in range(MAX_HALVINGS + 2 if halve else 1):
+            trial = u - alpha * du
+            try:
+                R_try, _, _ = s.assemble(trial.reshape(-1, 3), tangent=False)
+            except InvertedElementError:
+                alpha *= 0.5
+                continue
+            n_try = np.linalg.norm(np.where(cmask, 0.0, R_try))
+            if best is None or n_try < best[0]:
+                best = (n_try, trial, R_try)
+            if n_try < norm:
+                return trial, R_try
+            alpha *= 0.5
+        if not halve:
+            return None
+        if best is None:
+            raise IncrementFailed("every Newton step inverted an element")
+        return best[1], best[2]
+
+    def increment(
+        self,
+        u: np.ndarray,
+        u_pred: np.ndarray,
+        d0: float,
+        d1: float,
+        contact: FrictionContactState,
+        du_start: np.ndarray | None,
+        du_pred: np.ndarray | None = None,
+    ) -> tuple[Equilibrium, FrictionContactState, int, int, np.ndarray | None]:
+        """Solve the increment d0 -> d1 with a penalty contact: Newton solves with the sphere's
+        penalty forces in the residual and each contact point's status held, until the statuses
+        the solution calls for are those it was solved with; then the anchors of slipping points
+        move (:meth:`FrictionContactState.settle`)."""
+        s = self.solver
+        c = contact.copy()
+        top = s.top
+        at_points = self._points.to_points
+        s0_top = at_points(du_start[top]) if du_start is not None else None
+        sp_top = at_points(du_pred[top]) if du_pred is not None else None
+        c.anchor_newcomers(at_points(u[top]), d0, at_points(u_pred[top]), d1, s0_top, sp_top)
+        tol = 1e-9 * s.sphere.radius
+        c.status = c.settled_status(at_points(u_pred[top]), d1, tol)
+        cmask = s.bc_fixed.ravel()
+        trial, iters, seen = u_pred, 0, set()
+        self._state, self._depth, self._holding = c, d1, False
+        try:
+            for passes in range(1, s.spec.solver.max_contact_passes + 1):
+                eq = self.equilibrate(trial, cmask)
+                iters += eq.iterations
+                trial = eq.u
+                wanted = c.settled_status(at_points(eq.u[top]), d1, self._status_tolerance(c, eq.u))
+                log.debug(
+                    "friction pass %d: %d come into contact, %d leave it",
+                    passes,
+                    int(((wanted != FREE) & (c.status == FREE)).sum()),
+                    int(((wanted == FREE) & (c.status != FREE)).sum()),
+                )
+                if np.array_equal(wanted, c.status):
+                    break
+                seen.add(c.status.tobytes())
+                self._holding = passes >= HOLDING_PASS  # the set wanders: from now on nothing leaves
+                if (
+                    wanted.tobytes() in seen or self._holding
+                ):  # the statuses cycle: keep every node in contact
+                    wanted = np.maximum(wanted, c.status)
+                    if np.array_equal(wanted, c.status):
+                        log.debug("friction pass %d: contact set cycles; kept the nodes it holds", passes)
+                        break
+                c.status = wanted
+            else:
+                raise IncrementFailed("the contact set did not settle")
+            try:
+                sens = self._sensitivity(eq, cmask, c) if s.want_sensitivities else None
+            except LinearSolveError as exc:  # an increment that fails, cut back like any other
+                raise IncrementFailed(str(exc)) from exc
+        finally:
+            self._state = None
+        c.settle(at_points(eq.u[top]), d1, at_points(sens[top]) if sens is not None else None)
+        return eq, c, iters, passes, sens
+
+    def _status_tolerance(self, contact: FrictionContactState, u: np.ndarray) -> np.ndarray:
+        """How far (mm) each contact point may be inside the sphere while free, or outside its
+        anchor's plane while held, before its status changes: the gap at which its penalty force
+        is ``STATUS_FORCE_FRACTION`` of the indenter's force (at least 1e-9 R). A point at the
+        contact's edge whose force is that small otherwise toggles from pass to pass."""
+        s = self.solver
+        resp = contact.response(self._points.to_points(u[s.top]), self._depth)
+        total = max(float(np.abs(resp.pressure).sum()), s.force_scale)
+        return np.maximum(1e-9 * s.sphere.radius, STATUS_FORCE_FRACTION * total / self._contact_eps)
+
+    def _sensitivity(self, eq: Equilibrium, cmask: np.ndarray, contact: FrictionContactState) -> np.ndarray:
+        """d u / d theta (n, 3, p) for theta = (c1, c5, mu) (p = 3) of a converged frictional
+        state, or (c1, c5) (p = 2) of the penalty stick: (K - df/du) du = -dR/dtheta + (d f /
+        d theta at fixed positions: the anchors' history and mu), solved by Krylov on the exact
+        tangent preconditioned with the factorisation in hand, or by factorising it."""
+        s = self.solver
+        pts, n_p = self._points, contact.n_params
+        resp = contact.response(pts.to_points(eq.u[s.top]), self._depth)
+        b = np.zeros((s.n_dofs, n_p))
+        b[:, :2] = -eq.dR
+        explicit = contact.explicit_force_derivative(resp, n_p)  # (points, 3, p)
+        b.reshape(-1, 3, n_p)[s.top] += pts.to_nodes(explicit)
+        b[cmask] = 0.0
+        x = np.zeros_like(b)
+        for k in range(n_p):
+            col = s.krylov(eq.K, cmask, b[:, k], SENSITIVITY_RTOL, s.krylov_maxiter())
+            if col is None:  # factorise: with the contact correction GMRES converges at once
+                s.factorize(eq.K, cmask)
+                col = s.krylov(eq.K, cmask, b[:, k], SENSITIVITY_RTOL, 100)
+                if col is None:
+                    raise LinearSolveError("the sensitivity solve did not converge")
+            x[:, k] = col
+        return x.reshape(-1, 3, n_p)
