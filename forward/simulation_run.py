@@ -74,11 +74,13 @@ def default_result_file(spec: ModelSpec, solver: str = "embedded") -> Path:
     Returns
     -------
     Path
-        ``runs/simulations/c1=.._c5=.._R=..[_mu=..]_<mesh>_<solver>.npz``.
+        ``runs/simulations/c1=.._c5=.._R=..[_mu=..][_surface<order>]_<mesh>_<solver>.npz``.
     """
     tag = Path(spec.mesh.feb_file).stem if spec.mesh.feb_file else spec.mesh.preset
     mu = spec.contact.friction
     contact = "" if mu is None else f"_mu={mu:g}"
+    if spec.contact.integration == "surface":
+        contact += f"_surface{spec.contact.order}"
     m = spec.material
     return (
         Path("runs/simulations")

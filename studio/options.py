@@ -71,6 +71,11 @@ class ModelOptions:
         Solver increments per step.
     friction : float or None
         Coulomb's friction coefficient mu (0: frictionless); None: the paper's near-perfect stick.
+    contact : {"node", "surface"}
+        Where the contact is evaluated: node by node (the stick exact), or at Gauss points of
+        the top faces (stick and friction by a penalty; forward.contact_quadrature).
+    contact_order : int
+        Gauss points per face edge of the surface contact.
     """
 
     c1: float = 10.0
@@ -83,6 +88,8 @@ class ModelOptions:
     mesh_from: Path | None = None
     substeps: int = 1
     friction: float | None = None
+    contact: str = "node"
+    contact_order: int = 2
 
     def spec(self) -> ModelSpec:
         """The model spec of these options.
@@ -107,7 +114,7 @@ class ModelOptions:
             material=Material(c1=self.c1, c5=self.c5, kappa=self.kappa),
             mesh=MeshChoice(preset=self.mesh, feb_file=str(self.mesh_from) if self.mesh_from else None),
             solver=SolverOptions(substeps=self.substeps),
-            contact=Contact(friction=self.friction),
+            contact=Contact(friction=self.friction, integration=self.contact, order=self.contact_order),
         )
 
     def replace(self, **changes: Any) -> ModelOptions:
@@ -138,6 +145,15 @@ FRICTION = Annotated[
         "default: the paper's near-perfect stick",
     ),
 ]
+CONTACT = Annotated[
+    str,
+    typer.Option(
+        "--contact",
+        help="where the contact is evaluated: node (node by node, the stick exact) or surface (Gauss "
+        "points of the top faces, stick and friction by a penalty)",
+    ),
+]
+CONTACT_ORDER = Annotated[int, typer.Option(help="Gauss points per face edge of --contact surface")]
 JSON = Annotated[bool, typer.Option("--json", help="print one JSON object on stdout")]
 
 #: The flag of each :class:`ModelOptions` field, in the order the commands list them.
@@ -152,6 +168,8 @@ MODEL_FLAGS = {
     "mesh_from": MESH_FROM,
     "substeps": SUBSTEPS,
     "friction": FRICTION,
+    "contact": CONTACT,
+    "contact_order": CONTACT_ORDER,
 }
 
 

@@ -55,7 +55,7 @@ OUT_DIR = Annotated[Path, typer.Option(help="every run and study.json; a run alr
 FIGURE = Annotated[Path | None, typer.Option(help="PNG of the first case's convergence (log-log)")]
 
 
-@model_options("kappa", "steps", "step_size")
+@model_options("kappa", "steps", "step_size", "contact", "contact_order")
 def verification_study(
     family: FAMILY = "8x8:1.2:1.5",
     levels: LEVELS = "0,1,2,3",
