@@ -1,0 +1,386 @@
+"""Every public function and class the six subpackages export (their lazy ``__all__``) has a numpydoc
+docstring (issue 32): a one-line summary; a ``Parameters`` section naming exactly the parameters of
+the signature (a class: of its constructor, or an ``Attributes`` section); a ``Returns`` (or
+``Yields``) section when the return annotation is not ``None``; a ``Raises`` section naming each
+error the function raises itself. The API pages (docs/api/*.md, mkdocstrings, numpy style) render
+these sections.
+
+numpydoc is not a dependency, so the sections are read here: a title line over a line of dashes."""
+
+from __future__ import annotations
+
+import ast
+import importlib
+import inspect
+import re
+import textwrap
+
+import pytest
+
+PACKAGES = ["forward", "campaign", "surrogate", "design", "inference", "studio"]
+
+#: Names exported from modules another engineer owns (issue 32 leaves their docstrings to them): the
+#: check skips them, by name, until those modules are done.
+OWNED_ELSEWHERE = {
+    # forward/spec.py
+    "CompositeMaterial",
+    "Constituent",
+    "Contact",
+    "Geometry",
+    "Indenter",
+    "Material",
+    "MeshChoice",
+    "ModelSpec",
+    "Protocol",
+    "SolverOptions",
+    "SpecError",
+    # forward/solver.py
+    "EmbeddedSolver",
+    "SimulationError",
+    "simulate",
+    # forward/newton.py
+    "Equilibrium",
+    "IncrementFailed",
+    "NewtonSystem",
+    # forward/indenter_contact.py, forward/node_stick.py, forward/penalty_contact.py
+    "IndenterContact",
+    "NodeStickContact",
+    "PenaltyContact",
+    # forward/contact_quadrature.py
+    "ContactPoints",
+    "contact_points",
+    "top_faces",
+    "tributary_areas",
+    # forward/coulomb_contact.py
+    "FrictionContactState",
+    "contact_response",
+}
+
+#: Names whose docstrings are still to be written (179 when the check came in): the list may only
+#: shrink; a name on it that passes fails the test, so that it is taken off.
+STILL_TO_DO = {
+    "campaign.CampaignData",
+    "campaign.CampaignSpec",
+    "campaign.CampaignStore",
+    "campaign.Design",
+    "campaign.DiskFullError",
+    "campaign.StoredResponses",
+    "campaign.design_from_option",
+    "campaign.force_table",
+    "campaign.load_campaign",
+    "campaign.open_campaign",
+    "campaign.paper_grid",
+    "campaign.run_campaign",
+    "campaign.run_named_campaign",
+    "campaign.space_filling",
+    "design.Baseline",
+    "design.CompositeHomogenisation",
+    "design.DesignBounds",
+    "design.DesignComparison",
+    "design.DesignStudy",
+    "design.FieldObjective",
+    "design.FixedParameter",
+    "design.FrictionTreatment",
+    "design.Objective",
+    "design.ObjectiveMap",
+    "design.ReducedObjective",
+    "design.WeightsTable",
+    "design.bounds_pct",
+    "design.campaign_objective_map",
+    "design.candidate_grid",
+    "design.check_weights",
+    "design.combine",
+    "design.compare_candidate_designs",
+    "design.compare_designs",
+    "design.compare_with_paper",
+    "design.composite_equibiaxial_fit",
+    "design.design_bounds",
+    "design.fe_design_study",
+    "design.fit_equibiaxial",
+    "design.friction_bounds",
+    "design.friction_design_bounds",
+    "design.model_design_study",
+    "design.objective_function",
+    "design.objective_map",
+    "design.optimise_weights",
+    "design.parallel_fiber_stresses",
+    "design.rule_of_mixtures",
+    "design.s_from_data",
+    "design.table1",
+    "forward.BlockMesh",
+    "forward.BlockStretchResult",
+    "forward.CachedPredictor",
+    "forward.ConvergenceOfQuantity",
+    "forward.ElementModuli",
+    "forward.FESolverPredictor",
+    "forward.FebSettings",
+    "forward.FebioSolver",
+    "forward.GridTriplet",
+    "forward.InvertedElementError",
+    "forward.MeshErrors",
+    "forward.MeshFamily",
+    "forward.PhantomLayout",
+    "forward.Prediction",
+    "forward.Predictor",
+    "forward.ReducedBasis",
+    "forward.ReducedPredictor",
+    "forward.RichardsonPredictor",
+    "forward.SimulationResult",
+    "forward.SimulationRun",
+    "forward.build_mesh",
+    "forward.busy_cores",
+    "forward.composite_moduli",
+    "forward.convergence_study",
+    "forward.default_result_file",
+    "forward.equibiaxial_phantom_mesh",
+    "forward.equibiaxial_stretch",
+    "forward.fiber_volume_fraction",
+    "forward.find_febio",
+    "forward.grid_block",
+    "forward.mesh_errors",
+    "forward.observed_order",
+    "forward.phantom_mesh",
+    "forward.preset_mesh",
+    "forward.run_simulation",
+    "forward.solver_threads",
+    "forward.stretch_block",
+    "forward.structured_block",
+    "forward.study_quantity",
+    "forward.thread_limits",
+    "forward.write_feb",
+    "forward.write_vtu_series",
+    "inference.Adequacy",
+    "inference.CompositeComparison",
+    "inference.CompositeExperiment",
+    "inference.Confirmation",
+    "inference.ErrorBudget",
+    "inference.ExperimentData",
+    "inference.ExperimentFit",
+    "inference.ExperimentPosterior",
+    "inference.FitInputs",
+    "inference.FitResult",
+    "inference.MeshCheck",
+    "inference.ModelError",
+    "inference.NoiseModel",
+    "inference.Posterior",
+    "inference.RecordedRun",
+    "inference.VerificationStudy",
+    "inference.campaign_error_budget",
+    "inference.check_experiment",
+    "inference.check_mesh_at",
+    "inference.chi_square_test",
+    "inference.combined_pct",
+    "inference.compare_with_fit",
+    "inference.compare_with_homogeneous",
+    "inference.composite_indentation",
+    "inference.compute_error_budget",
+    "inference.confirm",
+    "inference.default_friction",
+    "inference.experiment_from_composite",
+    "inference.experiment_from_febio_run",
+    "inference.experiment_objective",
+    "inference.febio_contact",
+    "inference.fit_experiment",
+    "inference.fit_parameters",
+    "inference.fitted_model",
+    "inference.import_dic_csv",
+    "inference.import_duodic",
+    "inference.import_experiment",
+    "inference.import_load_frame",
+    "inference.import_matchid",
+    "inference.load_experiment",
+    "inference.model_error_at",
+    "inference.model_error_scope",
+    "inference.noise_model",
+    "inference.noise_objective_value",
+    "inference.parameter_bias",
+    "inference.prepare_fit",
+    "inference.resolve_model",
+    "inference.run_verification_study",
+    "inference.sample_posterior",
+    "inference.sample_posterior_for",
+    "inference.static_forces",
+    "inference.to_model_frame",
+    "inference.with_model_error",
+    "inference.write_composite_experiment",
+    "inference.write_experiment_from_model",
+    "inference.write_synthetic_experiment",
+    "studio.corner_figure",
+    "studio.design_comparison_figure",
+    "studio.displacement_maps_figure",
+    "studio.equibiaxial_figure",
+    "studio.force_depth_figure",
+    "studio.mesh_figure",
+    "studio.objective_map_figure",
+    "studio.parity_figure",
+    "studio.run_demo",
+    "studio.save_figure",
+    "studio.verification_figure",
+    "surrogate.FieldSurrogate",
+    "surrogate.GaussianProcessSurrogate",
+    "surrogate.MLPSurrogate",
+    "surrogate.MultiFidelitySurrogate",
+    "surrogate.TrainedSurrogate",
+    "surrogate.TrainingData",
+    "surrogate.convert_pickled_surrogate",
+    "surrogate.k_fold_errors",
+    "surrogate.load_surrogate",
+    "surrogate.make_surrogate",
+    "surrogate.prediction_errors",
+    "surrogate.remaining_bias",
+    "surrogate.save_surrogate",
+    "surrogate.shipped_budget",
+    "surrogate.shipped_budgets_folder",
+    "surrogate.surrogate_class",
+    "surrogate.surrogate_error_budget",
+    "surrogate.train_and_save",
+    "surrogate.train_and_save_multi_fidelity",
+    "surrogate.train_multi_fidelity",
+    "surrogate.train_surrogate",
+    "surrogate.training_data",
+}
+
+_SECTION = re.compile(r"^(\S[^\n]*)\n-{3,}\s*$", re.MULTILINE)
+_ENTRY = re.compile(r"^(\*{0,2}\w+(?:\s*,\s*\*{0,2}\w+)*)\s*(?::.*)?$")
+
+
+def _exported():
+    for package_name in PACKAGES:
+        package = importlib.import_module(f"indentation_studio.{package_name}")
+        for name in package.__all__:
+            obj = getattr(package, name)
+            if inspect.isclass(obj) or inspect.isfunction(obj):
+                yield f"{package_name}.{name}", obj
+
+
+EXPORTED = dict(_exported())
+
+
+def sections(doc: str) -> dict[str, str]:
+    """Section title -> its body, for the numpydoc sections of a cleaned docstring."""
+    found = list(_SECTION.finditer(doc))
+    out = {}
+    for k, match in enumerate(found):
+        end = found[k + 1].start() if k + 1 < len(found) else len(doc)
+        out[match.group(1).strip()] = doc[match.end() : end]
+    return out
+
+
+def documented_names(body: str) -> list[str]:
+    """The names a Parameters/Attributes section documents: its lines at the section's indent."""
+    lines = [line for line in body.splitlines() if line.strip()]
+    if not lines:
+        return []
+    indent = min(len(line) - len(line.lstrip()) for line in lines)
+    names = []
+    for line in lines:
+        if len(line) - len(line.lstrip()) == indent:
+            match = _ENTRY.match(line.strip())
+            if match:
+                names += [n.strip().lstrip("*") for n in match.group(1).split(",")]
+    return names
+
+
+def _own_doc(obj) -> str:
+    """The object's own docstring, cleaned: not an inherited one, not a dataclass's generated one."""
+    doc = obj.__dict__.get("__doc__") if inspect.isclass(obj) else obj.__doc__
+    if not doc or (inspect.isclass(obj) and doc.startswith(f"{obj.__name__}(")):
+        return ""
+    return inspect.cleandoc(doc)
+
+
+def _parameters(obj) -> list[str]:
+    """Names of the parameters a user passes (no self or cls); a class: its constructor's."""
+    if inspect.isclass(obj) and issubclass(obj, BaseException) and "__init__" not in vars(obj):
+        return []  # an error takes the message the way every exception does
+    try:
+        signature = inspect.signature(obj)
+    except (TypeError, ValueError):
+        return []
+    return [p for p in signature.parameters if p not in ("self", "cls")]
+
+
+def _raised_errors(func) -> set[str]:
+    """Names of the errors a function raises in its own body (not in a nested function)."""
+    try:
+        tree = ast.parse(textwrap.dedent(inspect.getsource(func)))
+    except (OSError, TypeError, SyntaxError):
+        return set()
+    body = tree.body[0]
+    nested = {
+        id(node)
+        for inner in ast.walk(body)
+        if inner is not body and isinstance(inner, ast.FunctionDef | ast.AsyncFunctionDef | ast.Lambda)
+        for node in ast.walk(inner)
+    }
+    names = set()
+    for node in ast.walk(body):
+        if isinstance(node, ast.Raise) and node.exc is not None and id(node) not in nested:
+            exc = node.exc.func if isinstance(node.exc, ast.Call) else node.exc
+            name = exc.attr if isinstance(exc, ast.Attribute) else getattr(exc, "id", None)
+            if name and (name.endswith(("Error", "Exception", "Failed")) or name == "KeyboardInterrupt"):
+                names.add(name)
+    return names
+
+
+def problems(obj) -> list[str]:
+    """What the docstring of ``obj`` lacks (empty when it is complete)."""
+    doc = _own_doc(obj)
+    if not doc:
+        return ["no docstring"]
+    out = []
+    paragraphs = doc.split("\n\n")
+    if "\n" in paragraphs[0].strip() or _SECTION.match(paragraphs[0] + "\n"):
+        out.append("the summary is not one line followed by a blank line")
+    found = sections(doc)
+    params = _parameters(obj)
+    if inspect.isclass(obj):
+        init = vars(obj).get("__init__")
+        init_doc = inspect.cleandoc(init.__doc__) if init is not None and init.__doc__ else ""
+        found = {**sections(init_doc), **found}
+        documented = documented_names(found.get("Parameters", "")) + documented_names(
+            found.get("Attributes", "")
+        )
+        if params and not ({"Parameters", "Attributes"} & set(found)):
+            out.append("no Parameters or Attributes section")
+        elif "Parameters" in found:
+            missing = [p for p in params if p not in documented]
+            extra = [d for d in documented_names(found["Parameters"]) if d not in params]
+            out += [f"parameter {p} not documented" for p in missing]
+            out += [f"documents {d}, which is no parameter" for d in extra]
+        return out
+    if params:
+        if "Parameters" not in found:
+            out.append("no Parameters section")
+        else:
+            documented = documented_names(found["Parameters"])
+            out += [f"parameter {p} not documented" for p in params if p not in documented]
+            out += [f"documents {d}, which is no parameter" for d in documented if d not in params]
+    returns = inspect.signature(obj).return_annotation
+    if returns not in (inspect.Signature.empty, None, "None", "NoReturn") and not (
+        {"Returns", "Yields"} & set(found)
+    ):
+        out.append("no Returns section")
+    raised = _raised_errors(obj)
+    if raised:
+        if "Raises" not in found:
+            out.append(f"no Raises section (raises {', '.join(sorted(raised))})")
+        else:
+            out += [f"Raises does not name {e}" for e in sorted(raised) if e not in found["Raises"]]
+    return out
+
+
+def test_the_check_sees_the_exported_names():
+    assert len(EXPORTED) > 170
+    assert {"campaign.run_campaign", "design.bounds_pct", "studio.corner_figure"} <= set(EXPORTED)
+
+
+@pytest.mark.parametrize("qualified", sorted(EXPORTED))
+def test_exported_name_has_a_numpydoc_docstring(qualified):
+    if qualified.split(".")[-1] in OWNED_ELSEWHERE:
+        pytest.skip("a module owned by another engineer (OWNED_ELSEWHERE)")
+    found = problems(EXPORTED[qualified])
+    if qualified in STILL_TO_DO:
+        assert found, f"{qualified} passes now: take it off STILL_TO_DO"
+        pytest.xfail("; ".join(found))
+    assert not found, f"{qualified}: " + "; ".join(found)
