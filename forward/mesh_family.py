@@ -10,6 +10,15 @@ with beta set so that the base level's first cell (at the indentation point) is 
 ``round(n * ratio^k)`` cells along an axis of n base cells, the same xi-spacing refined by ``ratio``,
 so every cell shrinks by the same ratio wherever it is (Roache's systematic refinement), and the
 representative size h = (V / N)^(1/3) falls by ``ratio`` from level to level.
+
+A family may instead follow the contact (``core_xy`` > 0): along x and y the map is uniform over a
+core of ``core_xy`` mm (the region the contact edge sweeps and the inner DIC field) on the first
+``core_fraction`` of xi, then grows exponentially with a continuous cell size to the far face,
+
+    x(xi) = core xi / xc                                   (xi <= xc)
+    x(xi) = core + (core / xc) (exp(b (xi - xc)) - 1) / b   (xi > xc),
+
+the same map at every level, so the refinement stays systematic.
 """
 
 from __future__ import annotations
@@ -23,7 +32,7 @@ from .block_mesh import BlockMesh, grid_block
 from .grid_convergence import representative_size
 from .spec import Geometry
 
-__all__ = ["MeshFamily", "graded_coordinates"]
+__all__ = ["MeshFamily", "cored_coordinates", "graded_coordinates"]
 
 
 def graded_coordinates(length: float, cells: int, beta: float) -> np.ndarray:
@@ -33,6 +42,24 @@ def graded_coordinates(length: float, cells: int, beta: float) -> np.ndarray:
         return length * xi
     x = length * np.expm1(beta * xi) / np.expm1(beta)
     x[-1] = length  # exactly: the far faces of every level coincide
+    return x
+
+
+def cored_coordinates(length: float, cells: int, core: float, fraction: float) -> np.ndarray:
+    """``cells + 1`` coordinates from 0 to ``length``: uniform over ``core`` mm on the first
+    ``fraction`` of xi, then exponential growth (module docstring)."""
+    xi = np.linspace(0.0, 1.0, cells + 1)
+    slope = core / fraction
+    rest = length - core
+    span = 1.0 - fraction
+    if rest <= slope * span * (1.0 + 1e-9):
+        raise ValueError(
+            f"a core of {core:g} mm on {fraction:g} of the cells leaves too little to grow into over "
+            f"{length:g} mm; make the core smaller or its fraction larger"
+        )
+    b = float(brentq(lambda b: slope * np.expm1(b * span) / b - rest, 1e-9, 200.0))
+    x = np.where(xi <= fraction, slope * xi, core + slope * np.expm1(b * (xi - fraction)) / b)
+    x[-1] = length
     return x
 
 
@@ -60,6 +87,11 @@ class MeshFamily:
         The size of level 0's cell at the indentation point along x (and y) and z, mm.
     ratio : float
         Refinement ratio between levels (Roache asks for at least 1.3).
+    core_xy : float, optional
+        A core of uniform cells this wide (mm) along x and y at the indentation point (0: none;
+        ``h0_xy`` is then unused).
+    core_fraction : float, optional
+        The share of the cells along x and y inside the core.
     """
 
     cells_xy: int = 8
@@ -67,12 +99,18 @@ class MeshFamily:
     h0_xy: float = 1.2
     h0_z: float = 1.2
     ratio: float = 1.5
+    core_xy: float = 0.0
+    core_fraction: float = 0.5
 
     def __post_init__(self) -> None:
         if not self.ratio > 1.0:
             raise ValueError(f"the refinement ratio must be > 1, got {self.ratio!r}")
         if self.cells_xy < 1 or self.cells_z < 1:
             raise ValueError("a family needs at least one cell per axis")
+        if self.core_xy < 0.0 or not 0.0 < self.core_fraction < 1.0:
+            raise ValueError(
+                f"core_xy must be >= 0 and core_fraction in (0, 1), got {self.core_xy!r}, {self.core_fraction!r}"
+            )
 
     def cells(self, level: int) -> tuple[int, int]:
         """(cells along x and y, cells along z) at ``level``; refused where ratio^level does not
@@ -92,11 +130,13 @@ class MeshFamily:
         """The hex8 quarter block of ``level`` (0 the coarsest)."""
         g = geometry or Geometry()
         nxy, nz = self.cells(level)
-        bx = _rate(g.half_x, self.cells_xy, self.h0_xy)
-        by = _rate(g.half_y, self.cells_xy, self.h0_xy)
+        if self.core_xy > 0.0:
+            x = cored_coordinates(g.half_x, nxy, self.core_xy, self.core_fraction)
+            y = cored_coordinates(g.half_y, nxy, self.core_xy, self.core_fraction)
+        else:
+            x = graded_coordinates(g.half_x, nxy, _rate(g.half_x, self.cells_xy, self.h0_xy))
+            y = graded_coordinates(g.half_y, nxy, _rate(g.half_y, self.cells_xy, self.h0_xy))
         bz = _rate(g.height, self.cells_z, self.h0_z)
-        x = graded_coordinates(g.half_x, nxy, bx)
-        y = graded_coordinates(g.half_y, nxy, by)
         z = g.height - graded_coordinates(g.height, nz, bz)[::-1]
         return grid_block(x, y, z, f"family:{self.name}:L{level}")
 
@@ -112,13 +152,17 @@ class MeshFamily:
 
     @property
     def name(self) -> str:
-        return f"{self.cells_xy}x{self.cells_z}-h{self.h0_xy:g}x{self.h0_z:g}-r{self.ratio:g}"
+        core = f"-core{self.core_xy:g}x{self.core_fraction:g}" if self.core_xy > 0.0 else ""
+        return f"{self.cells_xy}x{self.cells_z}-h{self.h0_xy:g}x{self.h0_z:g}-r{self.ratio:g}{core}"
 
     def to_dict(self) -> dict:
-        return {
+        d = {
             "cells_xy": self.cells_xy,
             "cells_z": self.cells_z,
             "h0_xy": self.h0_xy,
             "h0_z": self.h0_z,
             "ratio": self.ratio,
         }
+        if self.core_xy > 0.0:  # families written before cores existed read the same
+            d |= {"core_xy": self.core_xy, "core_fraction": self.core_fraction}
+        return d

@@ -20,14 +20,25 @@ from .progress import step_progress
 
 
 def parse_family(text: str) -> forward.MeshFamily:
-    """'CXY x CZ : H0 : RATIO' (e.g. '8x8:1.2:1.5'): base cells along x (and y) and z, the base
-    level's first cell (mm, both axes) and the refinement ratio."""
+    """'CXY x CZ : H0 : RATIO [: coreMM[xFRACTION]]' (e.g. '8x8:1.2:1.5' or '8x8:1.2:1.5:core8'):
+    base cells along x (and y) and z, the base level's first cell (mm, both axes; along z only
+    with a core), the refinement ratio, and a core of uniform cells MM wide along x and y holding
+    FRACTION of their cells (0.5 unless given) that the contact's edge sweeps."""
     try:
-        cells, h0, ratio = text.split(":")
+        cells, h0, ratio, *core = text.split(":")
         cxy, cz = cells.lower().split("x")
-        return forward.MeshFamily(int(cxy), int(cz), float(h0), float(h0), float(ratio))
+        extra = {}
+        if core:
+            if len(core) > 1 or not core[0].lower().startswith("core"):
+                raise ValueError("the fourth part is coreMM or coreMMxFRACTION")
+            width, _, fraction = core[0][4:].lower().partition("x")
+            extra = {"core_xy": float(width), "core_fraction": float(fraction or 0.5)}
+        return forward.MeshFamily(int(cxy), int(cz), float(h0), float(h0), float(ratio), **extra)
     except ValueError as exc:
-        raise ValueError(f"--family {text!r}: use CXYxCZ:H0:RATIO, e.g. 8x8:1.2:1.5 ({exc})") from exc
+        raise ValueError(
+            f"--family {text!r}: use CXYxCZ:H0:RATIO[:coreMM[xFRACTION]], e.g. 8x8:1.2:1.5 or "
+            f"8x8:1.2:1.5:core8 ({exc})"
+        ) from exc
 
 
 def parse_points(text: str) -> list[tuple[float, float]]:
@@ -45,7 +56,9 @@ def _floats(text: str, option: str) -> list[float]:
         raise ValueError(f"{option} {text!r}: use comma-separated numbers") from exc
 
 
-FAMILY = Annotated[str, typer.Option(help="CXYxCZ:H0:RATIO, the base level and the ratio")]
+FAMILY = Annotated[
+    str, typer.Option(help="CXYxCZ:H0:RATIO[:coreMM[xFRACTION]], the base level, the ratio and a core")
+]
 LEVELS = Annotated[str, typer.Option(help="comma-separated levels (0 the coarsest)")]
 POINTS = Annotated[str, typer.Option(help="c1:c5 pairs, kPa")]
 RADII = Annotated[str, typer.Option(help="indenter radii, mm")]

@@ -70,6 +70,29 @@ def test_family_refines_every_cell_by_the_same_ratio():
     assert np.all(np.diff(graded_coordinates(50.0, 12, 2.0)) > 0)
 
 
+def test_a_family_with_a_core_keeps_its_cells_uniform_there_and_refines_systematically():
+    from indentation_studio.studio.verification_cli import parse_family
+
+    fam = parse_family("8x8:1.2:1.5:core8")
+    assert (fam.core_xy, fam.core_fraction) == (8.0, 0.5) and "core8" in fam.name
+    x0, x2 = (np.unique(fam.mesh(k).nodes[:, 0]) for k in (0, 2))
+    assert np.allclose(np.diff(x0)[:4], 2.0) and np.allclose(np.diff(x2)[:9], 8.0 / 9.0)
+    assert x2[-1] == 50.0 and np.all(np.diff(np.diff(x2)[8:]) > 0)  # grows beyond the core
+    sizes = np.diff(x2)
+    assert sizes[9] / sizes[8] < 1.2  # the cell size continuous across the core's edge (C1 map)
+    # systematic: at any point the cells of level 2 are the ratio^2 smaller than level 0's
+    for at in (3.0, 7.0, 20.0):  # (beyond, level 0's 20 mm cells sample the map too coarsely)
+        ratio = np.interp(at, 0.5 * (x0[1:] + x0[:-1]), np.diff(x0)) / np.interp(
+            at, 0.5 * (x2[1:] + x2[:-1]), sizes
+        )
+        assert ratio == pytest.approx(2.25, rel=0.05)
+    assert "core_xy" in fam.to_dict() and "core_xy" not in MeshFamily().to_dict()
+    with pytest.raises(ValueError, match="coreMM"):
+        parse_family("8x8:1.2:1.5:ring8")
+    with pytest.raises(ValueError, match="too little to grow"):
+        MeshFamily(core_xy=45.0, core_fraction=0.5).mesh(0)
+
+
 @pytest.fixture(scope="module")
 def small_study(tmp_path_factory):
     from indentation_studio.forward.spec import ModelSpec, Protocol
