@@ -23,7 +23,22 @@ PAPER_COUNTS: dict[str, int] = {"c1": 25, "c5": 31}
 
 @dataclass(frozen=True)
 class Design:
-    """Parameter points (n, p) with named columns and a description that reproduces them."""
+    """Parameter points (n, p) with named columns and a description that reproduces them.
+
+    Parameters
+    ----------
+    points : numpy.ndarray
+        The points, shape (n, p), n >= 1; stored as a float array (kPa for c1 and c5).
+    parameters : tuple of str
+        The parameter of each column, e.g. ``("c1", "c5")``.
+    description : str
+        Text that reproduces the design (``"paper"``, ``"lhs:n=50:seed=0"``, ...).
+
+    Raises
+    ------
+    DesignError
+        If ``points`` is not (n >= 1, len(parameters)).
+    """
 
     points: np.ndarray
     parameters: tuple[str, ...]
@@ -61,7 +76,21 @@ def grid(
 
 
 def paper_grid() -> Design:
-    """The paper's 775 points: 25 c1 x 31 c5 over its box (module docstring)."""
+    """The paper's 775 points: 25 c1 x 31 c5 over its box (module docstring).
+
+    Returns
+    -------
+    Design
+        c1 evenly spaced over [1, 21] kPa (25 values) times c5 over [82.5, 578] kPa (31 values),
+        ends included, c1 the slowest column; described as ``"paper"``.
+
+    Examples
+    --------
+    >>> from indentation_studio.campaign import paper_grid
+    >>> design = paper_grid()
+    >>> design.points.shape, design.parameters
+    ((775, 2), ('c1', 'c5'))
+    """
     return grid(PAPER_BOUNDS, PAPER_COUNTS, "paper")
 
 
@@ -120,8 +149,38 @@ def points_from_csv(path: str | Path, parameters: tuple[str, ...] = ("c1", "c5")
 def space_filling(
     kind: str, n: int, bounds: dict[str, tuple[float, float]] | None = None, seed: int = 0
 ) -> Design:
-    """``n`` points of a Latin hypercube (``lhs``) or scrambled Sobol (``sobol``) design in ``bounds``
-    (default: the paper's box), reproducible from ``seed`` (scipy.stats.qmc)."""
+    """A Latin hypercube (``lhs``) or scrambled Sobol (``sobol``) design of ``n`` points.
+
+    The points come from scipy.stats.qmc, scaled into ``bounds``, and are reproducible from
+    ``seed``.
+
+    Parameters
+    ----------
+    kind : {"lhs", "sobol"}
+        The space-filling design.
+    n : int
+        Number of points (>= 1).
+    bounds : dict of str to (float, float), optional
+        Parameter -> (low, high), kPa; default the paper's box (c1 in [1, 21], c5 in [82.5, 578]).
+    seed : int, default 0
+        Seed of the generator.
+
+    Returns
+    -------
+    Design
+        The points, described as ``"<kind>:n=<n>:seed=<seed>"``.
+
+    Raises
+    ------
+    DesignError
+        If ``n < 1`` or ``kind`` is neither ``lhs`` nor ``sobol``.
+
+    Examples
+    --------
+    >>> from indentation_studio.campaign import space_filling
+    >>> space_filling("lhs", 8, seed=1).points.shape
+    (8, 2)
+    """
     bounds = bounds or PAPER_BOUNDS
     d = len(bounds)
     if n < 1:
@@ -137,8 +196,31 @@ def space_filling(
 
 
 def design_from_option(text: str) -> Design:
-    """The CLI's ``--grid``: ``paper``, a CSV path, ``c1=LO:HI:N,c5=LO:HI:N``, or ``lhs:N[:SEED]`` /
-    ``sobol:N[:SEED]`` over the paper's box."""
+    """The design a ``--grid`` option of the CLI names.
+
+    Parameters
+    ----------
+    text : str
+        ``paper`` (:func:`paper_grid`), a CSV path (one column per parameter), a grid
+        ``c1=LO:HI:N,c5=LO:HI:N``, or ``lhs:N[:SEED]`` / ``sobol:N[:SEED]`` over the paper's box
+        (:func:`space_filling`).
+
+    Returns
+    -------
+    Design
+        The points it names.
+
+    Raises
+    ------
+    DesignError
+        If the text cannot be read as one of these forms (or the points are invalid).
+
+    Examples
+    --------
+    >>> from indentation_studio.campaign import design_from_option
+    >>> design_from_option("c1=1:21:3,c5=82.5:578:2").points.shape
+    (6, 2)
+    """
     t = text.strip()
     if t == "paper":
         return paper_grid()

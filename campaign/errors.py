@@ -13,5 +13,7 @@ class DesignError(ValueError):
 
 
 class DiskFullError(CampaignError, OSError):
-    """The disk filled while writing into the store: nothing was written half (every write is a
-    temporary file renamed only when complete); the message names the file."""
+    """The disk filled while writing into the store; the message names the file.
+
+    Nothing was written half: every write is a temporary file renamed only when complete.
+    """

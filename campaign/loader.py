@@ -18,7 +18,34 @@ from .store import CampaignError, CampaignStore
 
 @dataclass
 class CampaignData:
-    """The done points of a campaign. Steps are 1..N_s (depth 0 left out, as in a Prediction)."""
+    """The done points of a campaign, as arrays; steps are 1..N_s (depth 0 left out, as in a Prediction).
+
+    Attributes
+    ----------
+    theta : numpy.ndarray
+        (n, p) parameters of the points, kPa.
+    force : numpy.ndarray
+        (n, steps) indentation force of the whole specimen, mN; NaN where a step has no force.
+    displacement : numpy.ndarray
+        (n, steps, nodes, 3) displacements of the top-surface nodes, mm.
+    depth : numpy.ndarray
+        (steps,) indentation depth, mm.
+    top_xyz : numpy.ndarray
+        (nodes, 3) reference coordinates of the top-surface nodes, mm.
+    top_node_ids : numpy.ndarray
+        (nodes,) mesh node numbers of those nodes.
+    parameters : tuple of str
+        The parameter of each column of ``theta``.
+    points : numpy.ndarray
+        (n,) the points' numbers in the store.
+    spec : dict
+        The campaign spec (``campaign.json``).
+    left_out : dict of int to str
+        Done points left out (fewer than two finite forces) -> why.
+    missing : numpy.ndarray or None
+        (n, steps) True at steps without a finite force (FEBio steps flagged off equilibrium);
+        None when every force is finite.
+    """
 
     theta: np.ndarray  # (n, p) kPa
     force: np.ndarray  # (n, steps) mN, whole specimen
@@ -74,9 +101,16 @@ def fill_missing_steps(force: np.ndarray, depth: np.ndarray) -> tuple[np.ndarray
 
 
 class StoredResponses:
-    """A campaign's responses as a Predictor at its own points (no Jacobians): what makes synthetic
-    experiments from a campaign on a fine mesh without solving it again. A point the campaign does
-    not hold is refused."""
+    """A campaign's responses as a Predictor at its own points (no Jacobians).
+
+    What makes synthetic experiments from a campaign on a fine mesh without solving it again.
+    ``predict`` refuses (``ValueError``) a point the campaign does not hold, and a Jacobian.
+
+    Parameters
+    ----------
+    data : CampaignData
+        The campaign (:func:`load_campaign`); its spec's model becomes ``spec``.
+    """
 
     def __init__(self, data: CampaignData) -> None:
         self.data = data
@@ -102,8 +136,23 @@ class StoredResponses:
 def open_campaign(
     name_or_path: str | Path, runs_dir: str | Path = "runs", repair: bool = False
 ) -> CampaignStore:
-    """A campaign by folder path or by name under ``runs_dir``, its files checked (nothing written
-    unless ``repair``: the failures are in ``store.problems``)."""
+    """Open a campaign by folder path or by name under ``runs_dir``, its files checked.
+
+    Parameters
+    ----------
+    name_or_path : str or pathlib.Path
+        A folder holding ``campaign.json``, or a campaign name under ``runs_dir``.
+    runs_dir : str or pathlib.Path, default "runs"
+        Where named campaigns live.
+    repair : bool, default False
+        Repair what the check finds; otherwise nothing is written and the failures are in
+        ``store.problems``.
+
+    Returns
+    -------
+    CampaignStore
+        The opened store.
+    """
     p = Path(name_or_path)
     root = p if (p / "campaign.json").is_file() else Path(runs_dir) / str(name_or_path)
     return CampaignStore.open(root, repair=repair)
@@ -134,12 +183,38 @@ def load_point(store: CampaignStore, point: int) -> SimulationResult:
 
 
 def load_campaign(name_or_path: str | Path, runs_dir: str | Path = "runs") -> CampaignData:
-    """Arrays of every done point (failed and pending points are left out). Steps without a
-    finite force, e.g. FEBio steps flagged off equilibrium, stay NaN in ``force`` and True in
-    ``missing`` (training fills them from the point's own neighbouring steps, see
+    """Load the arrays of every done point of a campaign (failed and pending points are left out).
+
+    Steps without a finite force, e.g. FEBio steps flagged off equilibrium, stay NaN in ``force``
+    and True in ``missing`` (training fills them from the point's own neighbouring steps, see
     :meth:`surrogate.base.TrainingData.from_campaign`); a done point with fewer than two finite
-    forces is left out with a warning naming it. A store whose files fail their check is
-    refused, naming them."""
+    forces is left out with a warning naming it.
+
+    Parameters
+    ----------
+    name_or_path : str or pathlib.Path
+        A campaign folder, or a campaign name under ``runs_dir`` (:func:`open_campaign`).
+    runs_dir : str or pathlib.Path, default "runs"
+        Where named campaigns live.
+
+    Returns
+    -------
+    CampaignData
+        The done points' parameters, forces, displacements, depths and top surface.
+
+    Raises
+    ------
+    CampaignError
+        If the store's files fail their check (naming them), no point is done, no done point has
+        a usable force curve, or two points differ in their steps or nodes.
+
+    Examples
+    --------
+    >>> from indentation_studio.campaign import load_campaign
+    >>> data = load_campaign("paper")  # doctest: +SKIP
+    >>> data.theta.shape  # doctest: +SKIP
+    (775, 2)
+    """
     store = open_campaign(name_or_path, runs_dir)
     require_sound(store)
     done = store.points_with("done")
@@ -207,8 +282,19 @@ def _usable_force_curves(
 
 
 def force_table(store: CampaignStore) -> pd.DataFrame:
-    """Tidy table of the done points: one row per point and step (point, parameters, step,
-    depth_mm, force_mN; NaN where a FEBio step was off equilibrium)."""
+    """Tidy table of the done points' forces: one row per point and step.
+
+    Parameters
+    ----------
+    store : CampaignStore
+        An open campaign; its files must pass their check.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``point``, one per parameter (kPa), ``step``, ``depth_mm``, ``force_mN`` (NaN where a
+        FEBio step was off equilibrium); empty with these columns when no point is done.
+    """
     rows = []
     names = store.spec.design.parameters
     require_sound(store)

@@ -268,10 +268,40 @@ def run_campaign(
     wait_for_held: bool = True,
     poll_s: float = 0.5,
 ) -> dict[str, Any]:
-    """Solve the pending points (and the failed ones with ``retry_failed``) that no other run
-    holds; returns the summary (``solved_now``: the points this run solved, ``held_by_other_runs``:
-    those another live run held when it returned). ``index_every_s`` is kept for callers: the
-    index is written as each point finishes (other runs read it)."""
+    """Solve the pending points of a store (and failed ones with ``retry_failed``) no other run holds.
+
+    Each point is claimed under a lease (renewed by a heartbeat), solved, its files written, then
+    its index row; an interrupted run releases its claims.
+
+    Parameters
+    ----------
+    store : CampaignStore
+        The campaign to solve.
+    jobs : int, default 1
+        Worker processes (1: in this process); ignored when ``scheduler`` is given.
+    scheduler : str, optional
+        Address of a dask scheduler to run the points on.
+    retry_failed : bool, default False
+        Solve the failed points again too.
+    timeout_s : float, optional
+        Time limit of one point's solve, s.
+    progress : callable, optional
+        Called as ``progress(handled, total, counts)`` after each point.
+    index_every_s : float, default 1.0
+        Kept for callers: the index is written as each point finishes (other runs read it).
+    lease_timeout_s : float, default 120
+        A claim not renewed for this long is taken to belong to a dead run, s.
+    wait_for_held : bool, default True
+        Wait for points another live run holds instead of returning.
+    poll_s : float, default 0.5
+        Polling interval while waiting, s.
+
+    Returns
+    -------
+    dict
+        The store's summary (counts by status) with ``problems``, ``wall_s``, ``solved_now`` (points
+        this run solved) and ``held_by_other_runs`` (those another live run held when it returned).
+    """
     spec = store.spec
     model = spec.model.to_dict()
     statuses = ("pending", "failed") if retry_failed else ("pending",)
@@ -415,12 +445,60 @@ def run_named_campaign(
     equilibrium_rel: float | None = None,
     verify_only: bool = False,
 ) -> dict[str, Any]:
-    """Create (or resume) the campaign ``runs_dir/name`` of ``model`` over ``design`` (a Design or a
-    grid option such as 'paper', 'lhs:200:7', 'c1=2:20:10,c5=100:500:9') and solve what is left.
-    ``jobs`` 0 means all cores. A store started with another spec is refused, naming the fields.
-    ``equilibrium_rel`` (FEBio): the fraction of a step's own force its imbalance may reach
-    before the step is flagged (default 2 %). ``verify_only``: check the store's files and report,
-    repairing and solving nothing."""
+    """Create (or resume) the campaign ``runs_dir/name`` and solve what is left.
+
+    Parameters
+    ----------
+    name : str
+        The campaign's name: its folder under ``runs_dir``.
+    design : Design or str
+        The points, or a grid option such as ``'paper'``, ``'lhs:200:7'``,
+        ``'c1=2:20:10,c5=100:500:9'`` (:func:`design_from_option`).
+    model : ModelSpec
+        The forward model every point is solved with.
+    runs_dir : str or pathlib.Path, default "runs"
+        Where campaigns live.
+    solver : {"embedded", "febio"}, default "embedded"
+        The forward solver.
+    jobs : int, default 0
+        Worker processes; 0 means all cores.
+    scheduler : str, optional
+        Address of a dask scheduler.
+    retry_failed : bool, default False
+        Solve the failed points again too.
+    timeout_s : float, optional
+        Time limit of one point's solve, s.
+    progress : callable, optional
+        Called as ``progress(handled, total, counts)`` after each point.
+    lease_timeout_s : float, default 120
+        A claim not renewed for this long belongs to a dead run, s.
+    wait_for_held : bool, default True
+        Wait for points another live run holds.
+    equilibrium_rel : float, optional
+        FEBio: the fraction of a step's own force its imbalance may reach before the step is
+        flagged (default 2 %).
+    verify_only : bool, default False
+        Check the store's files and report, repairing and solving nothing.
+
+    Returns
+    -------
+    dict
+        The summary of :func:`run_campaign` with ``name``, ``root`` and ``jobs`` (with
+        ``verify_only``: the store's summary, ``verify_only`` True and ``solved_now`` 0).
+
+    Raises
+    ------
+    CampaignError
+        If the store was started with another spec (naming the fields), or, with ``verify_only``,
+        there is no campaign at ``runs_dir/name``.
+
+    Examples
+    --------
+    >>> import indentation_studio as ins
+    >>> summary = ins.run_named_campaign("small", "lhs:20:7", ins.ModelSpec(), jobs=2)  # doctest: +SKIP
+    >>> summary["solved_now"]  # doctest: +SKIP
+    20
+    """
     if isinstance(design, str):
         design = design_from_option(design)
     extra = {"equilibrium_rel": float(equilibrium_rel)} if solver == "febio" and equilibrium_rel else {}

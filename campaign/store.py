@@ -29,7 +29,7 @@ import os
 import socket
 import time
 import uuid
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -39,6 +39,7 @@ from filelock import FileLock, Timeout
 
 from .. import __version__
 from ..atomic_write import atomic_write
+from ..forward.mesh import build_mesh
 from ..forward.result import SimulationResult
 from ..forward.spec import ModelSpec
 from .designs import Design
@@ -165,7 +166,26 @@ class ClaimOutcome:
 
 @dataclass(frozen=True)
 class CampaignSpec:
-    """What a campaign computes: a design of parameter points on one model and solver."""
+    """What a campaign computes: a design of parameter points on one model and solver.
+
+    Parameters
+    ----------
+    name : str
+        The campaign's folder name (no path separator, not starting with a dot).
+    design : Design
+        The parameter points.
+    model : ModelSpec
+        The forward model every point is solved with.
+    solver : {"embedded", "febio"}, default "embedded"
+        The forward solver.
+    extra : dict, optional
+        Further settings, e.g. ``equilibrium_rel`` (FEBio, see :attr:`equilibrium_rel`).
+
+    Raises
+    ------
+    CampaignError
+        If the name is not a plain folder name or the solver is unknown.
+    """
 
     name: str
     design: Design
@@ -240,11 +260,23 @@ def _changed_fields(a: Any, b: Any, prefix: str = "") -> list[str]:
 
 
 class CampaignStore:
-    """One campaign folder. ``create_or_open`` refuses a spec that differs from the stored one.
+    """One campaign folder: its spec, its index of points and their result files.
 
-    ``open(root, repair=True)`` (what a run does) repairs what its checks find; with
-    ``repair=False`` (``campaign status``, the loaders) nothing is written and :attr:`problems`
-    lists what failed."""
+    Make one with :meth:`create_or_open` (which refuses a spec that differs from the stored one)
+    or :meth:`open`. ``open(root, repair=True)`` (what a run does) repairs what its checks find;
+    with ``repair=False`` (``campaign status``, the loaders) nothing is written and
+    :attr:`problems` lists what failed.
+
+    Parameters
+    ----------
+    root : pathlib.Path
+        The campaign folder (``runs/<name>/``).
+    spec : CampaignSpec
+        What the campaign computes.
+    index : pandas.DataFrame
+        One row per point: its parameters, ``status``, ``wall_s``, ``newton_iterations``,
+        ``error``, ``finished`` and the file checks.
+    """
 
     def __init__(self, root: Path, spec: CampaignSpec, index: pd.DataFrame) -> None:
         self.root = Path(root)
@@ -283,6 +315,8 @@ class CampaignStore:
     def create_or_open(cls, runs_dir: str | Path, spec: CampaignSpec, repair: bool = True) -> CampaignStore:
         root = Path(runs_dir) / spec.name
         meta = root / "campaign.json"
+        mesh = build_mesh(spec.model).geometry_record()
+        spec = replace(spec, extra=spec.extra | {"mesh": mesh})
         if not meta.is_file():
             root.mkdir(parents=True, exist_ok=True)
             with FileLock(root / ".lock", timeout=LOCK_TIMEOUT_S):
@@ -298,6 +332,16 @@ class CampaignStore:
                     store = cls(root, spec, cls._fresh_index(spec))
                     _write(root / "index.parquet", lambda tmp: store.index.to_parquet(tmp, index=False))
         store = cls.open(root, repair=repair)
+        stored = store.spec.extra.get("mesh")  # None in a store written before meshes were recorded
+        if stored is not None and stored != mesh:
+            changed = ", ".join(
+                f"{k} {stored.get(k)!r} -> {mesh[k]!r}" for k in mesh if stored.get(k) != mesh[k]
+            )
+            raise CampaignError(
+                f"campaign {spec.name!r} in {root} was solved on another mesh than {mesh['source']} builds "
+                f"today ({changed}); its points would not be this mesh's: use another --name, or delete "
+                "the folder to start over"
+            )
         diff = store.spec.differences(spec)
         if diff:
             raise CampaignError(
