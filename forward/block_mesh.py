@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -42,6 +44,29 @@ class BlockMesh:
     @property
     def top_xyz(self) -> np.ndarray:
         return self.nodes[self.top]
+
+    def geometry_record(self) -> dict[str, Any]:
+        """What identifies this mesh's geometry: its source, node and element counts, the node
+        coordinates' extent and the sha256 of its coordinates (rounded to 1e-9 mm) and
+        connectivity. A campaign store keeps it so that a store is never reused on a changed mesh.
+
+        Returns
+        -------
+        dict
+            ``source``, ``nodes``, ``elements``, ``extent_mm`` and ``sha256``.
+        """
+        digest = hashlib.sha256()
+        digest.update(np.ascontiguousarray(np.round(self.nodes, 9), dtype="<f8").tobytes())
+        digest.update(np.ascontiguousarray(self.elements, dtype="<i8").tobytes())
+        if self.element_material is not None:
+            digest.update(np.ascontiguousarray(self.element_material, dtype="<i8").tobytes())
+        return {
+            "source": self.source,
+            "nodes": self.n_nodes,
+            "elements": self.n_elements,
+            "extent_mm": [float(v) for v in self.nodes.max(axis=0) - self.nodes.min(axis=0)],
+            "sha256": digest.hexdigest(),
+        }
 
     def element_set(self, name: str) -> np.ndarray:
         """Zero-based indices of the elements of material ``name``."""

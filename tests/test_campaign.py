@@ -178,6 +178,31 @@ def test_dask_localcluster_and_loader(tmp_path):
 
 
 # ------------------------------------------------ nothing lost, nothing trusted blindly (issue 34)
+def test_a_store_records_its_mesh_and_refuses_a_changed_one(tmp_path, monkeypatch):
+    """A preset whose geometry changes keeps its name: the store names the change instead of
+    mixing points of two meshes."""
+    import dataclasses
+
+    import indentation_studio.campaign.store as store_module
+    from indentation_studio.forward.mesh import build_mesh
+
+    store = CampaignStore.create_or_open(tmp_path, _spec("m", "c1=2:4:2,c5=100:200:2"))
+    record = store.spec.extra["mesh"]
+    assert record["nodes"] == build_mesh(SMALL).n_nodes and len(record["sha256"]) == 64
+    assert json.loads((tmp_path / "m" / "campaign.json").read_text())["extra"]["mesh"] == record
+    CampaignStore.create_or_open(tmp_path, _spec("m", "c1=2:4:2,c5=100:200:2"))  # same mesh: fine
+
+    def moved(spec):  # the same preset, one top node moved by 0.1 mm
+        mesh = build_mesh(spec)
+        nodes = mesh.nodes.copy()
+        nodes[mesh.top[1], 0] += 0.1
+        return dataclasses.replace(mesh, nodes=nodes)
+
+    monkeypatch.setattr(store_module, "build_mesh", moved)
+    with pytest.raises(CampaignError, match=r"solved on another mesh.*sha256"):
+        CampaignStore.create_or_open(tmp_path, _spec("m", "c1=2:4:2,c5=100:200:2"))
+
+
 GRID = "c1=4:12:2,c5=150:450:2"
 
 
