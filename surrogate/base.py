@@ -30,7 +30,30 @@ INPUT_SCALES = ("linear", "log")
 
 @dataclass
 class TrainingData:
-    """Parameter points and their responses (a campaign, see campaign.loader.CampaignData)."""
+    """Parameter points and their responses: what a surrogate is trained on.
+
+    Usually a campaign (:meth:`from_campaign`, see ``campaign.loader.CampaignData``).
+
+    Attributes
+    ----------
+    theta : numpy.ndarray
+        (n, p) parameters, kPa.
+    force : numpy.ndarray
+        (n, steps) indentation force, mN (missing steps filled).
+    displacement : numpy.ndarray
+        (n, steps, nodes, 3) top-surface displacements, mm.
+    depth : numpy.ndarray
+        (steps,) indentation depth, mm.
+    top_xyz : numpy.ndarray
+        (nodes, 3) reference coordinates of the top-surface nodes, mm.
+    parameters : tuple of str, default ("c1", "c5")
+        The parameter of each column of ``theta``.
+    source : dict
+        Where the data came from (recorded in the surrogate's meta).
+    missing : numpy.ndarray or None
+        (n, steps) True at forces the campaign does not have (FEBio steps flagged off
+        equilibrium), filled in ``force``; validation errors leave them out.
+    """
 
     theta: np.ndarray  # (n, p) kPa
     force: np.ndarray  # (n, steps) mN
@@ -122,7 +145,21 @@ def _reduce(Y: np.ndarray, scale: np.ndarray, tol: float, max_components: int) -
 
 
 class FieldSurrogate(ABC):
-    """An emulator of the forward model trained on a campaign; a Predictor (docs/architecture.md, "The Predictor seam")."""
+    """An emulator of the forward model trained on a campaign; a Predictor.
+
+    See docs/architecture.md, "The Predictor seam". The inputs are scaled to [0, 1] over the
+    training box; the log-force and the displacement field are each reduced by PCA and the scores
+    learned by the subclass's regressor (module docstring).
+
+    Parameters
+    ----------
+    input_scale : {"log", "linear"}, default "log"
+        How the parameters are scaled to [0, 1] over the training box.
+    pca_tol : float, default 1e-3
+        The reconstruction error of the training set the PCA components keep under.
+    max_components : int, default 40
+        At most this many PCA components per output.
+    """
 
     kind = "abstract"
 

@@ -18,11 +18,31 @@ __all__ = ["remaining_bias", "shipped_budget", "shipped_budgets_folder", "surrog
 
 
 def remaining_bias(budget_file, model: str) -> dict:
-    """What an error budget leaves for ``model`` (its name in the budget, e.g. the high-fidelity
-    mesh preset), as the systematic 95 % half-width a fit on that model carries: the largest
-    distance between truth and fit over the test points, in percent of the fit (as a fit's bounds
-    are), and never less than in percent of the truth: max(|b|, |1 / (1 + b) - 1|) for a bias b.
-    (A fit 18 % below the truth is 22 % of the fit away from it.)"""
+    """What an error budget leaves for ``model``: the systematic 95 % half-width a fit on it carries.
+
+    The largest distance between truth and fit over the test points, in percent of the fit (as a
+    fit's bounds are), and never less than in percent of the truth: max(|b|, |1 / (1 + b) - 1|)
+    for a bias b. (A fit 18 % below the truth is 22 % of the fit away from it.)
+
+    Parameters
+    ----------
+    budget_file : str or pathlib.Path
+        An ``error-budget.json`` (``inference.compute_error_budget``).
+    model : str
+        The model's name in the budget, e.g. the high-fidelity mesh preset.
+
+    Returns
+    -------
+    dict
+        ``c1_pct`` and ``c5_pct`` (percent) and ``source`` (the file, the model, the number of
+        test points).
+
+    Raises
+    ------
+    ValueError
+        If the file is not an error budget, has no row of ``model``, or a bias that is not a number
+        or not a fit (b <= -1).
+    """
     try:
         payload = json.loads(Path(budget_file).read_text())
         rows = [row for row in payload["rows"] if row["model"] == model]
@@ -45,7 +65,13 @@ def remaining_bias(budget_file, model: str) -> dict:
 
 
 def shipped_budgets_folder() -> Path:
-    """Where the shipped budgets are: ``indentation_studio/error_budgets`` (package data)."""
+    """Where the shipped budgets are: ``indentation_studio/error_budgets`` (package data).
+
+    Returns
+    -------
+    pathlib.Path
+        The folder of the installed package's budget files.
+    """
     return Path(str(files("indentation_studio") / "error_budgets"))
 
 
@@ -58,9 +84,34 @@ def _test_of(model: dict) -> dict:
 
 
 def shipped_budget(spec, folder: str | Path | None = None) -> dict | None:
-    """What a shipped error budget leaves for ``spec``'s mesh (:func:`remaining_bias`), when one was
-    measured for the same test (geometry, indenter, protocol, kappa, fibers) and that mesh preset;
-    None otherwise. A surrogate trained on such a campaign carries it in its fits' bounds."""
+    """What a shipped error budget leaves for ``spec``'s mesh (:func:`remaining_bias`), if one was measured.
+
+    A budget counts when it was measured for the same test (geometry, indenter, protocol,
+    contact, material but c1 and c5) and holds that mesh preset. A surrogate trained on such a
+    campaign carries it in its fits' bounds.
+
+    Parameters
+    ----------
+    spec : ModelSpec or dict
+        The model (or its ``to_dict()``); a mesh without a preset has no budget.
+    folder : str or pathlib.Path, optional
+        Where to look; default :func:`shipped_budgets_folder`.
+
+    Returns
+    -------
+    dict or None
+        As :func:`remaining_bias`, its ``source`` also naming the reference mesh, the field of
+        view (mm) and the weights; None when no budget fits.
+
+    Examples
+    --------
+    >>> import indentation_studio as ins
+    >>> left = ins.shipped_budget(ins.ModelSpec())
+    >>> left["source"]["model"], left["c5_pct"] > 20
+    ('default', True)
+    >>> ins.shipped_budget(ins.ModelSpec().with_friction(0.3)) is None
+    True
+    """
     model = spec.to_dict() if hasattr(spec, "to_dict") else dict(spec)
     preset = (model.get("mesh") or {}).get("preset")
     if preset is None:
@@ -91,9 +142,20 @@ def shipped_budget(spec, folder: str | Path | None = None) -> dict | None:
 
 
 def surrogate_error_budget(surrogate) -> dict | None:
-    """The error budget a surrogate carries: ``meta['error_budget']`` as recorded at training (None:
-    none known then); for a surrogate without that record (an older file, or one being trained),
-    the shipped budget for the FE model it emulates (``meta['campaign']['model']``)."""
+    """The error budget a surrogate carries.
+
+    Parameters
+    ----------
+    surrogate : FieldSurrogate
+        Any object with a ``meta`` dict.
+
+    Returns
+    -------
+    dict or None
+        ``meta['error_budget']`` as recorded at training (None: none known then); for a surrogate
+        without that record (an older file, or one being trained), the shipped budget for the FE
+        model it emulates (``meta['campaign']['model']``, :func:`shipped_budget`).
+    """
     meta = getattr(surrogate, "meta", {}) or {}
     if "error_budget" in meta:
         return meta["error_budget"]

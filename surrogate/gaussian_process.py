@@ -67,6 +67,18 @@ class GaussianProcessMeans:
 
 
 class GaussianProcessSurrogate(FieldSurrogate):
+    """A surrogate whose PCA scores are learned by scikit-learn Gaussian processes (module docstring).
+
+    Parameters
+    ----------
+    restarts : int, default 3
+        Restarts of the optimiser of the marginal likelihood.
+    per_component : bool, default False
+        One GP per PCA score; otherwise one GP for the force scores and one for the field's.
+    **kwargs
+        ``input_scale``, ``pca_tol``, ``max_components`` of :class:`FieldSurrogate`.
+    """
+
     kind = "gp"
 
     def __init__(self, restarts: int = 3, per_component: bool = False, **kwargs) -> None:

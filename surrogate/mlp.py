@@ -60,6 +60,31 @@ class EnsembleForward:
 
 
 class MLPSurrogate(FieldSurrogate):
+    """A surrogate whose PCA scores are learned by an ensemble of torch MLPs (tanh).
+
+    Each member is trained by Adam then L-BFGS on its own seed and validation split; the
+    prediction is the ensemble's mean.
+
+    Parameters
+    ----------
+    width : int, default 64
+        Units per hidden layer.
+    hidden_layers : int, default 3
+        Hidden layers.
+    adam_epochs : int, default 3000
+        Adam epochs at most.
+    lbfgs_steps : int, default 300
+        L-BFGS steps after Adam.
+    validation_fraction : float, default 0.15
+        Fraction of the points held out for early stopping (none below 10 points).
+    patience : int, default 400
+        Epochs without a better validation loss before Adam stops.
+    ensemble : int, default 3
+        Networks in the ensemble.
+    **kwargs
+        ``input_scale``, ``pca_tol``, ``max_components`` of :class:`FieldSurrogate`.
+    """
+
     kind = "mlp"
 
     def __init__(

@@ -66,9 +66,29 @@ def model_differences(low: dict[str, Any], high: dict[str, Any]) -> list[str]:
 
 
 class MultiFidelitySurrogate(FieldSurrogate):
-    """A low-fidelity surrogate plus a GP of its discrepancy from a high-fidelity campaign (eq. 1);
-    predicts the high fidelity on the high campaign's top nodes. A Predictor, with Jacobians and
-    a reduced basis like the single-fidelity surrogates; :meth:`fit` takes the high campaign."""
+    """A low-fidelity surrogate plus a GP of its discrepancy from a high-fidelity campaign.
+
+    Predicts the high fidelity on the high campaign's top nodes (module docstring, eq. 1a, 1b).
+    A Predictor, with Jacobians and a reduced basis like the single-fidelity surrogates;
+    :meth:`fit` takes the high campaign.
+
+    Parameters
+    ----------
+    low : FieldSurrogate
+        The trained low-fidelity surrogate.
+    input_scale : {"log", "linear"}, default "log"
+        Scaling of the discrepancy GP's inputs over the high campaign's box.
+    pca_tol : float, default 1e-3
+        PCA tolerance of the discrepancy.
+    max_components : int, default 8
+        At most this many PCA components per part of the discrepancy.
+    restarts : int, default 3
+        Restarts of the discrepancy GP's optimiser.
+    per_component : bool, default True
+        One GP per discrepancy score.
+    folds : int, default 5
+        With ``folds`` >= 2, the discrepancy's k-fold errors go to ``meta['discrepancy_kfold']``.
+    """
 
     kind = "mf"
 

@@ -88,9 +88,29 @@ def _self_check_arrays(model: FieldSurrogate, theta: np.ndarray) -> dict[str, np
 
 
 def save_surrogate(surrogate: FieldSurrogate, path: str | Path) -> Path:
-    """Write ``surrogate`` (with ``meta`` holding its provenance) to ``path`` in the safe format
-    ``indentation-studio-surrogate/2`` (one safetensors file, written atomically; the CLI names
-    it ``surrogate-<kind>.safetensors``)."""
+    """Write a surrogate to a file in the safe format ``indentation-studio-surrogate/2``.
+
+    One safetensors file, written atomically (the CLI names it ``surrogate-<kind>.safetensors``),
+    with ``meta`` holding its provenance and a self check of predictions that
+    :func:`load_surrogate` verifies.
+
+    Parameters
+    ----------
+    surrogate : FieldSurrogate
+        A trained surrogate.
+    path : str or pathlib.Path
+        The file to write.
+
+    Returns
+    -------
+    pathlib.Path
+        The file written.
+
+    Raises
+    ------
+    ValueError
+        If the surrogate's array names clash with those reserved for the self check.
+    """
     surrogate.meta["versions"] = versions()
     config, arrays = surrogate.to_state()
     check = _self_check_arrays(surrogate, _self_check_points(surrogate))
@@ -129,8 +149,33 @@ def _verify(path: Path, model: FieldSurrogate, arrays: dict[str, np.ndarray], na
 
 
 def load_surrogate(path: str | Path) -> FieldSurrogate:
-    """A surrogate saved by :func:`save_surrogate`. Nothing in the file is run: a pickle or joblib
-    file (the old format 1), or any other file, is refused by name without being unpickled."""
+    """Read a surrogate saved by :func:`save_surrogate`.
+
+    Nothing in the file is run: a pickle or joblib file (the old format 1, see
+    :func:`convert_pickled_surrogate`), or any other file, is refused by name without being
+    unpickled.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The surrogate file.
+
+    Returns
+    -------
+    FieldSurrogate
+        The surrogate, its ``meta`` restored and its self check passed.
+
+    Raises
+    ------
+    SurrogateFileError
+        If the file is not a safe surrogate file, is inconsistent, or fails its self check.
+
+    Examples
+    --------
+    >>> import indentation_studio as ins
+    >>> model = ins.load_surrogate("runs/paper/surrogate-gp.safetensors")  # doctest: +SKIP
+    >>> model.predict([[5.0, 300.0]]).force.shape  # doctest: +SKIP
+    """
     path = Path(path)
     header, arrays = read_container(path)
     config = json_header_field(path, header, "surrogate")

@@ -17,9 +17,31 @@ OLD_FORMAT = "indentation-studio-surrogate/1"
 
 
 def convert_pickled_surrogate(old: str | Path, new: str | Path) -> Path:
-    """Unpickle the format 1 (joblib) surrogate file ``old`` (THIS RUNS ANY CODE IT HOLDS: only
-    for files you trust) and write it to ``new`` in the safe format; returns ``new``. The
-    model's ``meta`` gains ``converted_from`` (the old file, its format and its versions)."""
+    """Convert a format 1 (pickle, joblib) surrogate file to the safe format.
+
+    Unpickling ``old`` RUNS ANY CODE IT HOLDS: only for files you trust. The model's ``meta``
+    gains ``converted_from`` (the old file, its format and its versions).
+
+    Parameters
+    ----------
+    old : str or pathlib.Path
+        The format 1 file.
+    new : str or pathlib.Path
+        Where to write the safe file (not ``old``).
+
+    Returns
+    -------
+    pathlib.Path
+        ``new``, as written by :func:`save_surrogate`.
+
+    Raises
+    ------
+    FileNotFoundError
+        If ``old`` does not exist.
+    SurrogateFileError
+        If ``old`` is already a safe file, not a pickle, unreadable, not an Indentation Studio
+        surrogate, or ``new`` is ``old``.
+    """
     import joblib
 
     old, new = Path(old), Path(new)

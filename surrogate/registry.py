@@ -19,7 +19,29 @@ SAVED_KINDS: dict[str, str] = {
 
 
 def surrogate_class(kind: str) -> type:
-    """The class that rebuilds a saved surrogate of ``kind`` (its module imported now)."""
+    """The class that rebuilds a saved surrogate of ``kind`` (its module imported now).
+
+    Parameters
+    ----------
+    kind : {"gp", "mlp", "mf"}
+        The kind a surrogate file records.
+
+    Returns
+    -------
+    type
+        The surrogate class.
+
+    Raises
+    ------
+    ValueError
+        If ``kind`` is unknown.
+
+    Examples
+    --------
+    >>> from indentation_studio.surrogate import surrogate_class
+    >>> surrogate_class("gp").__name__
+    'GaussianProcessSurrogate'
+    """
     if kind not in SAVED_KINDS:
         raise ValueError(f"unknown surrogate kind {kind!r}; known: {', '.join(sorted(SAVED_KINDS))}")
     module, name = SAVED_KINDS[kind].split(":")

@@ -20,7 +20,17 @@ __all__ = ["TrainedSurrogate", "budget_for_campaign", "train_and_save", "train_a
 
 @dataclass
 class TrainedSurrogate:
-    """A trained surrogate, its kind ('gp', 'mlp' or 'mf') and the file it was saved to."""
+    """A trained surrogate, its kind and the file it was saved to.
+
+    Attributes
+    ----------
+    model : FieldSurrogate
+        The trained surrogate.
+    kind : {"gp", "mlp", "mf"}
+        Its kind.
+    model_file : pathlib.Path
+        The file it was saved to.
+    """
 
     model: FieldSurrogate
     kind: str
@@ -103,8 +113,9 @@ def train_and_save(
     runs_dir: str | Path = "runs",
     say: Callable[[str], None] | None = None,
 ) -> TrainedSurrogate:
-    """Train a ``kind`` surrogate on ``campaign`` (:func:`surrogate.training.train_surrogate`) and
-    save it.
+    """Train a ``kind`` surrogate on ``campaign`` and save it.
+
+    Training is :func:`surrogate.training.train_surrogate`.
 
     Parameters
     ----------
@@ -157,8 +168,9 @@ def train_and_save_multi_fidelity(
     runs_dir: str | Path = "runs",
     say: Callable[[str], None] | None = None,
 ) -> TrainedSurrogate:
-    """Correct the surrogate ``low`` by the high-fidelity ``campaign``
-    (:func:`surrogate.training.train_multi_fidelity`) and save it.
+    """Correct the surrogate ``low`` by the high-fidelity ``campaign`` and save it.
+
+    Training is :func:`surrogate.training.train_multi_fidelity`.
 
     Parameters
     ----------

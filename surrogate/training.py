@@ -21,7 +21,30 @@ SURROGATE_KINDS = ("gp", "mlp")
 
 
 def make_surrogate(kind: str, input_scale: str = "log", pca_tol: float = 1e-3, **kwargs) -> FieldSurrogate:
-    """An untrained surrogate of ``kind``: 'gp' (scikit-learn) or 'mlp' (torch ensemble)."""
+    """An untrained surrogate of ``kind``.
+
+    Parameters
+    ----------
+    kind : {"gp", "mlp"}
+        ``gp``: :class:`GaussianProcessSurrogate` (scikit-learn); ``mlp``: :class:`MLPSurrogate`
+        (torch ensemble).
+    input_scale : {"log", "linear"}, default "log"
+        Scaling of the inputs over the training box.
+    pca_tol : float, default 1e-3
+        PCA tolerance of the outputs.
+    **kwargs
+        Further constructor arguments of the class.
+
+    Returns
+    -------
+    FieldSurrogate
+        The untrained surrogate.
+
+    Raises
+    ------
+    ValueError
+        If ``kind`` is unknown, or ``mf`` (use :func:`train_multi_fidelity`).
+    """
     if kind == "gp":
         from .gaussian_process import GaussianProcessSurrogate
 
@@ -39,7 +62,20 @@ def make_surrogate(kind: str, input_scale: str = "log", pca_tol: float = 1e-3, *
 
 
 def training_data(campaign: str | Path | CampaignData, runs_dir: str | Path = "runs") -> TrainingData:
-    """A campaign (name, folder or loaded) as training data."""
+    """A campaign (name, folder or loaded) as training data.
+
+    Parameters
+    ----------
+    campaign : str, pathlib.Path or CampaignData
+        A campaign name under ``runs_dir``, its folder, or loaded data.
+    runs_dir : str or pathlib.Path, default "runs"
+        Where named campaigns live.
+
+    Returns
+    -------
+    TrainingData
+        The done points, missing forces filled (:meth:`TrainingData.from_campaign`).
+    """
     data = campaign if isinstance(campaign, CampaignData) else load_campaign(campaign, runs_dir)
     return TrainingData.from_campaign(data)
 
@@ -56,11 +92,45 @@ def train_surrogate(
     runs_dir: str | Path = "runs",
     error_budget: dict | None = None,
 ) -> FieldSurrogate:
-    """Train a ``kind`` surrogate on ``campaign``; its errors on the training points, by ``kfold``
-    cross-validation and on ``test_campaign`` go to ``model.meta['validation']`` (percent).
-    ``error_budget`` (what a budget leaves for the campaign's mesh,
-    :func:`surrogate.error_budgets.remaining_bias`; default: the studio's shipped budget for that
-    mesh and test, if any) goes to meta['error_budget']: fits carry it in their bounds."""
+    """Train a ``kind`` surrogate on ``campaign``, with its validation and error budget in ``meta``.
+
+    Its errors on the training points, by ``kfold`` cross-validation and on ``test_campaign`` go
+    to ``model.meta['validation']`` (percent, :func:`prediction_errors`).
+
+    Parameters
+    ----------
+    campaign : str, pathlib.Path or CampaignData
+        The training campaign (name, folder or loaded).
+    kind : {"gp", "mlp"}, default "gp"
+        The surrogate (:func:`make_surrogate`).
+    input_scale : {"log", "linear"}, default "log"
+        Scaling of the inputs over the training box.
+    pca_tol : float, default 1e-3
+        PCA tolerance of the outputs.
+    test_campaign : str, pathlib.Path or CampaignData, optional
+        A campaign to validate on.
+    kfold : int, default 0
+        Folds of a cross-validation (0: none).
+    seed : int, default 0
+        Seed of the training.
+    runs_dir : str or pathlib.Path, default "runs"
+        Where named campaigns live.
+    error_budget : dict, optional
+        What a budget leaves for the campaign's mesh (:func:`surrogate.error_budgets.remaining_bias`);
+        default the studio's shipped budget for that mesh and test, if any. It goes to
+        ``meta['error_budget']``: fits carry it in their bounds.
+
+    Returns
+    -------
+    FieldSurrogate
+        The trained surrogate.
+
+    Examples
+    --------
+    >>> import indentation_studio as ins
+    >>> model = ins.train_surrogate("paper", "gp", kfold=5)  # doctest: +SKIP
+    >>> model.meta["validation"]["kfold"]["force_rms_pct"]  # doctest: +SKIP
+    """
     data = training_data(campaign, runs_dir)
     model = make_surrogate(kind, input_scale, pca_tol).fit(data, seed=seed)
     validation = {"training": prediction_errors(model, data)}
@@ -94,16 +164,42 @@ def train_multi_fidelity(
     runs_dir: str | Path = "runs",
     error_budget: dict | None = None,
 ) -> MultiFidelitySurrogate:
-    """A multi-fidelity surrogate: ``low`` (a surrogate file or a trained surrogate, e.g. on a
-    large campaign on a coarser mesh) corrected by the GP of its discrepancy from
-    ``high_campaign`` (a few tens of points on the finer mesh, same test). It predicts the high
-    fidelity on the high campaign's top nodes, and its FE model (meta['campaign']) is the high
-    campaign's. The discrepancy's ``folds``-fold errors go to meta['discrepancy_kfold'] (force %,
-    field mm); its errors on the training points and on ``test_campaign`` (percent, as for
-    :func:`train_surrogate`) to meta['validation']. ``error_budget`` (what the budget leaves for the
-    high-fidelity mesh, :func:`surrogate.error_budgets.remaining_bias`; default: the shipped budget for
-    that mesh and test, if any) goes to meta['error_budget'], where fits read the systematic part
-    of their model error."""
+    """Train a multi-fidelity surrogate: ``low`` corrected by the GP of its discrepancy from ``high_campaign``.
+
+    It predicts the high fidelity on the high campaign's top nodes, and its FE model
+    (``meta['campaign']``) is the high campaign's. The discrepancy's ``folds``-fold errors go to
+    ``meta['discrepancy_kfold']`` (force %, field mm); its errors on the training points and on
+    ``test_campaign`` (percent, as for :func:`train_surrogate`) to ``meta['validation']``.
+
+    Parameters
+    ----------
+    low : str, pathlib.Path or FieldSurrogate
+        A surrogate file or a trained surrogate, e.g. on a large campaign on a coarser mesh.
+    high_campaign : str, pathlib.Path or CampaignData
+        A few tens of points on the finer mesh, same test.
+    pca_tol : float, default 1e-3
+        PCA tolerance of the discrepancy.
+    max_components : int, default 8
+        At most this many PCA components per part of the discrepancy.
+    folds : int, default 5
+        Folds of the discrepancy's cross-validation.
+    test_campaign : str, pathlib.Path or CampaignData, optional
+        A high-fidelity campaign to validate on.
+    seed : int, default 0
+        Seed of the training.
+    runs_dir : str or pathlib.Path, default "runs"
+        Where named campaigns live.
+    error_budget : dict, optional
+        What the budget leaves for the high-fidelity mesh
+        (:func:`surrogate.error_budgets.remaining_bias`); default the shipped budget for that mesh
+        and test, if any. It goes to ``meta['error_budget']``, where fits read the systematic part
+        of their model error.
+
+    Returns
+    -------
+    MultiFidelitySurrogate
+        The trained surrogate.
+    """
     from .multi_fidelity import MultiFidelitySurrogate
     from .persistence import load_surrogate
 

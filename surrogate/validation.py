@@ -11,10 +11,25 @@ from .base import FieldSurrogate, TrainingData
 
 
 def prediction_errors(surrogate: FieldSurrogate, data: TrainingData) -> dict[str, float]:
-    """Errors of ``surrogate`` on ``data`` (percent): force relative error over every point and
-    step; displacement error over every node and step divided by max |u| of that direction at
-    that point. Steps whose force the campaign does not have (``data.missing``) are left out of
-    the force errors."""
+    """Errors of ``surrogate`` on ``data``, in percent.
+
+    The force's relative error over every point and step; the displacement's error over every
+    node and step divided by max |u| of that direction at that point. Steps whose force the
+    campaign does not have (``data.missing``) are left out of the force errors.
+
+    Parameters
+    ----------
+    surrogate : FieldSurrogate
+        A trained surrogate (any Predictor).
+    data : TrainingData
+        The points and their responses.
+
+    Returns
+    -------
+    dict
+        ``points``, ``force_rms_pct``, ``force_max_pct``, ``displacement_rms_pct``,
+        ``displacement_max_pct`` and ``ux_rms_pct``, ``uy_rms_pct``, ``uz_rms_pct``.
+    """
     pred = surrogate.predict(data.theta)
     rel_f = pred.force / data.force - 1.0
     if data.missing is not None:  # steps the campaign has no force for (filled for training)
@@ -32,8 +47,30 @@ def prediction_errors(surrogate: FieldSurrogate, data: TrainingData) -> dict[str
 
 
 def k_fold_errors(make, data: TrainingData, folds: int = 5, seed: int = 0) -> dict[str, float]:
-    """k-fold cross-validation: ``make()`` returns an untrained surrogate; the held-out errors of
-    all folds pooled (RMS over all, max over all)."""
+    """k-fold cross-validation of a surrogate: the held-out errors of all folds pooled.
+
+    Parameters
+    ----------
+    make : callable
+        ``make()`` returns an untrained surrogate.
+    data : TrainingData
+        The points to split.
+    folds : int, default 5
+        Number of folds, 2 <= folds <= points.
+    seed : int, default 0
+        Seed of the shuffle and of the training.
+
+    Returns
+    -------
+    dict
+        ``folds``, ``points`` and the errors of :func:`prediction_errors` pooled (RMS over all
+        held-out points, max over all).
+
+    Raises
+    ------
+    ValueError
+        If ``folds`` is not between 2 and the number of points.
+    """
     if folds < 2 or folds > data.n:
         raise ValueError(f"k-fold needs 2 <= folds <= points ({data.n}), got {folds}")
     parts = []
