@@ -89,12 +89,61 @@ def finite_difference_term_hessians(
 
 
 def combine(term_hessians: np.ndarray, eta) -> np.ndarray:
-    """H(eta) = sum_k eta_k H_k (eq. 5, 7)."""
+    """The Hessian of the combined objective, H(eta) = sum_k eta_k H_k (eq. 5, 7).
+
+    Parameters
+    ----------
+    term_hessians : numpy.ndarray
+        (4, p, p) Hessians H_k of the four objectives (force, u1, u2, u3; eq. 4a, 4b).
+    eta : array_like
+        The four weights (eq. 5), checked by :func:`check_weights`.
+
+    Returns
+    -------
+    numpy.ndarray
+        (p, p) H(eta).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from indentation_studio.design import combine
+    >>> H = np.stack([np.eye(2) * (k + 1) for k in range(4)])
+    >>> combine(H, (0.45, 0.35, 0.2, 0.0))
+    array([[1.75, 0.  ],
+           [0.  , 1.75]])
+    """
     return np.einsum("k,kij->ij", check_weights(eta), term_hessians)
 
 
 def bounds_pct(H: np.ndarray, s: float) -> np.ndarray:
-    """Eq. 6 in percent of theta_hat: 100 s sqrt(2 (H^-1)_ii); inf where H is singular."""
+    """Certainty bounds of eq. 6 in percent of theta_hat: 100 s sqrt(2 (H^-1)_ii).
+
+    Parameters
+    ----------
+    H : numpy.ndarray
+        (p, p) Hessian of the objective at theta_hat (eq. 7), in normalised parameters
+        theta / theta* (module docstring).
+    s : float
+        The statistical factor of eq. 8 (the paper takes 0.05).
+
+    Returns
+    -------
+    numpy.ndarray
+        (p,) half-widths, percent; inf for every parameter where H is singular (or its condition
+        number exceeds 1e14, or a diagonal of H^-1 is not positive).
+
+    Raises
+    ------
+    ValueError
+        If ``s`` is not a positive number.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from indentation_studio.design import bounds_pct
+    >>> bounds_pct(np.array([[2.07, -0.12], [-0.12, 0.07]]), 0.05).round(1)  # H of eq. 14
+    array([ 5.2, 28.2])
+    """
     if not (np.isfinite(s) and s > 0):
         raise ValueError(f"s must be a positive number, got {s!r}")
     try:
@@ -108,7 +157,29 @@ def bounds_pct(H: np.ndarray, s: float) -> np.ndarray:
 
 
 def s_from_data(F_hat: float, n: int, p: int = 2, alpha: float = 0.05) -> float:
-    """Eq. 8: s^2 = p / (n - p) F_{p, n-p}^{1-alpha} F(theta_hat)."""
+    """The statistical factor s of eq. 8: s^2 = p / (n - p) F_{p, n-p}^{1-alpha} F(theta_hat).
+
+    Parameters
+    ----------
+    F_hat : float
+        The objective at the fit, F(theta_hat).
+    n : int
+        Number of data points.
+    p : int, default 2
+        Number of parameters.
+    alpha : float, default 0.05
+        The F distribution's quantile is at 1 - alpha.
+
+    Returns
+    -------
+    float
+        s.
+
+    Raises
+    ------
+    ValueError
+        If ``n <= p``.
+    """
     if n <= p:
         raise ValueError(f"eq. 8 needs more data points than parameters (n = {n}, p = {p})")
     return float(np.sqrt(p / (n - p) * stats.f.ppf(1.0 - alpha, p, n - p) * F_hat))

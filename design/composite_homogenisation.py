@@ -20,7 +20,25 @@ __all__ = ["CompositeHomogenisation", "composite_equibiaxial_fit"]
 
 @dataclass
 class CompositeHomogenisation:
-    """The stretch, its eq. 10 fit (standard errors, not 95 % bounds) and eq. 11 at the phantom's FVF."""
+    """The phantom's equibiaxial stretch, its eq. 10 fit and eq. 11 at the phantom's FVF.
+
+    Attributes
+    ----------
+    composite : CompositeMaterial
+        The constituents.
+    mesh : BlockMesh
+        The y-invariant phantom mesh stretched.
+    stretch : BlockStretchResult
+        The stretch and its stresses.
+    fit : Fit
+        Eq. 10 fitted to the stresses (standard errors, not 95 % bounds).
+    eq11 : tuple of float
+        (c1, c5) of eq. 11 at the phantom's fiber volume fraction, kPa.
+    fiber_volume_fraction : float
+        The phantom's FVF.
+    wall_s : float
+        Wall time of the stretch, s.
+    """
 
     composite: CompositeMaterial
     mesh: BlockMesh
@@ -85,10 +103,29 @@ def composite_equibiaxial_fit(
     bulk_to_shear: float | None = None,
     composite: CompositeMaterial | None = None,
 ) -> CompositeHomogenisation:
-    """Stretch the phantom (``composite``, default the paper's constituents; ``bulk_to_shear``
-    sets kappa = that x 2 (c1 + c2) of both) equibiaxially to ``max_stretch`` in ``steps`` on its
-    y-invariant mesh of ``cell`` mm (two cells across each fiber), fit eq. 10 to the stresses along
-    and across the fibers, and give eq. 11 at the phantom's fiber volume fraction."""
+    """Stretch the composite phantom equibiaxially and fit eq. 10 to its stresses; eq. 11 beside.
+
+    The phantom is stretched on its y-invariant mesh; eq. 10 is fitted to the stresses along and
+    across the fibers, and eq. 11 given at the phantom's fiber volume fraction.
+
+    Parameters
+    ----------
+    max_stretch : float, default 1.3
+        The final stretch.
+    steps : int, default 30
+        Load steps.
+    cell : float, default 0.8
+        Mesh size, mm (two cells across each fiber).
+    bulk_to_shear : float, optional
+        Sets kappa = that x 2 (c1 + c2) of both constituents.
+    composite : CompositeMaterial, optional
+        The constituents; default the paper's.
+
+    Returns
+    -------
+    CompositeHomogenisation
+        The stretch, its fit and eq. 11.
+    """
     composite = composite or CompositeMaterial()
     if bulk_to_shear is not None:
         composite = CompositeMaterial(

@@ -40,7 +40,35 @@ class Fit:
 def rule_of_mixtures(
     mu_matrix: float, c1_fiber: float, c2_fiber: float, fiber_volume_fraction: float
 ) -> tuple[float, float]:
-    """Eq. 11: c1 = mu_m / 2 (11a), c5 = FVF (c1_f + c2_f) + (1 - FVF) c1 (11b), kPa."""
+    """The homogeneous (c1, c5) of a fiber composite by the rule of mixtures (eq. 11).
+
+    c1 = mu_m / 2 (eq. 11a), c5 = FVF (c1_f + c2_f) + (1 - FVF) c1 (eq. 11b).
+
+    Parameters
+    ----------
+    mu_matrix : float
+        Shear modulus of the matrix, kPa.
+    c1_fiber, c2_fiber : float
+        Mooney-Rivlin constants of the fibers, kPa.
+    fiber_volume_fraction : float
+        FVF, in (0, 1).
+
+    Returns
+    -------
+    tuple of float
+        (c1, c5), kPa.
+
+    Raises
+    ------
+    ValueError
+        If the matrix modulus is not positive, the FVF not in (0, 1), or c1_f + c2_f not positive.
+
+    Examples
+    --------
+    >>> from indentation_studio.design import rule_of_mixtures
+    >>> rule_of_mixtures(20.0, 1000.0, 0.0, 0.3)
+    (10.0, 307.0)
+    """
     if not (np.isfinite(mu_matrix) and mu_matrix > 0):
         raise ValueError(f"the matrix shear modulus must be a positive number (kPa), got {mu_matrix!r}")
     if not (np.isfinite(fiber_volume_fraction) and 0 < fiber_volume_fraction < 1):
@@ -57,8 +85,10 @@ def rule_of_mixtures(
 def parallel_fiber_stresses(
     stretch, mu_matrix: float, c1_fiber: float, c2_fiber: float, fiber_volume_fraction: float
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The equibiaxial stresses of a block of continuous parallel fibers in a matrix, by the rule of
-    mixtures of the constituents' own stresses (Voigt along the fibers), incompressible, kPa.
+    """Equibiaxial Cauchy stresses of continuous parallel fibers in a matrix, by a rule of mixtures.
+
+    The constituents' own stresses are mixed by volume (Voigt along the fibers), incompressible,
+    kPa.
 
     Along the fibers (direction 1) the fibers and the matrix share the stretch: the matrix is in
     equibiaxial tension, 2 c1_m (lam^2 - lam^-4) with c1_m = mu_m / 2 (the left side of eq. 10b),
@@ -68,7 +98,31 @@ def parallel_fiber_stresses(
 
     At small strain this gives sigma11 - sigma22 = FVF (6 (c1_f + c2_f) - 12 c1_m) (lam - 1): the
     c5 of eq. 10a is the fibers' Young's modulus 3 mu_f = 6 (c1_f + c2_f) times FVF, where eq. 11b
-    takes FVF (c1_f + c2_f), six times less."""
+    takes FVF (c1_f + c2_f), six times less.
+
+    Parameters
+    ----------
+    stretch : array_like
+        Equibiaxial stretches lam (positive).
+    mu_matrix : float
+        Shear modulus of the matrix, kPa.
+    c1_fiber, c2_fiber : float
+        Mooney-Rivlin constants of the fibers, kPa.
+    fiber_volume_fraction : float
+        FVF.
+
+    Returns
+    -------
+    sigma11 : numpy.ndarray
+        Stress along the fibers, kPa.
+    sigma22 : numpy.ndarray
+        Stress across the fibers (the matrix's), kPa.
+
+    Raises
+    ------
+    ValueError
+        If a stretch is not a positive finite number.
+    """
     lam = np.asarray(stretch, dtype=float)
     if np.any(~np.isfinite(lam)) or np.any(lam <= 0):
         raise ValueError("stretches must be positive finite numbers")
@@ -132,8 +186,24 @@ def fit_mooney_rivlin_uniaxial(stretch, stress, nominal: bool = False) -> Fit:
 
 
 def fit_equibiaxial(stretch, sigma_fiber, sigma_transverse) -> Fit:
-    """(c1, c5) of eq. 2 from equibiaxial Cauchy stresses along and across the fibers (eq. 10a, 10b),
-    both fitted at once."""
+    """Fit (c1, c5) of eq. 2 to equibiaxial Cauchy stresses along and across the fibers (eq. 10a, 10b).
+
+    Both curves are fitted at once (least squares).
+
+    Parameters
+    ----------
+    stretch : array_like
+        Equibiaxial stretches.
+    sigma_fiber : array_like
+        Cauchy stress along the fibers at each stretch, kPa (eq. 10a).
+    sigma_transverse : array_like
+        Cauchy stress across the fibers, kPa (eq. 10b).
+
+    Returns
+    -------
+    Fit
+        ``values`` and ``std_errors`` of c1 and c5 (kPa), ``rms_kPa`` and ``n_points``.
+    """
     lam, s11, s22 = _clean(stretch, sigma_fiber, sigma_transverse)
     n = lam.size
 
@@ -146,7 +216,17 @@ def fit_equibiaxial(stretch, sigma_fiber, sigma_transverse) -> Fit:
 
 @dataclass(frozen=True)
 class Baseline:
-    """theta* from the constituents (eq. 11) and, if equibiaxial data were given, their eq. 10 fit."""
+    """theta* from the constituents (eq. 11) and, if equibiaxial data were given, their eq. 10 fit.
+
+    Attributes
+    ----------
+    c1, c5 : float
+        theta* by the rule of mixtures (eq. 11a, 11b), kPa.
+    fiber_volume_fraction : float
+        The FVF used.
+    equibiaxial_fit : Fit or None
+        The eq. 10 fit of the equibiaxial data, if any.
+    """
 
     c1: float
     c5: float

@@ -91,7 +91,35 @@ def compare_designs(
     reading: str = "paper",
     progress=None,
 ) -> pd.DataFrame:
-    """One row per candidate: its design, the bounds at ``weights`` and at its own optimum."""
+    """Compare candidate test designs by their certainty bounds (eq. 6) at ``theta_star``.
+
+    Each radius is simulated once, with sensitivities, to the deepest candidate; each candidate's
+    Hessians come from the steps and field of view it measures.
+
+    Parameters
+    ----------
+    spec : ModelSpec
+        The model; its step size is the protocol's.
+    candidates : list of Candidate
+        The designs (:func:`candidate_grid`).
+    theta_star : array_like, default (10.0, 350.0)
+        (c1, c5) at which to compare, kPa.
+    weights : array_like, default PAPER_WEIGHTS
+        The weights eta (eq. 5).
+    criterion : str, default "combined"
+        What :func:`optimise_weights` minimises.
+    reading : str, default "paper"
+        How the objective is read (:class:`Objective`).
+    progress : callable, optional
+        Called with a message before each simulation.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per candidate: its design (``radius_mm``, ``max_depth_mm``, ``steps``, ``every``,
+        ``fov_mm``, ``s``), the bounds at ``weights`` (``c1_pct``, ``c5_pct``) and at its own
+        optimum (``c1_pct_optimised``, ``c5_pct_optimised``, ``optimised_weights``).
+    """
     theta_star = np.asarray(theta_star, float)
     eta = check_weights(weights)
     base_by_radius: dict[float, Prediction] = {}
@@ -130,14 +158,48 @@ def compare_designs(
 def candidate_grid(
     radii=(4.77, 8.0), depths=(7.0, 10.5, 14.0), every=(1,), fovs=(None,), noise=(0.05,)
 ) -> list[Candidate]:
-    """Every combination of the given design choices."""
+    """Every combination of the given design choices.
+
+    Parameters
+    ----------
+    radii : sequence of float, default (4.77, 8.0)
+        Indenter radii, mm.
+    depths : sequence of float, default (7.0, 10.5, 14.0)
+        Maximum depths, mm.
+    every : sequence of int, default (1,)
+        Measure every this many protocol steps.
+    fovs : sequence of float or None, default (None,)
+        Field-of-view radii, mm (None: the whole top surface).
+    noise : sequence of float, default (0.05,)
+        The s of eq. 8.
+
+    Returns
+    -------
+    list of Candidate
+        One per combination.
+
+    Examples
+    --------
+    >>> from indentation_studio.design import candidate_grid
+    >>> len(candidate_grid())
+    6
+    """
     return [Candidate(*c) for c in itertools.product(radii, depths, every, fovs, noise)]
 
 
 @dataclass
 class DesignComparison:
-    """The candidate designs' bounds (:func:`compare_designs`' table) at theta* and the CSV they
-    were written to."""
+    """The candidate designs' bounds at theta* and the CSV they were written to.
+
+    Attributes
+    ----------
+    table : pandas.DataFrame
+        The table of :func:`compare_designs`.
+    theta_star : tuple of float
+        (c1, c5) of the comparison, kPa.
+    csv : pathlib.Path
+        The file the table was written to.
+    """
 
     table: pd.DataFrame
     theta_star: tuple[float, float]
@@ -175,8 +237,10 @@ def compare_candidate_designs(
     reading: str = "paper",
     progress=None,
 ) -> DesignComparison:
-    """Every candidate design of the given choices (:func:`candidate_grid`) compared at the
-    spec's own (c1, c5), the table written to ``out_dir/design-comparison.csv``.
+    """Compare every candidate design of the given choices at the spec's own (c1, c5).
+
+    The candidates are :func:`candidate_grid`'s; the table is written to
+    ``out_dir/design-comparison.csv``.
 
     Parameters
     ----------

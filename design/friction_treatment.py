@@ -44,8 +44,29 @@ DEFAULT_MU_RANGE = (0.1, 3.0)
 
 @dataclass(frozen=True)
 class FrictionTreatment:
-    """One of :data:`FRICTION_MODES`; ``value`` for ``known``; ``mu_range`` (lo, hi) for
-    ``identify`` (mu kept inside) and ``marginalise`` (the log-uniform prior's support)."""
+    """How a fit treats the friction coefficient mu.
+
+    Parameters
+    ----------
+    mode : {"assumed", "known", "identify", "marginalise"}, default "assumed"
+        One of ``FRICTION_MODES``.
+    value : float, optional
+        mu (>= 0) for ``known``.
+    mu_range : tuple of float, optional
+        (lo, hi), 0 < lo < hi: for ``identify`` the range mu is kept inside, for ``marginalise``
+        the log-uniform prior's support.
+
+    Raises
+    ------
+    ValueError
+        If the mode is unknown, a known mu is not a number >= 0, or the range is not 0 < lo < hi.
+
+    Examples
+    --------
+    >>> from indentation_studio.design import FrictionTreatment
+    >>> FrictionTreatment.parse("marginalise:0.2:2")
+    FrictionTreatment(mode='marginalise', value=None, mu_range=(0.2, 2.0))
+    """
 
     mode: str = "assumed"
     value: float | None = None
@@ -118,8 +139,24 @@ class FrictionTreatment:
 
 
 class FixedParameter:
-    """A Predictor over all but one of another predictor's parameters, that one held at ``value``
-    (mu known, on a surrogate trained with mu as a parameter)."""
+    """A Predictor over all but one of another predictor's parameters, that one held at ``value``.
+
+    E.g. mu known, on a surrogate trained with mu as a parameter.
+
+    Parameters
+    ----------
+    predictor : Predictor
+        The predictor over all the parameters.
+    name : str
+        The parameter to hold (e.g. ``"mu"``).
+    value : float
+        Its value.
+
+    Raises
+    ------
+    ValueError
+        If the predictor has no parameter ``name``.
+    """
 
     def __init__(self, predictor, name: str, value: float) -> None:
         names = tuple(predictor.parameters)
@@ -161,15 +198,40 @@ def friction_bounds(
     mu_range: tuple[float, float],
     n: int,
 ) -> dict:
-    """Eq. 6's bounds (percent) of (c1, c5, mu) from the 3 x 3 Hessian (in log theta, H = 2 J^T J)
-    of a fit with mu, for ``treatment`` identify or marginalise: 'bounds_pct' of (c1, c5) with mu
-    fitted too (its Schur complement; for marginalise the prior's precision 1 / sd^2 in log mu
-    added as 2 sigma^2 / sd^2 to H, ``sigma`` the residual sd), 'mu_pct' (inf when the data hold
-    nothing on mu and it is identified alone), 'conditional_pct' (mu known at the fit: the 2 x 2
-    block, with eq. 8's s read for p = 2 of the ``n`` data points, as a fit with mu known would
-    have it) and 'mu_share_pct', mu's share of each bound: sqrt(bounds^2 - block^2), the 2 x 2
-    block's bounds at the same s (so the share is the correlation with mu, 0 where the data hold
-    nothing on mu; the rest of the difference to 'conditional_pct' is the third parameter's s)."""
+    """Eq. 6's bounds (percent) of (c1, c5, mu) of a fit with mu, identified or marginalised.
+
+    Parameters
+    ----------
+    hessian : numpy.ndarray
+        The 3 x 3 Hessian of the fit with mu, in log theta (H = 2 J^T J).
+    s : float
+        Eq. 8's s of the fit with three parameters.
+    sigma : float
+        The residual standard deviation.
+    treatment : FrictionTreatment
+        ``identify`` or ``marginalise``; for marginalise the prior's precision 1 / sd^2 in log mu
+        is added as 2 sigma^2 / sd^2 to H.
+    mu_range : tuple of float
+        The prior's support (marginalise).
+    n : int
+        Number of data points (to read eq. 8's s for p = 2).
+
+    Returns
+    -------
+    dict
+        ``bounds_pct``: (c1, c5) with mu fitted too (its Schur complement); ``mu_pct`` (inf when
+        the data hold nothing on mu and it is identified alone); ``conditional_pct``: mu known at
+        the fit (the 2 x 2 block, with eq. 8's s read for p = 2 of the ``n`` data points, as a fit
+        with mu known would have it); ``mu_share_pct``, mu's share of each bound:
+        sqrt(bounds^2 - block^2), the 2 x 2 block's bounds at the same s (so the share is the
+        correlation with mu, 0 where the data hold nothing on mu; the rest of the difference to
+        ``conditional_pct`` is the third parameter's s).
+
+    Raises
+    ------
+    ValueError
+        If the Hessian is not 3 x 3.
+    """
     H = np.array(hessian, float)
     if H.shape != (3, 3):
         raise ValueError(f"a fit with mu has a 3 x 3 Hessian, got {H.shape}")

@@ -29,7 +29,29 @@ PAPER_WEIGHTS = (0.45, 0.35, 0.2, 0.0)
 
 
 def check_weights(eta) -> np.ndarray:
-    """``eta`` (4,) as an array; refused unless on the simplex (eq. 5: eta_i in [0, 1], sum 1)."""
+    """The weights ``eta`` (4,) as an array, refused unless on the simplex of eq. 5.
+
+    Parameters
+    ----------
+    eta : array_like
+        Weights of the force, ux, uy and uz objectives.
+
+    Returns
+    -------
+    numpy.ndarray
+        (4,) the weights, clipped to [0, 1].
+
+    Raises
+    ------
+    ValueError
+        If they are not 4 finite numbers, each in [0, 1], summing to 1 (eq. 5).
+
+    Examples
+    --------
+    >>> from indentation_studio.design import check_weights
+    >>> check_weights([0.45, 0.35, 0.2, 0.0])  # eq. 13
+    array([0.45, 0.35, 0.2 , 0.  ])
+    """
     e = np.asarray(eta, dtype=float).ravel()
     if e.shape != (4,) or not np.all(np.isfinite(e)):
         raise ValueError(f"objective weights must be 4 finite numbers (force, ux, uy, uz), got {eta!r}")
@@ -42,12 +64,33 @@ def check_weights(eta) -> np.ndarray:
 
 @dataclass
 class Objective:
-    """Eq. 4 and 5 against a target response.
+    """The objectives of eq. 4a, 4b and their combination (eq. 5) against a target response.
 
-    ``force`` (steps,) and ``displacement`` (steps, nodes, 3) are the measured (or baseline)
-    response at ``top_xyz`` (nodes, 3); ``radius`` is the indenter's. ``mask`` (nodes,) marks nodes
-    with data (default: see the readings). ``excluded_steps`` (step numbers counting from 1, as
-    in experiment.json) are left out of eq. 4a and 4b; their targets may be NaN.
+    Parameters
+    ----------
+    force : numpy.ndarray
+        (steps,) the measured (or baseline) force, mN.
+    displacement : numpy.ndarray
+        (steps, nodes, 3) the measured (or baseline) displacements, mm.
+    top_xyz : numpy.ndarray
+        (nodes, 3) the top-surface nodes, mm.
+    radius : float
+        The indenter's radius, mm.
+    reading : {"paper", "authors"}, default "paper"
+        How eq. 4 is read (module docstring).
+    step : int, optional
+        Compare this step only (index from 0); default all (``paper``) or the deepest
+        (``authors``).
+    mask : numpy.ndarray, optional
+        (nodes,) True at nodes with data (default: see the readings).
+    excluded_steps : tuple of int, default ()
+        Step numbers counting from 1, as in experiment.json, left out of eq. 4a and 4b; their
+        targets may be NaN.
+
+    Raises
+    ------
+    ValueError
+        If the shapes disagree, every step is excluded, or the target force is zero at a step used.
     """
 
     force: np.ndarray

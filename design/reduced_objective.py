@@ -31,8 +31,25 @@ from .objective import Objective, check_weights
 
 
 class ReducedObjective:
-    """F(theta) of eq. 5 for one objective, one set of weights ``eta`` and one Predictor's
-    reduced basis; equal to ``objective.value(predictor.predict(theta), eta)`` up to rounding."""
+    """F(theta) of eq. 5 in one Predictor's reduced basis, for one objective and one set of weights.
+
+    Equal to ``objective.value(predictor.predict(theta), eta)`` up to rounding, without building
+    the fields.
+
+    Parameters
+    ----------
+    objective : Objective
+        The target response (eq. 4a, 4b); its field must have the basis's (steps, nodes, 3).
+    basis : ReducedBasis
+        The predictor's reduced basis (``ReducedPredictor.reduced_basis()``).
+    eta : array_like
+        The four weights of eq. 5.
+
+    Raises
+    ------
+    ValueError
+        If the objective's field and the basis describe different models.
+    """
 
     def __init__(self, objective: Objective, basis: ReducedBasis, eta) -> None:
         self.eta = check_weights(eta)
@@ -80,7 +97,17 @@ class ReducedObjective:
 
 
 class FieldObjective:
-    """F (n,) of eq. 5 from a Predictor's full fields: ``objective.value(predictor.predict(theta))``."""
+    """F (n,) of eq. 5 from a Predictor's full fields: ``objective.value(predictor.predict(theta))``.
+
+    Parameters
+    ----------
+    objective : Objective
+        The target response (eq. 4a, 4b).
+    predictor : Predictor
+        Any predictor (e.g. an FE solver).
+    eta : array_like
+        The four weights of eq. 5.
+    """
 
     def __init__(self, objective: Objective, predictor, eta) -> None:
         self.objective, self.predictor, self.eta = objective, predictor, check_weights(eta)
@@ -93,10 +120,31 @@ class FieldObjective:
 def objective_function(
     objective: Objective, predictor, eta, reduced: bool | None = None
 ) -> ReducedObjective | FieldObjective:
-    """F of eq. 5 against ``objective`` as an object with ``value(theta (n, p)) -> F (n,)``: in the
-    predictor's reduced space when it offers one (:class:`ReducedPredictor`) unless ``reduced`` is
-    False, else from its predicted fields (the FE solvers). ``reduced=True`` insists on the
-    reduced space and refuses a predictor without one."""
+    """F of eq. 5 against ``objective``, as an object with ``value(theta (n, p)) -> F (n,)``.
+
+    Parameters
+    ----------
+    objective : Objective
+        The target response.
+    predictor : Predictor
+        The model.
+    eta : array_like
+        The four weights of eq. 5.
+    reduced : bool, optional
+        None: in the predictor's reduced space when it offers one (:class:`ReducedPredictor`),
+        else from its predicted fields (the FE solvers); False: from the fields; True: insist on
+        the reduced space.
+
+    Returns
+    -------
+    ReducedObjective or FieldObjective
+        The objective function.
+
+    Raises
+    ------
+    ValueError
+        If ``reduced`` is True and the predictor has no reduced basis.
+    """
     has_basis = isinstance(predictor, ReducedPredictor)
     if reduced and not has_basis:
         raise ValueError(f"{type(predictor).__name__} has no reduced basis to evaluate F in")

@@ -26,7 +26,27 @@ from .weights import PAPER_HESSIAN, ComparisonRow, compare_with_paper
 
 @dataclass
 class DesignStudy:
-    """Term Hessians H_k (4, p, p) in theta_bar at ``theta_star`` and where they came from."""
+    """Term Hessians H_k (4, p, p) in theta_bar at ``theta_star`` and where they came from.
+
+    ``hessian(eta)`` combines them (eq. 5, 7) and ``bounds(eta, s)`` gives eq. 6's bounds.
+
+    Attributes
+    ----------
+    theta_star : numpy.ndarray
+        (p,) theta*, kPa (and mu).
+    term_hessians : numpy.ndarray
+        (4, p, p) Hessians of the force and the ux, uy, uz objectives, in theta_bar = theta / theta*.
+    method : {"exact", "fd"}
+        Gauss-Newton from sensitivities, or finite differences.
+    reading : str
+        How eq. 4 was read.
+    spec : dict
+        The model's ``ModelSpec.to_dict()``.
+    baseline : Prediction or None
+        The response at theta*.
+    objective : Objective or None
+        The objective against that response.
+    """
 
     theta_star: np.ndarray
     term_hessians: np.ndarray
@@ -59,10 +79,45 @@ def fe_design_study(
     n_jobs: int = 1,
     parameters: tuple[str, ...] = ("c1", "c5"),
 ) -> DesignStudy:
-    """Hessians from the embedded FE solver: ``exact`` (Gauss-Newton with its sensitivities, one
-    simulation) or ``fd`` (central differences of F_k over a 3^p stencil of step ``h``).
-    ``parameters`` ('c1', 'c5', 'mu') with theta* = (c1, c5, mu) gives 3 x 3 Hessians, the friction
-    coefficient's row and column beside (c1, c5)'s (:func:`design.study.friction_design_bounds`)."""
+    """The design study at ``theta_star``: term Hessians (eq. 7) from the embedded FE solver.
+
+    Parameters
+    ----------
+    spec : ModelSpec
+        The model.
+    theta_star : array_like, default (10.0, 350.0)
+        theta*, one value per parameter (kPa; mu unitless).
+    method : {"exact", "fd"}, default "exact"
+        ``exact``: Gauss-Newton with the solver's sensitivities (one simulation); ``fd``: central
+        differences of F_k over a 3^p stencil of step ``h``.
+    reading : str, default "paper"
+        How eq. 4 is read.
+    step : int, optional
+        Compare this step only (:class:`Objective`).
+    h : float or tuple of float, default 0.02
+        The finite-difference step in theta_bar (``fd``).
+    n_jobs : int, default 1
+        Parallel simulations (``fd``).
+    parameters : tuple of str, default ("c1", "c5")
+        ``("c1", "c5", "mu")`` with theta* = (c1, c5, mu) gives 3 x 3 Hessians, the friction
+        coefficient's row and column beside (c1, c5)'s (:func:`friction_design_bounds`).
+
+    Returns
+    -------
+    DesignStudy
+        The term Hessians, the response at theta* and its objective.
+
+    Raises
+    ------
+    ValueError
+        If ``theta_star`` does not give one value per parameter, or the method is unknown.
+
+    Examples
+    --------
+    >>> import indentation_studio as ins
+    >>> study = ins.fe_design_study(ins.ModelSpec())  # doctest: +SKIP
+    >>> study.bounds(ins.PAPER_WEIGHTS, s=0.05)  # doctest: +SKIP
+    """
     theta_star = np.asarray(theta_star, float)
     if theta_star.shape != (len(parameters),):
         raise ValueError(f"theta* must give {parameters}, got {theta_star.tolist()}")
@@ -81,13 +136,36 @@ def fe_design_study(
 
 
 def friction_design_bounds(study: DesignStudy, eta, s: float, mu_prior: tuple[float, float]) -> dict:
-    """The bounds (percent) of c1 and c5 of a study with mu (3 x 3 Hessians) when mu is known,
-    identified with them, or a nuisance with a log-uniform prior on ``mu_prior`` (the Laplace
-    stand-in of :func:`design.friction_treatment.friction_bounds`), and mu's own bound when
-    identified. ``s`` is the design's noise level for (c1, c5) as without friction (eq. 8 with
-    p = 2), so that the bounds with mu known are those of ``design bounds`` on that contact; with
-    mu fitted too the region is 3-D and s is read for p = 3 (eq. 8, n the objective's data
-    points), and the residual sd the prior is weighed against is s / sqrt(2 F_{2, n-2}^0.95)."""
+    """The bounds (percent) of c1 and c5 of a study with mu, for mu known, identified or a nuisance.
+
+    A nuisance has a log-uniform prior on ``mu_prior`` (the Laplace stand-in of
+    :func:`design.friction_treatment.friction_bounds`); mu's own bound is given when identified.
+    With mu fitted too the region is 3-D and s is read for p = 3 (eq. 8, n the objective's data
+    points), and the residual sd the prior is weighed against is s / sqrt(2 F_{2, n-2}^0.95).
+
+    Parameters
+    ----------
+    study : DesignStudy
+        A study with mu (3 x 3 Hessians).
+    eta : array_like
+        The weights of eq. 5.
+    s : float
+        The design's noise level for (c1, c5) as without friction (eq. 8 with p = 2), so that the
+        bounds with mu known are those of ``design bounds`` on that contact.
+    mu_prior : tuple of float
+        The support of mu's log-uniform prior.
+
+    Returns
+    -------
+    dict
+        ``mu``, ``s``, ``s_with_mu``, ``known_pct``, ``identified_pct``, ``identified_mu_pct``,
+        ``nuisance_pct``, ``nuisance_mu_share_pct``, ``mu_prior``.
+
+    Raises
+    ------
+    ValueError
+        If the study has no mu, or ``s`` is not a positive number.
+    """
     H = study.hessian(eta)
     if H.shape != (3, 3):
         raise ValueError("the study has no mu: run it with parameters ('c1', 'c5', 'mu')")
@@ -119,9 +197,10 @@ def model_design_study(
     h: float | tuple[float, ...] = 0.02,
     n_jobs: int = 1,
 ) -> DesignStudy:
-    """The design study at the model's own (c1, c5): theta* is the spec's material, and with a
-    friction coefficient mu > 0 its contact's mu too (3 x 3 Hessians; mu = 0, frictionless, has
-    no d/d(log mu): (c1, c5) alone).
+    """The design study at the model's own (c1, c5), and its mu when the contact has friction.
+
+    theta* is the spec's material, and with a friction coefficient mu > 0 its contact's mu too
+    (3 x 3 Hessians; mu = 0, frictionless, has no d/d(log mu): (c1, c5) alone).
 
     Parameters
     ----------
@@ -144,8 +223,24 @@ def model_design_study(
 
 @dataclass
 class DesignBounds:
-    """The certainty bounds (eq. 6) of c1 and c5 for one set of weights at a study's theta*; with
-    friction, the three treatments of mu (:func:`friction_design_bounds`)."""
+    """The certainty bounds (eq. 6) of c1 and c5 for one set of weights at a study's theta*.
+
+    With friction, also the three treatments of mu (:func:`friction_design_bounds`).
+
+    Attributes
+    ----------
+    study : DesignStudy
+        The study the bounds come from.
+    weights : numpy.ndarray
+        (4,) the weights eta (eq. 5).
+    s : float
+        The noise level of eq. 6.
+    bounds_pct : numpy.ndarray
+        (2,) the bounds of c1 and c5, percent (with friction: mu known).
+    friction : dict or None
+        :func:`friction_design_bounds`' result (or, for mu = 0, the known bounds alone); None
+        without friction.
+    """
 
     study: DesignStudy
     weights: np.ndarray
@@ -179,8 +274,10 @@ class DesignBounds:
 def design_bounds(
     study: DesignStudy, eta, s: float = 0.05, *, mu_prior: tuple[float, float] = (0.1, 3.0)
 ) -> DesignBounds:
-    """The bounds of c1 and c5 for the weights ``eta``; on a model with friction mu, with mu known,
-    identified and a nuisance with a log-uniform prior on ``mu_prior`` (mu = 0: known only).
+    """The bounds of c1 and c5 (eq. 6) for the weights ``eta`` at a study's theta*.
+
+    On a model with friction mu: with mu known, identified and a nuisance with a log-uniform prior
+    on ``mu_prior`` (mu = 0: known only).
 
     Parameters
     ----------
@@ -215,8 +312,23 @@ def design_bounds(
 
 @dataclass
 class WeightsTable:
-    """Table 1 at a study's theta*: each row's paper weights and bounds beside ours at them and at
-    our optimum (:func:`design.weights.compare_with_paper`)."""
+    """Table 1 at a study's theta*: the paper's weights and bounds beside ours, row by row.
+
+    Ours at the paper's weights and at our optimum (:func:`design.weights.compare_with_paper`).
+
+    Attributes
+    ----------
+    study : DesignStudy
+        The study at theta*.
+    rows : list of ComparisonRow
+        The table's rows.
+    s : float
+        The noise level of eq. 6.
+    criterion : str
+        What the weights were optimised for.
+    fd_step : str or None
+        The finite-difference step, for ``fd`` studies.
+    """
 
     study: DesignStudy
     rows: list[ComparisonRow]

@@ -63,8 +63,27 @@ def optimise_weights(
     seed: int = 0,
     allowed: np.ndarray | None = None,
 ) -> np.ndarray:
-    """eta (4,) on the simplex minimising ``criterion``; ``allowed`` (4,) bool restricts which terms
-    may get weight (e.g. displacements only)."""
+    """The weights eta (4,) on the simplex (eq. 5) that minimise ``criterion`` (SLSQP, several starts).
+
+    Parameters
+    ----------
+    term_hessians : numpy.ndarray
+        (4, p, p) term Hessians in theta_bar.
+    criterion : str, default "combined"
+        ``c1`` or ``c5`` (that diagonal of H^-1), ``combined`` (its trace) or ``det`` (its
+        determinant).
+    starts : int, default 12
+        Starting points: the uniform weights and random ones.
+    seed : int, default 0
+        Seed of the random starts.
+    allowed : numpy.ndarray, optional
+        (4,) bool: which terms may get weight (e.g. displacements only).
+
+    Returns
+    -------
+    numpy.ndarray
+        (4,) the best weights found.
+    """
     k = term_hessians.shape[0]
     allowed = np.ones(k, bool) if allowed is None else np.asarray(allowed, bool)
     idx = np.nonzero(allowed)[0]
@@ -97,8 +116,25 @@ def optimise_weights(
 
 
 def table1(term_hessians: np.ndarray, s: float = 0.05, criterion: str = "combined") -> list[WeightRow]:
-    """The layout of the paper's Table 1: force only; deformation only (best displacement-only
-    weights for ``criterion``); optimal for c1; optimal for c5; combined optimal."""
+    """The rows of the paper's Table 1 from the term Hessians: weights and their eq. 6 bounds.
+
+    Force only; deformation only (best displacement-only weights for ``criterion``); optimal for
+    c1; optimal for c5; ``criterion`` optimal.
+
+    Parameters
+    ----------
+    term_hessians : numpy.ndarray
+        (4, p, p) term Hessians in theta_bar.
+    s : float, default 0.05
+        The noise level of eq. 6.
+    criterion : str, default "combined"
+        What the last row (and the deformation-only row) minimise (:func:`optimise_weights`).
+
+    Returns
+    -------
+    list of WeightRow
+        Five rows: name, weights, ``c1_pct``, ``c5_pct``.
+    """
     rows = []
 
     def row(name: str, eta: np.ndarray) -> WeightRow:
@@ -137,7 +173,23 @@ class ComparisonRow:
 def compare_with_paper(
     term_hessians: np.ndarray, s: float = 0.05, criterion: str = "combined"
 ) -> list[ComparisonRow]:
-    """Table 1 row by row: the paper's numbers beside ours at its weights and at our optimum."""
+    """Table 1 row by row: the paper's numbers beside ours at its weights and at our optimum.
+
+    Parameters
+    ----------
+    term_hessians : numpy.ndarray
+        (4, p, p) term Hessians in theta_bar.
+    s : float, default 0.05
+        The noise level of eq. 6.
+    criterion : str, default "combined"
+        What our optimum minimises (:func:`table1`).
+
+    Returns
+    -------
+    list of ComparisonRow
+        Per row: the paper's weights and bounds, ours at the paper's weights, our weights and
+        bounds.
+    """
     ours = table1(term_hessians, s, criterion)
     rows = []
     for (name, eta, p1, p5), opt in zip(PAPER_TABLE1, ours, strict=True):
