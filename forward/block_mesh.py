@@ -20,6 +20,27 @@ class BlockMesh:
     A composite mesh (paper 2.4.2) has element sets: ``element_material`` (ne,) the index of each
     element's material in ``material_names`` (the composite phantom: 0 matrix, 1 fibers); None
     for a homogeneous mesh.
+
+    Attributes
+    ----------
+    nodes : numpy.ndarray
+        (n, 3) reference coordinates, mm.
+    elements : numpy.ndarray
+        (ne, 8) zero-based node indices, FEBio's hex8 order.
+    node_ids : numpy.ndarray
+        (n,) external node ids (FEBio's, 1-based).
+    xsym, ysym : numpy.ndarray
+        Indices of the nodes on the symmetry planes x = 0 and y = 0.
+    bottom : numpy.ndarray
+        Indices of the bottom nodes.
+    top : numpy.ndarray
+        Indices of the top-surface nodes, ordered by node id.
+    source : str
+        Where the mesh came from (a preset, a file, a generator).
+    element_material : numpy.ndarray or None
+        (ne,) each element's material index in ``material_names``; None: homogeneous.
+    material_names : tuple of str
+        The materials of a composite mesh.
     """
 
     nodes: np.ndarray

@@ -34,10 +34,25 @@ class StretchError(RuntimeError):
 
 @dataclass(frozen=True)
 class BlockStretchResult:
-    """Per step (step 0: the reference state): the applied stretches (nan where a face is free),
-    the volume-averaged Cauchy stress (steps+1, 3, 3) kPa, the same per element set (sets,
-    steps+1, 3, 3), the block's mean stretches (steps+1, 3) from its far faces' mean
-    displacement, and Newton's iterations per step."""
+    """The result of a block stretch, per step (step 0: the reference state).
+
+    Attributes
+    ----------
+    stretch_x, stretch_y : numpy.ndarray
+        (steps+1,) the applied stretches (nan where a face is free).
+    stress : numpy.ndarray
+        (steps+1, 3, 3) the volume-averaged Cauchy stress, kPa.
+    stress_by_set : numpy.ndarray
+        (sets, steps+1, 3, 3) the same per element set, kPa.
+    set_names : tuple of str
+        The element sets.
+    mean_stretch : numpy.ndarray
+        (steps+1, 3) the block's mean stretches, from its far faces' mean displacement.
+    newton_iterations : numpy.ndarray
+        Newton's iterations per step.
+    displacement : numpy.ndarray
+        (n, 3) node displacements at the last step, mm.
+    """
 
     stretch_x: np.ndarray
     stretch_y: np.ndarray

@@ -40,7 +40,25 @@ MATRIX, FIBERS = 0, 1
 
 @dataclass(frozen=True)
 class PhantomLayout:
-    """The fibers of the composite phantom (supplement S1), mm."""
+    """The fibers of the composite phantom (supplement S1), mm.
+
+    Parameters
+    ----------
+    fiber_size : float, default 1.6
+        The square fibers' side, mm.
+    layer_height : float, default 4.17
+        The height of a layer, mm (more than ``fiber_size``).
+    layers : int, default 14
+        Layers of fibers.
+    fibers_per_layer : int, default 12
+        Fibers in a layer across the full block.
+
+    Raises
+    ------
+    ValueError
+        If a size is not positive, a count not a whole number >= 1, or a fiber not thinner than
+        its layer.
+    """
 
     fiber_size: float = 1.6
     layer_height: float = 4.17

@@ -13,8 +13,15 @@ from .spec import CompositeMaterial, ModelSpec
 
 @dataclass(frozen=True)
 class ElementModuli:
-    """c1, c2, c5, kappa (kPa): scalars (homogeneous) or (ne,) arrays; ``fiber`` the unit
-    reference fiber direction of the c5 term."""
+    """The material moduli per element: scalars (homogeneous) or (ne,) arrays (a composite).
+
+    Attributes
+    ----------
+    c1, c2, c5, kappa : float or numpy.ndarray
+        The moduli of eq. 3 (c2 of the Mooney-Rivlin matrix), kPa.
+    fiber : numpy.ndarray
+        The unit reference fiber direction of the c5 term.
+    """
 
     c1: float | np.ndarray
     c2: float | np.ndarray

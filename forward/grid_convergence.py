@@ -47,7 +47,27 @@ def representative_size(volume: float, elements: int) -> float:
 
 @dataclass(frozen=True)
 class GridTriplet:
-    """The convergence of one quantity over three meshes (f1 finest)."""
+    """The convergence of one quantity over three meshes (f1 finest).
+
+    Attributes
+    ----------
+    values : tuple of float
+        (f1, f2, f3).
+    sizes : tuple of float
+        (h1, h2, h3), mm.
+    order : float
+        The observed order p (nan where the differences vanish).
+    oscillatory : bool
+        The differences change sign (s < 0).
+    extrapolated : float
+        The extrapolated value.
+    gci_fine_pct : float
+        GCI_21 of the finest mesh, % of f1.
+    gci_coarse_pct : float
+        GCI_32 of the middle mesh, % of f2.
+    asymptotic_ratio : float
+        GCI_32 / (r21^p GCI_21): 1 in the asymptotic range.
+    """
 
     values: tuple[float, float, float]
     sizes: tuple[float, float, float]
@@ -123,9 +143,35 @@ def observed_order(
 
 @dataclass(frozen=True)
 class ConvergenceOfQuantity:
-    """One quantity over a family of meshes (finest first): every level's value, the observed
-    orders of the overlapping triplets, and, for each level, its error against the extrapolated
-    value of the finest triplet and its GCI (% of its own value) with that triplet's order."""
+    """The convergence of one quantity over a family of meshes (finest first).
+
+    Every level's value, the observed orders of the overlapping triplets, and, for each level,
+    its error against the extrapolated value of the finest triplet and its GCI (% of its own
+    value) with that triplet's order.
+
+    Attributes
+    ----------
+    name : str
+        The quantity.
+    sizes : tuple of float
+        The representative cell size of each level, finest first, mm.
+    values : tuple of float
+        The quantity on each level.
+    triplets : tuple of GridTriplet
+        The overlapping triplets (1, 2, 3), (2, 3, 4), ...
+    orders : tuple of float
+        Their observed orders.
+    order_spread : float
+        |p_123 - p_234| (nan with three levels).
+    asymptotic : bool
+        Every triplet monotone and the two finest orders agree within the tolerance.
+    extrapolated : float
+        The finest triplet's extrapolated value.
+    error_pct : tuple of float
+        100 (f_k - f_ext) / f_ext per level.
+    gci_pct : tuple of float
+        Per level, % of its value: its GCI with the next coarser level.
+    """
 
     name: str
     sizes: tuple[float, ...]

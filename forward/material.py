@@ -72,8 +72,15 @@ def _per_point(value: np.ndarray | float, extra: int) -> np.ndarray:
 
 
 class InvertedElementError(ArithmeticError):
-    """A deformation with det F <= 0 (or not finite) at a Gauss point or over an element: the
-    solver halves the increment that made it."""
+    """A deformation with det F <= 0 (or not finite) at a Gauss point or over an element.
+
+    The solver halves the increment that made it.
+
+    Parameters
+    ----------
+    where : str, default "element"
+        What inverted, for the message.
+    """
 
     def __init__(self, where: str = "element") -> None:
         super().__init__(f"inverted or degenerate {where}: det F <= 0")

@@ -76,8 +76,10 @@ def _rate(length: float, cells: int, first: float) -> float:
 
 @dataclass(frozen=True)
 class MeshFamily:
-    """A family of refined meshes: ``cells_xy`` and ``cells_z`` base cells (level 0, the coarsest)
-    with first cells ``h0_xy`` and ``h0_z`` at the indentation point, refined by ``ratio`` per level.
+    """A family of refined meshes, level 0 the coarsest, refined by ``ratio`` per level.
+
+    Level 0 has ``cells_xy`` and ``cells_z`` cells, its first cells ``h0_xy`` and ``h0_z`` at the
+    indentation point.
 
     Parameters
     ----------

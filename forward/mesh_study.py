@@ -57,7 +57,21 @@ class MeshErrors:
     norm ||F - F_ref|| / ||F_ref|| (stricter by N_s). Eq. 1b averages over "the surface nodes of
     the contact surface between the indenter and the cube", which reads two ways, both given:
     ``E_u_contact_pct`` over the top nodes in contact with the indenter at the final depth
-    (``contact_nodes`` of them), ``E_u_pct`` over every top node (the surface DIC sees)."""
+    (``contact_nodes`` of them), ``E_u_pct`` over every top node (the surface DIC sees).
+
+    Attributes
+    ----------
+    E_f_pct : float
+        Eq. 1a as printed, percent.
+    E_f_rel_pct : float
+        ||F - F_ref|| / ||F_ref||, percent.
+    E_u_pct : float
+        Eq. 1b over every top node, percent.
+    E_u_contact_pct : float
+        Eq. 1b over the top nodes in contact at the final depth, percent.
+    contact_nodes : int
+        How many those are.
+    """
 
     E_f_pct: float
     E_f_rel_pct: float

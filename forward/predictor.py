@@ -25,7 +25,25 @@ from .spec import ModelSpec, SpecError
 
 @dataclass
 class Prediction:
-    """Force curves and top-surface displacement fields for n parameter points."""
+    """Force curves and top-surface displacement fields for n parameter points.
+
+    Attributes
+    ----------
+    force : numpy.ndarray
+        (n, steps) indentation force of the whole specimen, mN.
+    displacement : numpy.ndarray
+        (n, steps, nodes, 3) top-surface displacements, mm.
+    depth : numpy.ndarray
+        (steps,) indentation depth, mm (depth 0 left out).
+    top_xyz : numpy.ndarray
+        (nodes, 3) reference coordinates of the top-surface nodes, mm.
+    parameters : tuple of str, default ("c1", "c5")
+        The parameters of theta.
+    force_jacobian : numpy.ndarray or None
+        (n, steps, p) d force / d theta, mN/kPa.
+    displacement_jacobian : numpy.ndarray or None
+        (n, steps, nodes, 3, p) d u / d theta, mm/kPa.
+    """
 
     force: np.ndarray  # (n, steps) mN, whole specimen
     displacement: np.ndarray  # (n, steps, nodes, 3) mm
@@ -67,7 +85,15 @@ class Prediction:
 
 @runtime_checkable
 class Predictor(Protocol):
-    """Anything that predicts force curves and fields from parameters (docs/architecture.md, "The Predictor seam")."""
+    """Anything that predicts force curves and fields from parameters: the FE solvers and surrogates.
+
+    See docs/architecture.md, "The Predictor seam".
+
+    Attributes
+    ----------
+    parameters : tuple of str
+        The parameters of theta, e.g. ``("c1", "c5")``.
+    """
 
     parameters: tuple[str, ...]
 
@@ -78,14 +104,32 @@ class Predictor(Protocol):
 
 @dataclass(frozen=True)
 class ReducedBasis:
-    """A Predictor's outputs as affine maps of a few reduced coordinates (a surrogate's PCA scores):
+    """A Predictor's outputs as affine maps of a few reduced coordinates (a surrogate's PCA scores).
 
-        log force (n, steps)              = force_mean + z_force @ force_basis
+    ::
+
+        log force (n, steps)                = force_mean + z_force @ force_basis
         displacement (n, steps * nodes * 3) = field_mean + z_field @ field_basis
 
     with ``(z_force, z_field) = coordinates(theta)`` for theta (n, p). Whatever is linear in the
     field (the displacement residuals of eq. 4b) can then be evaluated in the reduced space
-    without rebuilding the field (design/reduced_objective.py)."""
+    without rebuilding the field (design/reduced_objective.py).
+
+    Attributes
+    ----------
+    force_mean : numpy.ndarray
+        (steps,) mean log force, log mN.
+    force_basis : numpy.ndarray
+        (k_force, steps) the force's components.
+    field_mean : numpy.ndarray
+        (steps * nodes * 3,) mean displacement field, mm.
+    field_basis : numpy.ndarray
+        (k_field, steps * nodes * 3) the field's components.
+    steps, nodes : int
+        The field's steps and top nodes.
+    coordinates : callable
+        theta (n, p) -> (z_force, z_field).
+    """
 
     force_mean: np.ndarray  # (steps,) log mN
     force_basis: np.ndarray  # (k_force, steps)
@@ -98,7 +142,13 @@ class ReducedBasis:
 
 @runtime_checkable
 class ReducedPredictor(Predictor, Protocol):
-    """A Predictor that can also give its outputs as a :class:`ReducedBasis` (the surrogates)."""
+    """A Predictor that can also give its outputs as a :class:`ReducedBasis` (the surrogates).
+
+    Attributes
+    ----------
+    parameters : tuple of str
+        The parameters of theta.
+    """
 
     def reduced_basis(self) -> ReducedBasis:
         """The affine reduced form of :meth:`predict` (without Jacobians)."""
@@ -122,6 +172,33 @@ class FESolverPredictor:
     d u / d theta from the solver) or ``"febio"`` (needs FEBio 4, see forward.febio.runner;
     steps FEBio accepted off equilibrium, even after its rerun, come back with NaN forces).
     ``n_jobs`` > 1 runs points in parallel with joblib processes.
+
+    Parameters
+    ----------
+    spec : ModelSpec
+        The model; each point sets its parameters.
+    solver : {"embedded", "febio"}, default "embedded"
+        The FE solver.
+    sensitivities : bool, default False
+        Solve for the exact sensitivities too (embedded solver only).
+    parameters : tuple of str, default ("c1", "c5")
+        ``("c1", "c5")`` or ``("c1", "c5", "mu")``.
+    n_jobs : int, default 1
+        Points solved in parallel.
+    workdir : str or pathlib.Path, optional
+        FEBio: a folder per point (``point-<index>``) under it.
+
+    Raises
+    ------
+    ValueError
+        If the solver is unknown, sensitivities are asked of FEBio, or the parameters are others.
+
+    Examples
+    --------
+    >>> import indentation_studio as ins
+    >>> fe = ins.FESolverPredictor(ins.ModelSpec(), sensitivities=True)
+    >>> pred = fe.predict([[10.0, 350.0]], jacobian=True)  # doctest: +SKIP
+    >>> pred.force_jacobian.shape  # doctest: +SKIP
     """
 
     def __init__(
@@ -193,9 +270,17 @@ class FESolverPredictor:
 
 
 class CachedPredictor:
-    """A Predictor that remembers its answers point by point (with or without Jacobians), for
-    callers that ask an expensive FE model the same point more than once (an error budget that
-    fits several models built on the same meshes)."""
+    """A Predictor that remembers its answers point by point (with or without Jacobians).
+
+    For callers that ask an expensive FE model the same point more than once (an error budget
+    that fits several models built on the same meshes). Other attributes are the wrapped
+    predictor's.
+
+    Parameters
+    ----------
+    predictor : Predictor
+        The predictor to remember.
+    """
 
     def __init__(self, predictor) -> None:
         self.predictor = predictor

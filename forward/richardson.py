@@ -20,7 +20,23 @@ from .predictor import Prediction
 
 
 class RichardsonPredictor:
-    """Extrapolates a fine and a coarse FE Predictor (same test, different meshes) to order ``order``."""
+    """A Predictor that extrapolates a fine and a coarse FE Predictor (Richardson) to order ``order``.
+
+    The coarse top fields are read at the fine top nodes; the refinement ratio is the cube root
+    of the meshes' node counts.
+
+    Parameters
+    ----------
+    fine, coarse : FESolverPredictor
+        The same test on two meshes, ``fine`` with more nodes.
+    order : float, default 1.0
+        The order of convergence (> 0).
+
+    Raises
+    ------
+    ValueError
+        If the order is not positive or the fine mesh has no more nodes than the coarse one.
+    """
 
     def __init__(self, fine, coarse, order: float = 1.0) -> None:
         if not order > 0:

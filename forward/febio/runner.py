@@ -107,6 +107,25 @@ class FebioSolver:
     """Solves one :class:`ModelSpec` with FEBio 4: write, run, parse, check equilibrium.
 
     ``timeout_s`` bounds the whole solve, the rerun included (it gets the time left over).
+
+    Parameters
+    ----------
+    spec : ModelSpec
+        The model.
+    mesh : BlockMesh, optional
+        The mesh; default the spec's.
+    settings : FebSettings, optional
+        FEBio's numerics; default ``FebSettings()``.
+    executable : str or pathlib.Path, optional
+        The FEBio 4 executable; default :func:`find_febio`.
+    workdir : str or pathlib.Path, optional
+        Where the .feb and log files go; default a temporary folder.
+    timeout_s : float or None, default 3600
+        Time limit of the whole solve, s.
+    tolerance : EquilibriumTolerance
+        When a step counts as off equilibrium.
+    rerun_off_equilibrium : bool, default True
+        Steps off equilibrium make one rerun with tightened settings.
     """
 
     def __init__(

@@ -45,7 +45,43 @@ INDENTER_MATERIAL_ID = 2
 
 @dataclass(frozen=True)
 class FebSettings:
-    """FEBio settings that are not part of the model spec (numerics of FEBio's solution)."""
+    """FEBio settings that are not part of the model spec (numerics of FEBio's solution).
+
+    Attributes
+    ----------
+    c3 : float, default 1e-9
+        The material's c3, kPa (> 0: FEBio gives NaN for c3 = c4 = 0).
+    fric_coeff : float, default 1e8
+        The contact's friction coefficient when the spec's contact has none (a stick).
+    penalty : float, default 100.0
+        The contact penalty.
+    auto_penalty : bool, default True
+        FEBio's automatic penalty.
+    search_radius, search_tol : float
+        The contact search's radius and tolerance.
+    contact_tolerance : float, default 0.2
+        The contact's augmentation tolerance.
+    sphere_divisions : int, default 12
+        Divisions of the indenter's sphere surface (>= 2).
+    shell_thickness : float, default 0.01
+        The indenter shell's thickness, mm.
+    max_retries, opt_iter : int
+        FEBio's time stepper: retries and optimal iterations.
+    dtmin : float, default 0.001
+        The smallest time increment.
+    late_from_depth : float, default 10.0
+        From this depth (mm) on the increment is capped at ``late_max_increment``.
+    max_increment : float, default 1.0
+        The largest time increment before ``late_from_depth``, steps.
+    late_max_increment : float, default 0.5
+        ... and from ``late_from_depth`` on, steps.
+    dtol, etol, rtol : float
+        FEBio's displacement, energy and residual tolerances.
+    max_refs : int, default 50
+        Stiffness reformations at most.
+    linear_solver : str or None
+        e.g. ``"pardiso"``; None: FEBio's default.
+    """
 
     c3: float = 1e-9
     fric_coeff: float = 1e8
