@@ -122,12 +122,17 @@ class NodeStickContact(IndenterContact):
             eq = s.equilibrate(trial, cmask, target)
             iters += eq.iterations
             trial = eq.u
-            if s.want_sensitivities:
-                sens = self._sensitivity(eq, cmask, c)
             normal = c.normal_reaction(self._reaction_top(eq.R))
             tol_t = 1e-9 * max(float(np.abs(normal).max(initial=0.0)), s.force_scale)
             pulling = c.attached & (normal < -tol_t)
             pen = c.penetrating(trial[s.top], d1, tol_pen)
+            # the state's derivatives: for the result, or for the anchors of the nodes this pass
+            # attaches (a pass that only releases nodes needs none)
+            sens = (
+                self._sensitivity(eq, cmask, c)
+                if s.want_sensitivities and (pen.any() or not pulling.any())
+                else None
+            )
             if not pulling.any() and not pen.any():
                 return eq, c, iters, passes, sens
             c.attached[pulling] = False
