@@ -5,6 +5,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+from sensitivity_check import assert_sensitivities_match_central_differences
 
 from indentation_studio.forward.contact_quadrature import contact_points, top_faces
 from indentation_studio.forward.mesh import preset_mesh
@@ -89,21 +90,7 @@ def test_surface_contact_sensitivities_match_central_differences(friction):
         assert r.convergence["slipping_nodes"].max() > 0  # slip is exercised
     names = ("c1", "c5") if friction is None else ("c1", "c5", "mu")
     assert r.parameters == names and r.force_sensitivity.shape == (4, len(names))
-    for k, name in enumerate(names):
-        value = {"c1": 10.0, "c5": 350.0, "mu": 1.0}[name]
-        h = 1e-4 * value
-
-        def run(v, name=name):
-            s = spec.with_friction(v) if name == "mu" else spec.with_material(**{name: v})
-            return EmbeddedSolver(s, mesh).run()
-
-        rp, rm = run(value + h), run(value - h)
-        assert np.array_equal(rp.convergence["increments"], r.convergence["increments"])
-        f_fd = (rp.force - rm.force) / (2 * h)
-        assert np.abs(r.force_sensitivity[1:, k] - f_fd[1:]).max() < 1e-4 * np.abs(f_fd[1:]).max(), name
-        u_fd = (rp.displacement - rm.displacement) / (2 * h)
-        err = np.abs(r.displacement_sensitivity[1:, ..., k] - u_fd[1:]).max()
-        assert err < 1e-4 * np.abs(u_fd[1:]).max(), name
+    assert_sensitivities_match_central_differences(spec, r, mesh)
 
 
 def test_a_spec_with_the_node_wise_contact_writes_what_it_wrote_before():
