@@ -147,9 +147,35 @@ def grid_block(
     element_material: np.ndarray | None = None,
     material_names: tuple[str, ...] = (),
 ) -> BlockMesh:
-    """The structured hex8 mesh of the grid x[i], y[j], z[k] (ascending node coordinates), node
-    id = 1 + k + nz * (j + ny * i) (FEBio's baseline numbering), elements in the order of their
-    (i, j, k) cells."""
+    """The structured hex8 mesh of the grid x[i], y[j], z[k].
+
+    Node id = 1 + k + nz * (j + ny * i) (FEBio's baseline numbering); elements in the order of
+    their (i, j, k) cells.
+
+    Parameters
+    ----------
+    x, y, z : numpy.ndarray
+        Ascending node coordinates along each axis, mm.
+    source : str
+        Where the mesh came from.
+    element_material : numpy.ndarray, optional
+        (ne,) each element's material index (a composite).
+    material_names : tuple of str, default ()
+        The materials of a composite.
+
+    Returns
+    -------
+    BlockMesh
+        The mesh and its node sets.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from indentation_studio.forward import grid_block
+    >>> mesh = grid_block(np.linspace(0, 1, 3), np.linspace(0, 1, 3), np.linspace(0, 1, 2), "test")
+    >>> mesh.n_nodes, len(mesh.elements)
+    (18, 4)
+    """
     nx, ny, nz = len(x), len(y), len(z)
     ii, jj, kk = np.meshgrid(np.arange(nx), np.arange(ny), np.arange(nz), indexing="ij")
     nodes = np.stack([x[ii], y[jj], z[kk]], axis=-1).reshape(-1, 3)  # index = k + nz*(j + ny*i)

@@ -121,12 +121,42 @@ def stretch_block(
     max_cutbacks: int = 6,
     linear_solver: str | None = None,
 ) -> BlockStretchResult:
-    """Stretch ``mesh`` step by step: the far face x = max to ``stretch_x[k]`` (None: free), the
-    far face y = max to ``stretch_y[k]`` (None: free); x = 0, y = 0 and z = min are symmetry
-    planes, the top is free. Newton stops when the free dofs' residual is below ``tol`` times the
-    reactions (or than ``tol`` x c-scale x area, at the reference state); a step it does not
-    solve in ``max_newton`` iterations is cut in half (at most ``max_cutbacks`` times) and
-    approached in increments."""
+    """Stretch a block mesh step by step by its far faces; the symmetry planes held, the top free.
+
+    x = 0, y = 0 and z = min are symmetry planes. Newton stops when the free dofs' residual is
+    below ``tol`` times the reactions (or than ``tol`` x c-scale x area, at the reference state);
+    a step it does not solve in ``max_newton`` iterations is cut in half (at most
+    ``max_cutbacks`` times) and approached in increments.
+
+    Parameters
+    ----------
+    mesh : BlockMesh
+        The block.
+    moduli : ElementModuli
+        The material per element.
+    stretch_x, stretch_y : numpy.ndarray or None
+        Stretch of the far face x = max (y = max) at each step; None: that face is free (not both).
+    tol : float, default 1e-10
+        Newton's relative tolerance.
+    max_newton : int, default 15
+        Newton iterations per step at most.
+    max_cutbacks : int, default 6
+        Halvings of a step at most.
+    linear_solver : str, optional
+        The sparse solver; default the studio's choice.
+
+    Returns
+    -------
+    BlockStretchResult
+        The stretches, stresses and Newton iterations per step.
+
+    Raises
+    ------
+    ValueError
+        If neither stretch is given (or they are invalid).
+    StretchError
+        If a step is not solved after the cutbacks.
+    """
     from .solver import mesh_structures
 
     if stretch_x is None and stretch_y is None:
@@ -276,11 +306,26 @@ EQUIBIAXIAL_CELL = 0.8
 
 
 def equibiaxial_phantom_mesh(spec: ModelSpec, cell: float = EQUIBIAXIAL_CELL) -> BlockMesh:
-    """The phantom's mesh for the equibiaxial stretch: uniform cells of about ``cell`` mm in x and
-    z with 2 across each fiber, one cell along y. The stretched block is invariant along the fibers
+    """The phantom's mesh for the equibiaxial stretch: uniform cells, one along y.
+
+    Cells of about ``cell`` mm in x and z with 2 across each fiber. The stretched block is
+    invariant along the fibers
     (y), so one cell there is exact; the indentation presets' grading toward the indenter is of
     no use here, and their large far cells lock: on ``composite-coarse`` the transverse stress at
-    lambda = 1.03 is 14.3 kPa against 4.3 kPa here, 4.24 kPa with 0.4 mm cells and 4 across."""
+    lambda = 1.03 is 14.3 kPa against 4.3 kPa here, 4.24 kPa with 0.4 mm cells and 4 across.
+
+    Parameters
+    ----------
+    spec : ModelSpec
+        The composite phantom's model (its geometry).
+    cell : float
+        The cell size, mm.
+
+    Returns
+    -------
+    BlockMesh
+        The mesh, element sets ``matrix`` and ``fibers``.
+    """
     from .composite_mesh import phantom_mesh
     from .mesh_presets import CompositeMeshPreset
 
@@ -296,9 +341,34 @@ def equibiaxial_stretch(
     cell: float = EQUIBIAXIAL_CELL,
     **kwargs,
 ) -> BlockStretchResult:
-    """Paper 2.9: stretch the spec's block (homogeneous or composite) equibiaxially in x and y
-    in ``steps`` equal steps to ``max_stretch``, the top free; no indenter. A composite is
-    stretched on :func:`equibiaxial_phantom_mesh` (``cell`` mm) unless ``mesh`` is given."""
+    """Stretch the spec's block equibiaxially in x and y, the top free, no indenter (paper 2.9).
+
+    Parameters
+    ----------
+    spec : ModelSpec
+        The block (homogeneous or composite) and its material.
+    max_stretch : float, default 1.3
+        The final stretch (> 1).
+    steps : int, default 6
+        Equal steps to it.
+    mesh : BlockMesh, optional
+        The mesh; default, for a composite, :func:`equibiaxial_phantom_mesh` (``cell`` mm), else
+        the spec's.
+    cell : float
+        The cell size of a composite's mesh, mm.
+    **kwargs
+        Passed to :func:`stretch_block` (``tol``, ``max_newton``, ...).
+
+    Returns
+    -------
+    BlockStretchResult
+        The stretches, stresses and Newton iterations per step.
+
+    Raises
+    ------
+    ValueError
+        If ``max_stretch`` is not a number > 1 or ``steps`` not a whole number >= 1.
+    """
     from .mesh import build_mesh
 
     if not (np.isfinite(max_stretch) and max_stretch > 1.0):

@@ -164,8 +164,26 @@ def conforming_axis(
 def phantom_mesh(
     geometry: Geometry, preset: CompositeMeshPreset, layout: PhantomLayout = PHANTOM, name: str = "custom"
 ) -> BlockMesh:
-    """The conforming hex8 mesh of the phantom's quarter block (x, y >= 0 from the block's
-    centre axis, the indenter at the top centre) with its element sets (module docstring)."""
+    """The conforming hex8 mesh of the phantom's quarter block with its element sets (module docstring).
+
+    x, y >= 0 from the block's centre axis, the indenter at the top centre.
+
+    Parameters
+    ----------
+    geometry : Geometry
+        The block, mm.
+    preset : CompositeMeshPreset
+        Cells across a fiber, first cell size and growth, along x/z and y.
+    layout : PhantomLayout, default PHANTOM
+        The fibers.
+    name : str, default "custom"
+        The mesh's name (its source is ``composite:<name>``).
+
+    Returns
+    -------
+    BlockMesh
+        The mesh, element sets ``matrix`` and ``fibers``.
+    """
     xf = _intervals(layout.x_centres(2 * geometry.half_x), layout.fiber_size, geometry.half_x)
     zf = _intervals(layout.z_centres(geometry.height), layout.fiber_size, geometry.height)
     x = conforming_axis(geometry.half_x, xf, preset.fiber_cells, preset.h0, preset.growth)
@@ -194,7 +212,23 @@ def composite_mesh(name: str, geometry: Geometry | None = None) -> BlockMesh:
 
 
 def fiber_volume_fraction(mesh: BlockMesh) -> float:
-    """Volume of the fiber elements over the mesh's volume."""
+    """The fiber volume fraction of a composite mesh: its fiber elements' volume over its volume.
+
+    Parameters
+    ----------
+    mesh : BlockMesh
+        A composite mesh (with element sets).
+
+    Returns
+    -------
+    float
+        FVF.
+
+    Raises
+    ------
+    ValueError
+        If the mesh has no element sets.
+    """
 
     if mesh.element_material is None:
         raise ValueError(f"{mesh.source}: not a composite mesh (no element sets)")

@@ -35,8 +35,27 @@ class ElementModuli:
 
 
 def composite_moduli(composite: CompositeMaterial, mesh: BlockMesh, fiber: np.ndarray) -> ElementModuli:
-    """Per-element moduli of ``composite`` on a mesh with element sets named after its
-    constituents (``matrix``, ``fibers``)."""
+    """Per-element moduli of ``composite`` on a mesh with element sets named after its constituents.
+
+    Parameters
+    ----------
+    composite : CompositeMaterial
+        The constituents (``matrix``, ``fibers``).
+    mesh : BlockMesh
+        A mesh with element sets of the same names.
+    fiber : numpy.ndarray
+        The unit reference fiber direction.
+
+    Returns
+    -------
+    ElementModuli
+        (ne,) arrays of c1, c2, c5 and kappa, kPa.
+
+    Raises
+    ------
+    ValueError
+        If the mesh has no element sets, or sets and constituents do not match.
+    """
     if mesh.element_material is None:
         raise ValueError(f"{mesh.source}: a composite needs a mesh with element sets (matrix, fibers)")
     table = np.zeros((len(mesh.material_names), 4))

@@ -102,6 +102,18 @@ def observed_order(
     Returns
     -------
     GridTriplet
+        The order, extrapolated value and GCIs.
+
+    Raises
+    ------
+    ValueError
+        If the sizes do not grow from the finest mesh.
+
+    Examples
+    --------
+    >>> from indentation_studio.forward import observed_order
+    >>> round(observed_order([1.01, 1.04, 1.16], [1.0, 2.0, 4.0]).order, 3)
+    2.0
     """
     f1, f2, f3 = (float(v) for v in values)
     h1, h2, h3 = (float(h) for h in sizes)
@@ -214,6 +226,11 @@ def study_quantity(
         The GCI of level k uses the next coarser level and the finest triplet's order,
         Fs |f_k - f_{k+1}| / |f_k| / (r^p - 1) (% of f_k; the finest level's is GCI_21); the
         coarsest level's is Roache's coarse-grid GCI with the next finer, Fs |e| r^p / (r^p - 1).
+
+    Raises
+    ------
+    ValueError
+        If there are fewer than three levels or values and sizes differ in length.
     """
     v = [float(x) for x in values]
     h = [float(x) for x in sizes]

@@ -52,7 +52,22 @@ def axis_coordinates(axis: GradedAxis, length: float) -> np.ndarray:
 
 
 def structured_block(geometry: Geometry, preset: MeshPreset, name: str = "custom") -> BlockMesh:
-    """The graded structured hex8 mesh of the quarter block for ``preset``."""
+    """The graded structured hex8 mesh of the quarter block for ``preset``.
+
+    Parameters
+    ----------
+    geometry : Geometry
+        The block's half widths and height, mm.
+    preset : MeshPreset
+        The grading of the x/y and z axes.
+    name : str, default "custom"
+        The mesh's name (its source is ``preset:<name>``).
+
+    Returns
+    -------
+    BlockMesh
+        The mesh (:func:`grid_block`).
+    """
     x = axis_coordinates(preset.xy, geometry.half_x)
     y = axis_coordinates(preset.xy, geometry.half_y)
     z = geometry.height - axis_coordinates(preset.z, geometry.height)[::-1]
@@ -60,15 +75,50 @@ def structured_block(geometry: Geometry, preset: MeshPreset, name: str = "custom
 
 
 def preset_mesh(name: str, geometry: Geometry | None = None) -> BlockMesh:
-    """The named preset mesh of :data:`MESH_PRESETS`."""
+    """The named preset mesh of ``MESH_PRESETS``.
+
+    Parameters
+    ----------
+    name : str
+        A key of ``MESH_PRESETS`` (e.g. ``"default"``).
+    geometry : Geometry, optional
+        The block; default ``Geometry()``.
+
+    Returns
+    -------
+    BlockMesh
+        The graded structured mesh (:func:`structured_block`).
+
+    Raises
+    ------
+    ValueError
+        If the preset is unknown.
+    """
     if name not in MESH_PRESETS:
         raise ValueError(f"unknown mesh preset {name!r}; use one of {sorted(MESH_PRESETS)}")
     return structured_block(geometry or Geometry(), MESH_PRESETS[name], name)
 
 
 def build_mesh(spec: ModelSpec) -> BlockMesh:
-    """The block mesh a spec asks for: a preset (of the composite phantom too), or the hex8 block
-    of a FEBio file."""
+    """The block mesh a spec asks for: a preset (of the composite phantom too), or a FEBio file's.
+
+    Parameters
+    ----------
+    spec : ModelSpec
+        The model; its ``mesh`` names a preset or a ``.feb`` file (its hex8 block is read).
+
+    Returns
+    -------
+    BlockMesh
+        The quarter block's mesh.
+
+    Examples
+    --------
+    >>> import indentation_studio as ins
+    >>> mesh = ins.forward.build_mesh(ins.ModelSpec())
+    >>> mesh.nodes.shape[1], mesh.elements.shape[1]
+    (3, 8)
+    """
     if spec.mesh.feb_file:
         return read_feb_block_mesh(spec.mesh.feb_file)
     if spec.mesh.is_composite:

@@ -90,8 +90,25 @@ def nodes_on_sphere(result: SimulationResult, step: int = -1, rtol: float = 1e-6
 
 
 def mesh_errors(result: SimulationResult, reference: SimulationResult) -> MeshErrors:
-    """Eq. 1a (forces over all steps) and eq. 1b (final top-surface displacements, the
-    reference interpolated at the result's top nodes), in percent."""
+    """The mesh errors of eq. 1a (forces over all steps) and eq. 1b (final top displacements), percent.
+
+    Parameters
+    ----------
+    result : SimulationResult
+        The simulation on the mesh studied.
+    reference : SimulationResult
+        The same test on the reference mesh, interpolated at the result's top nodes.
+
+    Returns
+    -------
+    MeshErrors
+        E_f and E_u, both readings.
+
+    Raises
+    ------
+    ValueError
+        If the two do not share the protocol (depths).
+    """
     if result.depth.shape != reference.depth.shape or not np.allclose(result.depth, reference.depth):
         raise ValueError("result and reference must share the protocol (depths)")
     F, Fr = result.force[1:], reference.force[1:]
@@ -143,10 +160,32 @@ def convergence_study(
     progress: Callable[[str, int, int, float], None] | None = None,
     say: Callable[[str], None] | None = None,
 ) -> list[dict]:
-    """Eq. 1a and 1b of each mesh preset in ``presets`` against ``reference``, all solved for
-    ``spec`` (its own mesh choice is replaced). With ``out_dir``, each mesh's result is kept there
-    as ``<preset>.npz`` and reused by later studies of the same spec. One row per preset:
-    ``preset``, ``nodes``, ``elements``, the :class:`MeshErrors` fields and ``wall_s``."""
+    """Eq. 1a and 1b of each mesh preset in ``presets`` against ``reference``, all solved for ``spec``.
+
+    The spec's own mesh choice is replaced by each preset.
+
+    Parameters
+    ----------
+    spec : ModelSpec
+        The test.
+    presets : list of str
+        The meshes to study.
+    reference : str, default "reference"
+        The reference mesh preset.
+    out_dir : str or pathlib.Path, optional
+        Each mesh's result is kept there as ``<preset>.npz`` and reused by later studies of the
+        same spec.
+    progress : callable, optional
+        ``progress(preset, step, steps, force)`` during each solve.
+    say : callable, optional
+        Where to report reused results.
+
+    Returns
+    -------
+    list of dict
+        One row per preset: ``preset``, ``nodes``, ``elements``, the :class:`MeshErrors` fields
+        and ``wall_s``.
+    """
     folder = Path(out_dir) if out_dir is not None else None
     results = {}
     for name in [*presets, reference]:

@@ -24,7 +24,43 @@ SYMMETRY_FACTOR = 4
 
 @dataclass
 class SimulationResult:
-    """Per-step outputs of one simulation (steps + 1 rows: depth 0 first)."""
+    """Per-step outputs of one simulation (steps + 1 rows: depth 0 first).
+
+    Attributes
+    ----------
+    depth : numpy.ndarray
+        (s,) indentation depth, mm.
+    force : numpy.ndarray
+        (s,) force of the whole specimen (4 x the quarter model's), mN.
+    top_node_ids : numpy.ndarray
+        (nt,) node ids of the top surface.
+    top_xyz : numpy.ndarray
+        (nt, 3) their reference coordinates, mm.
+    displacement : numpy.ndarray
+        (s, nt, 3) their displacements, mm.
+    spec : dict
+        The model's ``ModelSpec.to_dict()``.
+    solver : dict
+        The solver's name, version, mesh and options.
+    convergence : dict of str to numpy.ndarray
+        Per-step convergence records (e.g. ``newton_iterations``).
+    wall_s : float
+        Wall time, s.
+    force_sensitivity : numpy.ndarray or None
+        (s, p) d force / d theta, mN per kPa.
+    displacement_sensitivity : numpy.ndarray or None
+        (s, nt, 3, p) d u / d theta, mm per kPa.
+    parameters : tuple of str
+        The parameters of the sensitivities.
+    full_displacement : numpy.ndarray or None
+        (s, n, 3) every node's displacement, mm, when asked for (VTU export).
+    off_equilibrium : numpy.ndarray or None
+        (s,) bool: steps a FEBio run accepted off equilibrium (force NaN there); None when not
+        checked (the embedded solver, old files).
+    contact_status : numpy.ndarray or None
+        (s, nt) int8: each top node's contact per step, 0 free, 1 stuck, 2 slipping (embedded
+        solver; None for FEBio runs and old files).
+    """
 
     depth: np.ndarray  # (s,) mm
     force: np.ndarray  # (s,) mN, whole specimen

@@ -25,8 +25,21 @@ SOLVERS = ("embedded", "febio")
 
 @dataclass
 class SimulationRun:
-    """The result, where it was written, the VTU series (if asked for), warnings to show and the
-    wall time of the run (s)."""
+    """One simulation run: the result, where it was written, and what to tell the user.
+
+    Attributes
+    ----------
+    result : SimulationResult
+        The result.
+    result_file : pathlib.Path
+        Where it was written.
+    vtu_series : pathlib.Path or None
+        The VTU series' .pvd, if asked for.
+    warnings : list of str
+        Warnings to show (steps off equilibrium).
+    wall_s : float
+        Wall time of the run, s.
+    """
 
     result: SimulationResult
     result_file: Path
@@ -61,8 +74,10 @@ class SimulationRun:
 
 
 def default_result_file(spec: ModelSpec, solver: str = "embedded") -> Path:
-    """Where a simulation's result goes unless told: under ``runs/simulations/``, named by its
-    material, radius, contact (runs with another contact kept apart), mesh and solver.
+    """Where a simulation's result goes unless told: a file under ``runs/simulations/``.
+
+    It is named by its material, radius, contact (runs with another contact kept apart), mesh and
+    solver.
 
     Parameters
     ----------
@@ -116,10 +131,47 @@ def run_simulation(
     progress: Callable[[int, int, float], None] | None = None,
     say: Callable[[str], None] | None = None,
 ) -> SimulationRun:
-    """Solve ``spec`` on ``solver`` ('embedded' or 'febio'; ``from_log`` reads an existing FEBio run
-    back instead) and write the result to ``out`` (default: :func:`default_result_file`). ``progress(step, steps, value)`` gets the force
-    (embedded) or the depth (FEBio). A failed simulation keeps its finished steps in
-    ``<out>.partial.npz`` and raises :class:`SimulationError` naming the depth reached."""
+    """Solve ``spec`` and write the result: what ``indent-studio simulate`` does.
+
+    A failed simulation keeps its finished steps in ``<out>.partial.npz``.
+
+    Parameters
+    ----------
+    spec : ModelSpec
+        The model.
+    out : str or pathlib.Path, optional
+        The result file; default :func:`default_result_file`.
+    solver : {"embedded", "febio"}, default "embedded"
+        The FE solver.
+    sensitivities : bool, default False
+        Solve for the exact sensitivities too (embedded solver).
+    vtu : str or pathlib.Path, optional
+        A folder for a VTU series of every node's displacement (embedded solver).
+    from_log : str or pathlib.Path, optional
+        Read an existing FEBio run back instead of solving.
+    progress : callable, optional
+        ``progress(step, steps, value)``: the force (embedded) or the depth (FEBio).
+    say : callable, optional
+        Where to say that the steps of a failed run are kept.
+
+    Returns
+    -------
+    SimulationRun
+        The result, its file, the VTU series, warnings and wall time.
+
+    Raises
+    ------
+    ValueError
+        If the solver is unknown, or sensitivities or VTU are asked of FEBio.
+    SimulationError
+        If the simulation fails; names the depth reached.
+
+    Examples
+    --------
+    >>> import indentation_studio as ins
+    >>> run = ins.forward.run_simulation(ins.ModelSpec(), "out.npz")  # doctest: +SKIP
+    >>> run.result.force[-1]  # whole specimen, mN  # doctest: +SKIP
+    """
     t0 = time.perf_counter()
     if solver not in SOLVERS:
         raise ValueError(f"unknown solver {solver!r}; use one of {', '.join(SOLVERS)}")

@@ -36,8 +36,20 @@ def available_cores() -> int:
 
 
 def busy_cores(samples: int = 5, interval_s: float = 0.002) -> int:
-    """Cores busy with other processes now: the runnable tasks the kernel counts, less this one,
-    the smallest of ``samples`` readings ``interval_s`` apart. 0 where it cannot be read."""
+    """Cores busy with other processes now, from the runnable tasks the kernel counts.
+
+    Parameters
+    ----------
+    samples : int, default 5
+        Readings of ``/proc/loadavg``.
+    interval_s : float, default 0.002
+        Time between readings, s.
+
+    Returns
+    -------
+    int
+        The smallest reading less this process; 0 where it cannot be read.
+    """
     counts = []
     for k in range(samples):
         try:
@@ -52,8 +64,18 @@ def busy_cores(samples: int = 5, interval_s: float = 0.002) -> int:
 
 
 def solver_threads() -> int:
-    """The thread count of a lone solve: ``INDENTATION_STUDIO_THREADS`` if set, else the idle cores
-    (at least 1)."""
+    """The thread count of a lone solve.
+
+    Returns
+    -------
+    int
+        ``INDENTATION_STUDIO_THREADS`` if set, else the idle cores (at least 1).
+
+    Raises
+    ------
+    ValueError
+        If ``INDENTATION_STUDIO_THREADS`` is not a whole number >= 1.
+    """
     fixed = os.environ.get(THREADS_ENV)
     if fixed:
         try:
@@ -68,8 +90,26 @@ def solver_threads() -> int:
 
 @contextlib.contextmanager
 def thread_limits(threads: int | None) -> Iterator[None]:
-    """Limit numba's and the BLAS/OpenMP libraries' (MKL's PARDISO) threads within the block;
-    None leaves them as they are. numba's count is restored on exit."""
+    """A context that limits numba's and the BLAS/OpenMP libraries' (MKL's PARDISO) threads.
+
+    numba's count is restored on exit.
+
+    Parameters
+    ----------
+    threads : int or None
+        The thread limit; None leaves them as they are.
+
+    Yields
+    ------
+    None
+        Inside the block the limits hold.
+
+    Examples
+    --------
+    >>> from indentation_studio.forward import thread_limits
+    >>> with thread_limits(1):
+    ...     pass
+    """
     if threads is None:
         yield
         return

@@ -18,8 +18,29 @@ from .result import SimulationResult
 def write_vtu_series(
     result: SimulationResult, mesh: BlockMesh, folder: str | Path, stem: str = "step"
 ) -> Path:
-    """Write ``folder/<stem>_NNN.vtu`` per step and ``folder/<stem>.pvd``; returns the .pvd path.
-    The result must carry every node's displacement (``EmbeddedSolver.run(full_field=True)``)."""
+    """Write a result as a VTU series: ``folder/<stem>_NNN.vtu`` per step and ``folder/<stem>.pvd``.
+
+    Parameters
+    ----------
+    result : SimulationResult
+        A result carrying every node's displacement (``EmbeddedSolver.run(full_field=True)``).
+    mesh : BlockMesh
+        Its mesh.
+    folder : str or pathlib.Path
+        Where to write (made if missing).
+    stem : str, default "step"
+        The files' stem.
+
+    Returns
+    -------
+    pathlib.Path
+        The .pvd file.
+
+    Raises
+    ------
+    ValueError
+        If the result holds only the top-surface displacements, or not the mesh's nodes.
+    """
     if result.full_displacement is None:
         raise ValueError("this result holds only the top-surface displacements: run with full_field=True")
     u = np.asarray(result.full_displacement)

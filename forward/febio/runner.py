@@ -64,7 +64,23 @@ def require_equilibrium(result: SimulationResult) -> SimulationResult:
 
 
 def find_febio(environ: dict[str, str] | None = None) -> Path:
-    """The ``febio4`` executable named by ``FEBIO_PATH`` (file or folder), else found on ``PATH``."""
+    """The ``febio4`` executable named by ``FEBIO_PATH`` (file or folder), else found on ``PATH``.
+
+    Parameters
+    ----------
+    environ : dict of str to str, optional
+        The environment to read; default ``os.environ``.
+
+    Returns
+    -------
+    pathlib.Path
+        The executable.
+
+    Raises
+    ------
+    FebioNotFoundError
+        If ``FEBIO_PATH`` holds no executable ``febio4``, or none is on ``PATH``.
+    """
     env = os.environ if environ is None else environ
     hint = (
         "FEBio 4 not found: set FEBIO_PATH to the febio4 executable (or the folder holding it), "

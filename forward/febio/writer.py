@@ -443,7 +443,21 @@ def write_feb(
 ) -> Path:
     """Write ``spec`` as a FEBio 4.0 ``.feb`` at ``path``; its logfile is ``<stem>.log`` beside it.
 
-    ``mesh`` defaults to the mesh the spec names (a preset or the hex8 block of a ``.feb``).
+    Parameters
+    ----------
+    spec : ModelSpec
+        The model.
+    path : str or pathlib.Path
+        The ``.feb`` file to write (atomically).
+    mesh : BlockMesh, optional
+        Default the mesh the spec names (a preset or the hex8 block of a ``.feb``).
+    settings : FebSettings, optional
+        FEBio's numerics; default ``FebSettings()``.
+
+    Returns
+    -------
+    pathlib.Path
+        The file written.
     """
     path = Path(path)
     mesh = mesh if mesh is not None else build_mesh(spec)
