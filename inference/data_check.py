@@ -186,8 +186,20 @@ def _top_nodes(mesh: str) -> np.ndarray:
 
 
 def check_experiment(exp: ExperimentData | str | Path, mesh: str = "default") -> DataCheck:
-    """The data check of an experiment (module docstring); ``mesh`` is the preset whose top nodes
-    are matched to the DIC data. A folder is loaded with its missing steps left out and reported."""
+    """The data check of an experiment (module docstring): holds, DIC coverage, registration.
+
+    Parameters
+    ----------
+    exp : ExperimentData, str or pathlib.Path
+        The experiment, or its folder (loaded with its missing steps left out and reported).
+    mesh : str, default "default"
+        The mesh preset whose top nodes are matched to the DIC data.
+
+    Returns
+    -------
+    DataCheck
+        The checks of every hold and step, the sphere fit and the steps left out.
+    """
     if not isinstance(exp, ExperimentData):
         exp = load_experiment(exp, exclude_missing=True)
     warnings: list[str] = []

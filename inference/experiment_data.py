@@ -45,7 +45,35 @@ from .hold_checks import check_hold_forces
 
 @dataclass
 class ExperimentData:
-    """A loaded, validated experiment (coordinates in the DIC frame, mm; forces mN; times s)."""
+    """A loaded, validated experiment (coordinates in the DIC frame, mm; forces mN; times s).
+
+    Attributes
+    ----------
+    root : pathlib.Path
+        The experiment folder.
+    radius : float
+        The indenter's radius, mm.
+    step_size : float
+        Indentation per step, mm.
+    steps : int
+        Number of steps N.
+    fiber_angle_deg : float or None
+        The fiber direction in the DIC frame, degrees from x; None: to be estimated.
+    force : pandas.DataFrame
+        The force readings: ``step``, ``time_s``, ``force_mN``.
+    dic_xyz : numpy.ndarray
+        (points, 3) DIC reference positions.
+    dic_u : numpy.ndarray
+        (steps, points, 3) DIC displacements, NaN where not correlated.
+    indenter_xyz : numpy.ndarray
+        (points, 3) the indenter's tracked points.
+    description : str
+        Free text.
+    excluded_steps : tuple of int
+        Steps (1..N) left out of the fit.
+    missing_steps : tuple of int
+        Of those, the ones left out for lack of data (``exclude_missing``).
+    """
 
     root: Path
     radius: float
@@ -187,9 +215,32 @@ def _read_dic(root: Path, steps: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def load_experiment(root: str | Path, exclude_missing: bool = False) -> ExperimentData:
-    """Read and validate an experiment folder (module docstring). With ``exclude_missing`` a step
-    with fewer than 4 force readings or no correlated DIC point is left out (listed in
-    ``missing_steps``) instead of refused: the data check reports it."""
+    """Read and validate an experiment folder (module docstring).
+
+    Parameters
+    ----------
+    root : str or pathlib.Path
+        The experiment folder.
+    exclude_missing : bool, default False
+        A step with fewer than 4 force readings or no correlated DIC point is left out (listed in
+        ``missing_steps``) instead of refused: the data check reports it.
+
+    Returns
+    -------
+    ExperimentData
+        The experiment.
+
+    Raises
+    ------
+    ExperimentDataError
+        If the folder is missing or its files are not a valid experiment (naming what is wrong).
+
+    Examples
+    --------
+    >>> import indentation_studio as ins
+    >>> exp = ins.load_experiment("runs/experiments/synthetic")  # doctest: +SKIP
+    >>> exp.steps, exp.radius  # doctest: +SKIP
+    """
     root = Path(root)
     if not root.is_dir():
         raise ExperimentDataError(f"{root}: no such experiment folder")

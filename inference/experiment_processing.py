@@ -30,7 +30,20 @@ from .specimen_frame import SpecimenFrame, specimen_frame
 
 
 def static_forces(exp: ExperimentData) -> tuple[np.ndarray, np.ndarray]:
-    """f_inf and its standard error per step 1..N (eq. 9); NaN for the excluded steps."""
+    """The static force f_inf and its standard error per step 1..N, fitted by eq. 9 to each hold.
+
+    Parameters
+    ----------
+    exp : ExperimentData
+        The experiment.
+
+    Returns
+    -------
+    f_inf : numpy.ndarray
+        (N,) the static force per step, mN; NaN for the excluded steps.
+    f_std : numpy.ndarray
+        (N,) its standard error, mN.
+    """
     f_inf, f_std = np.full(exp.steps, np.nan), np.full(exp.steps, np.nan)
     for k in exp.used_steps:
         g = exp.force[exp.force["step"] == k]
@@ -132,11 +145,24 @@ def leveled_fiber_angle(angle_deg: float, frame: SpecimenFrame) -> float:
 
 
 def to_model_frame(exp: ExperimentData) -> RegisteredDIC:
-    """The DIC data in the model frame: the top face and its normal from the plane of the DIC
-    reference positions (:mod:`.specimen_frame`: DIC in camera coordinates is leveled; a point
-    of indentation off the face is an error), the origin at the fitted sphere's point nearest the
-    face, y along the fibers (given, or estimated from the strain field when the experiment does
-    not say)."""
+    """The DIC data registered to the model frame: origin at the indentation point, y along the fibers.
+
+    The top face and its normal come from the plane of the DIC reference positions
+    (:mod:`.specimen_frame`: DIC in camera coordinates is leveled; a point of indentation off the
+    face is an error), the origin is the fitted sphere's point nearest the face, and y is along
+    the fibers (given, or estimated from the strain field when the experiment does not say).
+
+    Parameters
+    ----------
+    exp : ExperimentData
+        The experiment.
+
+    Returns
+    -------
+    RegisteredDIC
+        Positions and displacements in the model frame, the origin, the fiber angle, the sphere
+        fit and the rotation.
+    """
     centre, radius = fit_sphere(exp.indenter_xyz)
     frame = specimen_frame(exp.dic_xyz, centre, radius)
     origin = frame.indentation_point_mm
@@ -287,10 +313,34 @@ def dic_to_nodes(
 
 
 def experiment_objective(exp: ExperimentData, top_xyz: np.ndarray, reading: str = "paper", excluded_steps=()):
-    """The objective (eq. 4, 5) of a measured experiment against a model with top nodes
-    ``top_xyz``: static forces from eq. 9, DIC registered and interpolated at the nodes, nodes
-    without data obscured; the steps of ``exp.excluded_steps`` and ``excluded_steps`` (1..N) left
-    out. Returns the objective and the registration."""
+    """The objective (eq. 4, 5) of a measured experiment against a model with top nodes ``top_xyz``.
+
+    Static forces from eq. 9, DIC registered and interpolated at the nodes, nodes without data
+    obscured.
+
+    Parameters
+    ----------
+    exp : ExperimentData
+        The experiment.
+    top_xyz : numpy.ndarray
+        (nodes, 3) the model's top nodes, mm.
+    reading : str, default "paper"
+        How eq. 4 is read (:class:`Objective`).
+    excluded_steps : sequence of int, default ()
+        Steps (1..N) left out beside ``exp.excluded_steps``.
+
+    Returns
+    -------
+    objective : Objective
+        The objective against the data.
+    dic : RegisteredDIC
+        The registration (:func:`to_model_frame`).
+
+    Raises
+    ------
+    ExperimentDataError
+        If an excluded step is not in 1..N.
+    """
     from dataclasses import replace
 
     from ..design.objective import Objective

@@ -20,7 +20,25 @@ __all__ = ["FitInputs", "prepare_fit"]
 
 @dataclass
 class FitInputs:
-    """The experiment, the surrogate and the FE model it emulates, the objective and weights."""
+    """What a fit needs: the experiment, the surrogate and the FE model it emulates, the objective.
+
+    Attributes
+    ----------
+    experiment : ExperimentData
+        The experiment.
+    surrogate : FieldSurrogate
+        The surrogate.
+    spec : ModelSpec
+        The FE model the surrogate was trained on (for the FE stage).
+    objective : Objective
+        The objective (eq. 4, 5) on the surrogate's top nodes.
+    dic : RegisteredDIC
+        The DIC data registered to the model frame.
+    eta : numpy.ndarray
+        (4,) the weights of eq. 5.
+    sources : dict of str to str
+        Where the experiment and the surrogate came from (provenance).
+    """
 
     experiment: ExperimentData
     surrogate: FieldSurrogate
@@ -37,10 +55,32 @@ def prepare_fit(
     weights=PAPER_WEIGHTS,
     exclude_steps=(),
 ) -> FitInputs:
-    """Load (or take) the experiment and the surrogate, check that they describe the same test
-    (indenter radius, steps and depths), and build the objective (eq. 4, 5) on the surrogate's
-    top nodes. ``weights`` are eta = (force, ux, uy, uz) on the simplex; ``exclude_steps`` (1..N)
-    are left out of the fit beside those experiment.json excludes."""
+    """Load the experiment and the surrogate, check they describe the same test, build the objective.
+
+    The test is the indenter radius, steps and depths; the objective (eq. 4, 5) is built on the
+    surrogate's top nodes.
+
+    Parameters
+    ----------
+    experiment : str, pathlib.Path or ExperimentData
+        The experiment (folder or loaded).
+    surrogate : str, pathlib.Path or FieldSurrogate
+        The surrogate (file or loaded).
+    weights : array_like, default PAPER_WEIGHTS
+        eta = (force, ux, uy, uz) on the simplex (eq. 5).
+    exclude_steps : sequence of int, default ()
+        Steps (1..N) left out of the fit beside those experiment.json excludes.
+
+    Returns
+    -------
+    FitInputs
+        The experiment, surrogate, FE model, objective and weights.
+
+    Raises
+    ------
+    ValueError
+        If the surrogate does not record its model, or the two describe different tests.
+    """
     eta = check_weights(weights)
     exp = experiment if isinstance(experiment, ExperimentData) else load_experiment(experiment)
     model = surrogate if isinstance(surrogate, FieldSurrogate) else load_surrogate(surrogate)

@@ -28,8 +28,37 @@ PAPER_F_STOP = 3e-2
 
 @dataclass
 class FitResult:
-    """theta_hat (kPa), F(theta_hat), the Hessian (in theta_bar = theta / theta_hat), s of eq. 8
-    and the bounds of eq. 6 in percent, and how the fit went."""
+    """The result of an inverse fit: theta_hat, F there, the Hessian, eq. 8's s, eq. 6's bounds.
+
+    Attributes
+    ----------
+    theta : numpy.ndarray
+        (p,) theta_hat, kPa.
+    F : float
+        F(theta_hat) (eq. 5).
+    hessian : numpy.ndarray
+        (p, p) the Hessian in theta_bar = theta / theta_hat.
+    s : float
+        Eq. 8's s.
+    bounds_pct : numpy.ndarray
+        (p,) eq. 6's bounds, percent of theta_hat.
+    n_residuals : int
+        Number of residuals n.
+    evaluations : int
+        Evaluations of F.
+    wall_s : float
+        Wall time, s.
+    message : str
+        The optimiser's message.
+    history : list of (list of float, float)
+        (theta, F) of every evaluation.
+    residuals : numpy.ndarray or None
+        The residual vector of eq. 5 at theta (what F sums).
+    prediction : Prediction or None
+        The predictor's response there (without Jacobians).
+    jacobian : numpy.ndarray or None
+        (m, p) d residuals / d log theta there.
+    """
 
     theta: np.ndarray
     F: float
@@ -88,11 +117,42 @@ def fit_parameters(
     box: tuple | None = None,
     progress: Callable[[int, np.ndarray, float], None] | None = None,
 ) -> FitResult:
-    """Minimise F(theta) (eq. 5) by Levenberg-Marquardt from ``theta0``; bounds from eq. 6 with s
-    from eq. 8 (n residuals, p parameters, ``alpha``) unless ``s`` is given. ``box`` = (lo, hi)
-    (0 and inf for no limit) keeps theta inside (a trust-region reflective fit then: scipy's
-    'lm' takes no bounds); e.g. mu within the range a surrogate was trained on. ``progress(k,
-    theta, F)`` is told of every evaluation (an FE model's take minutes)."""
+    """Minimise F(theta) (eq. 5) by Levenberg-Marquardt from ``theta0``, with eq. 6 bounds.
+
+    Parameters
+    ----------
+    objective : Objective
+        The target (eq. 4a, 4b).
+    predictor : Predictor
+        The model (a surrogate or an FE solver).
+    eta : array_like
+        The weights of eq. 5.
+    theta0 : array_like, default PAPER_START
+        The start, kPa.
+    f_stop : float, optional
+        Stop as soon as F falls below this (the paper's rule: 3e-2).
+    alpha : float, default 0.05
+        Eq. 8's level.
+    s : float, optional
+        Eq. 6's s; default from eq. 8 (n residuals, p parameters, ``alpha``).
+    max_evaluations : int, default 60
+        Evaluations of F at most.
+    box : tuple, optional
+        (lo, hi) (0 and inf for no limit) keeps theta inside (a trust-region reflective fit then:
+        scipy's 'lm' takes no bounds); e.g. mu within the range a surrogate was trained on.
+    progress : callable, optional
+        ``progress(k, theta, F)`` is told of every evaluation (an FE model's take minutes).
+
+    Returns
+    -------
+    FitResult
+        theta_hat, F, the Hessian, s and the bounds.
+
+    Raises
+    ------
+    ValueError
+        If the start is not positive moduli, or the box's lower limits are not below its upper ones.
+    """
     eta = check_weights(eta)
     theta0 = np.asarray(theta0, float)
     if theta0.ndim != 1 or not np.all(np.isfinite(theta0)) or np.any(theta0 <= 0):

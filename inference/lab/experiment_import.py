@@ -213,7 +213,40 @@ def import_experiment(
     overwrite: bool = False,
     source_format: str = "",
 ) -> ImportResult:
-    """Assemble and write an experiment folder from a read DIC export (module docstring)."""
+    """Assemble and write an experiment folder from a read DIC export (module docstring).
+
+    The folder is built beside its destination, validated by :func:`load_experiment`, and only
+    then moved into place.
+
+    Parameters
+    ----------
+    dic : DICSeries
+        The DIC export, read.
+    out_dir : str or pathlib.Path
+        The experiment folder to write.
+    protocol : ProtocolInfo
+        The indenter's radius, the step size and count (mm), the fiber direction.
+    force : ForceSource
+        The load frame's record or a ``force.csv`` in hold form.
+    indenter : IndenterSource
+        The indenter's tracked points.
+    frames : FrameChoice, optional
+        The DIC frame of each step (by number, or by time).
+    overwrite : bool, default False
+        Replace an experiment folder already there.
+    source_format : str, default ""
+        The export's format, recorded in experiment.json.
+
+    Returns
+    -------
+    ImportResult
+        The folder, the source, points and frames per step, the holds and the tare.
+
+    Raises
+    ------
+    ExperimentDataError
+        If the parts do not make a valid experiment (naming what is wrong), or the folder exists.
+    """
     table, windows, holds, tare, record_info = _forces(protocol, force)
     track = record_info.pop("_track", None)
     clock = None
@@ -287,7 +320,26 @@ def import_matchid(
     max_sigma: float | None = None,
     overwrite: bool = False,
 ) -> ImportResult:
-    """A MatchID export folder (:mod:`.matchid_export`) into an experiment folder."""
+    """Import a MatchID export folder (:mod:`.matchid_export`) into an experiment folder.
+
+    Parameters
+    ----------
+    folder : str or pathlib.Path
+        The MatchID CSV exports, one per image.
+    out_dir : str or pathlib.Path
+        The experiment folder to write.
+    protocol, force, indenter, frames, overwrite
+        As :func:`import_experiment`.
+    length_unit : str, optional
+        The export's length unit (default: read from it).
+    max_sigma : float, optional
+        Drop points whose ``stats.Sigma`` is larger, mm.
+
+    Returns
+    -------
+    ImportResult
+        As :func:`import_experiment`.
+    """
     dic = read_matchid(folder, length_unit, max_sigma=max_sigma, allow_gaps=frames.frames is not None)
     return import_experiment(
         dic,
@@ -315,7 +367,30 @@ def import_duodic(
     variable: str | None = None,
     overwrite: bool = False,
 ) -> ImportResult:
-    """A DuoDIC results .mat (:mod:`.duodic_results`) into an experiment folder."""
+    """Import a DuoDIC results .mat (:mod:`.duodic_results`) into an experiment folder.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The DuoDIC results file.
+    out_dir : str or pathlib.Path
+        The experiment folder to write.
+    protocol, force, indenter, frames, overwrite
+        As :func:`import_experiment`.
+    length_unit : str
+        The results' length unit.
+    max_corr : float, optional
+        Drop points whose combined correlation coefficient is larger.
+    rigid_body_removed : bool, default False
+        Use the displacements with rigid body motion removed (``DispVec_ARBM``).
+    variable : str, optional
+        The MATLAB variable holding the results.
+
+    Returns
+    -------
+    ImportResult
+        As :func:`import_experiment`.
+    """
     dic = read_duodic(path, length_unit, variable, max_corr, rigid_body_removed)
     return import_experiment(
         dic,
@@ -342,7 +417,28 @@ def import_dic_csv(
     max_sigma: float | None = None,
     overwrite: bool = False,
 ) -> ImportResult:
-    """A mapped DIC CSV export (:mod:`.import_csv`) into an experiment folder."""
+    """Import a mapped DIC CSV export (:mod:`.import_csv`) into an experiment folder.
+
+    Parameters
+    ----------
+    source : str or pathlib.Path
+        A folder of per-frame CSVs, or one long CSV with a ``frame`` column.
+    mapping : CSVMapping
+        Which columns hold what, and their units.
+    out_dir : str or pathlib.Path
+        The experiment folder to write.
+    protocol, force, indenter, frames, overwrite
+        As :func:`import_experiment`.
+    pattern : str, default "*.csv"
+        The per-frame files in a folder.
+    max_sigma : float, optional
+        Drop points whose uncertainty is larger, mm.
+
+    Returns
+    -------
+    ImportResult
+        As :func:`import_experiment`.
+    """
     dic = read_dic_csv(source, mapping, pattern, max_sigma, allow_gaps=frames.frames is not None)
     return import_experiment(
         dic,
@@ -359,8 +455,24 @@ def import_dic_csv(
 def import_load_frame(
     record: str | Path, out_csv: str | Path, protocol: ProtocolInfo, force: ForceSource = ForceSource()
 ) -> dict:
-    """The load frame's record cut into the protocol's holds, written as a ``force.csv`` in the
-    format's hold form; returns the holds (rows, times, depth, eq. 9 fit) and the tare."""
+    """Cut the load frame's record into the protocol's holds and write them as a ``force.csv``.
+
+    Parameters
+    ----------
+    record : str or pathlib.Path
+        The load frame's continuous record.
+    out_csv : str or pathlib.Path
+        The ``force.csv`` to write, in the format's hold form.
+    protocol : ProtocolInfo
+        The step size and count.
+    force : ForceSource, optional
+        The record's columns and units, and how holds are found.
+
+    Returns
+    -------
+    dict
+        The holds (rows, times, depth, eq. 9 fit) and the tare.
+    """
     source = replace(force, load_frame=Path(record), force_csv=None)
     table, _, holds, tare, info = _forces(protocol, source)
     info.pop("_track", None)
