@@ -73,7 +73,23 @@ CANNOT_EXPLAIN = "the model cannot explain these data; its bounds are not meanin
 
 @dataclass
 class NoiseModel:
-    """The measurement noise a fit's residuals are whitened by, and where each part came from."""
+    """The measurement noise a fit's residuals are whitened by, and where each part came from.
+
+    Attributes
+    ----------
+    force_sd_mN : numpy.ndarray
+        (steps used,) standard error of each step's f_inf, mN.
+    force_source : str
+        Where it came from.
+    dic_sd_mm : numpy.ndarray
+        (3,) ux, uy, uz noise in the model frame, mm.
+    dic_source : str
+        Where it came from.
+    origin_cov_mm2 : numpy.ndarray
+        (2, 2) the indentation point's in-plane covariance (model frame), mm^2.
+    registration_source : str
+        Where it came from.
+    """
 
     force_sd_mN: np.ndarray  # (steps used,) standard error of each step's f_inf
     force_source: str
@@ -95,8 +111,31 @@ class NoiseModel:
 
 @dataclass
 class Adequacy:
-    """The chi-square test of a fit: statistic, degrees of freedom, p-value, the flag, per-term
-    shares, the noise used, and the parameters named when flagged."""
+    """The chi-square test of a fit: can the model explain the data within their noise.
+
+    Attributes
+    ----------
+    statistic : float
+        The whitened sum of squares.
+    dof : int
+        Its degrees of freedom.
+    p_value : float
+        The chi-square test's p-value.
+    n : int
+        Data points with noise and weight.
+    p : int
+        Parameters fitted.
+    terms : dict of str to dict
+        force, ux, uy, uz at the fit; registration, refit: what they take off.
+    noise : NoiseModel
+        The noise used.
+    force_sd_pct : float
+        Median force noise in percent of f_inf.
+    named : list of dict
+        ``{"parameter", "reason"}`` named when flagged.
+    alpha : float
+        The test's level: flagged when ``p_value < alpha``.
+    """
 
     statistic: float
     dof: int
@@ -257,9 +296,28 @@ def noise_model(
     force_noise: float | None = None,
     dic_noise: float | None = None,
 ) -> tuple[NoiseModel, np.ndarray]:
-    """The noise of an experiment's data at ``steps`` (1..N) (module docstring) and f_inf there.
-    ``force_noise`` (relative, one reading) and ``dic_noise`` (mm, every direction) are declared
-    noise levels that replace those measured from the data."""
+    """The noise of an experiment's data at ``steps`` (module docstring) and f_inf there.
+
+    Parameters
+    ----------
+    exp : ExperimentData
+        The experiment.
+    dic : RegisteredDIC
+        Its DIC data in the model frame.
+    steps : numpy.ndarray
+        The steps used (1..N).
+    force_noise : float, optional
+        Declared force noise (relative, one reading), replacing the one measured from the data.
+    dic_noise : float, optional
+        Declared DIC noise (mm, every direction), replacing the one measured from the data.
+
+    Returns
+    -------
+    noise : NoiseModel
+        The noise and where each part came from.
+    f_inf : numpy.ndarray
+        The static force at the steps (eq. 9), mN.
+    """
     sd, f_inf, force_source = force_noise_per_step(exp, steps, force_noise)
     if dic_noise is not None:
         dic_sd, dic_source = np.full(3, float(dic_noise)), f"declared: {dic_noise:g} mm"
@@ -288,8 +346,10 @@ def chi_square_test(
     operator_bias: np.ndarray | None = None,
     jacobian: np.ndarray | None = None,
 ) -> tuple[float, int, dict[str, dict]]:
-    """The whitened sum of squares of a fit's ``residuals`` (the vector of eq. 5: sqrt(eta_k) r_k
-    over force, ux, uy, uz) on ``objective`` with ``noise``; the DIC part through ``plan`` (the
+    """The chi-square statistic of a fit: the whitened sum of squares of its residuals.
+
+    The ``residuals`` are the vector of eq. 5 (sqrt(eta_k) r_k over force, ux, uy, uz) on
+    ``objective``, whitened with ``noise``; the DIC part through ``plan`` (the
     interpolation the objective's data came from) and the registration through ``gradients``
     (steps used, measured nodes, 3 directions, 2: d u / d x, y of the data at the nodes).
     ``operator_bias`` (steps used, measured nodes, 3) is what the interpolation makes of the
@@ -301,7 +361,43 @@ def chi_square_test(
     with n - p degrees of freedom where the model and the noise are right. A node value that
     carries no noise (ux on the x = 0 symmetry plane, uy on y = 0: mirror images cancel) carries
     no information either and is left out. Returns the statistic, its degrees of freedom (data
-    points with noise and weight minus ``p``) and each term's share (at the fit)."""
+    points with noise and weight minus ``p``) and each term's share (at the fit).
+
+    Parameters
+    ----------
+    residuals : numpy.ndarray
+        The fit's residual vector of eq. 5.
+    objective : Objective
+        The fit's objective.
+    eta : array_like
+        The weights of eq. 5.
+    noise : NoiseModel
+        The measurement noise.
+    plan : NodeInterpolation
+        The interpolation the objective's DIC data came from.
+    gradients : numpy.ndarray
+        (steps used, measured nodes, 3, 2) d u / d x, y of the data at the nodes.
+    p : int
+        Parameters fitted.
+    operator_bias : numpy.ndarray, optional
+        (steps used, measured nodes, 3) the interpolation of the model's field less that field.
+    jacobian : numpy.ndarray, optional
+        The fit's d residuals / d log theta.
+
+    Returns
+    -------
+    statistic : float
+        The whitened sum of squares.
+    dof : int
+        Its degrees of freedom.
+    terms : dict of str to dict
+        Each term's share at the fit.
+
+    Raises
+    ------
+    ValueError
+        If the residual vector does not match the objective.
+    """
     e = np.asarray(eta, float)
     s = len(objective.steps)
     measured = objective.measured

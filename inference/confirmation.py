@@ -22,7 +22,27 @@ __all__ = ["Confirmation", "confirm"]
 
 @dataclass
 class Confirmation:
-    """An FE run at theta beside the surrogate's prediction there."""
+    """An FE run at theta beside the surrogate's prediction there.
+
+    Attributes
+    ----------
+    inputs : FitInputs
+        The experiment, surrogate and objective.
+    theta : numpy.ndarray
+        (c1, c5), kPa.
+    solver : str
+        ``embedded`` or ``febio``.
+    fe : Prediction
+        The FE model's response.
+    surrogate : Prediction
+        The surrogate's.
+    mesh_check : MeshCheck or None
+        The mesh check, when asked for.
+    check_mesh : str or None
+        Its finer mesh preset.
+    friction : float or None
+        The friction coefficient the FE run used (a fit with mu); None: the surrogate's contact.
+    """
 
     inputs: FitInputs
     theta: np.ndarray
@@ -81,10 +101,42 @@ def confirm(
     say: Callable[[str], None] | None = None,
     friction: float | None = None,
 ) -> Confirmation:
-    """Run the surrogate's FE model at ``theta`` = (c1, c5) (kPa) on ``solver`` (embedded or febio)
-    and compare. ``friction`` runs it with that Coulomb friction coefficient (the mu of a fit that
-    marginalised or identified it; fit.json's friction.mu) instead of the surrogate's contact.
-    With ``check_mesh`` (embedded only) also the finer mesh's shift of the fit and its uncertainty."""
+    """Run the surrogate's FE model at ``theta`` and compare it with the surrogate (FE confirmation).
+
+    Parameters
+    ----------
+    experiment : str, pathlib.Path or ExperimentData
+        The experiment (folder or loaded).
+    surrogate : str, pathlib.Path or FieldSurrogate
+        The surrogate (file or loaded); its FE model is run.
+    theta : array_like
+        (c1, c5), kPa.
+    weights : array_like, default PAPER_WEIGHTS
+        The weights of eq. 5.
+    solver : {"embedded", "febio"}, default "embedded"
+        The FE solver.
+    check_mesh : str, optional
+        A finer mesh preset (embedded only): also the finer mesh's shift of the fit and its
+        uncertainty.
+    exclude_steps : sequence of int, default ()
+        Steps (1..N) left out.
+    say : callable, optional
+        Where progress messages go.
+    friction : float, optional
+        Run with this Coulomb friction coefficient (the mu of a fit that marginalised or
+        identified it; fit.json's ``friction.mu``) instead of the surrogate's contact.
+
+    Returns
+    -------
+    Confirmation
+        Both responses and the mesh check.
+
+    Raises
+    ------
+    ValueError
+        If theta is not (c1, c5), mu is negative, friction is combined with a mesh check, or a
+        mesh check is asked of FEBio.
+    """
     inputs = prepare_fit(experiment, surrogate, weights, exclude_steps)
     theta = np.asarray(theta, float).reshape(-1)
     if theta.size != 2:

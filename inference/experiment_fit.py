@@ -49,7 +49,39 @@ __all__ = [
 
 @dataclass
 class ExperimentFit:
-    """The surrogate stage, the final (FE-refined) fit, and the mesh check when asked for."""
+    """A fit of an experiment: the surrogate stage, the final (FE-refined) fit, and its checks.
+
+    Attributes
+    ----------
+    inputs : FitInputs
+        The experiment, surrogate, FE model and objective.
+    surrogate_fit : FitResult
+        The fit on the surrogate.
+    fit : FitResult
+        The FE fit when refined, else the surrogate fit.
+    refined : bool
+        Whether the FE stage ran.
+    mesh_check : MeshCheck or None
+        The mesh check at the fit, when asked for.
+    check_mesh : str or None
+        The preset the mesh check solved on.
+    model_error : ModelError or None
+        The model-error parts (a high-fidelity level or an error budget).
+    friction : FrictionTreatment
+        How mu was treated.
+    mu_range : tuple of float or None
+        identify / marginalise: the range mu was kept inside.
+    mu_reach : dict of str to bool or None
+        Does mu's certainty region reach the range's ends.
+    mu_reach_notes : dict of str to str
+        An end not checked, and why.
+    restarts : list of dict
+        Fits again from a better point found at an end.
+    adequacy : Adequacy or None
+        The chi-square test: can the model explain the data.
+    adequacy_note : str or None
+        Why the adequacy test was not made.
+    """
 
     inputs: FitInputs
     surrogate_fit: FitResult
@@ -208,23 +240,55 @@ def fit_experiment(
     force_noise: float | None = None,
     dic_noise: float | None = None,
 ) -> ExperimentFit:
-    """Fit (c1, c5) to a measured experiment: LM from {6, 300} kPa on the surrogate, then (``refine``)
-    on the FE model the surrogate was trained on, with its exact sensitivities; eq. 6 to 8 bounds
-    with s from the data. ``paper_stop`` stops as soon as F < 3e-2 (the paper's rule).
-    ``check_mesh`` (a finer mesh preset) adds the mesh check at the fit: the fit carried to that
-    mesh with bounds that hold its discretisation uncertainty. ``exclude_steps`` (1..N) are left
-    out of the fit beside those the experiment excludes; the result lists them all.
+    """Fit (c1, c5) to a measured experiment: on the surrogate, then on its FE model (paper 2.8.2).
 
-    ``friction`` (:class:`design.friction_treatment.FrictionTreatment`, or its text: a value,
-    'identify', 'marginalise[:LO:HI]', 'assumed') says how the fit treats the indenter's friction
-    coefficient mu; by default (None) as :func:`default_friction` says. On a surrogate trained with mu as a parameter (a campaign with a mu
-    axis) the surrogate stage fits or holds mu too; on one without, that stage fits (c1, c5) with
-    its contact as a start, and the FE stage (needed then) brings mu in.
+    LM from {6, 300} kPa on the surrogate, then (``refine``) on the FE model the surrogate was
+    trained on, with its exact sensitivities; eq. 6 to 8 bounds with s from the data. On a
+    surrogate trained with mu as a parameter (a campaign with a mu axis) the surrogate stage fits
+    or holds mu too; on one without, that stage fits (c1, c5) with its contact as a start, and
+    the FE stage (needed then) brings mu in. Every fit is tested for model adequacy
+    (:mod:`inference.adequacy`: its residuals against the data's noise) and says whether its test
+    has an error budget (:mod:`inference.budget_check`).
 
-    Every fit is tested for model adequacy (:mod:`inference.adequacy`: its residuals against the
-    data's noise, measured from the data unless ``force_noise``, relative per reading, or
-    ``dic_noise``, mm, are declared) and says whether its test has an error budget
-    (:mod:`inference.budget_check`)."""
+    Parameters
+    ----------
+    experiment : str, pathlib.Path or ExperimentData
+        The experiment (folder or loaded).
+    surrogate : str, pathlib.Path or FieldSurrogate
+        The surrogate (file or loaded).
+    weights : array_like, default PAPER_WEIGHTS
+        The weights of eq. 5.
+    refine : bool, default True
+        Refine on the FE model.
+    paper_stop : bool, default False
+        Stop as soon as F < 3e-2 (the paper's rule).
+    check_mesh : str, optional
+        A finer mesh preset: adds the mesh check at the fit (the fit carried to that mesh with
+        bounds that hold its discretisation uncertainty).
+    exclude_steps : sequence of int, default ()
+        Steps (1..N) left out of the fit beside those the experiment excludes; the result lists
+        them all.
+    say : callable, optional
+        Where progress messages go.
+    friction : FrictionTreatment, str or float, optional
+        How the fit treats the indenter's friction coefficient mu: a value, ``identify``,
+        ``marginalise[:LO:HI]``, ``assumed``; default (None) as :func:`default_friction` says.
+    force_noise : float, optional
+        Declared force noise (relative, per reading) for the adequacy test; default measured.
+    dic_noise : float, optional
+        Declared DIC noise (mm) for the adequacy test; default measured.
+
+    Returns
+    -------
+    ExperimentFit
+        Both stages, the bounds and the checks.
+
+    Examples
+    --------
+    >>> import indentation_studio as ins
+    >>> fit = ins.fit_experiment("runs/experiments/synthetic", "surrogate-gp.safetensors")  # doctest: +SKIP
+    >>> fit.fit.theta, fit.fit.bounds_pct  # doctest: +SKIP
+    """
     say = say or (lambda message: None)
     inputs = prepare_fit(experiment, surrogate, weights, exclude_steps)
     treatment = (
@@ -269,8 +333,10 @@ def fit_experiment(
 
 
 def default_friction(surrogate, fe_stage: bool = True) -> FrictionTreatment:
-    """How a fit treats mu when not told. On a surrogate trained with mu: marginalised (a
-    log-uniform prior over its mu range; it has no contact to assume). On one without: marginalised
+    """How a fit treats mu when not told.
+
+    On a surrogate trained with mu: marginalised (a log-uniform prior over its mu range; it has
+    no contact to assume). On one without: marginalised
     over 0.1 .. 3 when the FE stage can bring mu in (``fe_stage``: the FE refinement and no mesh
     check, which is made with the stick) and the surrogate is single-level (a multi-fidelity
     surrogate's FE stage is the high-fidelity mesh's Gauss-Newton check, with its own model
@@ -278,7 +344,20 @@ def default_friction(surrogate, fe_stage: bool = True) -> FrictionTreatment:
     Why (README, "Friction"): on synthetic data made with mu = 0.3, 1, 3 and the perfect stick
     (two truths), a perfect-stick fit put c5 28 to 34 % low at mu = 0.3, the truth outside its
     bounds, while the marginalised fit held the truth in every case; where nothing slips it gives
-    the stick's (c1, c5) and bounds, mu's interval then reaching the range's upper end."""
+    the stick's (c1, c5) and bounds, mu's interval then reaching the range's upper end.
+
+    Parameters
+    ----------
+    surrogate : FieldSurrogate
+        The surrogate the fit starts on.
+    fe_stage : bool, default True
+        Whether the FE stage can bring mu in (the FE refinement and no mesh check).
+
+    Returns
+    -------
+    FrictionTreatment
+        ``marginalise`` (with the surrogate's mu range, or 0.1 .. 3) or ``assumed``.
+    """
     if "mu" in surrogate.parameters or (fe_stage and not has_high_fidelity_level(surrogate)):
         return FrictionTreatment("marginalise")
     return FrictionTreatment()

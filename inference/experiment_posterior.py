@@ -28,7 +28,27 @@ __all__ = ["ExperimentPosterior", "sample_posterior_for"]
 
 @dataclass
 class ExperimentPosterior:
-    """The samples, the fit they centre on, the noise level, and the mesh check they were carried by."""
+    """The posterior of an experiment: the samples, the fit they centre on, the noise level.
+
+    Attributes
+    ----------
+    inputs : FitInputs
+        The experiment, surrogate and objective.
+    posterior : Posterior
+        The samples.
+    fit : FitResult
+        The fit on the surrogate the posterior was sampled on.
+    sigma : float
+        The likelihood's residual sd, ``fit.residual_sd``.
+    carried : dict or None
+        The mesh check the samples were carried by.
+    model_error : ModelError or None
+        Spread into the samples (multi-fidelity surrogate).
+    friction : FrictionTreatment
+        How mu was treated.
+    mu_range : tuple of float or None
+        The prior's range when mu is sampled.
+    """
 
     inputs: FitInputs
     posterior: Posterior
@@ -125,17 +145,52 @@ def sample_posterior_for(
     say: Callable[[str], None] | None = None,
     friction: FrictionTreatment | str | float | None = None,
 ) -> ExperimentPosterior:
-    """emcee posterior of (c1, c5) on the surrogate: log L = -F / (2 sigma^2) with sigma the fit's
-    residual sd (:attr:`FitResult.residual_sd`), uniform prior on the surrogate's training box,
-    walkers started at the surrogate fit (``fit``, computed when not given). ``mesh_check`` is a
-    fit.json or confirm.json made with a mesh check: the samples are carried to that finer mesh. On a
+    """Sample the posterior of (c1, c5) of an experiment on the surrogate with emcee.
+
+    log L = -F / (2 sigma^2) with sigma the fit's residual sd (:attr:`FitResult.residual_sd`),
+    uniform prior on the surrogate's training box, walkers started at the surrogate fit. On a
     multi-fidelity surrogate each sample is spread by the model error at the fit
     (:func:`inference.model_error.with_model_error`).
 
-    On a surrogate trained with mu as a parameter, ``friction`` (:class:`FrictionTreatment` or its
-    text) is a known mu (held), 'marginalise[:LO:HI]' (mu sampled with a log-uniform prior and
-    marginalised: the intervals of (c1, c5) hold its uncertainty) or 'identify' (the same with a
-    uniform prior)."""
+    Parameters
+    ----------
+    experiment : str, pathlib.Path or ExperimentData
+        The experiment (folder or loaded).
+    surrogate : str, pathlib.Path or FieldSurrogate
+        The surrogate (file or loaded).
+    weights : array_like, default PAPER_WEIGHTS
+        The weights of eq. 5.
+    walkers : int, default 32
+        emcee walkers.
+    steps : int, default 4000
+        Steps per walker.
+    seed : int, default 0
+        Seed of the sampler.
+    mesh_check : str or pathlib.Path, optional
+        A fit.json or confirm.json made with a mesh check: the samples are carried to that finer
+        mesh.
+    fit : FitResult, optional
+        The surrogate fit to start at; computed when not given.
+    exclude_steps : sequence of int, default ()
+        Steps (1..N) left out beside those the experiment excludes.
+    say : callable, optional
+        Where progress messages go.
+    friction : FrictionTreatment, str or float, optional
+        On a surrogate trained with mu as a parameter: a known mu (held), ``marginalise[:LO:HI]``
+        (mu sampled with a log-uniform prior and marginalised: the intervals of (c1, c5) hold its
+        uncertainty) or ``identify`` (the same with a uniform prior).
+
+    Returns
+    -------
+    ExperimentPosterior
+        The samples, the fit, the noise level and what they were carried by.
+
+    Raises
+    ------
+    ValueError
+        If a friction treatment is asked of a surrogate without mu, a surrogate with mu gets none,
+        or friction is combined with a mesh check (made with the perfect stick).
+    """
     say = say or (lambda message: None)
     inputs = prepare_fit(experiment, surrogate, weights, exclude_steps)
     model = inputs.surrogate

@@ -42,7 +42,31 @@ from ..forward.spec import MeshChoice, ModelSpec
 
 @dataclass(frozen=True)
 class MeshCheck:
-    """The fit's sensitivity to its mesh at ``theta`` (kPa); percentages are of theta."""
+    """The fit's sensitivity to its mesh at ``theta`` (kPa); percentages are of theta.
+
+    Attributes
+    ----------
+    theta : numpy.ndarray
+        (p,) the fit, kPa.
+    shift_pct : numpy.ndarray
+        (p,) first-order change of the fit on the finer mesh.
+    uncertainty_pct : numpy.ndarray
+        (p,) GCI of the fit's mesh: Fs |shift| r^p / (r^p - 1).
+    refinement_ratio : float
+        r between the two meshes.
+    order : float
+        The order of convergence p assumed.
+    safety : float
+        The GCI's safety factor Fs.
+    nodes : tuple of int
+        (fit's mesh, finer mesh) node counts.
+    hessian : numpy.ndarray
+        Gauss-Newton 2 J^T J on the fit's mesh, in theta_bar = theta / theta_hat.
+    s : float
+        Eq. 8 from F(theta) on the fit's mesh.
+    statistical_pct : numpy.ndarray
+        (p,) eq. 6 half-width with that s.
+    """
 
     theta: np.ndarray
     shift_pct: np.ndarray  # first-order change of the fit on the finer mesh
@@ -164,8 +188,32 @@ def check_mesh_at(
     preset: str,
     say: Callable[[str], None] | None = None,
 ) -> tuple[MeshCheck, Prediction]:
-    """Solve ``spec`` at ``theta`` on its own mesh (with sensitivities) and on the finer ``preset``,
-    and return the mesh check with the fit's-mesh prediction at ``theta`` (an FE confirmation)."""
+    """Check a fit against a finer mesh: solve at ``theta`` on the fit's mesh and on ``preset``.
+
+    The fit's mesh is solved with sensitivities.
+
+    Parameters
+    ----------
+    spec : ModelSpec
+        The FE model of the fit.
+    objective : Objective
+        The fit's objective.
+    eta : array_like
+        The weights of eq. 5.
+    theta : numpy.ndarray
+        (p,) the fit, kPa.
+    preset : str
+        The finer mesh preset.
+    say : callable, optional
+        Where progress messages go.
+
+    Returns
+    -------
+    check : MeshCheck
+        The fit's shift to the finer mesh and its uncertainty.
+    prediction : Prediction
+        The fit's-mesh prediction at ``theta`` (an FE confirmation).
+    """
     at = spec.with_material(c1=float(theta[0]), c5=float(theta[1]))
     if say is not None:
         say(f"solving at {np.round(theta, 3).tolist()} kPa on the fit's mesh and on '{preset}' ...")

@@ -36,7 +36,23 @@ Z95 = 1.959963984540054
 
 @dataclass(frozen=True)
 class ModelError:
-    """Model-error parts of a fit's 95 % half-width (percent of theta_hat)."""
+    """Model-error parts of a fit's 95 % half-width (percent of theta_hat).
+
+    Attributes
+    ----------
+    discrepancy_pct : numpy.ndarray
+        (p,) from the discrepancy's predictive uncertainty.
+    budget_pct : numpy.ndarray
+        (p,) the high-fidelity mesh's remaining bias (error budget).
+    covariance_log : numpy.ndarray
+        (p, p) the discrepancy part's covariance of log theta.
+    budget_source : dict or None
+        What the budget part was read from.
+    has_discrepancy : bool
+        False: a single-level surrogate, the mesh's error budget only.
+    contact : str
+        The contact the surrogate's model assumes (``Contact.describe()``).
+    """
 
     discrepancy_pct: np.ndarray  # from the discrepancy's predictive uncertainty
     budget_pct: np.ndarray  # the high-fidelity mesh's remaining bias (error budget)
@@ -66,11 +82,32 @@ class ModelError:
 def model_error_scope(
     model: ModelError | None, noise: str = "statistical (eq. 6 to 8)", contact: str | None = None
 ) -> str:
-    """What a fit's bounds (or, with ``noise="measurement noise"``, a posterior's intervals) hold,
-    in words, as fit.json, posterior.json and the CLI say it: a reported bound must always say what
-    it includes and what it leaves out. ``contact`` names the contact the model assumes
-    (``Contact.describe()``): no bound holds its error (README, "Friction": a stick fit of data with
-    mu = 0.3 puts c5 about 30 % low); by default the model error's own, or the perfect stick."""
+    """What a fit's bounds (or a posterior's intervals) hold, in words, as fit.json and the CLI say it.
+
+    A reported bound must always say what it includes and what it leaves out.
+
+    Parameters
+    ----------
+    model : ModelError or None
+        The model-error parts; None: none known.
+    noise : str, default "statistical (eq. 6 to 8)"
+        What the statistical part is; ``"measurement noise"`` for a posterior's intervals.
+    contact : str, optional
+        The contact the model assumes (``Contact.describe()``): no bound holds its error (README,
+        "Friction": a stick fit of data with mu = 0.3 puts c5 about 30 % low); by default the
+        model error's own, or the perfect stick.
+
+    Returns
+    -------
+    str
+        The sentence.
+
+    Examples
+    --------
+    >>> from indentation_studio.inference import model_error_scope
+    >>> "hold no model error" in model_error_scope(None)
+    True
+    """
     contact = contact or (model.contact if model is not None else "perfect stick")
     assumed = f"the contact model's ({contact} assumed)"
     if model is None:
@@ -96,7 +133,26 @@ def model_error_scope(
 
 
 def combined_pct(statistical_pct: np.ndarray, model: ModelError | None) -> np.ndarray:
-    """The 95 % half-width of statistical and model parts, root sum of squares."""
+    """The 95 % half-width of statistical and model parts, root sum of squares.
+
+    Parameters
+    ----------
+    statistical_pct : numpy.ndarray
+        (p,) the statistical half-width (eq. 6), percent.
+    model : ModelError or None
+        The model-error parts; None: the statistical part alone.
+
+    Returns
+    -------
+    numpy.ndarray
+        (p,) the combined half-width, percent.
+
+    Examples
+    --------
+    >>> from indentation_studio.inference import combined_pct
+    >>> combined_pct([3.0, 4.0], None)
+    array([3., 4.])
+    """
     stat = np.asarray(statistical_pct, float)
     return stat if model is None else np.hypot(stat, model.half_width_pct)
 
@@ -127,9 +183,29 @@ def _contact_of(surrogate) -> str:
 
 
 def model_error_at(objective: Objective, eta, surrogate, theta: np.ndarray) -> ModelError | None:
-    """The model-error parts at the fit ``theta`` on ``surrogate``. A single-level surrogate with an
-    error budget of its mesh (``meta['error_budget']``) carries that budget alone; one with
-    neither gives None (its bounds then hold no model error, and say so)."""
+    """The model-error parts at the fit ``theta`` on ``surrogate``.
+
+    A multi-fidelity surrogate gives the discrepancy's part (its predictive covariance carried to
+    theta by the linearised fit) and its error budget's. A single-level surrogate with an error
+    budget of its mesh (``meta['error_budget']``) carries that budget alone.
+
+    Parameters
+    ----------
+    objective : Objective
+        The fit's objective.
+    eta : array_like
+        The weights of eq. 5.
+    surrogate : FieldSurrogate
+        The surrogate fitted.
+    theta : numpy.ndarray
+        (p,) the fit, kPa.
+
+    Returns
+    -------
+    ModelError or None
+        The parts; None for a single-level surrogate without a budget (its bounds then hold no
+        model error, and say so).
+    """
     budget = surrogate_error_budget(surrogate) or {}
     contact = _contact_of(surrogate)
     budget_pct = np.array([float(budget.get(f"{name}_pct", 0.0)) for name in surrogate.parameters])
@@ -165,8 +241,24 @@ def model_error_at(objective: Objective, eta, surrogate, theta: np.ndarray) -> M
 
 
 def with_model_error(samples: np.ndarray, model: ModelError, seed: int = 0) -> np.ndarray:
-    """Posterior samples (n, p) spread by the model error: each multiplied by exp(e), e normal with
-    the model error's covariance of log theta (discrepancy and error budget)."""
+    """Posterior samples spread by the model error: each multiplied by exp(e).
+
+    e is normal with the model error's covariance of log theta (discrepancy and error budget).
+
+    Parameters
+    ----------
+    samples : numpy.ndarray
+        (n, p) the samples.
+    model : ModelError
+        The model-error parts.
+    seed : int, default 0
+        Seed of e.
+
+    Returns
+    -------
+    numpy.ndarray
+        (n, p) the spread samples.
+    """
     rng = np.random.default_rng(seed)
     cov = model.covariance_with_budget()
     e = rng.multivariate_normal(np.zeros(len(cov)), cov, size=len(samples), method="eigh")

@@ -26,7 +26,27 @@ from ..design.reduced_objective import ReducedObjective, objective_function
 
 @dataclass
 class Posterior:
-    """Samples (n, p) after burn-in and thinning, with their summary and diagnostics."""
+    """Posterior samples (n, p) after burn-in and thinning, with their summary and diagnostics.
+
+    Attributes
+    ----------
+    samples : numpy.ndarray
+        (n, p) the samples, kPa (mu unitless).
+    parameters : tuple of str
+        The parameters of the columns.
+    autocorrelation_steps : numpy.ndarray
+        (p,) emcee's integrated autocorrelation time per parameter, steps.
+    acceptance_fraction : float
+        The walkers' mean acceptance fraction.
+    converged : bool
+        Whether the chain is long against its autocorrelation time.
+    wall_s : float
+        Wall time, s.
+    s : float
+        The likelihood's noise level.
+    objective_path : {"full", "reduced"}
+        ``reduced``: F in the predictor's PCA space; ``full``: from its fields.
+    """
 
     samples: np.ndarray
     parameters: tuple[str, ...]
@@ -79,13 +99,48 @@ def sample_posterior(
     reduced: bool | None = None,
     log_uniform: tuple[int, ...] = (),
 ) -> Posterior:
-    """emcee posterior of theta for log L = -F / (2 s^2), uniform on ``box`` = (lo, hi); the
-    parameters at the indices ``log_uniform`` log-uniform on theirs instead (a friction
-    coefficient, whose scale is unknown: density 1 / mu).
+    """Sample the posterior of theta with emcee, for log L = -F / (2 s^2) (F of eq. 5).
 
-    ``reduced``: evaluate F in the predictor's reduced space (its ``reduced_basis()``); ``None``
-    (default) does so whenever the predictor offers one, ``False`` rebuilds the fields and calls
-    ``objective.value`` (the same F up to rounding, slower)."""
+    Parameters
+    ----------
+    objective : Objective
+        The target.
+    predictor : Predictor
+        The model.
+    eta : array_like
+        The weights of eq. 5.
+    s : float
+        The likelihood's noise level (> 0).
+    box : tuple of numpy.ndarray
+        (lo, hi): the prior is uniform on it.
+    start : numpy.ndarray
+        (p,) the walkers start around it, inside ``box``.
+    walkers : int, default 32
+        emcee walkers (at least 2 p).
+    steps : int, default 3000
+        Steps per walker.
+    seed : int, default 0
+        Seed of the start and the sampler.
+    progress : bool, default False
+        Show emcee's progress bar.
+    reduced : bool, optional
+        Evaluate F in the predictor's reduced space (its ``reduced_basis()``); None (default) does
+        so whenever the predictor offers one, False rebuilds the fields and calls
+        ``objective.value`` (the same F up to rounding, slower).
+    log_uniform : tuple of int, default ()
+        Indices of parameters whose prior is log-uniform on the box instead (a friction
+        coefficient, whose scale is unknown: density 1 / mu).
+
+    Returns
+    -------
+    Posterior
+        The samples after burn-in and thinning, with diagnostics.
+
+    Raises
+    ------
+    ValueError
+        If ``s`` is not positive, the start lies outside the box, or there are too few walkers.
+    """
     eta = check_weights(eta)
     if not (np.isfinite(s) and s > 0):
         raise ValueError(f"s must be a positive number, got {s!r}")
