@@ -74,10 +74,47 @@ def composite_indentation(
     say: Callable[[str], None] | None = None,
     **experiment_options,
 ) -> tuple[SimulationResult, Path]:
-    """Indent the composite phantom (:func:`composite_spec`) on the embedded solver, keep the
-    result in ``out_dir``/composite-result.npz and write the experiment folder ``out_dir`` from it
-    (:func:`experiment_from_composite`, ``experiment_options`` passed on). A run that fails keeps
-    its finished steps in composite-result.partial.npz and raises SimulationError."""
+    """Indent the composite phantom on the embedded solver and write the experiment folder from it.
+
+    The result is kept in ``out_dir``/composite-result.npz; the experiment folder ``out_dir`` is
+    written by :func:`experiment_from_composite`. A run that fails keeps its finished steps in
+    composite-result.partial.npz.
+
+    Parameters
+    ----------
+    out_dir : str or pathlib.Path
+        The experiment folder.
+    radius : float, default 4.77
+        The indenter's radius, mm.
+    preset : str, default "composite"
+        The phantom's mesh preset (:func:`composite_spec`).
+    steps : int, default 28
+        Steps of the protocol.
+    step_size : float, default 0.5
+        Indentation per step, mm.
+    friction : float, optional
+        Coulomb's mu; None: the perfect stick.
+    progress : callable, optional
+        ``progress(step, steps, force)`` of the run.
+    say : callable, optional
+        Where messages go.
+    **experiment_options
+        Passed to :func:`experiment_from_composite` (``seed``, ``overwrite``, recording options).
+
+    Returns
+    -------
+    result : SimulationResult
+        The composite's result.
+    experiment : pathlib.Path
+        The experiment folder.
+
+    Raises
+    ------
+    FileExistsError
+        If an experiment is already in ``out_dir`` (unless ``overwrite``).
+    SimulationError
+        If the run fails.
+    """
     out = Path(out_dir)
     if (out / "experiment.json").exists() and not experiment_options.get("overwrite", False):
         raise FileExistsError(f"{out}: an experiment is already there (overwrite=True replaces it)")
@@ -89,8 +126,19 @@ def composite_indentation(
 
 @dataclass
 class CompositeExperiment:
-    """A composite indentation written as an experiment folder: the result, the folder, the
-    result file it came from and the wall time (s)."""
+    """A composite indentation written as an experiment folder.
+
+    Attributes
+    ----------
+    result : SimulationResult
+        The composite's result.
+    experiment : pathlib.Path
+        The experiment folder.
+    result_file : pathlib.Path
+        The result file it came from.
+    wall_s : float
+        Wall time, s.
+    """
 
     result: SimulationResult
     experiment: Path
@@ -133,8 +181,10 @@ def write_composite_experiment(
     seed: int = 0,
     overwrite: bool = False,
 ) -> CompositeExperiment:
-    """The experiment folder ``out_dir`` of a composite indentation: run now
-    (:func:`composite_indentation`), or written from the result file ``from_result`` (no run).
+    """Write the experiment folder ``out_dir`` of a composite indentation, run now or read from a file.
+
+    Run now by :func:`composite_indentation`, or written from the result file ``from_result`` (no
+    run).
 
     Parameters
     ----------
@@ -183,12 +233,34 @@ def experiment_from_composite(
     overwrite: bool = False,
     **recording,
 ) -> Path:
-    """The experiment folder of a composite indentation (a SimulationResult or its .npz): its
-    force and top field as a lab records them (``recording``: options of
-    :func:`inference.synthetic_experiment.write_experiment_from_model`, by default
-    :data:`~inference.synthetic_experiment.LAB_RECORDING`). Refuses a result
-    that is not of the composite phantom, and an experiment folder already there (unless
-    ``overwrite``)."""
+    """Write the experiment folder of a composite indentation: its force and top field as a lab records them.
+
+    Parameters
+    ----------
+    result : SimulationResult, str or pathlib.Path
+        The composite's result, or its .npz.
+    out_dir : str or pathlib.Path
+        The experiment folder.
+    seed : int, default 0
+        The noise seed.
+    overwrite : bool, default False
+        Replace an experiment already there.
+    **recording
+        Options of :func:`inference.synthetic_experiment.write_experiment_from_model`; by
+        default ``inference.synthetic_experiment.LAB_RECORDING``.
+
+    Returns
+    -------
+    pathlib.Path
+        The experiment folder.
+
+    Raises
+    ------
+    ValueError
+        If the result is not of the composite phantom, or has non-finite forces.
+    FileExistsError
+        If an experiment is already there (unless ``overwrite``).
+    """
     if not isinstance(result, SimulationResult):
         result = SimulationResult.load(result)
     if "composite" not in result.spec:
@@ -231,7 +303,29 @@ def top_fiber_bands(result: SimulationResult) -> list[tuple[float, float]]:
 
 @dataclass
 class CompositeComparison:
-    """The composite's force and top field beside the homogeneous model's at ``theta``."""
+    """The composite's force and top field beside the homogeneous model's at ``theta``.
+
+    Attributes
+    ----------
+    theta : tuple of float
+        The homogeneous model's (c1, c5), kPa.
+    depth : numpy.ndarray
+        (steps,) depths, mm.
+    force_composite, force_homogeneous : numpy.ndarray
+        (steps,) the two forces, mN.
+    top_xyz : numpy.ndarray
+        (n_top, 3) the composite's top nodes, mm.
+    field_composite, field_homogeneous : numpy.ndarray
+        (steps, n_top, 3) the two top fields at the composite's top nodes, mm.
+    homogeneous_mesh : str
+        The homogeneous model's mesh preset.
+    fiber_bands : list of (float, float)
+        The top fibers' bands across x, mm.
+    homogeneous_contact : dict
+        The homogeneous model's contact.
+    radius : float
+        The indenter's radius, mm.
+    """
 
     theta: tuple[float, float]
     depth: np.ndarray
@@ -276,8 +370,25 @@ class CompositeComparison:
 
 
 def fitted_model(fit: str | Path | dict) -> tuple[tuple[float, float], float | None]:
-    """(c1, c5) of a fit (its fit.json, or that dict) and its mu (held, identified or
-    marginalised; None where the surrogate's contact was assumed): the homogeneous model it found."""
+    """The homogeneous model a fit found: its (c1, c5) and its mu.
+
+    Parameters
+    ----------
+    fit : str, pathlib.Path or dict
+        A fit.json, or that dict.
+
+    Returns
+    -------
+    theta : tuple of float
+        (c1, c5), kPa.
+    mu : float or None
+        mu held, identified or marginalised; None where the surrogate's contact was assumed.
+
+    Raises
+    ------
+    ValueError
+        If the fit has no c1 or c5.
+    """
     values = json.loads(Path(fit).read_text()) if not isinstance(fit, dict) else fit
     try:
         theta = (float(values["c1"]), float(values["c5"]))
@@ -298,8 +409,10 @@ def compare_with_fit(
     friction: float | None = None,
     progress: Callable[[int, int, float], None] | None = None,
 ) -> CompositeComparison:
-    """:func:`compare_with_homogeneous` at (c1, c5) given, or a fit's (:func:`fitted_model`; a
-    value given overrides the fit's).
+    """Compare the composite with the homogeneous model at (c1, c5) given, or at a fit's.
+
+    :func:`compare_with_homogeneous` at the values given, or a fit's (:func:`fitted_model`; a value
+    given overrides the fit's).
 
     Parameters
     ----------
@@ -344,11 +457,30 @@ def compare_with_homogeneous(
     progress: Callable[[int, int, float], None] | None = None,
     friction: float | str | None = "composite",
 ) -> CompositeComparison:
-    """Run the homogeneous model (eq. 3) at ``theta`` = (c1, c5) on the mesh ``mesh`` with the
-    composite result's indenter and protocol, and put it beside the composite: forces, and the
-    homogeneous top field interpolated at the composite's top nodes. Its contact is the
-    composite's (``friction`` "composite"), or Coulomb's mu = ``friction`` (a fit's mu), None the
-    stick."""
+    """Run the homogeneous model (eq. 3) at ``theta`` and put it beside the composite.
+
+    The homogeneous model has the composite result's indenter and protocol; its top field is
+    interpolated at the composite's top nodes.
+
+    Parameters
+    ----------
+    result : SimulationResult, str or pathlib.Path
+        The composite's result (or its .npz).
+    theta : array_like
+        (c1, c5), kPa.
+    mesh : str, default "default"
+        The homogeneous model's mesh preset.
+    progress : callable, optional
+        The homogeneous run's progress.
+    friction : float, str or None, default "composite"
+        The homogeneous model's contact: ``"composite"`` the composite's, a number Coulomb's mu
+        (a fit's mu), None the stick.
+
+    Returns
+    -------
+    CompositeComparison
+        The forces and top fields side by side.
+    """
     if not isinstance(result, SimulationResult):
         result = SimulationResult.load(result)
     c1, c5 = (float(v) for v in np.ravel(theta))

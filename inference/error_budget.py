@@ -57,7 +57,26 @@ CONVERGED_FRACTION = 1.0 / 3.0
 
 @dataclass
 class ErrorBudget:
-    """Bias of each model at each test point (percent of the truth) and the typical half-width."""
+    """Bias of each model at each test point (percent of the truth) and the typical half-width.
+
+    Attributes
+    ----------
+    table : pandas.DataFrame
+        One row per (model, test point): ``c1_bias_pct``, ``c5_bias_pct``,
+        ``c1_half_width_pct``, ``c5_half_width_pct``, ...
+    weights : numpy.ndarray
+        (4,) the weights of eq. 5.
+    force_noise : float
+        Relative force noise per step.
+    dic_noise : float
+        DIC noise, mm.
+    reference : dict
+        Where the reference came from (provenance).
+    fov_mm : float or None
+        The field of view measured, mm (None: the whole top).
+    fe_steps : int or None
+        Gauss-Newton steps of the FE models' fits.
+    """
 
     table: pd.DataFrame  # one row per (model, test point)
     weights: np.ndarray
@@ -104,8 +123,24 @@ class ErrorBudget:
 
 
 def noise_objective_value(objective: Objective, eta, force_noise: float, dic_noise: float) -> float:
-    """E[F] of eq. 5 for pure measurement noise: relative force noise per step and DIC noise (mm)
-    at every measured node, through the objective's own normalisation and nodal weights."""
+    """E[F] of eq. 5 for pure measurement noise, through the objective's normalisation and weights.
+
+    Parameters
+    ----------
+    objective : Objective
+        The objective (its normalisation and nodal weights).
+    eta : array_like
+        The weights of eq. 5.
+    force_noise : float
+        Relative force noise per step.
+    dic_noise : float
+        DIC noise at every measured node, mm.
+
+    Returns
+    -------
+    float
+        The expected F.
+    """
     e = check_weights(eta)
     steps = len(objective.steps)
     force_term = steps * force_noise**2
@@ -183,18 +218,54 @@ def compute_error_budget(
     on_row: Callable[[ErrorBudget], None] | None = None,
     fe_names: Mapping[str, str] | None = None,
 ) -> ErrorBudget:
-    """Fit each of ``models`` (name -> Predictor: an FE model or a surrogate) to each noise-free
-    ``reference`` response and tabulate the biases beside the typical 95 % half-width.
-    ``fe_models`` (name -> the FE Predictor a surrogate of that name emulates) splits a
-    surrogate's bias into discretisation and surrogate parts. Only the top nodes within ``fov_mm``
-    of the indentation axis are measured (a DIC field of view; None: the whole top).
+    """Fit each model to each noise-free reference response and tabulate the biases.
 
-    ``done_rows`` are rows of an earlier, interrupted budget with the same settings (as in its
-    JSON): those (model, test point) pairs are kept, not fitted again. ``on_row`` is called with
-    the budget so far after every new row, so that a caller can save it as it grows.
-    ``fe_names`` (surrogate name -> the name its FE model has among ``models``, e.g. its mesh
-    preset): when that FE model is budgeted too (here or in ``done_rows``), its fit at the same
-    point is the surrogate's discretisation part, not fitted a second time."""
+    The biases stand beside the typical 95 % half-width at the given noise.
+
+    Parameters
+    ----------
+    reference : sequence of SimulationResult
+        The noise-free responses (the test points).
+    models : mapping of str to Predictor
+        Name -> an FE model or a surrogate.
+    fe_models : mapping of str to Predictor, optional
+        Name -> the FE Predictor a surrogate of that name emulates: splits a surrogate's bias into
+        discretisation and surrogate parts.
+    weights : array_like, default PAPER_WEIGHTS
+        The weights of eq. 5.
+    force_noise : float, default 0.02
+        Relative force noise per step.
+    dic_noise : float, default 0.02
+        DIC noise, mm.
+    reference_source : dict, optional
+        Where the reference came from (provenance).
+    fe_steps : int, default 3
+        Gauss-Newton steps of the FE models' fits.
+    progress : callable, optional
+        Told of every fit.
+    fov_mm : float or None, default 25.0
+        Only the top nodes within this of the indentation axis are measured (a DIC field of
+        view; None: the whole top).
+    done_rows : sequence of dict, default ()
+        Rows of an earlier, interrupted budget with the same settings (as in its JSON): those
+        (model, test point) pairs are kept, not fitted again.
+    on_row : callable, optional
+        Called with the budget so far after every new row, so that a caller can save it.
+    fe_names : mapping of str to str, optional
+        Surrogate name -> the name its FE model has among ``models`` (e.g. its mesh preset): when
+        that FE model is budgeted too, its fit at the same point is the surrogate's
+        discretisation part, not fitted a second time.
+
+    Returns
+    -------
+    ErrorBudget
+        The table of biases and half-widths.
+
+    Raises
+    ------
+    ValueError
+        If there is no reference response, or a noise level is not positive.
+    """
     eta = check_weights(weights)
     if not reference:
         raise ValueError("the error budget needs at least one reference response")
@@ -260,13 +331,42 @@ def _row_key(model: str | None, theta_t) -> tuple:
 
 
 def resolve_model(name: str, reference_spec, fe_cache: dict | None = None) -> tuple[object, object | None]:
-    """A model named on the command line: a mesh preset (the reference's model on that mesh), a
-    FEBio .feb file's hex8 mesh, ``richardson:FINE,COARSE[,ORDER]`` (two presets extrapolated,
-    :mod:`forward.richardson`) or a surrogate file; ``@stick`` or ``@mu=VALUE`` after a mesh or a
-    .feb gives the model another contact (the bias a contact model causes: a stick model fitted
-    to frictional data). Returns (Predictor, the FE Predictor a
-    surrogate emulates, or None). FE models are shared through ``fe_cache`` (mesh -> Predictor),
-    so that a mesh is solved once per test point whatever uses it."""
+    """The model a name on the command line gives, for an error budget.
+
+    Parameters
+    ----------
+    name : str
+        A mesh preset (the reference's model on that mesh), a FEBio .feb file's hex8 mesh,
+        ``richardson:FINE,COARSE[,ORDER]`` (two presets extrapolated, :mod:`forward.richardson`)
+        or a surrogate file; ``@stick`` or ``@mu=VALUE`` after a mesh or a .feb gives the model
+        another contact (the bias a contact model causes: a stick model fitted to frictional
+        data).
+    reference_spec : ModelSpec
+        The reference's model.
+    fe_cache : dict, optional
+        Mesh -> Predictor: FE models shared so that a mesh is solved once per test point whatever
+        uses it.
+
+    Returns
+    -------
+    predictor : Predictor
+        The model.
+    fe : Predictor or None
+        The FE Predictor a surrogate emulates; None for an FE model.
+
+    Raises
+    ------
+    ValueError
+        If the contact suffix or the Richardson form is not understood, or the model is not of
+        the reference's test.
+
+    Examples
+    --------
+    >>> import indentation_studio as ins
+    >>> stick, fe = ins.inference.resolve_model("coarse@stick", ins.ModelSpec().with_friction(0.3))
+    >>> stick.spec.contact.friction is None, fe is None
+    (True, True)
+    """
 
     cache = {} if fe_cache is None else fe_cache
     name, _, contact = name.partition("@")
@@ -325,12 +425,43 @@ def campaign_error_budget(
     fov_mm: float | None = 25.0,
     out=None,
 ) -> ErrorBudget:
-    """:func:`compute_error_budget` with the reference given as a campaign (name or folder: its
-    done points are the test points) and the models by name (:func:`resolve_model`).
+    """:func:`compute_error_budget` with the reference given as a campaign and the models by name.
 
-    With ``out`` (a JSON path) the budget is saved after every row (``"complete": false`` until
-    the end), and a budget stopped before its end resumes from that file when run again with the
-    same reference and settings: finished rows are not fitted again."""
+    Parameters
+    ----------
+    reference : str
+        The reference campaign (name or folder): its done points are the test points.
+    models : sequence of str
+        The models, by name (:func:`resolve_model`).
+    weights : array_like, default PAPER_WEIGHTS
+        The weights of eq. 5.
+    force_noise : float, default 0.02
+        Relative force noise per step.
+    dic_noise : float, default 0.02
+        DIC noise, mm.
+    fe_steps : int, default 3
+        Gauss-Newton steps of the FE models' fits.
+    runs_dir : str or pathlib.Path, default "runs"
+        Where named campaigns live.
+    progress : callable, optional
+        Told of every fit.
+    fov_mm : float or None, default 25.0
+        The field of view measured, mm (None: the whole top).
+    out : str or pathlib.Path, optional
+        A JSON path: the budget is saved after every row (``"complete": false`` until the end),
+        and a budget stopped before its end resumes from that file when run again with the same
+        reference and settings: finished rows are not fitted again.
+
+    Returns
+    -------
+    ErrorBudget
+        The table of biases and half-widths.
+
+    Raises
+    ------
+    ValueError
+        If the reference campaign has no finished points (or as :func:`compute_error_budget`).
+    """
 
     store = open_campaign(reference, runs_dir)
     require_sound(store)  # a point file that fails its check is named, not read

@@ -24,8 +24,20 @@ __all__ = ["RecordedRun", "experiment_from_febio_run", "febio_contact", "febio_e
 
 
 class RecordedRun:
-    """A Predictor that knows one parameter point: a recorded simulation (its force NaN at steps
-    off equilibrium). Asked anything else, it says so."""
+    """A Predictor that knows one parameter point: a recorded simulation.
+
+    Its force is NaN at steps off equilibrium. Asked anything else (another point, a Jacobian),
+    ``predict`` raises ``ValueError``.
+
+    Parameters
+    ----------
+    prediction : Prediction
+        The recorded response.
+    theta : numpy.ndarray
+        The point it was recorded at, kPa.
+    spec : ModelSpec
+        The model it was recorded with.
+    """
 
     def __init__(self, prediction: Prediction, theta: np.ndarray, spec: ModelSpec) -> None:
         self.prediction = prediction
@@ -43,9 +55,27 @@ class RecordedRun:
 
 
 def febio_contact(feb_file: str | Path) -> dict:
-    """The contact of a FEBio 4 model as its .feb states it: each <contact>'s type, its friction
-    coefficient and penalty where given (FEBio's sliding-elastic with fric_coeff 1e8 is its
-    'stick', which renews the stick point every increment: not the studio's perfect stick)."""
+    """The contact of a FEBio 4 model as its .feb states it.
+
+    FEBio's sliding-elastic with fric_coeff 1e8 is its 'stick', which renews the stick point every
+    increment: not the studio's perfect stick.
+
+    Parameters
+    ----------
+    feb_file : str or pathlib.Path
+        The model file.
+
+    Returns
+    -------
+    dict
+        ``{"febio": ...}``: each ``<contact>``'s type and name, its ``fric_coeff``, ``penalty``
+        and ``laugon`` where given (one dict, or a list); with a ``note`` when it states none.
+
+    Raises
+    ------
+    ValueError
+        If the file cannot be read.
+    """
     import xml.etree.ElementTree as ET
 
     try:
@@ -85,12 +115,46 @@ def experiment_from_febio_run(
     seed: int = 0,
     overwrite: bool = False,
 ) -> Path:
-    """Write an experiment folder from the FEBio run logged in ``log_path`` (its model on the
-    hex8 block of ``feb_file``, default the .feb beside the log; c1, c5 and kappa as the log
-    echoes them; ``radius``, ``steps`` and ``step_size`` the run's). Returns the folder; its
-    experiment.json records the run (log, .feb, parameters) and excludes the steps FEBio
-    accepted off equilibrium. Raises FebioLogError / FebioRunError naming what is wrong, and
-    FileExistsError for an experiment folder already there (unless ``overwrite``)."""
+    """Write an experiment folder from the FEBio run logged in ``log_path``.
+
+    c1, c5 and kappa are read as the log echoes them. The experiment.json records the run (log,
+    .feb, parameters) and excludes the steps FEBio accepted off equilibrium.
+
+    Parameters
+    ----------
+    log_path : str or pathlib.Path
+        The FEBio log.
+    out_dir : str or pathlib.Path
+        The experiment folder.
+    feb_file : str or pathlib.Path, optional
+        The run's model (its hex8 block); default the .feb beside the log.
+    radius : float, default 4.77
+        The run's indenter radius, mm.
+    steps : int, default 28
+        The run's steps.
+    step_size : float, default 0.5
+        The run's step size, mm.
+    u_noise_mm, f_noise, misregistration_mm, fov, points, fiber_angle_deg
+        The recording (:func:`write_experiment_from_model`; default ``LAB_RECORDING``).
+    seed : int, default 0
+        The noise seed.
+    overwrite : bool, default False
+        Replace an experiment folder already there.
+
+    Returns
+    -------
+    pathlib.Path
+        The experiment folder.
+
+    Raises
+    ------
+    FebioLogError
+        If the .feb is missing or the log does not echo the material parameters.
+    FebioRunError
+        If the run cannot be read back.
+    FileExistsError
+        If an experiment folder is already there (unless ``overwrite``).
+    """
     from ..forward.febio.log import FebioLogError
 
     if (Path(out_dir) / "experiment.json").exists() and not overwrite:

@@ -42,12 +42,40 @@ def write_synthetic_experiment(
     source: dict | None = None,
     **options,
 ) -> Path:
-    """Simulate ``theta`` with ``predictor`` and write an experiment folder; returns its path.
-    ``options`` are those of :func:`write_experiment_from_model` (noise, field of view, frame,
-    registration error, seed). A step whose force the predictor gives as NaN (a recorded FEBio
-    step off equilibrium) gets no force readings and is listed in experiment.json's
-    'excluded_steps'; ``source`` (e.g. the FEBio run it was made from) is recorded under
-    'synthetic'."""
+    """Simulate ``theta`` with ``predictor`` and write an experiment folder.
+
+    A step whose force the predictor gives as NaN (a recorded FEBio step off equilibrium) gets no
+    force readings and is listed in experiment.json's ``excluded_steps``.
+
+    Parameters
+    ----------
+    predictor : Predictor
+        The model.
+    theta : array_like
+        (c1, c5), kPa: the truth.
+    out_dir : str or pathlib.Path
+        The experiment folder.
+    radius : float
+        The indenter's radius, mm.
+    step_size : float
+        Indentation per step, mm.
+    source : dict, optional
+        Recorded under ``synthetic`` (e.g. the FEBio run it was made from).
+    **options
+        Those of :func:`write_experiment_from_model` (noise, field of view, frame, registration
+        error, seed).
+
+    Returns
+    -------
+    pathlib.Path
+        The experiment folder.
+
+    Examples
+    --------
+    >>> import indentation_studio as ins
+    >>> fe = ins.FESolverPredictor(ins.ModelSpec())
+    >>> ins.write_synthetic_experiment(fe, (10.0, 350.0), "exp", 4.77, 0.5)  # doctest: +SKIP
+    """
     pred = predictor.predict(np.asarray(theta, float)[None, :])
     return write_experiment_from_model(
         pred.force[0],
@@ -85,14 +113,60 @@ def write_experiment_from_model(
     misregistration_mm: float = 0.0,
     source: dict | None = None,
 ) -> Path:
-    """The experiment folder of one model run: ``force`` (steps,) mN of the whole specimen, ``field``
-    (steps, n_top, 3) the quarter model's top-node displacements at ``top`` (n_top, 3), as a DIC
-    system and a load cell would record them (module docstring). Displacement noise is
-    ``u_noise`` x max |u| per direction, or ``u_noise_mm`` mm when given; ``misregistration_mm``
-    moves the indenter's cap by that much in a random in-plane direction, so that the
-    registration (the sphere fit) puts the indentation point that far from the truth.
-    ``truth`` is the (c1, c5) that made it, None where no homogeneous parameters did (the
-    composite phantom); ``model`` the spec of the model."""
+    """Write the experiment folder of one model run, as a DIC system and a load cell would record it.
+
+    See the module docstring for the recording.
+
+    Parameters
+    ----------
+    force : numpy.ndarray
+        (steps,) force of the whole specimen, mN.
+    field : numpy.ndarray
+        (steps, n_top, 3) the quarter model's top-node displacements, mm.
+    top : numpy.ndarray
+        (n_top, 3) the top nodes, mm.
+    out_dir : str or pathlib.Path
+        The experiment folder.
+    radius : float
+        The indenter's radius, mm.
+    step_size : float
+        Indentation per step, mm.
+    truth : list of float or None
+        The (c1, c5) that made it; None where no homogeneous parameters did (the composite
+        phantom).
+    model : dict or None
+        The spec of the model.
+    u_noise : float, default 0.02
+        Displacement noise as a fraction of max |u| per direction.
+    f_noise : float, default 0.02
+        Relative force noise.
+    points : int, default 6000
+        DIC points.
+    fov : float, default 25.0
+        The DIC field of view's radius, mm.
+    fiber_angle_deg : float or None, default 60.0
+        The fiber direction in the DIC frame, degrees from x.
+    write_fiber_angle : bool, default True
+        State the fiber angle in experiment.json (else it is to be estimated).
+    frame_offset : tuple of float, default (3.0, -2.0, 12.0)
+        The shift of the DIC frame's origin (added to the rotated model coordinates), mm.
+    hold_s : float, default 30.0
+        Length of each hold, s.
+    seed : int, default 0
+        The noise seed.
+    u_noise_mm : float, optional
+        Displacement noise in mm instead of ``u_noise``.
+    misregistration_mm : float, default 0.0
+        Moves the indenter's cap by that much in a random in-plane direction, so that the
+        registration (the sphere fit) puts the indentation point that far from the truth.
+    source : dict, optional
+        Recorded under ``synthetic``.
+
+    Returns
+    -------
+    pathlib.Path
+        The experiment folder.
+    """
     rng = np.random.default_rng(seed)
     out = Path(out_dir)
     force, field, top = np.asarray(force, float), np.asarray(field, float), np.asarray(top, float)

@@ -57,8 +57,22 @@ FIT_FIELD_OF_VIEW = 25.0
 
 @dataclass
 class VerificationStudy:
-    """The study's tables: one entry per (radius, point) with each quantity's convergence, the
-    costs of every level, and the increments' study on the finest levels."""
+    """The verification study's tables: one entry per (radius, point).
+
+    Each entry holds each quantity's convergence, the costs of every level, and the increments'
+    study on the finest levels.
+
+    Attributes
+    ----------
+    family : MeshFamily
+        The refined meshes.
+    levels : tuple of int
+        The levels solved, finest first.
+    cases : list of dict
+        One per (radius, point).
+    inputs : dict
+        The study's inputs (model, points, radii, substeps, weights, field of view, solver).
+    """
 
     family: MeshFamily
     levels: tuple[int, ...]  # finest first
@@ -134,8 +148,10 @@ def parameter_bias(
     weights: Sequence[float] = PAPER_WEIGHTS,
     field_of_view: float = FIT_FIELD_OF_VIEW,
 ) -> np.ndarray:
-    """The (c1, c5) that one Gauss-Newton step in log theta of the objective (eq. 4, 5) fits to
-    ``data``'s noise-free response, from ``model`` solved at the truth with sensitivities.
+    """The (c1, c5) one Gauss-Newton step of the objective (eq. 4, 5) fits to ``data``'s response.
+
+    The step is in log theta, from ``model`` solved at the truth with sensitivities; the data are
+    noise-free.
 
     Parameters
     ----------
@@ -153,6 +169,11 @@ def parameter_bias(
     -------
     numpy.ndarray
         (c1, c5) in kPa; ``model``'s own parameters when ``data`` is ``model``.
+
+    Raises
+    ------
+    ValueError
+        If ``model`` was solved without sensitivities.
     """
     if model.force_sensitivity is None:
         raise ValueError("the fitting model must be solved with sensitivities")
@@ -281,6 +302,8 @@ def run_verification_study(
     substeps : sequence of int, optional
         Increments per step; the first for every level, all of them on the ``substep_levels``
         finest levels (three or more for the increments' observed order).
+    substep_levels : int, default 2
+        How many of the finest levels are solved with every ``substeps``.
     out_dir : path
         Where every run and ``study.json`` are kept.
     progress : callable, optional
@@ -291,6 +314,12 @@ def run_verification_study(
     Returns
     -------
     VerificationStudy
+        The study's tables.
+
+    Raises
+    ------
+    ValueError
+        If fewer than three levels are given or a substep is not a whole number >= 1.
     """
     ordered = tuple(sorted({int(k) for k in levels}, reverse=True))
     if len(ordered) < 3:
