@@ -142,8 +142,8 @@ def stretch_block(
         Newton iterations per step at most.
     max_cutbacks : int, default 6
         Halvings of a step at most.
-    linear_solver : str, optional
-        The sparse solver; default the studio's choice.
+    linear_solver : {"pardiso", "superlu"}, optional
+        The sparse solver; default PARDISO where installed, else SuperLU.
 
     Returns
     -------

@@ -87,9 +87,41 @@ def run_demo(
     experiment: str | Path = EXAMPLE,
     design_depths: tuple[float, ...] = (7.0, 10.5, 14.0),
 ) -> Path:
-    """Run every step and write ``runs/<name>/report/index.html``; returns its path. ``spec``,
-    ``grid``, ``test_grid``, ``experiment`` and ``design_depths`` default to the paper's setting
-    (smaller ones serve the tests)."""
+    """Run the demo: every step of the workflow, and write ``runs/<name>/report/index.html``.
+
+    ``spec``, ``grid``, ``test_grid``, ``experiment`` and ``design_depths`` default to the paper's
+    setting (smaller ones serve the tests).
+
+    Parameters
+    ----------
+    name : str, default "demo"
+        The campaigns' and report's name.
+    full : bool, default False
+        The paper's 775-point grid instead of a 9 x 9 one.
+    jobs : int, default 0
+        Worker processes of the campaigns (0: all cores).
+    runs_dir : str or pathlib.Path, default "runs"
+        Where the campaigns and the report go.
+    posterior_steps : int, default 1500
+        emcee steps per walker of the example's posterior.
+    say : callable, default print
+        Where progress messages go.
+    spec : ModelSpec, optional
+        The model; default the paper's baseline (``ModelSpec()``).
+    grid : str, optional
+        The training campaign's grid (:func:`campaign.design_from_option`).
+    test_grid : str, default "lhs:16:11"
+        The test campaign's grid.
+    experiment : str or pathlib.Path
+        The example experiment fitted.
+    design_depths : tuple of float, default (7.0, 10.5, 14.0)
+        Maximum depths of the design comparison, mm.
+
+    Returns
+    -------
+    pathlib.Path
+        The report's ``index.html``.
+    """
     clock = _Clock(say)
     runs_dir = Path(runs_dir)
     out = runs_dir / name / "report"

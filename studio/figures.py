@@ -29,9 +29,21 @@ def certainty_ellipse(H: np.ndarray, s: float, centre=(1.0, 1.0), n: int = 200) 
 
 
 def objective_map_figure(omap: ObjectiveMap, title: str = "") -> Figure:
-    """Fig. 8: F over the normalised (c1, c5) plane from scattered or gridded points, the
-    certainty ellipse from H at theta* = (1, 1), and theta* (``omap`` from
-    :func:`design.objective_over_plane.objective_map`)."""
+    """Paper Fig. 8: F over the normalised (c1, c5) plane, the certainty ellipse from H, and theta*.
+
+    Parameters
+    ----------
+    omap : ObjectiveMap
+        F at scattered or gridded points, H at theta* = (1, 1) and its bounds
+        (:func:`design.objective_over_plane.objective_map`).
+    title : str, default ""
+        The figure's title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The contour plot.
+    """
     c1_bar, c5_bar = omap.theta_bar[:, 0], omap.theta_bar[:, 1]
     H, s = omap.hessian, omap.s
     fig, ax = plt.subplots(figsize=(6.4, 5.2), constrained_layout=True)
@@ -53,8 +65,19 @@ def objective_map_figure(omap: ObjectiveMap, title: str = "") -> Figure:
 
 
 def design_comparison_figure(table: pd.DataFrame) -> Figure:
-    """Bounds of c1 and c5 (optimised weights) against the maximum depth, one line per indenter
-    radius and field of view: which test identifies c5 best."""
+    """Bounds of c1 and c5 (optimised weights) against the maximum depth: which test identifies c5 best.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        :func:`design.experiment_choice.compare_designs`' table; one line per indenter radius and
+        field of view.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The plot.
+    """
     fig, axes = plt.subplots(1, 2, figsize=(10, 4.2), constrained_layout=True)
     groups = table.fillna({"fov_mm": np.inf}).groupby(["radius_mm", "fov_mm", "every", "s"], sort=True)
     for (radius, fov, every, s), g in groups:
@@ -77,9 +100,27 @@ def design_comparison_figure(table: pd.DataFrame) -> Figure:
 
 
 def corner_figure(posterior, fit_theta=None, fit_hessian=None, s: float | None = None, truth=None) -> Figure:
-    """Corner plot (corner package) of posterior samples, with the fit and its eq. 6 certainty
-    ellipse (H in theta_bar = theta / theta_hat) overlaid, and the truth of a synthetic
-    experiment when it is known."""
+    """Corner plot (corner package) of posterior samples, with the fit and its eq. 6 ellipse overlaid.
+
+    Parameters
+    ----------
+    posterior : Posterior
+        The samples and their parameters.
+    fit_theta : array_like, optional
+        The fit, kPa (red lines).
+    fit_hessian : numpy.ndarray, optional
+        The fit's Hessian in theta_bar = theta / theta_hat; with ``s``, its eq. 6 certainty
+        ellipse is drawn in the (c1, c5) panel (two parameters only).
+    s : float, optional
+        Eq. 6's s of the ellipse.
+    truth : array_like, optional
+        The truth of a synthetic experiment, when known (green).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The corner plot.
+    """
     import corner
 
     labels = [name if name == "mu" else f"{name} (kPa)" for name in posterior.parameters]  # mu: no unit
@@ -111,8 +152,29 @@ def corner_figure(posterior, fit_theta=None, fit_hessian=None, s: float | None =
 
 
 def force_depth_figure(depth, curves: dict, errors=None, title: str = "") -> Figure:
-    """Force against depth: ``curves`` maps a label to forces (mN) at ``depth`` (mm); the first
-    is drawn as measured points (with ``errors`` as error bars), the rest as lines."""
+    """Force against depth: the first curve as measured points, the rest as lines.
+
+    Parameters
+    ----------
+    depth : array_like
+        Depths, mm.
+    curves : dict
+        Label -> forces (mN) at ``depth``; the first is drawn as measured points.
+    errors : array_like, optional
+        Error bars of the first curve, mN.
+    title : str, default ""
+        The figure's title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The plot.
+
+    Examples
+    --------
+    >>> from indentation_studio.studio import force_depth_figure
+    >>> fig = force_depth_figure([0.5, 1.0], {"measured": [1.0, 2.5], "model": [1.1, 2.4]})
+    """
     fig, ax = plt.subplots(figsize=(5.6, 4.2), constrained_layout=True)
     for k, (label, f) in enumerate(curves.items()):
         if k == 0:
@@ -128,8 +190,24 @@ def force_depth_figure(depth, curves: dict, errors=None, title: str = "") -> Fig
 
 
 def displacement_maps_figure(top_xyz: np.ndarray, u: np.ndarray, title: str = "") -> Figure:
-    """Top-surface displacement maps (ux, uy, uz) of one step over the full field (the quarter
-    model mirrored by its symmetry planes), with the fiber direction (+y) marked."""
+    """Top-surface displacement maps (ux, uy, uz) of one step over the full field.
+
+    The quarter model is mirrored by its symmetry planes; the fiber direction (+y) is marked.
+
+    Parameters
+    ----------
+    top_xyz : numpy.ndarray
+        (nodes, 3) the quarter model's top nodes, mm.
+    u : numpy.ndarray
+        (nodes, 3) their displacements at the step, mm.
+    title : str, default ""
+        The figure's title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Three maps.
+    """
     x, y = top_xyz[:, 0], top_xyz[:, 1]
     X = np.concatenate([x, -x, x, -x])
     Y = np.concatenate([y, y, -y, -y])
@@ -169,7 +247,20 @@ def displacement_maps_figure(top_xyz: np.ndarray, u: np.ndarray, title: str = ""
 
 
 def parity_figure(pairs: dict, title: str = "") -> Figure:
-    """Surrogate against FE (held-out points): one panel per entry of ``pairs`` = {label: (fe, surrogate)}."""
+    """Surrogate against FE at held-out points: one parity panel per quantity.
+
+    Parameters
+    ----------
+    pairs : dict
+        ``{label: (fe, surrogate)}``: the FE and surrogate values of one quantity.
+    title : str, default ""
+        The figure's title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One panel per entry, with the line of equality.
+    """
     fig, axes = plt.subplots(
         1, len(pairs), figsize=(4.4 * len(pairs), 4.2), constrained_layout=True, squeeze=False
     )
@@ -186,7 +277,22 @@ def parity_figure(pairs: dict, title: str = "") -> Figure:
 
 
 def mesh_figure(nodes: np.ndarray, elements: np.ndarray, title: str = "") -> Figure:
-    """The block mesh: the edges of the element faces on the top and the two symmetry planes, in 3D."""
+    """The block mesh: the edges of the element faces on the top and the two symmetry planes, in 3D.
+
+    Parameters
+    ----------
+    nodes : numpy.ndarray
+        (n, 3) node coordinates, mm.
+    elements : numpy.ndarray
+        (ne, 8) hex8 elements.
+    title : str, default ""
+        The figure's title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The 3D plot.
+    """
     edges = np.concatenate(
         [
             elements[:, [a, b]]
@@ -236,9 +342,24 @@ def equibiaxial_figure(
     fit: dict[str, float] | None = None,
     title: str = "",
 ) -> Figure:
-    """Paper Fig. 14: true (Cauchy) stress against stretch under equibiaxial stretch, along the
-    fibers and across them (points: the composite FE model), with eq. 10a, 10b at the fitted
-    ``fit`` = {"c1": ..., "c5": ...} (kPa) as lines."""
+    """Paper Fig. 14: true (Cauchy) stress against stretch under equibiaxial stretch, with eq. 10 fitted.
+
+    Parameters
+    ----------
+    stretch : numpy.ndarray
+        The stretches.
+    sigma_fiber, sigma_transverse : numpy.ndarray
+        Cauchy stress along and across the fibers, kPa (points: the composite FE model).
+    fit : dict of str to float, optional
+        ``{"c1": ..., "c5": ...}`` (kPa): eq. 10a, 10b drawn as lines.
+    title : str, default ""
+        The figure's title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The plot.
+    """
     from ..forward.material import equibiaxial_stress_incompressible
 
     lam = np.asarray(stretch, dtype=float)
@@ -312,10 +433,26 @@ def composite_comparison_figure(comparison, within_mm: float = 20.0, title: str 
 
 
 def verification_figure(case: dict, names: tuple[str, ...] | None = None, title: str = "") -> Figure:
-    """A verification study's convergence (one case of
-    :func:`inference.verification_study.run_verification_study`): |f_k - f_ext| / |f_ext| against
-    the representative cell size h, log-log, one panel per quantity, with the line of the finest
-    triplet's observed order p through the finest level."""
+    """A verification study's convergence: |f_k - f_ext| / |f_ext| against the cell size h, log-log.
+
+    One panel per quantity, with the line of the finest triplet's observed order p through the
+    finest level.
+
+    Parameters
+    ----------
+    case : dict
+        One case of :func:`inference.verification_study.run_verification_study` (its
+        ``quantities``).
+    names : tuple of str, optional
+        The quantities to draw; default all.
+    title : str, default ""
+        The figure's title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The panels.
+    """
     quantities = case["quantities"]
     names = tuple(names or quantities)
     cols = min(3, len(names))
@@ -347,7 +484,22 @@ def verification_figure(case: dict, names: tuple[str, ...] | None = None, title:
 
 
 def save_figure(fig: Figure, path: str | Path, dpi: int = 130) -> Path:
-    """Write ``fig`` as a PNG at ``path`` (atomically) and close it; returns the path."""
+    """Write ``fig`` as a PNG at ``path`` (atomically) and close it.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        The figure.
+    path : str or pathlib.Path
+        The PNG file.
+    dpi : int, default 130
+        Resolution.
+
+    Returns
+    -------
+    pathlib.Path
+        The file written.
+    """
     path = Path(path)
     try:
         atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=dpi, format=path.suffix.lstrip(".") or "png"))

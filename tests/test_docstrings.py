@@ -57,21 +57,6 @@ OWNED_ELSEWHERE = {
     "contact_response",
 }
 
-#: Names whose docstrings are still to be written (179 when the check came in): the list may only
-#: shrink; a name on it that passes fails the test, so that it is taken off.
-STILL_TO_DO = {
-    "studio.corner_figure",
-    "studio.design_comparison_figure",
-    "studio.displacement_maps_figure",
-    "studio.equibiaxial_figure",
-    "studio.force_depth_figure",
-    "studio.mesh_figure",
-    "studio.objective_map_figure",
-    "studio.parity_figure",
-    "studio.run_demo",
-    "studio.save_figure",
-    "studio.verification_figure",
-}
 
 _SECTION = re.compile(r"^(\S[^\n]*)\n-{3,}\s*$", re.MULTILINE)
 _ENTRY = re.compile(r"^(\*{0,2}\w+(?:\s*,\s*\*{0,2}\w+)*)\s*(?::.*)?$")
@@ -213,9 +198,6 @@ def test_exported_name_has_a_numpydoc_docstring(qualified):
     if qualified.split(".")[-1] in OWNED_ELSEWHERE:
         pytest.skip("a module owned by another engineer (OWNED_ELSEWHERE)")
     found = problems(EXPORTED[qualified])
-    if qualified in STILL_TO_DO:
-        assert found, f"{qualified} passes now: take it off STILL_TO_DO"
-        pytest.xfail("; ".join(found))
     assert not found, f"{qualified}: " + "; ".join(found)
 
 
