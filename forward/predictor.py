@@ -106,8 +106,6 @@ class Predictor(Protocol):
 class ReducedBasis:
     """A Predictor's outputs as affine maps of a few reduced coordinates (a surrogate's PCA scores).
 
-    ::
-
         log force (n, steps)                = force_mean + z_force @ force_basis
         displacement (n, steps * nodes * 3) = field_mean + z_field @ field_basis
 

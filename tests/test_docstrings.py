@@ -188,6 +188,177 @@ def problems(obj) -> list[str]:
     return out
 
 
+def _public_methods():
+    """'package.Class.method' -> function, for the public methods and properties an exported class
+    defines itself (inherited ones are checked where they are defined)."""
+    out = {}
+    for qualified, cls in EXPORTED.items():
+        if not inspect.isclass(cls) or qualified.split(".")[-1] in OWNED_ELSEWHERE:
+            continue
+        for name, member in vars(cls).items():
+            if isinstance(member, classmethod | staticmethod):
+                member = member.__func__
+            if not name.startswith("_") and (inspect.isfunction(member) or isinstance(member, property)):
+                out[f"{qualified}.{name}"] = member
+    return out
+
+
+METHODS = _public_methods()
+
+
+#: Public methods of the exported classes whose docstrings are still to be written (126 of 166
+#: when this check came in): the list may only shrink; one that passes fails the test, to be taken off.
+METHODS_STILL_TO_DO = {
+    "campaign.CampaignData.filled_force",
+    "campaign.CampaignData.n",
+    "campaign.CampaignData.prediction",
+    "campaign.CampaignSpec.differences",
+    "campaign.CampaignSpec.equilibrium_rel",
+    "campaign.CampaignSpec.from_dict",
+    "campaign.CampaignSpec.to_dict",
+    "campaign.CampaignStore.claim_next",
+    "campaign.CampaignStore.counts",
+    "campaign.CampaignStore.create_or_open",
+    "campaign.CampaignStore.holders",
+    "campaign.CampaignStore.holds",
+    "campaign.CampaignStore.lease_path",
+    "campaign.CampaignStore.leases_dir",
+    "campaign.CampaignStore.locked",
+    "campaign.CampaignStore.open",
+    "campaign.CampaignStore.partial_path",
+    "campaign.CampaignStore.points_dir",
+    "campaign.CampaignStore.points_with",
+    "campaign.CampaignStore.record",
+    "campaign.CampaignStore.release",
+    "campaign.CampaignStore.renew",
+    "campaign.CampaignStore.result_path",
+    "campaign.CampaignStore.save_point",
+    "campaign.CampaignStore.summary",
+    "campaign.CampaignStore.verify",
+    "campaign.CampaignStore.write_index",
+    "campaign.StoredResponses.predict",
+    "design.CompositeHomogenisation.parallel_fibers",
+    "design.CompositeHomogenisation.to_dict",
+    "design.DesignStudy.bounds",
+    "design.DesignStudy.hessian",
+    "design.DesignStudy.objective_points",
+    "design.FieldObjective.value",
+    "design.FixedParameter.predict",
+    "design.FrictionTreatment.describe",
+    "design.FrictionTreatment.parse",
+    "design.Objective.data_points",
+    "design.Objective.displacement_residual_scale",
+    "design.Objective.from_prediction",
+    "design.Objective.jacobian",
+    "design.Objective.residuals",
+    "design.Objective.term_jacobians",
+    "design.Objective.term_residuals",
+    "design.Objective.terms",
+    "design.Objective.value",
+    "design.ReducedObjective.value",
+    "forward.BlockMesh.element_set",
+    "forward.BlockMesh.from_arrays",
+    "forward.BlockMesh.geometry_record",
+    "forward.BlockMesh.n_elements",
+    "forward.BlockMesh.n_nodes",
+    "forward.BlockMesh.top_xyz",
+    "forward.BlockStretchResult.to_dict",
+    "forward.CachedPredictor.predict",
+    "forward.ConvergenceOfQuantity.to_dict",
+    "forward.ElementModuli.homogeneous",
+    "forward.FESolverPredictor.predict",
+    "forward.FESolverPredictor.simulate",
+    "forward.FESolverPredictor.spec_at",
+    "forward.FESolverPredictor.with_spec",
+    "forward.FebioSolver.run",
+    "forward.MeshFamily.cells",
+    "forward.MeshFamily.mesh",
+    "forward.MeshFamily.name",
+    "forward.MeshFamily.node_count",
+    "forward.MeshFamily.size",
+    "forward.MeshFamily.to_dict",
+    "forward.PhantomLayout.bottom_plate",
+    "forward.PhantomLayout.fiber_volume_fraction",
+    "forward.PhantomLayout.x_centres",
+    "forward.PhantomLayout.z_centres",
+    "forward.Prediction.from_results",
+    "forward.Prediction.n",
+    "forward.Predictor.predict",
+    "forward.RichardsonPredictor.predict",
+    "forward.SimulationResult.force_quarter",
+    "forward.SimulationResult.load",
+    "forward.SimulationResult.newton_iterations",
+    "forward.SimulationResult.save",
+    "forward.SimulationResult.table",
+    "inference.Adequacy.flagged",
+    "inference.Adequacy.to_dict",
+    "inference.CompositeComparison.to_dict",
+    "inference.Confirmation.save",
+    "inference.ErrorBudget.summary",
+    "inference.ErrorBudget.to_dict",
+    "inference.ExperimentData.depths",
+    "inference.ExperimentFit.friction_bounds",
+    "inference.ExperimentFit.save",
+    "inference.ExperimentFit.warnings",
+    "inference.ExperimentPosterior.save",
+    "inference.FitResult.residual_sd",
+    "inference.MeshCheck.corrected_uncertainty_pct",
+    "inference.MeshCheck.to_dict",
+    "inference.ModelError.half_width_pct",
+    "inference.ModelError.to_dict",
+    "inference.NoiseModel.to_dict",
+    "inference.Posterior.interval",
+    "inference.Posterior.median",
+    "inference.Posterior.std",
+    "inference.Posterior.summary",
+    "inference.RecordedRun.predict",
+    "inference.VerificationStudy.to_dict",
+    "surrogate.FieldSurrogate.fit",
+    "surrogate.FieldSurrogate.from_state",
+    "surrogate.FieldSurrogate.inside_box",
+    "surrogate.FieldSurrogate.predict",
+    "surrogate.FieldSurrogate.reduced_basis",
+    "surrogate.FieldSurrogate.to_state",
+    "surrogate.GaussianProcessSurrogate.hyperparameters",
+    "surrogate.GaussianProcessSurrogate.predict_std",
+    "surrogate.MLPSurrogate.hyperparameters",
+    "surrogate.MultiFidelitySurrogate.discrepancy_covariance_factor",
+    "surrogate.MultiFidelitySurrogate.discrepancy_data",
+    "surrogate.MultiFidelitySurrogate.discrepancy_std",
+    "surrogate.MultiFidelitySurrogate.fit",
+    "surrogate.MultiFidelitySurrogate.from_state",
+    "surrogate.MultiFidelitySurrogate.hyperparameters",
+    "surrogate.MultiFidelitySurrogate.meta",
+    "surrogate.MultiFidelitySurrogate.predict",
+    "surrogate.MultiFidelitySurrogate.reduced_basis",
+    "surrogate.MultiFidelitySurrogate.to_state",
+    "surrogate.TrainingData.from_campaign",
+    "surrogate.TrainingData.n",
+    "surrogate.TrainingData.subset",
+}
+
+
+def method_problems(member) -> list[str]:
+    """What a method's docstring lacks: a one-line summary and, with parameters besides self, a
+    Parameters section naming them (a property: its docstring's summary)."""
+    func = member.fget if isinstance(member, property) else member
+    doc = inspect.cleandoc(func.__doc__) if func.__doc__ else ""
+    if not doc:
+        return ["no docstring"]
+    out = []
+    if "\n" in doc.split("\n\n")[0].strip():
+        out.append("the summary is not one line followed by a blank line")
+    params = [] if isinstance(member, property) else _parameters(func)
+    if params:
+        found = sections(doc)
+        if "Parameters" not in found:
+            out.append("no Parameters section")
+        else:
+            documented = documented_names(found["Parameters"])
+            out += [f"parameter {p} not documented" for p in params if p not in documented]
+    return out
+
+
 def test_the_check_sees_the_exported_names():
     assert len(EXPORTED) > 170
     assert {"campaign.run_campaign", "design.bounds_pct", "studio.corner_figure"} <= set(EXPORTED)
@@ -198,6 +369,15 @@ def test_exported_name_has_a_numpydoc_docstring(qualified):
     if qualified.split(".")[-1] in OWNED_ELSEWHERE:
         pytest.skip("a module owned by another engineer (OWNED_ELSEWHERE)")
     found = problems(EXPORTED[qualified])
+    assert not found, f"{qualified}: " + "; ".join(found)
+
+
+@pytest.mark.parametrize("qualified", sorted(METHODS))
+def test_public_method_has_a_numpydoc_docstring(qualified):
+    found = method_problems(METHODS[qualified])
+    if qualified in METHODS_STILL_TO_DO:
+        assert found, f"{qualified} passes now: take it off METHODS_STILL_TO_DO"
+        pytest.xfail("; ".join(found))
     assert not found, f"{qualified}: " + "; ".join(found)
 
 
