@@ -200,6 +200,13 @@ class CampaignSpec:
             raise CampaignError(f"solver {self.solver!r}: use 'embedded' or 'febio'")
 
     def to_dict(self) -> dict[str, Any]:
+        """The spec as ``campaign.json`` records it.
+
+        Returns
+        -------
+        dict
+            The schema, name, design (description, parameters, points), model, solver and extra.
+        """
         return {
             "schema": SCHEMA,
             "name": self.name,
@@ -215,6 +222,18 @@ class CampaignSpec:
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> CampaignSpec:
+        """The spec a ``campaign.json`` records (the inverse of :meth:`to_dict`).
+
+        Parameters
+        ----------
+        d : dict
+            The JSON's content.
+
+        Returns
+        -------
+        CampaignSpec
+            The spec.
+        """
         des = d["design"]
         return cls(
             name=d["name"],
@@ -225,7 +244,18 @@ class CampaignSpec:
         )
 
     def differences(self, other: CampaignSpec) -> list[str]:
-        """What makes ``other`` a different campaign (empty when it is the same)."""
+        """What makes ``other`` a different campaign (empty when it is the same).
+
+        Parameters
+        ----------
+        other : CampaignSpec
+            The spec to compare with.
+
+        Returns
+        -------
+        list of str
+            The model fields, solver, design and (FEBio) equilibrium tolerance that differ.
+        """
         a, b = self.to_dict(), other.to_dict()
         out = (
             ["model " + ", ".join(_changed_fields(a["model"], b["model"]))]
@@ -244,8 +274,10 @@ class CampaignSpec:
 
     @property
     def equilibrium_rel(self) -> float:
-        """A FEBio step is flagged off equilibrium when its imbalance exceeds this fraction of the
-        step's own force (README, "Campaigns"; ``campaign run --equilibrium-tol``)."""
+        """The fraction of a step's own force a FEBio step's imbalance may reach before it is flagged.
+
+        README, "Campaigns"; ``campaign run --equilibrium-tol``.
+        """
         return float(self.extra.get("equilibrium_rel", CAMPAIGN_EQUILIBRIUM_REL))
 
 
@@ -290,29 +322,91 @@ class CampaignStore:
     # ----------------------------------------------------------------- files
     @property
     def points_dir(self) -> Path:
+        """The folder of the points' result files, ``points/``."""
         return self.root / "points"
 
     @property
     def leases_dir(self) -> Path:
+        """The folder of the claims' lease files, ``leases/``."""
         return self.root / "leases"
 
     def result_path(self, point: int) -> Path:
+        """The result file of a point, ``points/<point>.npz``.
+
+        Parameters
+        ----------
+        point : int
+            The point.
+
+        Returns
+        -------
+        pathlib.Path
+            The file.
+        """
         return self.points_dir / f"{point:05d}.npz"
 
     def partial_path(self, point: int) -> Path:
+        """The file of a failed point's finished steps, ``points/<point>.partial.npz``.
+
+        Parameters
+        ----------
+        point : int
+            The point.
+
+        Returns
+        -------
+        pathlib.Path
+            The file.
+        """
         return self.points_dir / f"{point:05d}.partial.npz"
 
     def lease_path(self, point: int) -> Path:
+        """The lease file of a point, ``leases/<point>.json``.
+
+        Parameters
+        ----------
+        point : int
+            The point.
+
+        Returns
+        -------
+        pathlib.Path
+            The file.
+        """
         return self.leases_dir / f"{point:05d}.json"
 
     def locked(self):
-        """The store's lock (short critical sections only); a lock not had in
-        ``LOCK_TIMEOUT_S`` is a clear error."""
+        """The store's lock, as a context (short critical sections only).
+
+        A lock not had in ``LOCK_TIMEOUT_S`` is a clear error.
+        """
         return _Locked(self.lock, self.root)
 
     # ------------------------------------------------------------ open/create
     @classmethod
     def create_or_open(cls, runs_dir: str | Path, spec: CampaignSpec, repair: bool = True) -> CampaignStore:
+        """The store ``runs_dir/<spec.name>``: created when missing, else opened and compared.
+
+        Parameters
+        ----------
+        runs_dir : str or pathlib.Path
+            Where campaigns live.
+        spec : CampaignSpec
+            What the campaign computes; its mesh's geometry is recorded with it.
+        repair : bool, default True
+            Repair what the checks find (:meth:`open`).
+
+        Returns
+        -------
+        CampaignStore
+            The store.
+
+        Raises
+        ------
+        CampaignError
+            If the stored campaign was started with another spec, or solved on a mesh that
+            changed under the same preset name (naming what changed).
+        """
         root = Path(runs_dir) / spec.name
         meta = root / "campaign.json"
         mesh = build_mesh(spec.model).geometry_record()
@@ -352,8 +446,26 @@ class CampaignStore:
 
     @classmethod
     def open(cls, root: str | Path, repair: bool = True) -> CampaignStore:
-        """The store at ``root``, every check made (module docstring); ``repair`` fixes what
-        fails (a run), else it is only listed in :attr:`problems` (status, loaders)."""
+        """Open the store at ``root``, every check made (module docstring).
+
+        Parameters
+        ----------
+        root : str or pathlib.Path
+            The campaign folder.
+        repair : bool, default True
+            Fix what fails (a run); else nothing is written and the failures are only listed in
+            :attr:`problems` (status, loaders).
+
+        Returns
+        -------
+        CampaignStore
+            The store.
+
+        Raises
+        ------
+        CampaignError
+            If there is no campaign at ``root`` (or its spec cannot be read).
+        """
         root = Path(root)
         meta = root / "campaign.json"
         if not meta.is_file():
@@ -438,11 +550,22 @@ class CampaignStore:
 
     # ------------------------------------------------------------ the checks
     def verify(self, repair: bool = True) -> list[Problem]:
-        """Check every point file against its row (module docstring). With ``repair`` a file
-        that fails is moved to ``damaged/`` and its point made pending, a file with no row or
-        hash (an older store, a run killed between writing the file and the index) is checked
-        to load, hashed and recorded done. Returns the problems (also added to
-        :attr:`problems`). Call under the lock when repairing."""
+        """Check every point file against its row (module docstring).
+
+        Call under the lock when repairing.
+
+        Parameters
+        ----------
+        repair : bool, default True
+            A file that fails is moved to ``damaged/`` and its point made pending, a file with no
+            row or hash (an older store, a run killed between writing the file and the index) is
+            checked to load, hashed and recorded done.
+
+        Returns
+        -------
+        list of Problem
+            The problems (also added to :attr:`problems`).
+        """
         found: list[Problem] = []
         present = {int(p.stem) for p in self.points_dir.glob("[0-9]*.npz") if p.stem.isdigit()}
         status = self.index["status"].astype(str).to_numpy()
@@ -526,6 +649,17 @@ class CampaignStore:
         return len(found)
 
     def record(self, point: int, row: dict[str, Any], write: bool = True) -> None:
+        """Set fields of a point's index row.
+
+        Parameters
+        ----------
+        point : int
+            The point.
+        row : dict
+            Column -> value.
+        write : bool, default True
+            Write the index now (:meth:`write_index`).
+        """
         for k, v in row.items():
             self.index.loc[point, k] = v
         self._dirty.add(int(point))
@@ -533,8 +667,10 @@ class CampaignStore:
             self.write_index()
 
     def write_index(self) -> None:
-        """Write this run's changed rows into the index on disk, merged with what other runs
-        wrote there (under the lock); ``self.index`` becomes the merged table."""
+        """Write this run's changed rows into the index on disk, merged with what other runs wrote.
+
+        Made under the lock; ``self.index`` becomes the merged table.
+        """
         path = self.root / "index.parquet"
         with self.locked():
             merged = self._merged()
@@ -587,8 +723,28 @@ class CampaignStore:
         lease_timeout_s: float = DEFAULT_LEASE_TIMEOUT_S,
         attempts_at_start: dict[int, int] | None = None,
     ) -> ClaimOutcome:
-        """Claim the first of ``candidates`` that no live run holds and no run has finished since
-        ``attempts_at_start`` (under the lock: two runs never claim the same point)."""
+        """Claim the first of ``candidates`` that no live run holds and no run has finished since.
+
+        Made under the lock: two runs never claim the same point.
+
+        Parameters
+        ----------
+        candidates : list of int
+            The points to try, in order.
+        run : RunIdentity
+            The claiming run.
+        lease_timeout_s : float, default 120
+            A lease not renewed for this long belongs to a dead run and is taken over, s.
+        attempts_at_start : dict of int to int, optional
+            Each point's attempts when this run started: a point another run attempted since is
+            not claimed again.
+
+        Returns
+        -------
+        ClaimOutcome
+            The point claimed (or None), the candidates finished elsewhere meanwhile, and those
+            another live run holds.
+        """
         finished: set[int] = set()
         held: dict[int, dict[str, Any]] = {}
         with self.locked():
@@ -627,7 +783,20 @@ class CampaignStore:
         return ClaimOutcome(None, finished, held)
 
     def renew(self, points: list[int], run: RunIdentity) -> set[int]:
-        """Renew this run's leases; returns the points whose lease another run took over."""
+        """Renew this run's leases (their heartbeat).
+
+        Parameters
+        ----------
+        points : list of int
+            The points the run holds.
+        run : RunIdentity
+            The run.
+
+        Returns
+        -------
+        set of int
+            The points whose lease another run took over.
+        """
         lost: set[int] = set()
         with self.locked():
             for i in points:
@@ -643,17 +812,50 @@ class CampaignStore:
         return lost
 
     def holds(self, point: int, run: RunIdentity) -> bool:
+        """Whether ``run`` holds the lease of ``point``.
+
+        Parameters
+        ----------
+        point : int
+            The point.
+        run : RunIdentity
+            The run.
+
+        Returns
+        -------
+        bool
+            True when the point's lease names the run.
+        """
         lease = self._lease(point)
         return lease is not None and lease.get("run_id") == run.run_id
 
     def release(self, point: int, run: RunIdentity) -> None:
+        """Give up ``run``'s claim on ``point`` (its lease file removed, under the lock).
+
+        Parameters
+        ----------
+        point : int
+            The point.
+        run : RunIdentity
+            The run; a lease another run holds is left alone.
+        """
         with self.locked():
             if self.holds(point, run):
                 self.lease_path(point).unlink(missing_ok=True)
 
     def holders(self, lease_timeout_s: float = DEFAULT_LEASE_TIMEOUT_S) -> list[dict[str, Any]]:
-        """The claims on the store: point, host, pid, start time of the holding run, heartbeat
-        age, and whether it is alive (an expired one is taken over by the next run)."""
+        """The claims on the store and whether each holding run is alive.
+
+        Parameters
+        ----------
+        lease_timeout_s : float, default 120
+            A claim whose heartbeat is older is expired (taken over by the next run), s.
+
+        Returns
+        -------
+        list of dict
+            Per claim: point, host, pid, start time of the holding run, heartbeat age, alive.
+        """
         now = time.time()
         out = []
         for i, lease in sorted(self.leases().items()):
@@ -681,8 +883,24 @@ class CampaignStore:
         partial: SimulationResult | None,
         row: dict[str, Any],
     ) -> None:
-        """Write a solved point's files (atomically) and its index row with the file's sha256 and
-        size; a full disk is a :class:`DiskFullError` (nothing written half)."""
+        """Write a solved point's files (atomically) and its index row with the file's sha256 and size.
+
+        Parameters
+        ----------
+        point : int
+            The point.
+        result : SimulationResult or None
+            Its result (a done point).
+        partial : SimulationResult or None
+            The finished steps of a failed point.
+        row : dict
+            The index row (status, wall time, Newton iterations, error, ...).
+
+        Raises
+        ------
+        DiskFullError
+            If the disk fills (nothing written half).
+        """
         update = dict(row)
         if result is not None:
             path = self.result_path(point)
@@ -703,13 +921,45 @@ class CampaignStore:
 
     # ---------------------------------------------------------------- queries
     def counts(self) -> dict[str, int]:
+        """The number of points of each status.
+
+        Returns
+        -------
+        dict of str to int
+            Status (``pending``, ``done``, ``failed``) -> count.
+        """
         c = self.index["status"].astype(str).value_counts()
         return {s: int(c.get(s, 0)) for s in STATUSES}
 
     def points_with(self, *statuses: str) -> np.ndarray:
+        """The points whose status is one of ``statuses``.
+
+        Parameters
+        ----------
+        *statuses : str
+            Statuses, e.g. ``"done"``, ``"pending"``, ``"failed"``.
+
+        Returns
+        -------
+        numpy.ndarray
+            Their point numbers, ascending.
+        """
         return self.index.loc[self.index["status"].astype(str).isin(statuses), "point"].to_numpy(int)
 
     def summary(self, lease_timeout_s: float = DEFAULT_LEASE_TIMEOUT_S) -> dict[str, Any]:
+        """The store's state, as ``campaign status`` prints it.
+
+        Parameters
+        ----------
+        lease_timeout_s : float, default 120
+            Claims with an older heartbeat are reported expired (:meth:`holders`), s.
+
+        Returns
+        -------
+        dict
+            Name, folder, points and counts by status, flagged FEBio steps and reruns, wall
+            times, failures, the slowest points, problems, claims and the store's size.
+        """
         c = self.counts()
         walls = self.index["wall_s"].dropna()
         failed = self.index[self.index["status"].astype(str) == "failed"]
