@@ -63,16 +63,34 @@ class CampaignData:
 
     @property
     def n(self) -> int:
+        """The number of done points."""
         return len(self.theta)
 
     def filled_force(self) -> np.ndarray:
-        """``force`` with each missing step filled from the same point's finite steps
-        (:func:`fill_missing_steps`): what training and the design tools use."""
+        """``force`` with each missing step filled from the same point's finite steps.
+
+        What training and the design tools use (:func:`fill_missing_steps`).
+
+        Returns
+        -------
+        numpy.ndarray
+            (n, steps) forces, mN.
+        """
         return fill_missing_steps(self.force, self.depth)[0] if self.missing is not None else self.force
 
     def prediction(self, filled: bool = False) -> Prediction:
-        """The campaign as a Prediction (docs/architecture.md, "The Predictor seam") at its points
-        ``theta``; ``filled``: missing steps filled (:meth:`filled_force`), else NaN."""
+        """The campaign as a Prediction at its points ``theta`` (docs/architecture.md, "The Predictor seam").
+
+        Parameters
+        ----------
+        filled : bool, default False
+            Missing steps filled (:meth:`filled_force`), else NaN.
+
+        Returns
+        -------
+        Prediction
+            Forces, displacements, depths and top nodes (no Jacobians).
+        """
         force = self.filled_force() if filled else self.force
         return Prediction(force, self.displacement, self.depth, self.top_xyz, self.parameters)
 
@@ -120,6 +138,25 @@ class StoredResponses:
         self.spec = ModelSpec.from_dict(data.spec["model"])  # the model the responses were solved on
 
     def predict(self, theta: np.ndarray, jacobian: bool = False) -> Prediction:
+        """The stored responses at points the campaign holds.
+
+        Parameters
+        ----------
+        theta : numpy.ndarray
+            (n, p) points of the campaign, kPa (matched to a relative 1e-9).
+        jacobian : bool, default False
+            Must be False: stored responses carry no Jacobians.
+
+        Returns
+        -------
+        Prediction
+            Their forces and fields.
+
+        Raises
+        ------
+        ValueError
+            If a Jacobian is asked for, or the campaign holds no response at a point.
+        """
         if jacobian:
             raise ValueError("stored responses carry no Jacobians")
         t = np.atleast_2d(np.asarray(theta, float))

@@ -68,10 +68,22 @@ class TrainingData:
 
     @classmethod
     def from_campaign(cls, data) -> TrainingData:
-        """A campaign's done points; a step without a force (a FEBio step flagged off
-        equilibrium) is filled from the same point's finite steps
-        (:func:`campaign.loader.fill_missing_steps`)
-        and marked in ``missing``."""
+        """A campaign's done points as training data, missing forces filled.
+
+        A step without a force (a FEBio step flagged off equilibrium) is filled from the same
+        point's finite steps (:func:`campaign.loader.fill_missing_steps`) and marked in
+        ``missing``.
+
+        Parameters
+        ----------
+        data : CampaignData
+            The loaded campaign.
+
+        Returns
+        -------
+        TrainingData
+            The points, their responses and the campaign as ``source``.
+        """
         force, missing = fill_missing_steps(data.force, data.depth)
         return cls(
             data.theta,
@@ -85,6 +97,18 @@ class TrainingData:
         )
 
     def subset(self, rows: np.ndarray) -> TrainingData:
+        """The data at some of the points.
+
+        Parameters
+        ----------
+        rows : numpy.ndarray
+            Indices (or a mask) of the points kept.
+
+        Returns
+        -------
+        TrainingData
+            Those points, the same depths and nodes.
+        """
         return TrainingData(
             self.theta[rows],
             self.force[rows],
@@ -98,6 +122,7 @@ class TrainingData:
 
     @property
     def n(self) -> int:
+        """The number of points."""
         return len(self.theta)
 
 
@@ -171,6 +196,25 @@ class FieldSurrogate(ABC):
 
     # ------------------------------------------------------------------ training
     def fit(self, data: TrainingData, seed: int = 0) -> FieldSurrogate:
+        """Train on ``data``: the inputs scaled, log-force and field reduced by PCA, the scores regressed.
+
+        Parameters
+        ----------
+        data : TrainingData
+            Positive, finite parameters and forces.
+        seed : int, default 0
+            Seed of the regressor's training.
+
+        Returns
+        -------
+        FieldSurrogate
+            ``self``, trained; ``meta`` records the components, PCA errors, box and fit time.
+
+        Raises
+        ------
+        ValueError
+            If a parameter or a force is not positive and finite.
+        """
         theta = np.asarray(data.theta, float)
         if not np.all(np.isfinite(theta)) or np.any(theta <= 0):
             raise ValueError("training parameters must be positive and finite")
@@ -234,7 +278,20 @@ class FieldSurrogate(ABC):
         return theta
 
     def predict(self, theta, jacobian: bool = False) -> Prediction:
-        """Force curves and fields at ``theta`` (n, p) kPa; with ``jacobian`` also their derivatives."""
+        """Force curves and fields at ``theta``; with ``jacobian`` also their derivatives.
+
+        Parameters
+        ----------
+        theta : array_like
+            (n, p) points, kPa.
+        jacobian : bool, default False
+            Also d force / d theta and d u / d theta.
+
+        Returns
+        -------
+        Prediction
+            Forces (mN), top-surface displacements (mm) and, if asked, their Jacobians.
+        """
         theta = self._checked_theta(theta)
         T, dT = self._regress(self.scaler(theta), jacobian)
         S = T * self.score_std + self.score_mean
@@ -252,9 +309,16 @@ class FieldSurrogate(ABC):
         return Prediction(force, disp, self.depth, self.top_xyz, self.parameters, fj, dj)
 
     def reduced_basis(self) -> ReducedBasis:
-        """The prediction as affine maps of the PCA scores (log force and field), with the scores
-        as a function of theta: what lets an objective skip rebuilding the fields
-        (design/reduced_objective.py). The regressor is prepared once for repeated calls."""
+        """The prediction as affine maps of the PCA scores (log force and field), scores as a function of theta.
+
+        What lets an objective skip rebuilding the fields (design/reduced_objective.py). The
+        regressor is prepared once for repeated calls.
+
+        Returns
+        -------
+        ReducedBasis
+            Means, bases and the coordinates function.
+        """
         regress, scaler = self._score_function(), self.scaler
         mean, std, kf = self.score_mean, self.score_std, self.k_force
 
@@ -282,8 +346,17 @@ class FieldSurrogate(ABC):
         }
 
     def to_state(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-        """The trained surrogate as (JSON-ready configuration, named arrays), nothing pickled;
-        :meth:`from_state` rebuilds it with bit-for-bit the same predictions."""
+        """The trained surrogate as (JSON-ready configuration, named arrays), nothing pickled.
+
+        :meth:`from_state` rebuilds it with bit-for-bit the same predictions.
+
+        Returns
+        -------
+        config : dict
+            Kind, hyperparameters, parameters, sizes and the estimators' configurations.
+        arrays : dict of str to numpy.ndarray
+            The named arrays.
+        """
         force_pca, force_arrays = estimator_state(self.force_pca, "force_pca")
         field_pca, field_arrays = estimator_state(self.field_pca, "field_pca")
         regressor, regressor_arrays = self._regressor_state()
@@ -314,7 +387,20 @@ class FieldSurrogate(ABC):
 
     @classmethod
     def from_state(cls, config: dict[str, Any], arrays: dict[str, np.ndarray]) -> FieldSurrogate:
-        """The surrogate that :meth:`to_state` described (``cls`` must be of its ``kind``)."""
+        """The surrogate that :meth:`to_state` described (``cls`` must be of its ``kind``).
+
+        Parameters
+        ----------
+        config : dict
+            The JSON-ready configuration.
+        arrays : dict of str to numpy.ndarray
+            The named arrays.
+
+        Returns
+        -------
+        FieldSurrogate
+            The surrogate, with bit-for-bit the same predictions.
+        """
         if config["kind"] != cls.kind:
             raise ValueError(f"a {config['kind']!r} surrogate cannot be rebuilt as {cls.kind!r}")
         missing = [
@@ -344,6 +430,17 @@ class FieldSurrogate(ABC):
         """Set the regressor that :meth:`_regressor_state` described."""
 
     def inside_box(self, theta) -> np.ndarray:
-        """Which points lie in the training box (the surrogate extrapolates outside it)."""
+        """Which points lie in the training box (the surrogate extrapolates outside it).
+
+        Parameters
+        ----------
+        theta : array_like
+            (n, p) points, kPa.
+
+        Returns
+        -------
+        numpy.ndarray
+            (n,) bool.
+        """
         theta = np.atleast_2d(np.asarray(theta, float))
         return np.all((theta >= self.scaler.lo - 1e-12) & (theta <= self.scaler.hi + 1e-12), axis=1)

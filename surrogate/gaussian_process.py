@@ -87,6 +87,7 @@ class GaussianProcessSurrogate(FieldSurrogate):
         self.per_component = per_component
 
     def hyperparameters(self) -> dict:
+        """The constructor's arguments: :meth:`FieldSurrogate.hyperparameters` with the GP's."""
         return {**super().hyperparameters(), "restarts": self.restarts, "per_component": self.per_component}
 
     def _regressor_state(self):
@@ -135,7 +136,19 @@ class GaussianProcessSurrogate(FieldSurrogate):
         return T, np.concatenate(grads, axis=1)
 
     def predict_std(self, theta) -> np.ndarray:
-        """The GP's standard deviation of the standardised scores (n, k): how far from its data a
-        point is, for deciding where to add simulations."""
+        """The GP's standard deviation of the standardised scores: how far from its data a point is.
+
+        For deciding where to add simulations.
+
+        Parameters
+        ----------
+        theta : array_like
+            (n, p) points, kPa.
+
+        Returns
+        -------
+        numpy.ndarray
+            (n, k) one column per score.
+        """
         X = self.scaler(np.atleast_2d(np.asarray(theta, float)))
         return np.hstack([gp.predict(X, return_std=True)[1].reshape(len(X), -1) for gp in self.gps])

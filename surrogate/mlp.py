@@ -105,6 +105,7 @@ class MLPSurrogate(FieldSurrogate):
         self.ensemble = ensemble
 
     def hyperparameters(self) -> dict:
+        """The constructor's arguments: :meth:`FieldSurrogate.hyperparameters` with the MLP's."""
         return {
             **super().hyperparameters(),
             "width": self.width,

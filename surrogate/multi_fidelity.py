@@ -108,6 +108,7 @@ class MultiFidelitySurrogate(FieldSurrogate):
 
     @property
     def meta(self) -> dict[str, Any]:
+        """The surrogate's record (provenance, validation, error budget)."""
         return self._meta
 
     @meta.setter
@@ -118,6 +119,7 @@ class MultiFidelitySurrogate(FieldSurrogate):
             self.low.meta = value["low_fidelity"]
 
     def hyperparameters(self) -> dict[str, Any]:
+        """The constructor's arguments (the low surrogate apart)."""
         return {
             **super().hyperparameters(),
             "restarts": self.restarts,
@@ -164,8 +166,21 @@ class MultiFidelitySurrogate(FieldSurrogate):
             )
 
     def discrepancy_data(self, data: TrainingData) -> TrainingData:
-        """The discrepancies D of the high-fidelity ``data`` from the low surrogate: its 'force' is
-        F_hi / F_lo (learned in log: delta_f of eq. 1a), its field u_hi - W u_lo (eq. 1b)."""
+        """The discrepancies D of the high-fidelity ``data`` from the low surrogate (module eq. 1a, 1b).
+
+        Its 'force' is F_hi / F_lo (learned in log: delta_f of eq. 1a), its field u_hi - W u_lo
+        (eq. 1b).
+
+        Parameters
+        ----------
+        data : TrainingData
+            The high-fidelity campaign.
+
+        Returns
+        -------
+        TrainingData
+            The discrepancies at the same points.
+        """
         low = self.low.predict(data.theta)
         return TrainingData(
             data.theta,
@@ -178,8 +193,22 @@ class MultiFidelitySurrogate(FieldSurrogate):
         )
 
     def fit(self, data: TrainingData, seed: int = 0) -> MultiFidelitySurrogate:
-        """Learn the discrepancy of the low surrogate from the high-fidelity campaign ``data``;
-        with ``folds`` >= 2 also its k-fold errors (meta['discrepancy_kfold'])."""
+        """Learn the discrepancy of the low surrogate from the high-fidelity campaign ``data``.
+
+        With ``folds`` >= 2 also its k-fold errors (``meta['discrepancy_kfold']``).
+
+        Parameters
+        ----------
+        data : TrainingData
+            The high-fidelity campaign (same test as the low surrogate's).
+        seed : int, default 0
+            Seed of the GP's training.
+
+        Returns
+        -------
+        MultiFidelitySurrogate
+            ``self``, trained.
+        """
         t0 = time.perf_counter()
         self._check_compatible(data)
         self.parameters = tuple(data.parameters)
@@ -269,8 +298,20 @@ class MultiFidelitySurrogate(FieldSurrogate):
         return np.moveaxis(out.reshape(-1, *moved.shape[1:]), 0, 2)
 
     def predict(self, theta, jacobian: bool = False) -> Prediction:
-        """Force curves and fields of the high fidelity at ``theta`` (n, p) kPa (eq. 1), with their
-        Jacobians through both levels when asked."""
+        """Force curves and fields of the high fidelity at ``theta`` (module eq. 1a, 1b).
+
+        Parameters
+        ----------
+        theta : array_like
+            (n, p) points, kPa.
+        jacobian : bool, default False
+            Also their Jacobians, through both levels.
+
+        Returns
+        -------
+        Prediction
+            On the high campaign's top nodes.
+        """
         theta = self._checked_theta(theta)
         low = self.low.predict(theta, jacobian)
         delta = self.discrepancy.predict(theta, jacobian)  # force: the ratio exp(delta_f)
@@ -283,8 +324,15 @@ class MultiFidelitySurrogate(FieldSurrogate):
         return Prediction(force, disp, self.depth, self.top_xyz, self.parameters, fj, dj)
 
     def reduced_basis(self) -> ReducedBasis:
-        """The low basis carried to the high nodes stacked with the discrepancy's basis; the
-        coordinates are both levels' scores side by side (eq. 1 is affine in them)."""
+        """The low basis carried to the high nodes stacked with the discrepancy's basis.
+
+        The coordinates are both levels' scores side by side (eq. 1 is affine in them).
+
+        Returns
+        -------
+        ReducedBasis
+            The stacked basis.
+        """
         low, delta = self.low.reduced_basis(), self.discrepancy.reduced_basis()
         shape = (low.steps, low.nodes, 3)
 
@@ -308,10 +356,27 @@ class MultiFidelitySurrogate(FieldSurrogate):
         )
 
     def discrepancy_covariance_factor(self, theta) -> np.ndarray:
-        """L (k, steps + steps * nodes * 3) at one point ``theta`` (p,) with L^T L the predictive
-        covariance of the discrepancy in the output space [log force (steps), field (steps x nodes
-        x 3, mm)]: row j is score j's GP standard deviation times its score scale times its PCA
-        component (the scores' GPs are independent). Zero rows in the other part's columns."""
+        """A factor L of the discrepancy's predictive covariance L^T L at one point, in the output space.
+
+        The output space is log force (steps) then the field (steps x nodes x 3, mm): row j is
+        score j's GP standard deviation times its score scale times its PCA component (the
+        scores' GPs are independent). Zero rows in the other part's columns.
+
+        Parameters
+        ----------
+        theta : array_like
+            (p,) one point, kPa.
+
+        Returns
+        -------
+        numpy.ndarray
+            (k, steps + steps * nodes * 3) L.
+
+        Raises
+        ------
+        ValueError
+            If more than one point is given.
+        """
         theta = self._checked_theta(theta)
         if len(theta) != 1:
             raise ValueError(f"one parameter point at a time, got {len(theta)}")
@@ -324,16 +389,37 @@ class MultiFidelitySurrogate(FieldSurrogate):
         return L
 
     def discrepancy_std(self, theta) -> tuple[np.ndarray, np.ndarray]:
-        """The discrepancy's predictive standard deviations at one point ``theta``: of log force
-        (steps,) and of the field (steps, nodes, 3) mm; the diagonal of L^T L."""
+        """The discrepancy's predictive standard deviations at one point: the diagonal of L^T L.
+
+        Parameters
+        ----------
+        theta : array_like
+            (p,) one point, kPa.
+
+        Returns
+        -------
+        force_sd : numpy.ndarray
+            (steps,) of log force.
+        field_sd : numpy.ndarray
+            (steps, nodes, 3) of the field, mm.
+        """
         L = self.discrepancy_covariance_factor(theta)
         sd = np.sqrt(np.einsum("ko,ko->o", L, L))
         return sd[: self.n_steps], sd[self.n_steps :].reshape(self.n_steps, self.n_nodes, 3)
 
     # ------------------------------------------------------------------ saving (no pickle)
     def to_state(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-        """Both levels' states, the arrays under ``low.`` and ``discrepancy.``; W is rebuilt from
-        the two sets of top nodes."""
+        """Both levels' states, the arrays under ``low.`` and ``discrepancy.``.
+
+        W is rebuilt from the two sets of top nodes.
+
+        Returns
+        -------
+        config : dict
+            Kind, hyperparameters, parameters and both levels' configurations.
+        arrays : dict of str to numpy.ndarray
+            The named arrays.
+        """
         low_config, low_arrays = self.low.to_state()
         delta_config, delta_arrays = self.discrepancy.to_state()
         config = {
@@ -351,7 +437,20 @@ class MultiFidelitySurrogate(FieldSurrogate):
 
     @classmethod
     def from_state(cls, config: dict[str, Any], arrays: dict[str, np.ndarray]) -> MultiFidelitySurrogate:
-        """The surrogate that :meth:`to_state` described."""
+        """The surrogate that :meth:`to_state` described.
+
+        Parameters
+        ----------
+        config : dict
+            Both levels' configurations.
+        arrays : dict of str to numpy.ndarray
+            The arrays under ``low.`` and ``discrepancy.``.
+
+        Returns
+        -------
+        MultiFidelitySurrogate
+            The surrogate.
+        """
         if config["kind"] != cls.kind:
             raise ValueError(f"a {config['kind']!r} surrogate cannot be rebuilt as {cls.kind!r}")
 
