@@ -49,9 +49,18 @@ class CompositeHomogenisation:
     wall_s: float
 
     def parallel_fibers(self) -> dict:
-        """The stresses of :func:`design.constituents.parallel_fiber_stresses` at this stretch and
-        FVF, their largest relative gap to the FE's along the fibers, and eq. 10 fitted to them:
-        what an FE composite of continuous bonded fibers should give (and why eq. 11b's c5 is low)."""
+        """The parallel-fiber rule of mixtures at this stretch and FVF beside the FE, with eq. 10 fitted.
+
+        The stresses of :func:`design.constituents.parallel_fiber_stresses`, their largest
+        relative gap to the FE's along the fibers, and eq. 10 fitted to them: what an FE composite
+        of continuous bonded fibers should give (and why eq. 11b's c5 is low).
+
+        Returns
+        -------
+        dict
+            ``sigma_fiber_kPa``, ``sigma_transverse_kPa``, ``fe_fiber_stress_max_rel_gap``,
+            ``eq10_fit`` and ``small_strain_c5``.
+        """
         m, f = self.composite.matrix, self.composite.fibers
         lam = self.stretch.stretch_x[1:]
         s11, s22 = parallel_fiber_stresses(lam, m.shear_modulus, f.c1, f.c2, self.fiber_volume_fraction)
@@ -68,6 +77,15 @@ class CompositeHomogenisation:
         }
 
     def to_dict(self) -> dict:
+        """The homogenisation as ``composite equibiaxial --json`` prints it.
+
+        Returns
+        -------
+        dict
+            The stretch's record, the eq. 10 fit (with what its standard errors include), eq. 11
+            and the FVF, the mesh, :meth:`parallel_fibers`, the constituents' kappa and the wall
+            time.
+        """
         return {
             **self.stretch.to_dict(),
             "fit": {

@@ -86,8 +86,19 @@ class FrictionTreatment:
 
     @classmethod
     def parse(cls, text: str | float | FrictionTreatment | None) -> FrictionTreatment:
-        """``None`` or 'assumed', a number (known mu), 'identify' or 'marginalise', the last two
-        optionally with a range: 'marginalise:0.2:2'."""
+        """The treatment a value or a text names.
+
+        Parameters
+        ----------
+        text : str, float, FrictionTreatment or None
+            ``None`` or ``'assumed'``, a number (known mu), ``'identify'`` or ``'marginalise'``,
+            the last two optionally with a range: ``'marginalise:0.2:2'``.
+
+        Returns
+        -------
+        FrictionTreatment
+            The treatment.
+        """
         if text is None:
             return cls()
         if isinstance(text, FrictionTreatment):
@@ -124,8 +135,20 @@ class FrictionTreatment:
         return self.mode in ("identify", "marginalise")
 
     def describe(self, assumed_contact: str, mu_range: tuple[float, float] | None = None) -> str:
-        """What the bounds assume of the contact, for 'bounds_include' (``mu_range``: the range the
-        fit used, default the treatment's)."""
+        """What the bounds assume of the contact, in words, for ``bounds_include``.
+
+        Parameters
+        ----------
+        assumed_contact : str
+            The model's contact (``Contact.describe()``), said when mu is assumed.
+        mu_range : tuple of float, optional
+            The range the fit used; default the treatment's.
+
+        Returns
+        -------
+        str
+            The sentence.
+        """
         if self.mode == "assumed":
             return assumed_contact
         if self.mode == "known":
@@ -168,6 +191,20 @@ class FixedParameter:
         self.parameters = tuple(k for k in names if k != name)
 
     def predict(self, theta, jacobian: bool = False) -> Prediction:
+        """The wrapped predictor's response with the held parameter inserted.
+
+        Parameters
+        ----------
+        theta : array_like
+            (n, p - 1) the other parameters.
+        jacobian : bool, default False
+            Also the Jacobians (the held parameter's column left out).
+
+        Returns
+        -------
+        Prediction
+            Over the other parameters.
+        """
         t = as_theta(theta, len(self.parameters))
         full = np.insert(t, self.index, self.value, axis=1)
         pred = self.predictor.predict(full, jacobian=jacobian)

@@ -138,19 +138,50 @@ class Objective:
 
     @classmethod
     def from_prediction(cls, target, index: int = 0, **kwargs) -> Objective:
-        """The objective against point ``index`` of a Prediction (e.g. the response at theta*)."""
+        """The objective against point ``index`` of a Prediction (e.g. the response at theta*).
+
+        Parameters
+        ----------
+        target : Prediction
+            The target responses.
+        index : int, default 0
+            The point.
+        **kwargs
+            The other fields of :class:`Objective` (``radius``, ``reading``, ...).
+
+        Returns
+        -------
+        Objective
+            The objective.
+        """
         return cls(target.force[index], target.displacement[index], target.top_xyz, **kwargs)
 
     # --------------------------------------------------------------- residuals
     def displacement_residual_scale(self) -> np.ndarray:
-        """(nodes, 3): what eq. 4b multiplies a displacement error by at each node and direction,
-        sqrt(w_j^(i)) / max |u_j,exp| (0 where a node has no weight)."""
+        """What eq. 4b multiplies a displacement error by at each node and direction.
+
+        Returns
+        -------
+        numpy.ndarray
+            (nodes, 3) sqrt(w_j^(i)) / max |u_j,exp| (0 where a node has no weight).
+        """
         return self._sqrt_w / self.u_norm
 
     def term_residuals(self, force: np.ndarray, displacement: np.ndarray) -> list[np.ndarray]:
-        """Residuals r_k per term for a batch: force (n, steps), displacement (n, steps, nodes, 3).
+        """Residuals r_k per term for a batch (eq. 4a, 4b).
 
-        Returns [force (n, s), ux (n, s * m), uy, uz] with m the measured nodes."""
+        Parameters
+        ----------
+        force : numpy.ndarray
+            (n, steps) forces, mN.
+        displacement : numpy.ndarray
+            (n, steps, nodes, 3) displacements, mm.
+
+        Returns
+        -------
+        list of numpy.ndarray
+            Force (n, s), ux (n, s * m), uy, uz, with m the measured nodes.
+        """
         f = np.asarray(force)[:, self.steps]
         r_f = (f - self.force[self.steps]) / self.force_scale
         du = (
@@ -162,7 +193,20 @@ class Objective:
         return [r_f, *(du[..., j].reshape(n, -1) for j in range(3))]
 
     def term_jacobians(self, force_jac: np.ndarray, displacement_jac: np.ndarray) -> list[np.ndarray]:
-        """d r_k / d theta for a batch: force_jac (n, steps, p), displacement_jac (n, steps, nodes, 3, p)."""
+        """d r_k / d theta per term for a batch.
+
+        Parameters
+        ----------
+        force_jac : numpy.ndarray
+            (n, steps, p) d force / d theta.
+        displacement_jac : numpy.ndarray
+            (n, steps, nodes, 3, p) d u / d theta.
+
+        Returns
+        -------
+        list of numpy.ndarray
+            Force (n, s, p), ux, uy, uz (n, s * m, p), m the measured nodes.
+        """
         jf = np.asarray(force_jac)[:, self.steps] / self.force_scale[:, None]
         ju = np.asarray(displacement_jac)[:, self.steps][:, :, self.measured]
         ju = ju * (self._sqrt_w[self.measured] / self.u_norm)[..., None]
@@ -170,31 +214,98 @@ class Objective:
         return [jf, *(ju[..., j, :].reshape(n, -1, p) for j in range(3))]
 
     def data_points(self, eta) -> int:
-        """n of eq. 8: the residuals of the terms that have weight (force steps; measured nodes x
-        steps per displacement direction)."""
+        """n of eq. 8: the residuals of the terms that have weight.
+
+        Force steps; measured nodes x steps per displacement direction.
+
+        Parameters
+        ----------
+        eta : array_like
+            The four weights.
+
+        Returns
+        -------
+        int
+            n.
+        """
         e = check_weights(eta)
         sizes = [len(self.steps)] + [len(self.steps) * int(self.measured.sum())] * 3
         return int(sum(k for k, w in zip(sizes, e, strict=True) if w > 0))
 
     def terms(self, prediction) -> np.ndarray:
-        """F_k (n, 4): force, ux, uy, uz (eq. 4a, 4b)."""
+        """The four objectives F_k: force, ux, uy, uz (eq. 4a, 4b).
+
+        Parameters
+        ----------
+        prediction : Prediction
+            The model's responses.
+
+        Returns
+        -------
+        numpy.ndarray
+            (n, 4).
+        """
         return np.stack(
             [np.sum(r**2, axis=1) for r in self.term_residuals(prediction.force, prediction.displacement)],
             axis=1,
         )
 
     def value(self, prediction, eta) -> np.ndarray:
-        """F (n,) of eq. 5."""
+        """The combined objective F of eq. 5.
+
+        Parameters
+        ----------
+        prediction : Prediction
+            The model's responses.
+        eta : array_like
+            The four weights.
+
+        Returns
+        -------
+        numpy.ndarray
+            (n,) F.
+        """
         return self.terms(prediction) @ check_weights(eta)
 
     def residuals(self, prediction, eta) -> np.ndarray:
-        """The residual vector (n, m) whose squared sum is F: sqrt(eta_k) r_k concatenated."""
+        """The residual vector whose squared sum is F: sqrt(eta_k) r_k concatenated.
+
+        Parameters
+        ----------
+        prediction : Prediction
+            The model's responses.
+        eta : array_like
+            The four weights.
+
+        Returns
+        -------
+        numpy.ndarray
+            (n, m).
+        """
         e = check_weights(eta)
         parts = self.term_residuals(prediction.force, prediction.displacement)
         return np.concatenate([np.sqrt(w) * r for w, r in zip(e, parts, strict=True)], axis=1)
 
     def jacobian(self, prediction, eta) -> np.ndarray:
-        """d residuals / d theta (n, m, p) from a Prediction carrying its Jacobians."""
+        """d residuals / d theta from a Prediction carrying its Jacobians.
+
+        Parameters
+        ----------
+        prediction : Prediction
+            With ``force_jacobian`` and ``displacement_jacobian``.
+        eta : array_like
+            The four weights.
+
+        Returns
+        -------
+        numpy.ndarray
+            (n, m, p).
+
+        Raises
+        ------
+        ValueError
+            If the prediction carries no Jacobian.
+        """
         if prediction.force_jacobian is None:
             raise ValueError(
                 "this prediction carries no Jacobian (ask the embedded solver for sensitivities)"

@@ -85,7 +85,18 @@ class ReducedObjective:
         self.field_residuals = len(keep)
 
     def value(self, theta: np.ndarray) -> np.ndarray:
-        """F (n,) of eq. 5 at theta (n, p)."""
+        """F of eq. 5 at theta, in the reduced space.
+
+        Parameters
+        ----------
+        theta : numpy.ndarray
+            (n, p) points, kPa.
+
+        Returns
+        -------
+        numpy.ndarray
+            (n,) F.
+        """
         z_force, z_field = self.coordinates(np.atleast_2d(np.asarray(theta, float)))
         d = z_field @ self.field_map.T - self.field_target
         F = np.einsum("nk,nk->n", d, d) + self.field_floor
@@ -113,7 +124,18 @@ class FieldObjective:
         self.objective, self.predictor, self.eta = objective, predictor, check_weights(eta)
 
     def value(self, theta: np.ndarray) -> np.ndarray:
-        """F (n,) of eq. 5 at theta (n, p)."""
+        """F of eq. 5 at theta, from the predicted fields.
+
+        Parameters
+        ----------
+        theta : numpy.ndarray
+            (n, p) points, kPa.
+
+        Returns
+        -------
+        numpy.ndarray
+            (n,) F.
+        """
         return self.objective.value(self.predictor.predict(theta), self.eta)
 
 

@@ -57,13 +57,55 @@ class DesignStudy:
     objective: Objective | None = field(default=None, repr=False)
 
     def hessian(self, eta) -> np.ndarray:
+        """H(eta) = sum_k eta_k H_k (eq. 5, 7).
+
+        Parameters
+        ----------
+        eta : array_like
+            The four weights.
+
+        Returns
+        -------
+        numpy.ndarray
+            (p, p) in theta_bar.
+        """
         return combine(self.term_hessians, eta)
 
     def bounds(self, eta, s: float = 0.05) -> np.ndarray:
+        """Eq. 6's bounds at theta* for the weights ``eta``, percent.
+
+        Parameters
+        ----------
+        eta : array_like
+            The four weights.
+        s : float, default 0.05
+            Eq. 6's s.
+
+        Returns
+        -------
+        numpy.ndarray
+            (p,) half-widths, percent.
+        """
         return bounds_pct(self.hessian(eta), s)
 
     def objective_points(self, eta) -> int:
-        """n, the data points the objective weighs with ``eta`` (eq. 8)."""
+        """n, the data points the objective weighs with ``eta`` (eq. 8).
+
+        Parameters
+        ----------
+        eta : array_like
+            The four weights.
+
+        Returns
+        -------
+        int
+            n.
+
+        Raises
+        ------
+        ValueError
+            If the study keeps no objective (made without :func:`fe_design_study`).
+        """
         if self.objective is None:
             raise ValueError("the study keeps no objective (made without fe_design_study)")
         return self.objective.data_points(eta)
