@@ -56,20 +56,24 @@ class BlockMesh:
 
     @property
     def n_nodes(self) -> int:
+        """The number of nodes."""
         return int(self.nodes.shape[0])
 
     @property
     def n_elements(self) -> int:
+        """The number of elements."""
         return int(self.elements.shape[0])
 
     @property
     def top_xyz(self) -> np.ndarray:
+        """(nt, 3) the top-surface nodes' coordinates, mm."""
         return self.nodes[self.top]
 
     def geometry_record(self) -> dict[str, Any]:
-        """What identifies this mesh's geometry: its source, node and element counts, the node
-        coordinates' extent and the sha256 of its coordinates (rounded to 1e-9 mm) and
-        connectivity. A campaign store keeps it so that a store is never reused on a changed mesh.
+        """What identifies this mesh's geometry, so that a campaign store is never reused on a changed mesh.
+
+        Its source, node and element counts, the node coordinates' extent and the sha256 of its
+        coordinates (rounded to 1e-9 mm) and connectivity.
 
         Returns
         -------
@@ -90,7 +94,23 @@ class BlockMesh:
         }
 
     def element_set(self, name: str) -> np.ndarray:
-        """Zero-based indices of the elements of material ``name``."""
+        """Zero-based indices of the elements of material ``name``.
+
+        Parameters
+        ----------
+        name : str
+            A material of ``material_names`` (the phantom: ``matrix``, ``fibers``).
+
+        Returns
+        -------
+        numpy.ndarray
+            The element indices.
+
+        Raises
+        ------
+        KeyError
+            If the mesh has no such element set.
+        """
         if self.element_material is None or name not in self.material_names:
             raise KeyError(f"{self.source}: no element set {name!r} (sets: {list(self.material_names)})")
         return np.flatnonzero(self.element_material == self.material_names.index(name))
@@ -105,7 +125,33 @@ class BlockMesh:
         element_material: np.ndarray | None = None,
         material_names: tuple[str, ...] = (),
     ) -> BlockMesh:
-        """Derive the node sets from the coordinates of a quarter block (x, y >= 0)."""
+        """A mesh of a quarter block (x, y >= 0), its node sets derived from the coordinates.
+
+        Parameters
+        ----------
+        nodes : numpy.ndarray
+            (n, 3) coordinates, mm.
+        elements : numpy.ndarray
+            (ne, 8) zero-based node indices, FEBio's hex8 order.
+        node_ids : numpy.ndarray
+            (n,) external node ids.
+        source : str
+            Where the mesh came from.
+        element_material : numpy.ndarray, optional
+            (ne,) each element's material index (a composite).
+        material_names : tuple of str, default ()
+            The materials of a composite.
+
+        Returns
+        -------
+        BlockMesh
+            The mesh with its symmetry, bottom and top node sets.
+
+        Raises
+        ------
+        ValueError
+            If the block does not start at x = 0 and y = 0 (not a quarter block).
+        """
         nodes = np.asarray(nodes, dtype=float)
         lo, hi = nodes.min(axis=0), nodes.max(axis=0)
         tol = 1e-6 * float(np.max(hi - lo))

@@ -74,6 +74,14 @@ class BlockStretchResult:
         return self.stress[:, 0, 0]
 
     def to_dict(self) -> dict:
+        """The stretch as JSON-ready lists.
+
+        Returns
+        -------
+        dict
+            Stretches, the stresses along, across and normal to the fibers (kPa), the mean
+            stretches and Newton's iterations per step.
+        """
         return {
             "stretch_x": self.stretch_x.tolist(),
             "stretch_y": self.stretch_y.tolist(),

@@ -82,7 +82,23 @@ class PhantomLayout:
         return self.layers * self.fibers_per_layer
 
     def x_centres(self, width: float) -> np.ndarray:
-        """Fiber centres across the full block, x in [-width/2, width/2]."""
+        """Fiber centres across the full block, x in [-width/2, width/2].
+
+        Parameters
+        ----------
+        width : float
+            The full block's width, mm.
+
+        Returns
+        -------
+        numpy.ndarray
+            (fibers_per_layer,) centres, mm.
+
+        Raises
+        ------
+        ValueError
+            If the fibers do not fit in the width.
+        """
         pitch = width / self.fibers_per_layer
         if self.fiber_size >= pitch:
             raise ValueError(
@@ -91,12 +107,39 @@ class PhantomLayout:
         return -width / 2 + pitch * (np.arange(self.fibers_per_layer) + 0.5)
 
     def z_centres(self, height: float) -> np.ndarray:
-        """Fiber centres from the bottom (z = 0): one per layer, the layers on the bottom plate."""
+        """Fiber centres from the bottom (z = 0): one per layer, the layers on the bottom plate.
+
+        Parameters
+        ----------
+        height : float
+            The block's height, mm.
+
+        Returns
+        -------
+        numpy.ndarray
+            (layers,) centres, mm.
+        """
         plate = self.bottom_plate(height)
         return plate + self.layer_height * (np.arange(self.layers) + 0.5)
 
     def bottom_plate(self, height: float) -> float:
-        """Matrix below the lowest layer, mm (S1's bottom plate)."""
+        """The matrix below the lowest layer (S1's bottom plate), mm.
+
+        Parameters
+        ----------
+        height : float
+            The block's height, mm.
+
+        Returns
+        -------
+        float
+            The plate's thickness, mm.
+
+        Raises
+        ------
+        ValueError
+            If the layers do not fit in the block.
+        """
         plate = height - self.layers * self.layer_height
         if plate < -1e-9:
             raise ValueError(
@@ -105,7 +148,24 @@ class PhantomLayout:
         return max(plate, 0.0)
 
     def fiber_volume_fraction(self, width: float, height: float) -> float:
-        """Fibers' share of the block's volume (they run its full length)."""
+        """The fibers' share of the block's volume (they run its full length).
+
+        Parameters
+        ----------
+        width, height : float
+            The full block's width and height, mm.
+
+        Returns
+        -------
+        float
+            FVF.
+
+        Examples
+        --------
+        >>> from indentation_studio.forward import PHANTOM
+        >>> round(PHANTOM.fiber_volume_fraction(100.0, 60.0), 3)  # the phantom's 100 x 60 mm section
+        0.072
+        """
         return self.fibers * self.fiber_size**2 / (width * height)
 
 

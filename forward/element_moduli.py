@@ -31,6 +31,7 @@ class ElementModuli:
 
     @property
     def homogeneous(self) -> bool:
+        """Whether the moduli are scalars (one material)."""
         return np.ndim(self.c1) == 0
 
 

@@ -197,6 +197,13 @@ class ConvergenceOfQuantity:
     gci_pct: tuple[float, ...]  # per level, % of its value: its GCI with the next coarser level
 
     def to_dict(self) -> dict:
+        """The convergence as a JSON-ready dict (the triplets as dicts too).
+
+        Returns
+        -------
+        dict
+            Every field.
+        """
         d = asdict(self)
         d["triplets"] = [asdict(t) for t in self.triplets]
         return d

@@ -115,8 +115,23 @@ class MeshFamily:
             )
 
     def cells(self, level: int) -> tuple[int, int]:
-        """(cells along x and y, cells along z) at ``level``; refused where ratio^level does not
-        make whole numbers (the refinement would not be systematic)."""
+        """The cell counts at ``level``.
+
+        Parameters
+        ----------
+        level : int
+            0 the coarsest.
+
+        Returns
+        -------
+        tuple of int
+            (cells along x and y, cells along z).
+
+        Raises
+        ------
+        ValueError
+            If ratio^level does not make whole numbers (the refinement would not be systematic).
+        """
         out = []
         for n in (self.cells_xy, self.cells_z):
             exact = n * self.ratio**level
@@ -129,7 +144,20 @@ class MeshFamily:
         return out[0], out[1]
 
     def mesh(self, level: int, geometry: Geometry | None = None) -> BlockMesh:
-        """The hex8 quarter block of ``level`` (0 the coarsest)."""
+        """The hex8 quarter block of ``level``.
+
+        Parameters
+        ----------
+        level : int
+            0 the coarsest.
+        geometry : Geometry, optional
+            The block; default ``Geometry()``.
+
+        Returns
+        -------
+        BlockMesh
+            The mesh.
+        """
         g = geometry or Geometry()
         nxy, nz = self.cells(level)
         if self.core_xy > 0.0:
@@ -143,21 +171,54 @@ class MeshFamily:
         return grid_block(x, y, z, f"family:{self.name}:L{level}")
 
     def size(self, level: int, geometry: Geometry | None = None) -> float:
-        """The representative cell size h = (V / N)^(1/3) of ``level``, mm."""
+        """The representative cell size h = (V / N)^(1/3) of ``level``, mm.
+
+        Parameters
+        ----------
+        level : int
+            0 the coarsest.
+        geometry : Geometry, optional
+            The block; default ``Geometry()``.
+
+        Returns
+        -------
+        float
+            h, mm.
+        """
         g = geometry or Geometry()
         nxy, nz = self.cells(level)
         return representative_size(g.half_x * g.half_y * g.height, nxy * nxy * nz)
 
     def node_count(self, level: int) -> int:
+        """The number of nodes at ``level``.
+
+        Parameters
+        ----------
+        level : int
+            0 the coarsest.
+
+        Returns
+        -------
+        int
+            (cells_xy + 1)^2 (cells_z + 1).
+        """
         nxy, nz = self.cells(level)
         return (nxy + 1) ** 2 * (nz + 1)
 
     @property
     def name(self) -> str:
+        """The family's name from its parameters, e.g. ``8x8-h1.2x1.2-r1.5``."""
         core = f"-core{self.core_xy:g}x{self.core_fraction:g}" if self.core_xy > 0.0 else ""
         return f"{self.cells_xy}x{self.cells_z}-h{self.h0_xy:g}x{self.h0_z:g}-r{self.ratio:g}{core}"
 
     def to_dict(self) -> dict:
+        """The family's parameters as a dict (the core's only when there is one).
+
+        Returns
+        -------
+        dict
+            ``cells_xy``, ``cells_z``, ``h0_xy``, ``h0_z``, ``ratio`` [, ``core_xy``, ``core_fraction``].
+        """
         d = {
             "cells_xy": self.cells_xy,
             "cells_z": self.cells_z,

@@ -55,13 +55,31 @@ class Prediction:
 
     @property
     def n(self) -> int:
+        """The number of points."""
         return int(self.force.shape[0])
 
     @classmethod
     def from_results(cls, results: list[SimulationResult], parameters: tuple[str, ...]) -> Prediction:
-        """Stack simulation results (depth 0 dropped) into one Prediction; the Jacobians keep the
-        columns of ``parameters`` (a run with friction has d/dmu beside d/d(c1, c5), used when mu
-        is a parameter and left out when it is fixed)."""
+        """Stack simulation results (depth 0 dropped) into one Prediction.
+
+        Parameters
+        ----------
+        results : list of SimulationResult
+            One per point, same steps and nodes.
+        parameters : tuple of str
+            The Jacobians keep these columns (a run with friction has d/dmu beside d/d(c1, c5),
+            used when mu is a parameter and left out when it is fixed).
+
+        Returns
+        -------
+        Prediction
+            The stacked responses.
+
+        Raises
+        ------
+        ValueError
+            If the simulations have no sensitivities with respect to a parameter.
+        """
         first = results[0]
         sens = all(r.force_sensitivity is not None for r in results)
         columns = None
@@ -98,7 +116,20 @@ class Predictor(Protocol):
     parameters: tuple[str, ...]
 
     def predict(self, theta: np.ndarray, jacobian: bool = False) -> Prediction:
-        """Force curves and fields at ``theta`` (n, p); with ``jacobian`` their derivatives too."""
+        """Force curves and fields at ``theta``; with ``jacobian`` their derivatives too.
+
+        Parameters
+        ----------
+        theta : numpy.ndarray
+            (n, p) points.
+        jacobian : bool, default False
+            Also d force / d theta and d u / d theta.
+
+        Returns
+        -------
+        Prediction
+            The responses.
+        """
         ...
 
 
@@ -226,10 +257,37 @@ class FESolverPredictor:
         self.workdir = Path(workdir) if workdir else None
 
     def spec_at(self, point: np.ndarray) -> ModelSpec:
-        """The model spec at one parameter point (a bad value raises SpecError naming it)."""
+        """The model spec at one parameter point.
+
+        Parameters
+        ----------
+        point : numpy.ndarray
+            (p,) values of ``parameters``.
+
+        Returns
+        -------
+        ModelSpec
+            The spec with those values (a bad value raises SpecError naming it).
+        """
         return self.spec.with_parameters(**{k: float(v) for k, v in zip(self.parameters, point, strict=True)})
 
     def simulate(self, point: np.ndarray, index: int = 0, sensitivities: bool = False) -> SimulationResult:
+        """One simulation at one point.
+
+        Parameters
+        ----------
+        point : numpy.ndarray
+            (p,) the parameters.
+        index : int, default 0
+            The point's number (FEBio: its folder ``point-<index>`` under ``workdir``).
+        sensitivities : bool, default False
+            Solve for the sensitivities too (embedded solver).
+
+        Returns
+        -------
+        SimulationResult
+            The result.
+        """
         spec = self.spec_at(point)
         if self.solver == "embedded":
             from .solver import simulate
@@ -239,8 +297,27 @@ class FESolverPredictor:
         return FebioSolver(spec, workdir=workdir).run()
 
     def predict(self, theta: np.ndarray, jacobian: bool = False) -> Prediction:
-        """One simulation per point; ``jacobian`` asks the embedded solver for its exact
-        sensitivities (FEBio gives none)."""
+        """Force curves and fields at ``theta``: one simulation per point.
+
+        Parameters
+        ----------
+        theta : numpy.ndarray
+            (n, p) points (kPa; mu unitless).
+        jacobian : bool, default False
+            Ask the embedded solver for its exact sensitivities (FEBio gives none).
+
+        Returns
+        -------
+        Prediction
+            Forces, fields and, if asked, their Jacobians (depth 0 dropped).
+
+        Raises
+        ------
+        ValueError
+            If a Jacobian is asked of FEBio.
+        SpecError
+            If a point's value is invalid (every point is checked before any is solved).
+        """
         t = as_theta(theta, len(self.parameters))
         if jacobian and self.solver != "embedded":
             raise ValueError("exact sensitivities come from the embedded solver only")
@@ -257,7 +334,23 @@ class FESolverPredictor:
         return Prediction.from_results(results, self.parameters)
 
     def with_spec(self, **changes) -> FESolverPredictor:
-        """The same predictor on a changed spec (e.g. ``indenter=Indenter(8.0)``)."""
+        """The same predictor on a changed spec.
+
+        Parameters
+        ----------
+        **changes
+            Fields of :class:`ModelSpec` to replace (e.g. ``indenter=Indenter(8.0)``).
+
+        Returns
+        -------
+        FESolverPredictor
+            The new predictor.
+
+        Raises
+        ------
+        SpecError
+            If a field is unknown.
+        """
         try:
             spec = replace(self.spec, **changes)
         except TypeError as exc:
@@ -289,6 +382,20 @@ class CachedPredictor:
         return getattr(self.predictor, name)
 
     def predict(self, theta: np.ndarray, jacobian: bool = False) -> Prediction:
+        """The wrapped predictor's response, points already asked (with Jacobians if needed) remembered.
+
+        Parameters
+        ----------
+        theta : numpy.ndarray
+            (n, p) points.
+        jacobian : bool, default False
+            Also the Jacobians.
+
+        Returns
+        -------
+        Prediction
+            The responses, in the order of ``theta``.
+        """
         t = as_theta(theta, len(self.parameters))
         keys = [row.tobytes() for row in t]
         missing = [

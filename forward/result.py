@@ -84,10 +84,12 @@ class SimulationResult:
 
     @property
     def force_quarter(self) -> np.ndarray:
+        """(s,) the quarter model's force (the whole specimen's / 4), mN."""
         return self.force / SYMMETRY_FACTOR
 
     @property
     def newton_iterations(self) -> int:
+        """Newton's iterations over all steps (0 when not recorded)."""
         it = self.convergence.get("newton_iterations")
         return int(np.sum(it)) if it is not None else 0
 
@@ -99,12 +101,30 @@ class SimulationResult:
         return [float(d) for d in np.asarray(self.depth)[np.asarray(self.off_equilibrium, bool)]]
 
     def table(self) -> list[dict[str, float]]:
+        """Depth and force per step.
+
+        Returns
+        -------
+        list of dict
+            ``{"depth_mm", "force_mN"}`` per step (whole specimen).
+        """
         return [
             {"depth_mm": float(d), "force_mN": float(f)} for d, f in zip(self.depth, self.force, strict=True)
         ]
 
     def save(self, path: str | Path) -> Path:
-        """Write the result atomically (temporary file in the same folder, then rename)."""
+        """Write the result atomically (temporary file in the same folder, then rename).
+
+        Parameters
+        ----------
+        path : str or pathlib.Path
+            The ``.npz`` file.
+
+        Returns
+        -------
+        pathlib.Path
+            The file written.
+        """
         arrays: dict[str, np.ndarray] = {
             "depth": self.depth,
             "force": self.force,
@@ -137,6 +157,23 @@ class SimulationResult:
 
     @classmethod
     def load(cls, path: str | Path) -> SimulationResult:
+        """Read a result written by :meth:`save`.
+
+        Parameters
+        ----------
+        path : str or pathlib.Path
+            The ``.npz`` file.
+
+        Returns
+        -------
+        SimulationResult
+            The result.
+
+        Raises
+        ------
+        ValueError
+            If the file is missing, truncated, damaged or unreadable.
+        """
         path = Path(path)
         try:
             with np.load(path, allow_pickle=False) as z:

@@ -61,6 +61,20 @@ class RichardsonPredictor:
         return np.moveaxis(at, 0, 2)
 
     def predict(self, theta: np.ndarray, jacobian: bool = False) -> Prediction:
+        """The extrapolated response: log force and the field, f + (f - f_coarse) / (r^order - 1).
+
+        Parameters
+        ----------
+        theta : numpy.ndarray
+            (n, p) points.
+        jacobian : bool, default False
+            Also the Jacobians, extrapolated alike.
+
+        Returns
+        -------
+        Prediction
+            On the fine mesh's top nodes.
+        """
         pf = self.fine.predict(theta, jacobian=jacobian)
         pc = self.coarse.predict(theta, jacobian=jacobian)
         a = self.factor

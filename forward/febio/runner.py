@@ -165,9 +165,20 @@ class FebioSolver:
         self.rerun_off_equilibrium = rerun_off_equilibrium
 
     def run(self, progress: Callable[[int, int, float], None] | None = None) -> SimulationResult:
-        """Run FEBio to the spec's last step; ``progress(k, steps, depth)`` after each must point.
+        """Run FEBio to the spec's last step: write, run, parse, check equilibrium.
 
-        Steps off equilibrium make one rerun with tightened settings (module docstring)."""
+        Steps off equilibrium make one rerun with tightened settings (module docstring).
+
+        Parameters
+        ----------
+        progress : callable, optional
+            ``progress(k, steps, depth)`` after each must point.
+
+        Returns
+        -------
+        SimulationResult
+            The result; steps still off equilibrium carry NaN forces and are flagged.
+        """
         workdir = self.workdir or Path(tempfile.mkdtemp(prefix="febio-"))
         first = self._run_once(self.settings, workdir, progress, self.timeout_s)
         flagged = first.off_equilibrium_depths
