@@ -99,6 +99,13 @@ class NoiseModel:
     registration_source: str
 
     def to_dict(self) -> dict:
+        """The noise as JSON-ready lists, the registration as its standard deviations (mm).
+
+        Returns
+        -------
+        dict
+            Each part and where it came from.
+        """
         return {
             "force_sd_mN": self.force_sd_mN.tolist(),
             "force_source": self.force_source,
@@ -150,6 +157,7 @@ class Adequacy:
 
     @property
     def flagged(self) -> bool:
+        """Whether the test rejects the model: ``p_value < alpha``."""
         return bool(self.p_value < self.alpha)
 
     @property
@@ -170,6 +178,13 @@ class Adequacy:
         )
 
     def to_dict(self) -> dict:
+        """The test as fit.json records it.
+
+        Returns
+        -------
+        dict
+            The flag, statistic, degrees of freedom, p-value, level, terms, noise and message.
+        """
         noise = self.noise.to_dict() | {"force_sd_pct_median": self.force_sd_pct}
         return {
             "flagged": self.flagged,

@@ -345,8 +345,20 @@ class CompositeComparison:
         return self.field_composite - self.field_homogeneous
 
     def to_dict(self, within_mm: float = 25.0) -> dict:
-        """Force table, the relative force gap, and the field gap at the last step within
-        ``within_mm`` of the axis and outside the indenter's shadow (what DIC sees)."""
+        """The comparison as JSON: forces, their relative gap, and the field gap at the last step.
+
+        Parameters
+        ----------
+        within_mm : float, default 25.0
+            The field gap is taken within this of the axis and outside the indenter's shadow
+            (what DIC sees), mm.
+
+        Returns
+        -------
+        dict
+            theta, the force table and gap, the field gap, the homogeneous mesh and contact and
+            the top fibers' bands.
+        """
         r = np.hypot(self.top_xyz[:, 0], self.top_xyz[:, 1])
         near = (r <= within_mm) & (r > self.radius)
         diff = self.field_difference[-1][near]

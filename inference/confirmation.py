@@ -85,7 +85,18 @@ class Confirmation:
         return spec if self.friction is None else spec.with_friction(self.friction)
 
     def save(self, folder: str | Path) -> Path:
-        """Write ``folder/confirm.json`` atomically (``posterior --mesh-check`` reads it)."""
+        """Write ``folder/confirm.json`` atomically (``posterior --mesh-check`` reads it).
+
+        Parameters
+        ----------
+        folder : str or pathlib.Path
+            The folder.
+
+        Returns
+        -------
+        pathlib.Path
+            The file written.
+        """
         return atomic_write_json(Path(folder) / "confirm.json", self.to_dict())
 
 

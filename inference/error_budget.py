@@ -87,8 +87,15 @@ class ErrorBudget:
     fe_steps: int | None = None  # Gauss-Newton steps of the FE models' fits
 
     def summary(self) -> pd.DataFrame:
-        """Per model: the largest |bias| of c1 and c5, the median half-width, their ratio, and
-        whether the model is converged for the test (every point below the fraction)."""
+        """The budget per model: largest bias, median half-width, their ratio, whether converged.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Per model: the largest |bias| of c1 and c5, the median half-width, their ratio, and
+            whether the model is converged for the test (every point's bias below
+            ``CONVERGED_FRACTION`` of its half-width).
+        """
         rows = []
         for model, t in self.table.groupby("model", sort=False):
             row = {"model": model, "points": len(t)}
@@ -105,7 +112,19 @@ class ErrorBudget:
         return pd.DataFrame(rows)
 
     def to_dict(self, complete: bool = True) -> dict:
-        """The JSON of error-budget.json; ``complete`` False while rows are still to come."""
+        """The JSON of error-budget.json.
+
+        Parameters
+        ----------
+        complete : bool, default True
+            False while rows are still to come.
+
+        Returns
+        -------
+        dict
+            The weights, noise levels, field of view, converged fraction, what the half-width
+            includes, the reference, the rows, the summary, ``fe_steps`` and ``complete``.
+        """
         return {
             "weights": self.weights.tolist(),
             "force_noise": self.force_noise,

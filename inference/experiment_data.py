@@ -95,6 +95,7 @@ class ExperimentData:
 
     @property
     def depths(self) -> np.ndarray:
+        """(N,) the depth of each step, mm."""
         return self.step_size * np.arange(1, self.steps + 1)
 
 

@@ -100,8 +100,10 @@ class ExperimentFit:
 
     @property
     def friction_bounds(self) -> dict | None:
-        """With mu fitted: (c1, c5)'s bounds, mu's, the conditional ones and mu's share
-        (:func:`design.friction_treatment.friction_bounds`)."""
+        """With mu fitted: (c1, c5)'s bounds, mu's, the conditional ones and mu's share; else None.
+
+        See :func:`design.friction_treatment.friction_bounds`.
+        """
         if not self.friction.fits_mu:
             return None
         f = self.fit
@@ -130,9 +132,12 @@ class ExperimentFit:
 
     @property
     def warnings(self) -> list[str]:
-        """What the fit found wrong with its own inputs: a surrogate stage that ended far above the FE
-        fit of the same model (F more than :data:`SURROGATE_MISS_RATIO` times the FE fit's) misses
-        these data, and a surrogate-only fit or a posterior on it would be wrong here."""
+        """What the fit found wrong with its own inputs, as sentences.
+
+        E.g. a surrogate stage that ended far above the FE fit of the same model (F more than
+        ``SURROGATE_MISS_RATIO`` times the FE fit's) misses these data, and a surrogate-only fit or
+        a posterior on it would be wrong here.
+        """
         first, final = self.surrogate_fit, self.fit
         out = []
         if self.friction.mode == "assumed" and self.inputs.spec.contact.friction is None:
@@ -222,7 +227,18 @@ class ExperimentFit:
         return out
 
     def save(self, folder: str | Path) -> Path:
-        """Write ``folder/fit.json`` atomically and return its path."""
+        """Write ``folder/fit.json`` atomically.
+
+        Parameters
+        ----------
+        folder : str or pathlib.Path
+            The folder.
+
+        Returns
+        -------
+        pathlib.Path
+            The file written.
+        """
         return atomic_write_json(Path(folder) / "fit.json", self.to_dict())
 
 

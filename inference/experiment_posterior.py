@@ -127,7 +127,20 @@ class ExperimentPosterior:
         }
 
     def save(self, folder: str | Path, **extra) -> Path:
-        """Write ``folder/posterior.json`` (with ``extra`` keys, e.g. the corner plot's path)."""
+        """Write ``folder/posterior.json`` atomically.
+
+        Parameters
+        ----------
+        folder : str or pathlib.Path
+            The folder.
+        **extra
+            Further keys, e.g. the corner plot's path.
+
+        Returns
+        -------
+        pathlib.Path
+            The file written.
+        """
         return atomic_write_json(Path(folder) / "posterior.json", {**self.to_dict(), **extra})
 
 

@@ -46,6 +46,25 @@ class RecordedRun:
         self.spec = spec
 
     def predict(self, theta, jacobian: bool = False) -> Prediction:
+        """The recorded response, at the recorded point only.
+
+        Parameters
+        ----------
+        theta : array_like
+            The recorded point (one row).
+        jacobian : bool, default False
+            Must be False: a recorded run has no sensitivities.
+
+        Returns
+        -------
+        Prediction
+            The recorded response.
+
+        Raises
+        ------
+        ValueError
+            If a Jacobian or another point is asked for.
+        """
         t = as_theta(theta, len(self.parameters))
         if jacobian:
             raise ValueError("a recorded run has no sensitivities")

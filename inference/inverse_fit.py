@@ -76,9 +76,11 @@ class FitResult:
 
     @property
     def residual_sd(self) -> float:
-        """sqrt(F(theta_hat) / (n - p)): the standard deviation of one normalised residual, the noise
-        level of the posterior's likelihood (eq. 8's s is this times the 95 % factor
-        sqrt(p F_{p,n-p}^0.95), which would widen a posterior about 2.4 times)."""
+        """sqrt(F(theta_hat) / (n - p)): the standard deviation of one normalised residual.
+
+        The noise level of the posterior's likelihood (eq. 8's s is this times the 95 % factor
+        sqrt(p F_{p,n-p}^0.95), which would widen a posterior about 2.4 times).
+        """
         return float(np.sqrt(self.F / (self.n_residuals - self.theta.size)))
 
     def interval(self) -> np.ndarray:

@@ -91,8 +91,11 @@ class MeshCheck:
 
     @property
     def corrected_uncertainty_pct(self) -> np.ndarray:
-        """GCI of the finer mesh's result, Fs |delta| / (r^p - 1): what is left of the
-        discretisation error once the fit is carried there (Roache's GCI of the fine grid)."""
+        """GCI of the finer mesh's result, Fs |delta| / (r^p - 1), percent.
+
+        What is left of the discretisation error once the fit is carried there (Roache's GCI of
+        the fine grid).
+        """
         rp = self.refinement_ratio**self.order
         return self.safety * np.abs(self.shift_pct) / (rp - 1.0)
 
@@ -102,7 +105,19 @@ class MeshCheck:
         return np.hypot(self.statistical_pct, self.corrected_uncertainty_pct)
 
     def to_dict(self, check_mesh: str) -> dict:
-        """The check as written to fit.json / confirm.json (read back by :func:`load_mesh_check`)."""
+        """The check as written to fit.json / confirm.json (read back by :func:`load_mesh_check`).
+
+        Parameters
+        ----------
+        check_mesh : str
+            The finer mesh preset.
+
+        Returns
+        -------
+        dict
+            The meshes, ratio, order, safety factor, shift, theta on both meshes, the
+            uncertainties, statistical and combined half-widths (percent) and s.
+        """
         return {
             "check_mesh": check_mesh,
             "nodes": list(self.nodes),

@@ -63,6 +63,7 @@ class ModelError:
 
     @property
     def half_width_pct(self) -> np.ndarray:
+        """(p,) the model error's 95 % half-width: both parts' root sum of squares, percent."""
         return np.hypot(self.discrepancy_pct, self.budget_pct)
 
     def covariance_with_budget(self) -> np.ndarray:
@@ -70,6 +71,14 @@ class ModelError:
         return self.covariance_log + np.diag((self.budget_pct / 100.0 / Z95) ** 2)
 
     def to_dict(self) -> dict:
+        """The parts as fit.json records them, with what they include in words.
+
+        Returns
+        -------
+        dict
+            ``discrepancy_pct``, ``error_budget_pct``, ``model_pct``, ``error_budget_source``,
+            ``includes``.
+        """
         return {
             "discrepancy_pct": self.discrepancy_pct.tolist(),
             "error_budget_pct": self.budget_pct.tolist(),

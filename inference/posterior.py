@@ -58,17 +58,50 @@ class Posterior:
     objective_path: str = "full"  # "reduced": F in the predictor's PCA space; "full": from its fields
 
     def median(self) -> np.ndarray:
+        """(p,) the samples' median.
+
+        Returns
+        -------
+        numpy.ndarray
+            One value per parameter.
+        """
         return np.median(self.samples, axis=0)
 
     def interval(self, level: float = 0.95) -> np.ndarray:
-        """Central credible interval (p, 2)."""
+        """The central credible interval of each parameter.
+
+        Parameters
+        ----------
+        level : float, default 0.95
+            The probability inside.
+
+        Returns
+        -------
+        numpy.ndarray
+            (p, 2) lower and upper ends.
+        """
         q = 100.0 * (1.0 - level) / 2.0
         return np.percentile(self.samples, [q, 100.0 - q], axis=0).T
 
     def std(self) -> np.ndarray:
+        """(p,) the samples' standard deviation (ddof 1).
+
+        Returns
+        -------
+        numpy.ndarray
+            One value per parameter.
+        """
         return self.samples.std(axis=0, ddof=1)
 
     def summary(self) -> dict:
+        """The posterior's summary and diagnostics, JSON-ready.
+
+        Returns
+        -------
+        dict
+            Median, standard deviation, 68 % and 95 % intervals, autocorrelation, acceptance,
+            convergence, number of samples, wall time, s and the objective's path.
+        """
         return {
             "median": self.median().tolist(),
             "std": self.std().tolist(),

@@ -80,6 +80,13 @@ class VerificationStudy:
     inputs: dict[str, Any] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
+        """The study as ``study.json`` records it.
+
+        Returns
+        -------
+        dict
+            Schema, code version, the family, levels, inputs and cases.
+        """
         return {
             "schema": "indentation-studio/verification-study/1",
             "code_version": __version__,

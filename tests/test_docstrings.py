@@ -206,35 +206,6 @@ def _public_methods():
 METHODS = _public_methods()
 
 
-#: Public methods of the exported classes whose docstrings are still to be written (126 of 166
-#: when this check came in): the list may only shrink; one that passes fails the test, to be taken off.
-METHODS_STILL_TO_DO = {
-    "inference.Adequacy.flagged",
-    "inference.Adequacy.to_dict",
-    "inference.CompositeComparison.to_dict",
-    "inference.Confirmation.save",
-    "inference.ErrorBudget.summary",
-    "inference.ErrorBudget.to_dict",
-    "inference.ExperimentData.depths",
-    "inference.ExperimentFit.friction_bounds",
-    "inference.ExperimentFit.save",
-    "inference.ExperimentFit.warnings",
-    "inference.ExperimentPosterior.save",
-    "inference.FitResult.residual_sd",
-    "inference.MeshCheck.corrected_uncertainty_pct",
-    "inference.MeshCheck.to_dict",
-    "inference.ModelError.half_width_pct",
-    "inference.ModelError.to_dict",
-    "inference.NoiseModel.to_dict",
-    "inference.Posterior.interval",
-    "inference.Posterior.median",
-    "inference.Posterior.std",
-    "inference.Posterior.summary",
-    "inference.RecordedRun.predict",
-    "inference.VerificationStudy.to_dict",
-}
-
-
 def method_problems(member) -> list[str]:
     """What a method's docstring lacks: a one-line summary and, with parameters besides self, a
     Parameters section naming them (a property: its docstring's summary)."""
@@ -272,9 +243,6 @@ def test_exported_name_has_a_numpydoc_docstring(qualified):
 @pytest.mark.parametrize("qualified", sorted(METHODS))
 def test_public_method_has_a_numpydoc_docstring(qualified):
     found = method_problems(METHODS[qualified])
-    if qualified in METHODS_STILL_TO_DO:
-        assert found, f"{qualified} passes now: take it off METHODS_STILL_TO_DO"
-        pytest.xfail("; ".join(found))
     assert not found, f"{qualified}: " + "; ".join(found)
 
 
