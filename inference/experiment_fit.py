@@ -372,7 +372,8 @@ def default_friction(surrogate, fe_stage: bool = True) -> FrictionTreatment:
     Returns
     -------
     FrictionTreatment
-        ``marginalise`` (with the surrogate's mu range, or 0.1 .. 3) or ``assumed``.
+        ``marginalise`` (no range of its own: the fit takes the surrogate's mu range, else
+        0.1 .. 3) or ``assumed``.
     """
     if "mu" in surrogate.parameters or (fe_stage and not has_high_fidelity_level(surrogate)):
         return FrictionTreatment("marginalise")

@@ -168,9 +168,10 @@ def experiment_from_febio_run(
     Raises
     ------
     FebioLogError
-        If the .feb is missing or the log does not echo the material parameters.
+        If the .feb is missing, or the log is unreadable, does not echo the material parameters
+        or is not of the model.
     FebioRunError
-        If the run cannot be read back.
+        If FEBio did not terminate normally or the log holds fewer steps than asked.
     FileExistsError
         If an experiment folder is already there (unless ``overwrite``).
     """

@@ -39,7 +39,7 @@ class Posterior:
     acceptance_fraction : float
         The walkers' mean acceptance fraction.
     converged : bool
-        Whether the chain is long against its autocorrelation time.
+        Whether the chain is longer than 50 autocorrelation times (every one finite).
     wall_s : float
         Wall time, s.
     s : float
