@@ -86,8 +86,8 @@ def _test_of(model: dict) -> dict:
 def shipped_budget(spec, folder: str | Path | None = None) -> dict | None:
     """What a shipped error budget leaves for ``spec``'s mesh (:func:`remaining_bias`), if one was measured.
 
-    A budget counts when it was measured for the same test (geometry, indenter, protocol,
-    contact, material but c1 and c5) and holds that mesh preset. A surrogate trained on such a
+    A budget counts when it is complete, was measured for the same test (geometry, indenter,
+    protocol, contact, material but c1 and c5) and holds that mesh preset. A surrogate trained on such a
     campaign carries it in its fits' bounds.
 
     Parameters
