@@ -35,8 +35,18 @@ _TOP_FACES = ((4, 5, 6, 7), (0, 1, 2, 3))
 
 
 def top_faces(mesh: BlockMesh) -> np.ndarray:
-    """The top face's quads, (nf, 4) node ids (into the mesh) in cyclic order: faces of hex8
-    elements whose four nodes all lie on the top."""
+    """The top face's quads: the faces of hex8 elements whose four nodes all lie on the top.
+
+    Parameters
+    ----------
+    mesh : BlockMesh
+        The block.
+
+    Returns
+    -------
+    ndarray, shape (nf, 4)
+        Node indices (into the mesh) of each quad, in cyclic order.
+    """
     on_top = np.zeros(mesh.n_nodes, dtype=bool)
     on_top[mesh.top] = True
     quads = [mesh.elements[:, face] for face in _TOP_FACES]
@@ -45,8 +55,22 @@ def top_faces(mesh: BlockMesh) -> np.ndarray:
 
 
 def tributary_areas(nodes: np.ndarray, elements: np.ndarray, top: np.ndarray) -> np.ndarray:
-    """Each top node's share of the top face, mm^2 (nt,): a quarter of the area of every top
-    face of a hex8 element it belongs to (faces whose four nodes are all top nodes)."""
+    """Each top node's share of the top face: a quarter of the area of every top quad it is a corner of.
+
+    Parameters
+    ----------
+    nodes : ndarray, shape (n, 3)
+        Node coordinates, mm.
+    elements : ndarray, shape (ne, 8)
+        hex8 connectivity (node indices).
+    top : ndarray, shape (nt,)
+        The top nodes' indices.
+
+    Returns
+    -------
+    ndarray, shape (nt,)
+        Tributary areas, mm^2 (they sum to the top face's area).
+    """
     on_top = np.zeros(nodes.shape[0], dtype=bool)
     on_top[top] = True
     quads = np.concatenate([q[on_top[q].all(axis=1)] for q in (elements[:, f] for f in _TOP_FACES)])
@@ -89,6 +113,7 @@ class ContactPoints:
 
     @property
     def n_points(self) -> int:
+        """The number of contact points."""
         return int(self.area.size)
 
     @property
@@ -100,14 +125,33 @@ class ContactPoints:
         return sp.csr_matrix((self.shape.ravel(), (rows, cols)), shape=(nc * q, self.n_top))
 
     def to_points(self, top_values: np.ndarray) -> np.ndarray:
-        """Values at the points (n_points, ...) from values at the top nodes (n_top, ...)."""
+        """Values at the points interpolated from values at the top nodes (N v).
+
+        Parameters
+        ----------
+        top_values : ndarray, shape (n_top, ...)
+            Values at the top nodes (displacements, their derivatives, ...).
+
+        Returns
+        -------
+        ndarray, shape (n_points, ...)
+        """
         nc, q, _ = self.shape.shape
         cell = top_values[self.cell_nodes]  # (nc, k, ...)
         return np.einsum("cqk,ck...->cq...", self.shape, cell).reshape(nc * q, *top_values.shape[1:])
 
     def to_nodes(self, point_values: np.ndarray) -> np.ndarray:
-        """Work-conjugate node values N^T v (n_top, ...) of point values (n_points, ...): the
-        nodal forces of point forces."""
+        """The work-conjugate node values N^T v of point values: the nodal forces of point forces.
+
+        Parameters
+        ----------
+        point_values : ndarray, shape (n_points, ...)
+            Values at the contact points.
+
+        Returns
+        -------
+        ndarray, shape (n_top, ...)
+        """
         nc, q, _ = self.shape.shape
         tail = point_values.shape[1:]
         per = np.einsum("cqk,cq...->ck...", self.shape, point_values.reshape(nc, q, *tail))
@@ -116,7 +160,17 @@ class ContactPoints:
         return out
 
     def any_per_node(self, flags: np.ndarray) -> np.ndarray:
-        """Top nodes (n_top,) that carry a weight of at least one flagged point."""
+        """The top nodes that carry a weight of at least one flagged point.
+
+        Parameters
+        ----------
+        flags : ndarray of bool, shape (n_points,)
+            A flag per contact point (in contact, slipping, ...).
+
+        Returns
+        -------
+        ndarray of bool, shape (n_top,)
+        """
         nc, q, _ = self.shape.shape
         hit = (flags.reshape(nc, q)[:, :, None] & (self.shape > 0.0)).any(axis=1)  # (nc, k)
         out = np.zeros(self.n_top, dtype=bool)
@@ -124,23 +178,70 @@ class ContactPoints:
         return out
 
     def cell_blocks(self, point_blocks: np.ndarray) -> np.ndarray:
-        """N^T B N cell by cell: (nc, k, 3, k, 3) from point 3 x 3 blocks B (n_points, 3, 3)."""
+        """The points' 3 x 3 blocks carried to the cells' nodes, N^T B N cell by cell.
+
+        Parameters
+        ----------
+        point_blocks : ndarray, shape (n_points, 3, 3)
+            A block per point (df/dr of the contact law).
+
+        Returns
+        -------
+        ndarray, shape (nc, k, 3, k, 3)
+        """
         nc, q, _ = self.shape.shape
         B = point_blocks.reshape(nc, q, 3, 3)
         return np.einsum("cqa,cqb,cqij->caibj", self.shape, self.shape, B)
 
     def cell_scale(self, eps: np.ndarray) -> np.ndarray:
-        """Each cell's penalty, mN/mm (nc,): the sum of its points' (what a block's change is
-        measured against)."""
+        """Each cell's penalty: the sum of its points' (what a change of its block is measured against).
+
+        Parameters
+        ----------
+        eps : ndarray, shape (n_points,)
+            The points' penalties, mN/mm.
+
+        Returns
+        -------
+        ndarray, shape (nc,)
+            mN/mm.
+        """
         nc, q, _ = self.shape.shape
         return eps.reshape(nc, q).sum(axis=1)
 
     def cell_dofs(self, top: np.ndarray) -> np.ndarray:
-        """Global dofs of each cell's nodes (nc, k, 3), ``top`` the mesh's top node ids."""
+        """The global dofs of each cell's nodes.
+
+        Parameters
+        ----------
+        top : ndarray, shape (n_top,)
+            The mesh's top node indices.
+
+        Returns
+        -------
+        ndarray, shape (nc, k, 3)
+        """
         return 3 * top[self.cell_nodes][:, :, None] + np.arange(3)
 
     def slots(self, pattern: SparsePattern, top: np.ndarray) -> np.ndarray:
-        """Positions in the CSR data of every entry of every cell block, (nc, k, 3, k, 3)."""
+        """Positions in the CSR data of every entry of every cell block.
+
+        Parameters
+        ----------
+        pattern : SparsePattern
+            The body's stiffness pattern (every cell's nodes share an element, so it holds them).
+        top : ndarray, shape (n_top,)
+            The mesh's top node indices.
+
+        Returns
+        -------
+        ndarray, shape (nc, k, 3, k, 3)
+
+        Raises
+        ------
+        RuntimeError
+            When the pattern lacks a cell's block (a contact cell whose nodes share no element).
+        """
         dofs = self.cell_dofs(top)
         nc, k, _ = dofs.shape
         rows = np.broadcast_to(dofs[:, :, :, None, None], (nc, k, 3, k, 3)).astype(np.int64)
@@ -169,6 +270,11 @@ def contact_points(mesh: BlockMesh, integration: str = "node", *, order: int = 2
     -------
     ContactPoints
         The points, their cells, shape functions and areas.
+
+    Raises
+    ------
+    ValueError
+        An unknown ``integration`` or an ``order`` below 1.
     """
     top = np.asarray(mesh.top)
     index = np.full(mesh.n_nodes, -1)

@@ -49,7 +49,13 @@ class IndenterContact(ABC):
 
     @abstractmethod
     def start(self) -> Any:
-        """The contact state before the first increment (nothing touches)."""
+        """The contact state before the first increment (nothing touches).
+
+        Returns
+        -------
+        object
+            The state :meth:`increment` takes and returns.
+        """
 
     @abstractmethod
     def increment(
@@ -62,8 +68,7 @@ class IndenterContact(ABC):
         du_start: np.ndarray | None,
         du_pred: np.ndarray | None = None,
     ) -> tuple[Equilibrium, Any, int, int, np.ndarray | None]:
-        """Solve the increment from depth ``d0`` (state ``u``, contact ``state``) to ``d1``,
-        starting from the prediction ``u_pred``.
+        """Solve the increment from depth ``d0`` to ``d1``, starting from the prediction ``u_pred``.
 
         Parameters
         ----------
@@ -90,30 +95,105 @@ class IndenterContact(ABC):
 
     @abstractmethod
     def add_to_system(self, u: np.ndarray, R: np.ndarray, K: sp.csr_matrix | None) -> None:
-        """Take the indenter's forces at ``u`` (n, 3) off the internal force ``R`` (3n,) and
-        their derivative off the tangent ``K`` (in place), while an increment is solved."""
+        """Take the indenter's forces off the internal force and their derivative off the tangent.
+
+        In place, while an increment is solved (nothing outside one).
+
+        Parameters
+        ----------
+        u : ndarray, shape (n, 3)
+            Displacements.
+        R : ndarray, shape (3n,)
+            The body's internal force at ``u``.
+        K : scipy.sparse.csr_matrix or None
+            The body's tangent at ``u`` (None: the residual only).
+        """
 
     @abstractmethod
     def for_factorisation(self, K: sp.csr_matrix) -> sp.csr_matrix:
-        """The matrix to factorise for the tangent ``K`` (its symmetric part where K is not)."""
+        """The matrix to factorise for a tangent (its symmetric part where the tangent is not symmetric).
+
+        Parameters
+        ----------
+        K : scipy.sparse.csr_matrix
+            The tangent.
+
+        Returns
+        -------
+        scipy.sparse.csr_matrix
+        """
 
     @abstractmethod
     def correction(self, cmask: np.ndarray) -> LowRankUpdate | None:
-        """What turns the factorisation in hand into the tangent now (contact blocks changed
-        since it was made), or None."""
+        """What turns the factorisation in hand into the tangent now (contact blocks changed since).
+
+        Parameters
+        ----------
+        cmask : ndarray of bool, shape (3n,)
+            The dofs held (eliminated) in the solve.
+
+        Returns
+        -------
+        LowRankUpdate or None
+            None when nothing changed (or the contact needs none).
+        """
 
     @abstractmethod
     def quarter_force(self, eq: Equilibrium, state: Any) -> float:
-        """The indenter force on the quarter model at a converged state, mN."""
+        """The indenter force on the quarter model at a converged state.
+
+        Parameters
+        ----------
+        eq : Equilibrium
+            The converged state.
+        state : object
+            The contact state it was solved with.
+
+        Returns
+        -------
+        float
+            mN (x 4 for the whole specimen).
+        """
 
     @abstractmethod
     def quarter_force_sensitivity(self, eq: Equilibrium, state: Any, du_dtheta: np.ndarray) -> np.ndarray:
-        """d (quarter force) / d theta (p,) at a converged state with d u / d theta (n, 3, p)."""
+        """The derivative of the quarter model's indenter force with respect to theta.
+
+        Parameters
+        ----------
+        eq : Equilibrium
+            The converged state (with its tangent and dR/dtheta).
+        state : object
+            The contact state it was solved with.
+        du_dtheta : ndarray, shape (n, 3, p)
+            The state's d u / d theta.
+
+        Returns
+        -------
+        ndarray, shape (p,)
+            mN per unit of each parameter.
+        """
 
     @abstractmethod
     def node_status(self, state: Any) -> tuple[np.ndarray, np.ndarray]:
-        """The top nodes in contact and those slipping (boolean arrays over the top nodes)."""
+        """The top nodes in contact and those slipping.
+
+        Parameters
+        ----------
+        state : object
+            A contact state.
+
+        Returns
+        -------
+        tuple of ndarray of bool, shape (nt,)
+            In contact, slipping.
+        """
 
     @abstractmethod
     def describe(self) -> str:
-        """One line for the result file's ``solver.contact``."""
+        """One line for the result file's ``solver.contact``.
+
+        Returns
+        -------
+        str
+        """

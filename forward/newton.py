@@ -64,8 +64,21 @@ FRESH_MAXITER = 50
 
 @dataclass
 class Equilibrium:
-    """A converged state: displacements, internal force (= external at equilibrium), tangent and
-    (with sensitivities) dR/dtheta."""
+    """A converged state.
+
+    Parameters
+    ----------
+    u : ndarray, shape (n, 3)
+        Displacements, mm.
+    R : ndarray, shape (3n,)
+        The internal force (= the external force at equilibrium), mN.
+    K : scipy.sparse.csr_matrix or None
+        The tangent there (with sensitivities).
+    iterations : int
+        Newton iterations it took.
+    dR : ndarray, shape (3n, p), optional
+        d(internal force)/d(theta) at ``u`` (with sensitivities).
+    """
 
     u: np.ndarray  # (n, 3)
     R: np.ndarray  # (3n,) internal force = external force at equilibrium
@@ -85,8 +98,26 @@ class TangentContact(Protocol):
 
 
 class NewtonSystem:
-    """The linear steps and the constrained Newton solve of the embedded solver (module
-    docstring). Subclasses set the attributes below and provide ``assemble``."""
+    """The linear steps and the constrained Newton solve of the embedded solver.
+
+    Subclasses (forward.solver.EmbeddedSolver) set the attributes below and provide
+    :meth:`assemble` (module docstring).
+
+    Attributes
+    ----------
+    spec : ModelSpec
+        The model (its solver options).
+    linear : ConstrainedSymmetricSolver
+        The linear solver (factorisations and back-substitutions).
+    contact : TangentContact
+        The contact in use (what the factorisation leaves out).
+    stats : dict
+        Counts and times of assemblies, factorisations, solves and Krylov iterations.
+    force_scale : float
+        A force below which residuals count as zero, mN.
+    want_sensitivities : bool
+        Whether the run asks for d/dtheta (equilibria then carry their tangent and dR/dtheta).
+    """
 
     spec: ModelSpec
     mesh: BlockMesh
@@ -104,12 +135,34 @@ class NewtonSystem:
     def assemble(
         self, u: np.ndarray, tangent: bool = True, parameter_derivatives: bool = False
     ) -> tuple[np.ndarray, sp.csr_matrix | None, np.ndarray | None]:
-        """Internal force, tangent and dR/dtheta at ``u`` (the subclass's)."""
+        """The internal force, tangent and dR/dtheta at a state (the subclass's).
+
+        Parameters
+        ----------
+        u : ndarray, shape (n, 3)
+            Displacements.
+        tangent : bool, optional
+            Whether to assemble the tangent.
+        parameter_derivatives : bool, optional
+            Whether to assemble dR/dtheta.
+
+        Returns
+        -------
+        tuple
+            R (3n,), K (CSR or None), dR (3n, 2) or None.
+        """
         raise NotImplementedError
 
     def factorize(self, K: sp.csr_matrix, constrained: np.ndarray) -> None:
-        """Factorise K; with friction, its symmetric part (the contact blocks of slipping points
-        are K's only unsymmetric entries; :meth:`IndenterContact.correction` puts them back)."""
+        """Factorise a tangent (with friction, its symmetric part: :meth:`IndenterContact.for_factorisation`).
+
+        Parameters
+        ----------
+        K : scipy.sparse.csr_matrix
+            The tangent.
+        constrained : ndarray of bool, shape (3n,)
+            The dofs eliminated.
+        """
         t = time.perf_counter()
         self.linear.factorize(self.contact.for_factorisation(K), constrained)
         dt = time.perf_counter() - t
@@ -118,18 +171,45 @@ class NewtonSystem:
         self.stats["solve_s"] += dt
 
     def krylov_maxiter(self) -> int:
-        """CG iterations worth trying before a factorisation. A factorisation's cost grows faster
-        than a back-substitution's with the mesh, so larger meshes try more: one iteration per
-        ``KRYLOV_DOFS_PER_ITERATION`` dofs, within ``KRYLOV_MAXITER`` .. ``KRYLOV_MAXITER_LARGE``
-        (a fixed rule, not a timing, so that a run is reproducible to the last digit)."""
+        """How many CG iterations are worth trying before a factorisation.
+
+        A factorisation's cost grows faster than a back-substitution's with the mesh, so larger
+        meshes try more: one iteration per ``KRYLOV_DOFS_PER_ITERATION`` dofs, within
+        ``KRYLOV_MAXITER`` .. ``KRYLOV_MAXITER_LARGE`` (a fixed rule, not a timing, so that a run is
+        reproducible to the last digit).
+
+        Returns
+        -------
+        int
+        """
         return int(np.clip(self.n_dofs // KRYLOV_DOFS_PER_ITERATION, KRYLOV_MAXITER, KRYLOV_MAXITER_LARGE))
 
     def krylov(
         self, K: sp.csr_matrix, cmask: np.ndarray, rhs: np.ndarray, rtol: float, maxiter: int
     ) -> np.ndarray | None:
-        """CG (GMRES when K is unsymmetric) on K x = rhs with the dofs in ``cmask`` eliminated, preconditioned with the
-        factorisation in hand (with ``cmask``'s extra constraints by its Schur complement);
-        None when it does not reach ``rtol`` in ``maxiter`` iterations."""
+        """CG (GMRES when the tangent is unsymmetric) preconditioned with the factorisation in hand.
+
+        The dofs in ``cmask`` are eliminated (the factorisation's extra constraints by its Schur
+        complement) and the contact's :meth:`IndenterContact.correction` is applied.
+
+        Parameters
+        ----------
+        K : scipy.sparse.csr_matrix
+            The tangent.
+        cmask : ndarray of bool, shape (3n,)
+            The dofs held (eliminated, their solution 0).
+        rhs : ndarray, shape (3n,)
+            The right-hand side.
+        rtol : float
+            Relative residual to reach.
+        maxiter : int
+            Iterations at most.
+
+        Returns
+        -------
+        ndarray or None
+            The solution, or None when it does not reach ``rtol`` in ``maxiter`` iterations.
+        """
         t = time.perf_counter()
 
         def matvec(x: np.ndarray) -> np.ndarray:
@@ -164,12 +244,28 @@ class NewtonSystem:
     def newton_step(
         self, K: sp.csr_matrix, cmask: np.ndarray, rhs: np.ndarray, rtol: float = KRYLOV_RTOL
     ) -> np.ndarray:
-        """Solve K x = rhs with the dofs in ``cmask`` eliminated: by conjugate gradients (GMRES
-        with friction) preconditioned with the factorisation in hand (to ``rtol``; a tangent
-        assembly and a few back-substitutions instead of a factorisation) when that factorisation
-        covers the constraints (its own plus nodes attached since,
-        :meth:`ConstrainedSymmetricSolver.covers`), else, or when it does not get there, by
-        factorising K."""
+        """Solve K x = rhs, the dofs in ``cmask`` eliminated, as cheaply as the factorisation in hand allows.
+
+        By CG (GMRES with friction) preconditioned with the factorisation in hand (to ``rtol``: a
+        tangent assembly and a few back-substitutions instead of a factorisation) when that
+        factorisation covers the constraints (:meth:`ConstrainedSymmetricSolver.covers`), else,
+        or when it does not get there, by factorising K (:meth:`fresh_step`).
+
+        Parameters
+        ----------
+        K : scipy.sparse.csr_matrix
+            The tangent.
+        cmask : ndarray of bool, shape (3n,)
+            The dofs held (eliminated, their solution 0).
+        rhs : ndarray, shape (3n,)
+            The right-hand side.
+        rtol : float, optional
+            The Krylov solve's relative residual.
+
+        Returns
+        -------
+        ndarray, shape (3n,)
+        """
         if self.linear.covers(cmask):
             x = self.krylov(K, cmask, rhs, rtol, self.krylov_maxiter())
             if x is not None:
@@ -177,11 +273,25 @@ class NewtonSystem:
         return self.fresh_step(K, cmask, rhs)
 
     def fresh_step(self, K: sp.csr_matrix, cmask: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-        """Solve K x = rhs with a factorisation of K made here: one back-substitution; with
-        friction GMRES on K itself, preconditioned with it, to ``FRESH_RTOL`` (the factorisation is
-        of K's symmetric part, its contact blocks put back by :meth:`IndenterContact.correction` for at
-        most ``max_extra // 3`` nodes, and in single precision on large meshes), else that
-        factorisation's own step."""
+        """Solve K x = rhs with a factorisation of K made here.
+
+        One back-substitution; with friction GMRES on K itself, preconditioned with it, to
+        ``FRESH_RTOL`` (the factorisation is of K's symmetric part, the contact blocks put back by
+        the contact's correction), else that factorisation's own step.
+
+        Parameters
+        ----------
+        K : scipy.sparse.csr_matrix
+            The tangent.
+        cmask : ndarray of bool, shape (3n,)
+            The dofs held (eliminated, their solution 0).
+        rhs : ndarray, shape (3n,)
+            The right-hand side.
+
+        Returns
+        -------
+        ndarray, shape (3n,)
+        """
         self.factorize(K, cmask)
         if self.contact.symmetric:
             return self.solve(rhs, cmask)
@@ -191,7 +301,19 @@ class NewtonSystem:
         return x if x is not None else self.solve(rhs, cmask)
 
     def solve(self, rhs: np.ndarray, cmask: np.ndarray) -> np.ndarray:
-        """One back-substitution with the factorisation in hand, ``cmask``'s dofs held at zero."""
+        """One back-substitution with the factorisation in hand.
+
+        Parameters
+        ----------
+        rhs : ndarray, shape (3n,)
+            The right-hand side.
+        cmask : ndarray of bool, shape (3n,)
+            The dofs held (eliminated, their solution 0).
+
+        Returns
+        -------
+        ndarray, shape (3n,)
+        """
         t = time.perf_counter()
         x = self.precondition(rhs, cmask, self.contact.correction(cmask))
         self.stats["solves"] += 1
@@ -199,8 +321,21 @@ class NewtonSystem:
         return x
 
     def precondition(self, r: np.ndarray, cmask: np.ndarray, correction: LowRankUpdate | None) -> np.ndarray:
-        """The factorisation in hand applied to ``r`` (``cmask``'s dofs held at zero), with the
-        contact blocks' ``correction`` (:meth:`IndenterContact.correction`)."""
+        """The factorisation in hand applied to a vector, with the contact's correction.
+
+        Parameters
+        ----------
+        r : ndarray, shape (3n,)
+            The vector.
+        cmask : ndarray of bool, shape (3n,)
+            The dofs held (eliminated, their solution 0).
+        correction : LowRankUpdate or None
+            The contact blocks' correction (:meth:`IndenterContact.correction`).
+
+        Returns
+        -------
+        ndarray, shape (3n,)
+        """
         y = self.linear.solve_constrained(r, cmask)
         if correction is None:
             return y
@@ -210,6 +345,27 @@ class NewtonSystem:
 
     def equilibrate(self, u0: np.ndarray, cmask: np.ndarray, target: np.ndarray) -> Equilibrium:
         """Newton-Raphson to equilibrium with the dofs in ``cmask`` prescribed to ``target``.
+
+        Parameters
+        ----------
+        u0 : ndarray, shape (n, 3)
+            The starting state.
+        cmask : ndarray of bool, shape (3n,)
+            The prescribed dofs (supports, symmetry planes, attached nodes).
+        target : ndarray
+            Their prescribed displacements (one per dof in ``cmask``).
+
+        Returns
+        -------
+        Equilibrium
+
+        Raises
+        ------
+        IncrementFailed
+            No convergence in ``max_newton`` iterations, an inverted element or a failed solve.
+
+        Notes
+        -----
 
         The first iteration carries the prescribed increments into the body through the exact
         tangent (consistent predictor). The corrections reuse that factorisation while the

@@ -28,7 +28,13 @@ __all__ = ["NodeStickContact"]
 
 
 class NodeStickContact(IndenterContact):
-    """The exact node-wise stick (module docstring)."""
+    """The exact node-wise stick (module docstring).
+
+    Parameters
+    ----------
+    solver : NewtonSystem
+        The solver it belongs to (forward.solver.EmbeddedSolver).
+    """
 
     parameters = ("c1", "c5")
     symmetric = True
@@ -69,8 +75,22 @@ class NodeStickContact(IndenterContact):
         return "rigid sphere, node-to-surface stick (attach at path crossing, release on tension)"
 
     # ------------------------------------------------------------------ its numerics
-    def constraints(self, contact: StickContactState, depth: float) -> tuple[np.ndarray, np.ndarray]:
-        """Mask of constrained dofs (3n,) and their prescribed displacement values."""
+    def constraints(self, state: StickContactState, depth: float) -> tuple[np.ndarray, np.ndarray]:
+        """The dofs a contact state prescribes at a depth, with the supports and symmetry planes.
+
+        Parameters
+        ----------
+        state : StickContactState
+            Which top nodes are attached, and where on the sphere.
+        depth : float
+            The indenter's depth, mm.
+
+        Returns
+        -------
+        tuple of ndarray
+            The mask of constrained dofs (3n,) and their prescribed displacements.
+        """
+        contact = state
         s = self.solver
         mask = s.bc_fixed.copy()
         values = np.zeros((s.mesh.n_nodes, 3))
@@ -97,14 +117,13 @@ class NodeStickContact(IndenterContact):
         u_pred: np.ndarray,
         d0: float,
         d1: float,
-        contact: StickContactState,
+        state: StickContactState,
         du_start: np.ndarray | None,
         du_pred: np.ndarray | None = None,
     ) -> tuple[Equilibrium, StickContactState, int, int, np.ndarray | None]:
-        """Solve the increment d0 -> d1. Returns the equilibrium, the contact set, Newton
-        iterations, contact passes and (with sensitivities) d u / d theta (n, 3, p)."""
+        # the interface's increment: attach, solve, release and re-attach until settled
         s = self.solver
-        c = contact.copy()
+        c = state.copy()
         u_top0 = u[s.top]
         released = np.zeros_like(c.attached)
         trial = u_pred

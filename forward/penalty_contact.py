@@ -58,7 +58,14 @@ STATUS_NEWTON_UPDATES = 8
 
 
 class PenaltyContact(IndenterContact):
-    """Stick or Coulomb friction by a penalty at contact points (module docstring)."""
+    """Stick or Coulomb friction by a penalty at contact points (module docstring).
+
+    Parameters
+    ----------
+    solver : NewtonSystem
+        The solver it belongs to (forward.solver.EmbeddedSolver); its spec's ``contact`` says
+        the friction, the penalty and where the points are.
+    """
 
     def __init__(self, solver: NewtonSystem) -> None:
         super().__init__(solver)
@@ -107,7 +114,6 @@ class PenaltyContact(IndenterContact):
             K.data += self.scatter_cells(self._contact_blocks)
 
     def for_factorisation(self, K: sp.csr_matrix) -> sp.csr_matrix:
-        """K with the contact blocks made symmetric (recorded for :meth:`correction`)."""
         if self._contact_blocks is None:
             return K
         contact = self._contact_blocks
@@ -144,18 +150,23 @@ class PenaltyContact(IndenterContact):
 
     # ------------------------------------------------------------------ its numerics
     def scatter_cells(self, blocks: np.ndarray) -> np.ndarray:
-        """The contact cells' ``blocks`` (nc, k, 3, k, 3) summed into a CSR data array."""
+        """The contact cells' blocks summed into a CSR data array of the body's pattern.
+
+        Parameters
+        ----------
+        blocks : ndarray, shape (nc, k, 3, k, 3)
+            A block per contact cell.
+
+        Returns
+        -------
+        ndarray, shape (nnz,)
+        """
         s = self.solver
         return np.bincount(self._cell_slots.ravel(), weights=blocks.ravel(), minlength=s.pattern.nnz)
 
     def correction(self, cmask: np.ndarray) -> LowRankUpdate | None:
-        """With friction, what turns the factorisation in hand (of the tangent's symmetric part
-        when it was made) into the tangent now as far as the top nodes' contact blocks go: the
-        blocks that changed by more than ``CONTACT_BLOCK_CHANGE`` of their node's penalty since
-        (nodes that came into contact or left it, slipping nodes, whose blocks are unsymmetric),
-        by :class:`LowRankUpdate`. None when nothing changed (or without friction). At most as
-        many nodes as the factorisation keeps columns for (``max_extra``), the largest changes
-        first."""
+        # the interface's correction: the changed cells' blocks, the largest first, at most as many
+        # dofs as the factorisation keeps columns for (``max_extra``)
         s = self.solver
         if (
             self._contact_blocks is None
@@ -195,7 +206,27 @@ class PenaltyContact(IndenterContact):
         return LowRankUpdate(s.linear, dofs, D)
 
     def equilibrate(self, u0: np.ndarray, cmask: np.ndarray) -> Equilibrium:
-        """Newton-Raphson to equilibrium with the frictional contact's forces in the residual
+        """Damped Newton-Raphson to equilibrium with the contact's forces in the residual.
+
+        Parameters
+        ----------
+        u0 : ndarray, shape (n, 3)
+            The starting state.
+        cmask : ndarray of bool, shape (3n,)
+            The supports and symmetry planes (held at zero).
+
+        Returns
+        -------
+        Equilibrium
+
+        Raises
+        ------
+        forward.newton.IncrementFailed
+            No convergence in ``FRICTION_NEWTON`` iterations, or an inverted element.
+
+        Notes
+        -----
+        The frictional contact's forces in the residual
         (the supports in ``cmask`` held at zero), damped. As in :meth:`NewtonSystem.equilibrate`, corrections
         reuse the factorisation in hand while the residual contracts by at least
         ``REFACTOR_RATIO`` (``MAX_STALE_STEPS`` in a row at most), and take a Newton step with
@@ -308,16 +339,15 @@ class PenaltyContact(IndenterContact):
         u_pred: np.ndarray,
         d0: float,
         d1: float,
-        contact: FrictionContactState,
+        state: FrictionContactState,
         du_start: np.ndarray | None,
         du_pred: np.ndarray | None = None,
     ) -> tuple[Equilibrium, FrictionContactState, int, int, np.ndarray | None]:
-        """Solve the increment d0 -> d1 with a penalty contact: Newton solves with the sphere's
-        penalty forces in the residual and each contact point's status held, until the statuses
-        the solution calls for are those it was solved with; then the anchors of slipping points
-        move (:meth:`FrictionContactState.settle`)."""
+        # the interface's increment: Newton solves with the sphere's penalty forces in the
+        # residual and each point's status held, until the statuses the solution calls for are
+        # those it was solved with; then the anchors of slipping points move (settle)
         s = self.solver
-        c = contact.copy()
+        c = state.copy()
         top = s.top
         at_points = self._points.to_points
         s0_top = at_points(du_start[top]) if du_start is not None else None

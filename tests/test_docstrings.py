@@ -39,19 +39,6 @@ OWNED_ELSEWHERE = {
     "EmbeddedSolver",
     "SimulationError",
     "simulate",
-    # forward/newton.py
-    "Equilibrium",
-    "IncrementFailed",
-    "NewtonSystem",
-    # forward/indenter_contact.py, forward/node_stick.py, forward/penalty_contact.py
-    "IndenterContact",
-    "NodeStickContact",
-    "PenaltyContact",
-    # forward/contact_quadrature.py
-    "ContactPoints",
-    "contact_points",
-    "top_faces",
-    "tributary_areas",
     # forward/coulomb_contact.py
     "FrictionContactState",
     "contact_response",
@@ -188,9 +175,21 @@ def problems(obj) -> list[str]:
     return out
 
 
+def _documented_in_a_base(cls, name: str) -> bool:
+    """Whether a base class of ``cls`` defines ``name`` with a docstring: an implementation of an
+    interface's method (forward.IndenterContact's, say) is documented there."""
+    for base in cls.__mro__[1:]:
+        member = vars(base).get(name)
+        func = member.fget if isinstance(member, property) else member
+        if func is not None and getattr(func, "__doc__", None):
+            return True
+    return False
+
+
 def _public_methods():
     """'package.Class.method' -> function, for the public methods and properties an exported class
-    defines itself (inherited ones are checked where they are defined)."""
+    defines itself (inherited ones are checked where they are defined; an override without its own
+    docstring, where the base class documents it)."""
     out = {}
     for qualified, cls in EXPORTED.items():
         if not inspect.isclass(cls) or qualified.split(".")[-1] in OWNED_ELSEWHERE:
@@ -198,6 +197,9 @@ def _public_methods():
         for name, member in vars(cls).items():
             if isinstance(member, classmethod | staticmethod):
                 member = member.__func__
+            func = member.fget if isinstance(member, property) else member
+            if callable(func) and not func.__doc__ and _documented_in_a_base(cls, name):
+                continue
             if not name.startswith("_") and (inspect.isfunction(member) or isinstance(member, property)):
                 out[f"{qualified}.{name}"] = member
     return out
