@@ -23,7 +23,15 @@ MAX_DEPTH_FRACTION = 0.5
 
 
 class SpecError(ValueError):
-    """A model spec field holds a value the model cannot take; the message names the field."""
+    """A model spec field holds a value the model cannot take; the message names the field.
+
+    Parameters
+    ----------
+    field_name : str
+        The field, dotted (``"material.c1"``); kept as :attr:`field`.
+    message : str
+        What is wrong with it.
+    """
 
     def __init__(self, field_name: str, message: str) -> None:
         self.field = field_name
@@ -52,6 +60,18 @@ class Geometry:
     """The quarter block: x in [0, half_x], y in [0, half_y], z in [0, height], mm.
 
     The full specimen is 100 x 100 x 60 mm; symmetry planes x = 0 and y = 0 cut it to a quarter.
+
+    Parameters
+    ----------
+    half_x, half_y : float, optional
+        Half the specimen's width along x and y, mm.
+    height : float, optional
+        The specimen's height, mm.
+
+    Raises
+    ------
+    SpecError
+        A size that is not finite and positive.
     """
 
     half_x: float = 50.0
@@ -65,7 +85,18 @@ class Geometry:
 
 @dataclass(frozen=True)
 class Indenter:
-    """A rigid sphere, lowest point touching the top face at (0, 0, height) at depth 0."""
+    """A rigid sphere, lowest point touching the top face at (0, 0, height) at depth 0.
+
+    Parameters
+    ----------
+    radius : float, optional
+        mm (the paper's spheres: 4.77 and 8).
+
+    Raises
+    ------
+    SpecError
+        A radius that is not finite and positive.
+    """
 
     radius: float = INDENTER_PRESETS["small"]
 
@@ -74,6 +105,22 @@ class Indenter:
 
     @classmethod
     def preset(cls, name: str) -> Indenter:
+        """One of the paper's two spheres by name.
+
+        Parameters
+        ----------
+        name : {"small", "large"}
+            4.77 or 8 mm.
+
+        Returns
+        -------
+        Indenter
+
+        Raises
+        ------
+        SpecError
+            An unknown name.
+        """
         if name not in INDENTER_PRESETS:
             raise SpecError("indenter.radius", f"unknown preset {name!r}; use {sorted(INDENTER_PRESETS)}")
         return cls(INDENTER_PRESETS[name])
@@ -81,7 +128,20 @@ class Indenter:
 
 @dataclass(frozen=True)
 class Protocol:
-    """Quasi-static indentation in equal steps (paper 2.7: 28 steps of 0.5 mm)."""
+    """Quasi-static indentation in equal steps (paper 2.7: 28 steps of 0.5 mm).
+
+    Parameters
+    ----------
+    step_size : float, optional
+        Depth per step, mm.
+    steps : int, optional
+        Number of steps.
+
+    Raises
+    ------
+    SpecError
+        A step size that is not finite and positive, or steps not a whole number >= 1.
+    """
 
     step_size: float = 0.5
     steps: int = 28
@@ -94,6 +154,7 @@ class Protocol:
 
     @property
     def max_depth(self) -> float:
+        """The deepest indentation, mm."""
         return self.step_size * self.steps
 
     @property
@@ -104,8 +165,26 @@ class Protocol:
 
 @dataclass(frozen=True)
 class Material:
-    """Uncoupled fiber-reinforced neo-Hookean (eq. 3): FEBio's trans iso Mooney-Rivlin with
-    c2 = 0 and lam_max = 1. Moduli in kPa; ``fiber`` is the reference fiber direction."""
+    """Uncoupled fiber-reinforced neo-Hookean (eq. 3).
+
+    FEBio's trans iso Mooney-Rivlin with c2 = 0 and lam_max = 1.
+
+    Parameters
+    ----------
+    c1 : float, optional
+        The matrix's modulus, kPa (> 0).
+    c5 : float, optional
+        The fibers' modulus, kPa (>= 0; 0 is isotropic).
+    kappa : float, optional
+        The bulk-like modulus, kPa.
+    fiber : tuple of float, optional
+        The reference fiber direction (normalised; the paper's +y).
+
+    Raises
+    ------
+    SpecError
+        A modulus out of range or a fiber that is not a finite non-zero 3-vector.
+    """
 
     c1: float = 10.0
     c5: float = 350.0
@@ -146,11 +225,29 @@ BULK_TO_SHEAR = 50.0
 
 @dataclass(frozen=True)
 class Constituent:
-    """One material of the composite phantom (paper 2.4.2, 3.1): FEBio's uncoupled Mooney-Rivlin,
-    W = c1 (I1~ - 3) + c2 (I2~ - 3) + kappa/2 (ln J)^2, plus eq. 2's fiber term c5 along
-    ``Material.fiber`` where c5 > 0. A neo-Hookean solid of shear modulus mu is c1 = mu / 2,
-    c2 = 0. c1 may be negative (the TPU fibers' c1 = -1227 kPa) as long as the initial shear
-    modulus 2 (c1 + c2) is positive. ``kappa`` None: ``BULK_TO_SHEAR`` x 2 (c1 + c2). kPa."""
+    """One material of the composite phantom (paper 2.4.2, 3.1).
+
+    FEBio's uncoupled Mooney-Rivlin, W = c1 (I1~ - 3) + c2 (I2~ - 3) + kappa/2 (ln J)^2, plus
+    eq. 2's fiber term c5 along ``Material.fiber`` where c5 > 0. A neo-Hookean solid of shear
+    modulus mu is c1 = mu / 2, c2 = 0.
+
+    Parameters
+    ----------
+    name : str
+        A plain word (``"matrix"``, ``"fibers"``).
+    c1, c2 : float
+        kPa; c1 may be negative (the TPU fibers' c1 = -1227 kPa) as long as the initial shear
+        modulus 2 (c1 + c2) is positive.
+    c5 : float, optional
+        The fiber term's modulus, kPa (>= 0).
+    kappa : float or None, optional
+        kPa; None: ``BULK_TO_SHEAR`` x 2 (c1 + c2).
+
+    Raises
+    ------
+    SpecError
+        A name that is not a plain word, a modulus out of range.
+    """
 
     name: str
     c1: float
@@ -187,8 +284,21 @@ PHANTOM_FIBERS = Constituent("fibers", -1227.0, 5945.0)
 
 @dataclass(frozen=True)
 class CompositeMaterial:
-    """The composite phantom's two materials (2.4.2): element set 0 is the matrix, set 1 the
-    fibers (:mod:`forward.composite_mesh`)."""
+    """The composite phantom's two materials (2.4.2).
+
+    Element set 0 is the matrix, set 1 the fibers (:mod:`forward.composite_mesh`).
+
+    Parameters
+    ----------
+    matrix, fibers : Constituent or dict, optional
+        The constituents (the phantom's Ecoflex and TPU by default); a dict is a Constituent's
+        fields.
+
+    Raises
+    ------
+    SpecError
+        A constituent that is not one, or two with the same name.
+    """
 
     matrix: Constituent = PHANTOM_MATRIX
     fibers: Constituent = PHANTOM_FIBERS
@@ -214,8 +324,20 @@ class CompositeMaterial:
 
 @dataclass(frozen=True)
 class MeshChoice:
-    """Which block mesh: a named preset of :mod:`forward.mesh` (or of the composite phantom,
-    :data:`COMPOSITE_MESH_PRESETS`), or the hex8 block of a FEBio file."""
+    """Which block mesh: a named preset, or the hex8 block of a FEBio file.
+
+    Parameters
+    ----------
+    preset : str, optional
+        A preset of :mod:`forward.mesh` or of the composite phantom (``COMPOSITE_MESH_PRESETS``).
+    feb_file : str or None, optional
+        A FEBio file whose hex8 block is the mesh (then ``preset`` is not used).
+
+    Raises
+    ------
+    SpecError
+        An unknown preset.
+    """
 
     preset: str = "default"
     feb_file: str | None = None
@@ -227,6 +349,7 @@ class MeshChoice:
 
     @property
     def is_composite(self) -> bool:
+        """Whether the mesh is a composite phantom's preset."""
         return self.feb_file is None and self.preset in COMPOSITE_MESH_PRESETS
 
 
@@ -239,13 +362,27 @@ DEFAULT_CONTACT_PENALTY = 1.0e5
 class Contact:
     """The indenter's contact with the top face.
 
-    ``friction`` None (the default) is the paper's near-perfect stick; a number is Coulomb's
-    friction coefficient mu >= 0 (0: frictionless). ``integration`` says where the contact is
-    evaluated (:mod:`forward.contact_quadrature`): ``"node"`` (the default) node by node, the stick
-    imposed exactly (:mod:`forward.stick_contact`) and friction by a penalty;
-    ``"surface"``: at ``order`` x ``order`` Gauss points of every top face, stick and friction
-    by a penalty (:mod:`forward.coulomb_contact`). The penalty is ``penalty`` kPa per mm of
-    penetration (and of elastic slip under stick)."""
+    Parameters
+    ----------
+    friction : float or None, optional
+        Coulomb's friction coefficient mu >= 0 (0: frictionless); None (the default): the
+        paper's near-perfect stick.
+    penalty : float, optional
+        kPa per mm of penetration (and of elastic slip under stick) of a penalty contact.
+    integration : {"node", "surface"}, optional
+        Where the contact is evaluated (:mod:`forward.contact_quadrature`): node by node (the
+        default; the stick imposed exactly, :mod:`forward.stick_contact`, friction by a
+        penalty), or at ``order`` x ``order`` Gauss points of every top face (stick and friction
+        by a penalty, :mod:`forward.coulomb_contact`).
+    order : int, optional
+        Gauss points per face edge of the surface contact (1 to 8).
+
+    Raises
+    ------
+    SpecError
+        A friction coefficient or penalty out of range, an unknown integration, an order out of
+        range.
+    """
 
     friction: float | None = None
     penalty: float = DEFAULT_CONTACT_PENALTY
@@ -275,11 +412,16 @@ class Contact:
 
     @property
     def penalised(self) -> bool:
-        """Whether the contact is a penalty (friction, or any surface contact), not the exact
-        node-wise stick."""
+        """Whether the contact is a penalty (friction, or any surface contact), not the exact stick."""
         return self.friction is not None or self.integration == "surface"
 
     def describe(self) -> str:
+        """The contact in words ("perfect stick", "Coulomb friction mu = 0.3", ...).
+
+        Returns
+        -------
+        str
+        """
         where = (
             "" if self.integration == "node" else f", surface-integrated ({self.order}x{self.order} per face)"
         )
@@ -291,7 +433,26 @@ class Contact:
 
 @dataclass(frozen=True)
 class SolverOptions:
-    """Numerical controls of the embedded solver (forward.solver)."""
+    """Numerical controls of the embedded solver (forward.solver).
+
+    Parameters
+    ----------
+    substeps : int, optional
+        Increments per protocol step.
+    residual_tol : float, optional
+        Newton's residual on the free dofs relative to the reactions.
+    max_newton : int, optional
+        Newton iterations per solve at most.
+    max_cutbacks : int, optional
+        How many times an increment may be halved.
+    max_contact_passes : int, optional
+        Re-solves of an increment until its contact set settles, at most.
+
+    Raises
+    ------
+    SpecError
+        A count that is not a whole number in range, a tolerance that is not positive.
+    """
 
     substeps: int = 1
     #: Newton's residual on the free dofs relative to the reactions (why 1e-4: README, "The forward
@@ -313,7 +474,22 @@ class SolverOptions:
 
 @dataclass(frozen=True)
 class ModelSpec:
-    """One indentation simulation: geometry, indenter, protocol, material, mesh, solver."""
+    """One indentation simulation: geometry, indenter, protocol, material, mesh, solver, contact.
+
+    Parameters
+    ----------
+    geometry, indenter, protocol, material, mesh, solver, contact : optional
+        The parts (their defaults: the paper's baseline test).
+    composite : CompositeMaterial or None, optional
+        The composite phantom's two materials (2.4.2) on a composite mesh; None: the
+        homogeneous ``material`` everywhere.
+
+    Raises
+    ------
+    SpecError
+        A composite mesh without a composite material or the reverse, or a protocol deeper than
+        half the block.
+    """
 
     geometry: Geometry = field(default_factory=Geometry)
     indenter: Indenter = field(default_factory=Indenter)
@@ -347,13 +523,40 @@ class ModelSpec:
             )
 
     def with_material(self, **changes: float) -> ModelSpec:
-        """The same spec with some material fields changed (e.g. ``c1=12``)."""
+        """The same spec with some material fields changed.
+
+        Parameters
+        ----------
+        **changes : float
+            Material fields and their values (e.g. ``c1=12``).
+
+        Returns
+        -------
+        ModelSpec
+        """
         return replace(self, material=replace(self.material, **changes))
 
     def with_parameters(self, **values: float) -> ModelSpec:
-        """The same spec with some identified parameters changed: material fields by name
-        (``c1``, ``c5``, ``kappa``) and ``mu``, the contact's friction coefficient. A campaign's
-        or a predictor's parameter point goes through here, so that mu can be an axis too."""
+        """The same spec with some identified parameters changed.
+
+        A campaign's or a predictor's parameter point goes through here, so that mu can be an
+        axis too.
+
+        Parameters
+        ----------
+        **values : float
+            Material fields by name (``c1``, ``c5``, ``kappa``) and ``mu``, the contact's
+            friction coefficient.
+
+        Returns
+        -------
+        ModelSpec
+
+        Raises
+        ------
+        SpecError
+            An unknown parameter.
+        """
         material = {k: v for k, v in values.items() if k != "mu"}
         scalar = {f.name for f in fields(Material)} - {"fiber"}  # a direction is no parameter
         unknown = sorted(set(material) - scalar)
@@ -365,13 +568,30 @@ class ModelSpec:
         return spec.with_friction(float(values["mu"])) if "mu" in values else spec
 
     def with_friction(self, friction: float | None) -> ModelSpec:
-        """The same spec with another friction coefficient (None: perfect stick)."""
+        """The same spec with another friction coefficient.
+
+        Parameters
+        ----------
+        friction : float or None
+            mu (None: stick).
+
+        Returns
+        -------
+        ModelSpec
+        """
         return replace(self, contact=replace(self.contact, friction=friction))
 
     def to_dict(self) -> dict[str, Any]:
-        """The spec as plain data. The contact is left out when it is the default (perfect
-        stick), so that specs, campaigns and result files written before friction existed
-        compare equal to today's."""
+        """The spec as plain data (what every result file stores).
+
+        The contact is left out when it is the default (perfect stick), and a node-wise contact
+        keeps only its friction and penalty, so that specs, campaigns and result files written
+        before friction or the surface contact existed compare equal to today's.
+
+        Returns
+        -------
+        dict
+        """
         d = asdict(self)
         d["material"]["fiber"] = list(self.material.fiber)
         if self.contact == Contact():
@@ -384,6 +604,17 @@ class ModelSpec:
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> ModelSpec:
+        """The spec of :meth:`to_dict`'s plain data.
+
+        Parameters
+        ----------
+        d : dict
+            As written by :meth:`to_dict` (missing parts take their defaults).
+
+        Returns
+        -------
+        ModelSpec
+        """
         material = dict(d.get("material", {}))
         if "fiber" in material:
             material["fiber"] = tuple(material["fiber"])
@@ -400,7 +631,18 @@ class ModelSpec:
 
     @classmethod
     def composite_phantom(cls, preset: str = "composite", **fields_: Any) -> ModelSpec:
-        """The composite phantom's spec (2.4.2): its constituents on the composite mesh ``preset``;
-        other fields (indenter, protocol, ...) as keywords."""
+        """The composite phantom's spec (2.4.2): its constituents on a composite mesh.
+
+        Parameters
+        ----------
+        preset : str, optional
+            A composite mesh preset.
+        **fields_ : Any
+            Other fields (indenter, protocol, contact, composite, ...).
+
+        Returns
+        -------
+        ModelSpec
+        """
         composite = fields_.pop("composite", CompositeMaterial())
         return cls(mesh=MeshChoice(preset=preset), composite=composite, **fields_)
