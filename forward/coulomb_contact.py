@@ -74,12 +74,32 @@ def contact_response(
     mu: float,
     status: np.ndarray,
 ) -> ContactResponse:
-    """The indenter's force (module docstring) on nodes at ``r`` (nt, 3; relative to the
-    sphere's centre) anchored at ``anchor`` (nt, 3, on the indenter's surface), with node
-    penalties ``eps`` (nt,), friction coefficient ``mu`` and each node's contact ``status`` held
-    (FREE or CONTACT; a node held in contact that has left the plane is pulled back, p < 0:
-    what :func:`settled_status` releases). The cone is mu max(p, 0): a pulled node carries no
-    friction rather than friction turned round. Vectorised over the nodes."""
+    """The indenter's force on contact points and its derivatives (module docstring).
+
+    Vectorised over the points ("nodes" below: node-wise contact points, or Gauss points of the
+    top faces). The cone is mu max(p, 0): a pulled point carries no friction rather than friction
+    turned round.
+
+    Parameters
+    ----------
+    r : ndarray, shape (m, 3)
+        The points' positions relative to the sphere's centre.
+    anchor : ndarray, shape (m, 3)
+        Their anchors on the indenter's surface.
+    eps : ndarray, shape (m,)
+        Their penalties, mN/mm.
+    mu : float
+        Coulomb's friction coefficient (``inf``: stick).
+    status : ndarray, shape (m,)
+        Each point's status held (FREE or CONTACT); a point held in contact that has left its
+        plane is pulled back (p < 0): what :func:`settled_status` releases.
+
+    Returns
+    -------
+    ContactResponse
+        Forces, tractions, statuses and the derivatives with respect to the points' positions,
+        their anchors and mu.
+    """
     eye = np.eye(3)
     off, D = capsule_axis_offset(anchor)
     rho_a = np.linalg.norm(off, axis=1)
@@ -187,9 +207,25 @@ def anchor_crossing_step(w: np.ndarray, normal: np.ndarray, step: np.ndarray, sl
 
 @dataclass
 class FrictionContactState:
-    """Each top node's contact status (FREE, CONTACT) and anchor (relative to the sphere's
-    centre) with the anchor's derivatives (nt, 3, p); at the end of an increment, those it ended
-    with and the sphere's force on each node."""
+    """The contact points' statuses and anchors through a penalty contact's increments.
+
+    Each point's contact status (FREE, CONTACT) and anchor (relative to the sphere's centre) with
+    the anchor's derivatives (m, 3, p); at the end of an increment, the sphere's force on each
+    point (and its derivative) and which points slip.
+
+    Parameters
+    ----------
+    sphere : RigidSphere
+        The indenter.
+    top_xyz0 : ndarray, shape (m, 3)
+        The contact points' reference positions (top nodes, or Gauss points of the top faces).
+    eps : ndarray, shape (m,)
+        Their penalties, mN/mm.
+    mu : float
+        Coulomb's friction coefficient (``inf``: stick).
+    n_params : int, optional
+        The parameters the anchors' derivatives are taken for (2: c1, c5; 3: and mu).
+    """
 
     sphere: RigidSphere
     top_xyz0: np.ndarray  # (nt, 3) reference positions of the top nodes
@@ -215,6 +251,7 @@ class FrictionContactState:
         self.slipping = np.zeros(nt, dtype=bool)
 
     def copy(self) -> FrictionContactState:
+        """An independent copy (an increment works on one, kept only if it converges)."""
         other = FrictionContactState(self.sphere, self.top_xyz0, self.eps, self.mu, self.n_params)
         other.status = self.status.copy()
         other.anchor = self.anchor.copy()
@@ -232,8 +269,21 @@ class FrictionContactState:
     def relative(
         self, u_top: np.ndarray, depth: float, nodes: np.ndarray | slice = slice(None)
     ) -> np.ndarray:
-        """Positions (relative to the sphere's centre at ``depth``) of the top ``nodes`` displaced
-        by ``u_top`` (their rows)."""
+        """Positions of contact points relative to the sphere's centre at a depth.
+
+        Parameters
+        ----------
+        u_top : ndarray, shape (k, 3)
+            The points' displacements (their rows of ``nodes``).
+        depth : float
+            The indenter's depth, mm.
+        nodes : ndarray or slice, optional
+            Which points.
+
+        Returns
+        -------
+        ndarray, shape (k, 3)
+        """
         return self.top_xyz0[nodes] + u_top - self.sphere.centre(depth)
 
     def anchor_newcomers(
@@ -245,8 +295,23 @@ class FrictionContactState:
         du_start: np.ndarray | None = None,
         du_pred: np.ndarray | None = None,
     ) -> None:
-        """Anchor every free node where its predicted path in the increment crosses the sphere
-        (used if it comes into contact in the increment)."""
+        """Anchor every free point where its predicted path in the increment crosses the sphere.
+
+        Used if it comes into contact in the increment.
+
+        Parameters
+        ----------
+        u_start : ndarray, shape (m, 3)
+            The points' displacements at the increment's start.
+        depth_start : float
+            The depth there, mm.
+        u_pred : ndarray, shape (m, 3)
+            Their predicted displacements at its end.
+        depth_end : float
+            The depth there, mm.
+        du_start, du_pred : ndarray, shape (m, 3, p), optional
+            Their derivatives with respect to theta (for the anchors' derivatives).
+        """
         new = np.flatnonzero(self.status == FREE)
         if new.size == 0:
             return
@@ -264,17 +329,59 @@ class FrictionContactState:
             self.danchor[new, :, : d.shape[2]] = d
 
     def response(self, u_top: np.ndarray, depth: float) -> ContactResponse:
-        """The indenter's force on the nodes at ``u_top``, the statuses held (:func:`contact_response`)."""
+        """The indenter's force on the points, the statuses held (:func:`contact_response`).
+
+        Parameters
+        ----------
+        u_top : ndarray, shape (m, 3)
+            The points' displacements.
+        depth : float
+            The indenter's depth, mm.
+
+        Returns
+        -------
+        ContactResponse
+        """
         r = self.relative(u_top, depth)
         return contact_response(r, self.anchor, self.eps, self.mu, self.status)
 
     def settled_status(self, u_top: np.ndarray, depth: float, tol: float) -> np.ndarray:
-        """The statuses the state at ``u_top`` calls for (:func:`settled_status`)."""
+        """The statuses a state calls for (:func:`settled_status`).
+
+        Parameters
+        ----------
+        u_top : ndarray, shape (m, 3)
+            The points' displacements.
+        depth : float
+            The indenter's depth, mm.
+        tol : float or ndarray
+            How far (mm) a point may be inside the sphere while free, or outside its anchor's
+            plane while held.
+
+        Returns
+        -------
+        ndarray, shape (m,)
+        """
         r = self.relative(u_top, depth)
         return settled_status(r, self.anchor, self.sphere.radius, self.status, tol)
 
     def step_fraction(self, u_top: np.ndarray, step_top: np.ndarray, depth: float) -> float:
-        """:func:`anchor_crossing_step` for the top nodes at ``u_top`` moving by ``step_top``."""
+        """The largest fraction of a step that takes no slipping point past its anchor.
+
+        Parameters
+        ----------
+        u_top : ndarray, shape (m, 3)
+            The points' displacements.
+        step_top : ndarray, shape (m, 3)
+            Their step.
+        depth : float
+            The indenter's depth, mm.
+
+        Returns
+        -------
+        float
+            In (0, 1] (:func:`anchor_crossing_step`).
+        """
         if self.mu == 0.0:  # no friction to turn round
             return 1.0
         resp = self.response(u_top, depth)
@@ -285,10 +392,21 @@ class FrictionContactState:
         return anchor_crossing_step(w, resp.normal, step_top, rubbing)
 
     def settle(self, u_top: np.ndarray, depth: float, du_top: np.ndarray | None = None) -> None:
-        """End an increment at ``u_top``: record the indenter's force on each node (``force``)
-        and its derivative (``dforce``, with ``du_top``, the converged state's derivatives
-        (nt, 3, p)); then nodes that slipped move their anchor to ``r + t / eps`` projected on
-        the surface (carrying the derivatives)."""
+        """End an increment at a converged state.
+
+        Records the indenter's force on each point (``force``) and its derivative (``dforce``,
+        with ``du_top``); then points that slipped move their anchor to ``r + t / eps``
+        projected on the surface (carrying the derivatives).
+
+        Parameters
+        ----------
+        u_top : ndarray, shape (m, 3)
+            The points' displacements.
+        depth : float
+            The indenter's depth, mm.
+        du_top : ndarray, shape (m, 3, p), optional
+            The converged state's derivatives with respect to theta.
+        """
         resp = self.response(u_top, depth)
         r = self.relative(u_top, depth)
         slip = resp.slipping
@@ -315,14 +433,51 @@ class FrictionContactState:
         return d
 
     def traction_derivative(self, resp: ContactResponse, du_top: np.ndarray) -> np.ndarray:
-        """d t / d theta (nt, 3, p) for node derivatives ``du_top`` (nt, 3, p)."""
+        """d t / d theta for the points' derivatives.
+
+        Parameters
+        ----------
+        resp : ContactResponse
+            The response at the state.
+        du_top : ndarray, shape (m, 3, p)
+            The points' d u / d theta.
+
+        Returns
+        -------
+        ndarray, shape (m, 3, p)
+        """
         return self._chain(resp.dt_dr, resp.dt_da, resp.dt_dmu, du_top)
 
     def force_derivative(self, resp: ContactResponse, du_top: np.ndarray) -> np.ndarray:
-        """d f / d theta (nt, 3, p) for node derivatives ``du_top`` (nt, 3, p)."""
+        """d f / d theta for the points' derivatives.
+
+        Parameters
+        ----------
+        resp : ContactResponse
+            The response at the state.
+        du_top : ndarray, shape (m, 3, p)
+            The points' d u / d theta.
+
+        Returns
+        -------
+        ndarray, shape (m, 3, p)
+        """
         return self._chain(resp.df_dr, resp.df_da, resp.dt_dmu, du_top)
 
     def explicit_force_derivative(self, resp: ContactResponse, n_params: int) -> np.ndarray:
-        """The part of d f / d theta at fixed node positions (anchors' derivatives and mu),
-        (nt, 3, p): the right-hand side's contact part in the sensitivity solve."""
+        """The part of d f / d theta at fixed point positions (anchors' derivatives and mu).
+
+        The right-hand side's contact part in the sensitivity solve.
+
+        Parameters
+        ----------
+        resp : ContactResponse
+            The response at the state.
+        n_params : int
+            p.
+
+        Returns
+        -------
+        ndarray, shape (m, 3, p)
+        """
         return self.force_derivative(resp, np.zeros((resp.force.shape[0], 3, n_params)))

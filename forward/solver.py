@@ -46,7 +46,17 @@ log = logging.getLogger(__name__)
 
 
 class SimulationError(RuntimeError):
-    """A simulation that could not reach its final depth; names the depth reached."""
+    """A simulation that could not reach its final depth; names the depth reached.
+
+    Parameters
+    ----------
+    message : str
+        What failed, where.
+    depth_reached : float
+        The last converged depth, mm.
+    partial : SimulationResult or None, optional
+        The steps finished before it failed (kept so that nothing computed is lost).
+    """
 
     def __init__(self, message: str, depth_reached: float, partial: SimulationResult | None = None):
         super().__init__(message)
@@ -82,8 +92,25 @@ def mesh_structures(mesh: BlockMesh) -> tuple[ReferenceGeometry, SparsePattern]:
 
 
 class EmbeddedSolver(NewtonSystem):
-    """Solves one :class:`ModelSpec` on its mesh. ``linear_solver`` names a backend of
-    :mod:`forward.linear_solver`."""
+    """Solves one :class:`ModelSpec` on its mesh (module docstring).
+
+    Parameters
+    ----------
+    spec : ModelSpec
+        The model.
+    mesh : BlockMesh or None, optional
+        The mesh to solve on; None: the spec's (:func:`forward.mesh.build_mesh`).
+    linear_solver : str or None, optional
+        A backend of :mod:`forward.linear_solver` (None: PARDISO where MKL loads, else SuperLU).
+
+    Examples
+    --------
+    >>> from indentation_studio.forward import EmbeddedSolver, ModelSpec, MeshChoice, Protocol
+    >>> spec = ModelSpec(mesh=MeshChoice("coarse"), protocol=Protocol(steps=2))
+    >>> result = EmbeddedSolver(spec).run()
+    >>> result.force.shape
+    (3,)
+    """
 
     name = "embedded"
 
@@ -141,10 +168,31 @@ class EmbeddedSolver(NewtonSystem):
 
     # ------------------------------------------------------------------ numerics
     def assemble(self, u: np.ndarray, tangent: bool = True, parameter_derivatives: bool = False):
-        """Global internal force (3n,), tangent (CSR) and, if asked, dR/dtheta (3n, 2). In an
-        increment the contact takes its forces off the internal force and their derivative off
-        the tangent (:meth:`IndenterContact.add_to_system`; nothing for the exact stick, whose
-        forces are the reactions)."""
+        """The global internal force, tangent and (if asked) dR/dtheta at a state.
+
+        In an increment the contact takes its forces off the internal force and their derivative
+        off the tangent (:meth:`IndenterContact.add_to_system`; nothing for the exact stick, whose
+        forces are the reactions).
+
+        Parameters
+        ----------
+        u : ndarray, shape (n, 3)
+            Displacements, mm.
+        tangent : bool, optional
+            Whether to assemble the tangent.
+        parameter_derivatives : bool, optional
+            Whether to assemble dR/dtheta for theta = (c1, c5).
+
+        Returns
+        -------
+        tuple
+            R (3n,), K (CSR or None), dR (3n, 2) or None.
+
+        Raises
+        ------
+        InvertedElementError
+            An element turned inside out at ``u``.
+        """
         t = time.perf_counter()
         m = self._mat
         st = element_state(
@@ -178,11 +226,36 @@ class EmbeddedSolver(NewtonSystem):
         *,
         threads: int | None = None,
     ) -> SimulationResult:
-        """Run the protocol; ``progress(step, steps, force)`` is called after each step;
-        ``full_field`` keeps every node's displacement per step (for VTU export). ``threads``:
-        numba's and MKL's thread count for this run; None takes the idle cores
-        (:func:`forward.threads.solver_threads`), a campaign worker passes 1. The linear
-        solver's memory (PARDISO keeps its factors outside Python) is freed at the end."""
+        """Run the protocol.
+
+        Parameters
+        ----------
+        sensitivities : bool, optional
+            Also d(force)/d(theta) and d(top displacements)/d(theta) at every step (the
+            homogeneous model's (c1, c5), and mu with friction).
+        progress : callable, optional
+            ``progress(step, steps, force)`` after each step.
+        full_field : bool, optional
+            Keep every node's displacement per step (for VTU export).
+        threads : int or None, optional
+            numba's and MKL's thread count for this run; None takes the idle cores
+            (:func:`forward.threads.solver_threads`), a campaign worker passes 1.
+
+        Returns
+        -------
+        SimulationResult
+
+        Raises
+        ------
+        ValueError
+            Sensitivities asked of a composite.
+        SimulationError
+            The protocol's final depth not reached (with the finished steps).
+
+        Notes
+        -----
+        The linear solver's memory (PARDISO keeps its factors outside Python) is freed at the end.
+        """
         if sensitivities and not self._mat.homogeneous:
             raise ValueError(
                 "sensitivities are those of the homogeneous model's (c1, c5); a composite has none"
@@ -333,5 +406,21 @@ class EmbeddedSolver(NewtonSystem):
 def simulate(
     spec: ModelSpec, mesh: BlockMesh | None = None, sensitivities: bool = False, **kwargs
 ) -> SimulationResult:
-    """Run one simulation of ``spec`` on the embedded solver."""
+    """Run one simulation of ``spec`` on the embedded solver.
+
+    Parameters
+    ----------
+    spec : ModelSpec
+        The model.
+    mesh : BlockMesh or None, optional
+        The mesh (None: the spec's).
+    sensitivities : bool, optional
+        Also the sensitivities (:meth:`EmbeddedSolver.run`).
+    **kwargs
+        :class:`EmbeddedSolver`'s other arguments (``linear_solver``).
+
+    Returns
+    -------
+    SimulationResult
+    """
     return EmbeddedSolver(spec, mesh, **kwargs).run(sensitivities=sensitivities)
