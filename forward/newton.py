@@ -343,6 +343,46 @@ class NewtonSystem:
         y[cmask] = 0.0
         return y
 
+    def sensitivity_solve(self, K: sp.csr_matrix, cmask: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """Solve the sensitivity equations K x = b, column by column, to ``SENSITIVITY_RTOL``.
+
+        Krylov on the exact converged tangent, preconditioned with the factorisation in hand
+        (with the contact's correction) when it covers the constraints; where it does not get
+        there, K is factorised and the solve repeated.
+
+        Parameters
+        ----------
+        K : scipy.sparse.csr_matrix
+            The converged tangent.
+        cmask : ndarray of bool, shape (3n,)
+            The dofs held (their solution 0).
+        b : ndarray, shape (3n, p)
+            The right-hand sides, one per parameter.
+
+        Returns
+        -------
+        ndarray, shape (3n, p)
+
+        Raises
+        ------
+        LinearSolveError
+            A solve that does not converge even with a fresh factorisation.
+        """
+        x = np.zeros_like(b)
+        for k in range(b.shape[1]):
+            col = (
+                self.krylov(K, cmask, b[:, k], SENSITIVITY_RTOL, self.krylov_maxiter())
+                if self.linear.covers(cmask)
+                else None
+            )
+            if col is None:  # that factorisation is too far from this tangent: factorise it
+                self.factorize(K, cmask)
+                col = self.krylov(K, cmask, b[:, k], SENSITIVITY_RTOL, 100)
+                if col is None:
+                    raise LinearSolveError("the sensitivity solve did not converge")
+            x[:, k] = col
+        return x
+
     def equilibrate(self, u0: np.ndarray, cmask: np.ndarray, target: np.ndarray) -> Equilibrium:
         """Newton-Raphson to equilibrium with the dofs in ``cmask`` prescribed to ``target``.
 

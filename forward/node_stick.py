@@ -17,8 +17,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .indenter_contact import IndenterContact
-from .linear_solver import LinearSolveError
-from .newton import SENSITIVITY_RTOL, Equilibrium, IncrementFailed, NewtonSystem
+from .newton import Equilibrium, IncrementFailed, NewtonSystem
 from .stick_contact import StickContactState
 
 if TYPE_CHECKING:
@@ -176,16 +175,5 @@ class NodeStickContact(IndenterContact):
         jump = jump.reshape(-1, n_p)
         b = -(eq.dR + eq.K @ jump)
         b[cmask] = 0.0
-        x = np.zeros_like(b)
-        maxiter = s.krylov_maxiter()
-        for k in range(n_p):  # CG on the exact tangent, preconditioned with the factorisation in hand
-            col = (
-                s.krylov(eq.K, cmask, b[:, k], SENSITIVITY_RTOL, maxiter) if s.linear.covers(cmask) else None
-            )
-            if col is None:  # that factorisation is too far from this tangent: factorise it
-                s.factorize(eq.K, cmask)
-                col = s.krylov(eq.K, cmask, b[:, k], SENSITIVITY_RTOL, 100)
-                if col is None:
-                    raise LinearSolveError("the sensitivity solve did not converge")
-            x[:, k] = col
+        x = s.sensitivity_solve(eq.K, cmask, b)
         return (x + jump).reshape(-1, 3, n_p)

@@ -29,7 +29,6 @@ from .newton import (
     MAX_HALVINGS,
     MAX_STALE_STEPS,
     REFACTOR_RATIO,
-    SENSITIVITY_RTOL,
     Equilibrium,
     IncrementFailed,
     NewtonSystem,
@@ -416,13 +415,5 @@ class PenaltyContact(IndenterContact):
         explicit = contact.explicit_force_derivative(resp, n_p)  # (points, 3, p)
         b.reshape(-1, 3, n_p)[s.top] += pts.to_nodes(explicit)
         b[cmask] = 0.0
-        x = np.zeros_like(b)
-        for k in range(n_p):
-            col = s.krylov(eq.K, cmask, b[:, k], SENSITIVITY_RTOL, s.krylov_maxiter())
-            if col is None:  # factorise: with the contact correction GMRES converges at once
-                s.factorize(eq.K, cmask)
-                col = s.krylov(eq.K, cmask, b[:, k], SENSITIVITY_RTOL, 100)
-                if col is None:
-                    raise LinearSolveError("the sensitivity solve did not converge")
-            x[:, k] = col
+        x = s.sensitivity_solve(eq.K, cmask, b)
         return x.reshape(-1, 3, n_p)
