@@ -47,11 +47,14 @@ def top_faces(mesh: BlockMesh) -> np.ndarray:
     ndarray, shape (nf, 4)
         Node indices (into the mesh) of each quad, in cyclic order.
     """
-    on_top = np.zeros(mesh.n_nodes, dtype=bool)
-    on_top[mesh.top] = True
-    quads = [mesh.elements[:, face] for face in _TOP_FACES]
-    quads = np.concatenate([q[on_top[q].all(axis=1)] for q in quads])
-    return quads
+    return _top_quads(mesh.n_nodes, mesh.elements, mesh.top)
+
+
+def _top_quads(n_nodes: int, elements: np.ndarray, top: np.ndarray) -> np.ndarray:
+    """The faces of hex8 ``elements`` whose four nodes are all in ``top`` (nf, 4)."""
+    on_top = np.zeros(n_nodes, dtype=bool)
+    on_top[top] = True
+    return np.concatenate([q[on_top[q].all(axis=1)] for q in (elements[:, f] for f in _TOP_FACES)])
 
 
 def tributary_areas(nodes: np.ndarray, elements: np.ndarray, top: np.ndarray) -> np.ndarray:
@@ -71,9 +74,7 @@ def tributary_areas(nodes: np.ndarray, elements: np.ndarray, top: np.ndarray) ->
     ndarray, shape (nt,)
         Tributary areas, mm^2 (they sum to the top face's area).
     """
-    on_top = np.zeros(nodes.shape[0], dtype=bool)
-    on_top[top] = True
-    quads = np.concatenate([q[on_top[q].all(axis=1)] for q in (elements[:, f] for f in _TOP_FACES)])
+    quads = _top_quads(nodes.shape[0], elements, top)
     xy = nodes[quads][:, :, :2]
     shoelace = 0.5 * np.abs(
         np.einsum("ij,ij->i", xy[:, :, 0], np.roll(xy[:, :, 1], -1, axis=1))
@@ -279,8 +280,6 @@ def contact_points(mesh: BlockMesh, integration: str = "node", *, order: int = 2
     top = np.asarray(mesh.top)
     index = np.full(mesh.n_nodes, -1)
     index[top] = np.arange(top.size)
-    quads = top_faces(mesh)
-    xy = mesh.nodes[quads][:, :, :2]  # (nf, 4, 2)
     if integration == "node":
         area = tributary_areas(mesh.nodes, mesh.elements, top)
         nt = top.size
@@ -291,6 +290,8 @@ def contact_points(mesh: BlockMesh, integration: str = "node", *, order: int = 2
         raise ValueError(f"unknown contact integration {integration!r}; use one of {CONTACT_INTEGRATIONS}")
     if int(order) != order or order < 1:
         raise ValueError(f"the surface contact's order must be a whole number >= 1, got {order!r}")
+    quads = top_faces(mesh)
+    xy = mesh.nodes[quads][:, :, :2]  # (nf, 4, 2)
     g, w = np.polynomial.legendre.leggauss(int(order))
     xi, eta = (a.ravel() for a in np.meshgrid(g, g, indexing="ij"))
     wq = np.outer(w, w).ravel()

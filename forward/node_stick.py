@@ -89,13 +89,12 @@ class NodeStickContact(IndenterContact):
         tuple of ndarray
             The mask of constrained dofs (3n,) and their prescribed displacements.
         """
-        contact = state
         s = self.solver
         mask = s.bc_fixed.copy()
         values = np.zeros((s.mesh.n_nodes, 3))
-        att = s.top[contact.attached]
+        att = s.top[state.attached]
         mask[att] = True
-        values[att] = contact.prescribed_displacement(depth)[contact.attached]
+        values[att] = state.prescribed_displacement(depth)[state.attached]
         values[s.bc_fixed] = 0.0
         mask = mask.ravel()
         return mask, values.ravel()[mask]
