@@ -1,4 +1,5 @@
-"""Whole simulations' sensitivities against central differences of whole simulations."""
+"""Derivatives against central differences: a whole simulation's sensitivities, a predictor's
+Jacobian."""
 
 from __future__ import annotations
 
@@ -33,3 +34,29 @@ def assert_sensitivities_match_central_differences(
         u_fd = (rp.displacement - rm.displacement) / (2 * h)
         err = np.abs(result.displacement_sensitivity[1:, ..., k] - u_fd[1:]).max()
         assert err < rel * np.abs(u_fd[1:]).max(), name
+
+
+def assert_jacobian_matches_central_differences(
+    model,
+    theta: np.ndarray,
+    *,
+    step: float,
+    force_rtol: float,
+    field_rtol: float = 1e-7,
+    field_atol_of_max: float = 0.0,
+) -> None:
+    """A predictor's force and field Jacobians at ``theta`` against central differences of its
+    predictions, each parameter moved by ``step`` of its value both ways: the force to
+    ``force_rtol``, the field to ``field_rtol`` plus ``field_atol_of_max`` of the largest
+    difference quotient (at least 1e-12 absolute)."""
+    p = model.predict(theta[None], jacobian=True)
+    for i in range(theta.size):
+        h = np.zeros(theta.size)
+        h[i] = step * theta[i]
+        up, down = model.predict((theta + h)[None]), model.predict((theta - h)[None])
+        np.testing.assert_allclose(
+            p.force_jacobian[..., i], (up.force - down.force) / (2 * h[i]), rtol=force_rtol
+        )
+        fd = (up.displacement - down.displacement) / (2 * h[i])
+        atol = max(field_atol_of_max * float(np.abs(fd).max()), 1e-12)
+        np.testing.assert_allclose(p.displacement_jacobian[..., i], fd, rtol=field_rtol, atol=atol)

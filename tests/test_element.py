@@ -26,6 +26,18 @@ def setup():
     return mesh, geo, SparsePattern(edofs, 3 * mesh.n_nodes), u, rng
 
 
+def _assert_force_and_tangent_are_derivatives(state_of, ue, elements, pattern, d, *, h, rel):
+    """The assembled forces of ``state_of(ue)`` are the energy's derivative along the nodal
+    direction ``d`` and its tangent the forces', to ``rel`` by central differences of step ``h``;
+    the tangent is symmetric."""
+    s, sp, sm = state_of(ue), state_of(ue + h * d[elements]), state_of(ue - h * d[elements])
+    f, K = pattern.vector(s.force), pattern.matrix(s.stiffness)
+    assert (sp.energy - sm.energy) / (2 * h) == pytest.approx(f @ d.ravel(), rel=rel)
+    df = (pattern.vector(sp.force) - pattern.vector(sm.force)) / (2 * h)
+    assert np.abs(df - K @ d.ravel()).max() < rel * np.abs(df).max()
+    assert abs(K - K.T).max() < 1e-12 * abs(K).max()
+
+
 def test_reference_volume_is_the_block(setup):
     _, geo, *_ = setup
     assert geo.volume.sum() == pytest.approx(50 * 50 * 60, rel=1e-12)
@@ -33,16 +45,15 @@ def test_reference_volume_is_the_block(setup):
 
 def test_forces_and_tangent_are_exact_derivatives(setup):
     mesh, geo, pattern, u, rng = setup
-    s = element_state(geo, u[mesh.elements], 10.0, 350.0, 1000.0, FIBER)
-    f, K = pattern.vector(s.force), pattern.matrix(s.stiffness)
-    d = rng.standard_normal(u.shape)
-    h = 1e-6
-    sp = element_state(geo, (u + h * d)[mesh.elements], 10.0, 350.0, 1000.0, FIBER)
-    sm = element_state(geo, (u - h * d)[mesh.elements], 10.0, 350.0, 1000.0, FIBER)
-    assert (sp.energy - sm.energy) / (2 * h) == pytest.approx(f @ d.ravel(), rel=1e-7)
-    df = (pattern.vector(sp.force) - pattern.vector(sm.force)) / (2 * h)
-    assert np.abs(df - K @ d.ravel()).max() < 1e-7 * np.abs(df).max()
-    assert abs(K - K.T).max() < 1e-12 * abs(K).max()
+    _assert_force_and_tangent_are_derivatives(
+        lambda ue: element_state(geo, ue, 10.0, 350.0, 1000.0, FIBER),
+        u[mesh.elements],
+        mesh.elements,
+        pattern,
+        rng.standard_normal(u.shape),
+        h=1e-6,
+        rel=1e-7,
+    )
 
 
 def test_compiled_kernel_equals_numpy_reference(setup):
@@ -113,15 +124,15 @@ def test_per_element_mooney_rivlin_kernel_equals_numpy_and_is_exact(setup):
     assert abs(a.energy - b.energy) < 1e-13 * scale
     for x, y in ((a.force, b.force), (a.stiffness, b.stiffness), (a.dforce_dtheta, b.dforce_dtheta)):
         assert np.abs(x - y).max() < 1e-12 * np.abs(y).max()
-    f, K = pattern.vector(a.force), pattern.matrix(a.stiffness)
-    d = rng.standard_normal(u.shape)
-    h = 1e-7
-    sp = element_state(geo, ue + h * d[mesh.elements], c1, c5, kappa, FIBER, c2=c2)
-    sm = element_state(geo, ue - h * d[mesh.elements], c1, c5, kappa, FIBER, c2=c2)
-    assert (sp.energy - sm.energy) / (2 * h) == pytest.approx(f @ d.ravel(), rel=1e-6)
-    df = (pattern.vector(sp.force) - pattern.vector(sm.force)) / (2 * h)
-    assert np.abs(df - K @ d.ravel()).max() < 1e-6 * np.abs(df).max()
-    assert abs(K - K.T).max() < 1e-12 * abs(K).max()
+    _assert_force_and_tangent_are_derivatives(
+        lambda ue: element_state(geo, ue, c1, c5, kappa, FIBER, c2=c2),
+        ue,
+        mesh.elements,
+        pattern,
+        rng.standard_normal(u.shape),
+        h=1e-7,
+        rel=1e-6,
+    )
 
 
 def test_scalar_moduli_equal_per_element_arrays_bit_for_bit(setup):

@@ -126,24 +126,18 @@ def _imports(lab):
         "matchid": lambda out: import_matchid(
             root / "matchid", out, protocol=PROTOCOL, force=record, indenter=indenter, frames=by_time
         ),
-        "duodic-v7": lambda out: import_duodic(
-            root / "duodic_v7.mat",
-            out,
-            protocol=PROTOCOL,
-            force=record,
-            indenter=indenter,
-            length_unit="mm",
-            frames=FrameChoice(frames=(1, 2, 3, 4)),
-        ),
-        "duodic-v7.3": lambda out: import_duodic(
-            root / "duodic_v73.mat",
-            out,
-            protocol=PROTOCOL,
-            force=record,
-            indenter=indenter,
-            length_unit="mm",
-            frames=FrameChoice(frames=(1, 2, 3, 4)),
-        ),
+        **{
+            name: lambda out, mat=mat: import_duodic(
+                root / mat,
+                out,
+                protocol=PROTOCOL,
+                force=record,
+                indenter=indenter,
+                length_unit="mm",
+                frames=FrameChoice(frames=(1, 2, 3, 4)),
+            )
+            for name, mat in (("duodic-v7", "duodic_v7.mat"), ("duodic-v7.3", "duodic_v73.mat"))
+        },
         "csv": lambda out: import_dic_csv(
             root / "vic", vic, out, protocol=PROTOCOL, force=record, indenter=indenter, frames=by_time
         ),

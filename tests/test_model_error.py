@@ -4,6 +4,7 @@ through the fit equals the spread of refits of targets drawn from it; the error 
 from __future__ import annotations
 
 import numpy as np
+from sensitivity_check import assert_jacobian_matches_central_differences
 
 from indentation_studio.design.objective import PAPER_WEIGHTS, Objective
 from indentation_studio.forward.predictor import Prediction
@@ -58,15 +59,9 @@ def _objective(model, force_log=0.0, field=0.0):
 
 
 def test_power_law_model_jacobian():
-    model = PowerLawModel()
-    p = model.predict(TRUTH[None], jacobian=True)
-    for i in range(2):
-        h = np.zeros(2)
-        h[i] = 1e-6 * TRUTH[i]
-        up, down = model.predict((TRUTH + h)[None]), model.predict((TRUTH - h)[None])
-        np.testing.assert_allclose(p.force_jacobian[..., i], (up.force - down.force) / (2 * h[i]), rtol=1e-6)
-        fd = (up.displacement - down.displacement) / (2 * h[i])
-        np.testing.assert_allclose(p.displacement_jacobian[..., i], fd, rtol=1e-5, atol=1e-12)
+    assert_jacobian_matches_central_differences(
+        PowerLawModel(), TRUTH, step=1e-6, force_rtol=1e-6, field_rtol=1e-5
+    )
 
 
 def test_discrepancy_covariance_matches_refits():
