@@ -44,8 +44,15 @@ def _errors_table(title: str, rows: dict[str, dict]) -> None:
     Console(width=120).print(table)
 
 
-def _say_budget(budget: dict | None, what: str) -> None:
-    if budget is not None:
+def _say_trained(trained: surrogate.TrainedSurrogate, title: str, saved: str, what: str, absent: str) -> None:
+    """Print a trained surrogate's validation table, where it was saved and the error budget its
+    fits carry (``absent``: what they carry when there is none)."""
+    _errors_table(title, trained.model.meta["validation"])
+    Console().print(saved)
+    budget = trained.error_budget
+    if budget is None:
+        Console().print(f"no error budget known for {what}: {absent}")
+    else:
         Console().print(
             f"error budget left for {what}: c1 {budget['c1_pct']:.2f} %, c5 {budget['c5_pct']:.2f} % "
             f"(from {budget['source']['file']}): fits carry it in their bounds"
@@ -114,12 +121,13 @@ def train_mf(
     if as_json:
         print(strict_json(trained.to_dict()))
         return
-    _errors_table(f"multi-fidelity surrogate {trained.model_file}", trained.model.meta["validation"])
-    _say_budget(trained.error_budget, "the high-fidelity mesh")
-    if trained.error_budget is None:
-        Console().print(
-            "no error budget known for that mesh: fits will carry the discrepancy's uncertainty only"
-        )
+    _say_trained(
+        trained,
+        "multi-fidelity surrogate: errors (percent)",
+        f"saved {trained.model_file}",
+        "the high-fidelity mesh",
+        "fits will carry the discrepancy's uncertainty only",
+    )
 
 
 @surrogate_app.command("train")
@@ -158,14 +166,13 @@ def train(
     if as_json:
         print(strict_json(trained.to_dict()))
         return
-    meta = trained.model.meta
-    _errors_table(f"{kind.value} surrogate of {campaign!r}: errors (percent)", meta["validation"])
-    Console().print(f"saved {trained.model_file} (fit {meta['fit_s']:.1f} s)")
-    _say_budget(trained.error_budget, "its mesh")
-    if trained.error_budget is None:
-        Console().print(
-            "no error budget known for its mesh and test: fits will say their bounds hold no model error"
-        )
+    _say_trained(
+        trained,
+        f"{kind.value} surrogate of {campaign!r}: errors (percent)",
+        f"saved {trained.model_file} (fit {trained.model.meta['fit_s']:.1f} s)",
+        "its mesh and test",
+        "fits will say their bounds hold no model error",
+    )
 
 
 @surrogate_app.command("evaluate")
