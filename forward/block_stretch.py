@@ -202,7 +202,15 @@ def stretch_block(
 
     def assemble(u: np.ndarray, tangent: bool):
         st = element_state(
-            geo, u[mesh.elements], moduli.c1, moduli.c5, moduli.kappa, moduli.fiber, tangent, False, moduli.c2
+            geo,
+            u[mesh.elements],
+            moduli.c1,
+            c5=moduli.c5,
+            kappa=moduli.kappa,
+            fiber=moduli.fiber,
+            tangent=tangent,
+            parameter_derivatives=False,
+            c2=moduli.c2,
         )
         return pattern.vector(st.force), (pattern.matrix(st.stiffness) if tangent else None)
 

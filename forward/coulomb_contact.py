@@ -142,7 +142,19 @@ def contact_response(
     df_dr = np.where(a33, n[:, :, None] * dp_dr[:, None, :], 0.0) + dt_dr
     df_da = np.where(a33, n[:, :, None] * dp_da[:, None, :] + p[:, None, None] * dn_da, 0.0) + dt_da
     force = p[:, None] * n + traction
-    return ContactResponse(force, traction, active, slipping, df_dr, df_da, dt_dr, dt_da, dt_dmu, p, n)
+    return ContactResponse(
+        force,
+        traction,
+        active=active,
+        slipping=slipping,
+        df_dr=df_dr,
+        df_da=df_da,
+        dt_dr=dt_dr,
+        dt_da=dt_da,
+        dt_dmu=dt_dmu,
+        pressure=p,
+        normal=n,
+    )
 
 
 def capsule_axis_offset(r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

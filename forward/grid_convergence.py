@@ -123,7 +123,16 @@ def observed_order(
     e21, e32 = f2 - f1, f3 - f2
     nan = float("nan")
     if e21 == 0.0 or e32 == 0.0 or not np.isfinite(e21 * e32):
-        return GridTriplet((f1, f2, f3), (h1, h2, h3), nan, False, f1, 0.0 if e21 == 0 else nan, nan, nan)
+        return GridTriplet(
+            (f1, f2, f3),
+            (h1, h2, h3),
+            order=nan,
+            oscillatory=False,
+            extrapolated=f1,
+            gci_fine_pct=0.0 if e21 == 0 else nan,
+            gci_coarse_pct=nan,
+            asymptotic_ratio=nan,
+        )
     s = float(np.sign(e32 / e21))
     p = abs(np.log(abs(e32 / e21))) / np.log(r21)
     for _ in range(iterations):
@@ -144,12 +153,12 @@ def observed_order(
     return GridTriplet(
         (f1, f2, f3),
         (h1, h2, h3),
-        p,
-        s < 0,
-        float(extrapolated),
-        100.0 * float(gci21),
-        100.0 * float(gci32),
-        float(ratio),
+        order=p,
+        oscillatory=s < 0,
+        extrapolated=float(extrapolated),
+        gci_fine_pct=100.0 * float(gci21),
+        gci_coarse_pct=100.0 * float(gci32),
+        asymptotic_ratio=float(ratio),
     )
 
 
@@ -266,5 +275,14 @@ def study_quantity(
             else float("nan")
         )
     return ConvergenceOfQuantity(
-        name, tuple(h), tuple(v), triplets, orders, spread, asymptotic, ext, error, tuple(gci)
+        name,
+        tuple(h),
+        values=tuple(v),
+        triplets=triplets,
+        orders=orders,
+        order_spread=spread,
+        asymptotic=asymptotic,
+        extrapolated=ext,
+        error_pct=error,
+        gci_pct=tuple(gci),
     )

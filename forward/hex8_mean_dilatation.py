@@ -262,7 +262,9 @@ def element_state_numpy(
         K += (dp / geometry.volume)[:, None, None] * g[:, :, None] * g[:, None, :]
 
     if np.any(c2 != 0.0):
-        energy, force, K = _mooney_rivlin_numpy(geometry, F, J, I1, H, c2, energy, force, K)
+        energy, force, K = _mooney_rivlin_numpy(
+            geometry, F, J, I1=I1, H=H, c2=c2, energy=energy, force=force, K=K
+        )
 
     dforce = None
     if parameter_derivatives:

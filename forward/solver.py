@@ -199,12 +199,12 @@ class EmbeddedSolver(NewtonSystem):
             self.geometry,
             u[self.mesh.elements],
             m.c1,
-            m.c5,
-            m.kappa,
-            m.fiber,
-            tangent,
-            parameter_derivatives,
-            m.c2,
+            c5=m.c5,
+            kappa=m.kappa,
+            fiber=m.fiber,
+            tangent=tangent,
+            parameter_derivatives=parameter_derivatives,
+            c2=m.c2,
         )
         R = self.pattern.vector(st.force)
         K = self.pattern.matrix(st.stiffness) if tangent else None
@@ -327,7 +327,14 @@ class EmbeddedSolver(NewtonSystem):
                     smallest = dd <= nominal * 2.0**-opts.max_cutbacks * (1.0 + 1e-9)
                     if smallest or rec["cutbacks"] > CUTBACK_BUDGET * max(opts.max_cutbacks, 1):
                         partial = self._result(
-                            depths, forces, disp, conv, f_sens, u_sens, sensitivities, t_start
+                            depths,
+                            forces,
+                            disp,
+                            conv=conv,
+                            f_sens=f_sens,
+                            u_sens=u_sens,
+                            sensitivities=sensitivities,
+                            t_start=t_start,
                         )
                         raise SimulationError(
                             f"simulation failed at depth {d + dd:.4g} mm (last converged {d:.4g} mm of "
@@ -371,7 +378,16 @@ class EmbeddedSolver(NewtonSystem):
             conv["wall_s"].append(time.perf_counter() - t_step)
             if progress is not None:
                 progress(k, proto.steps, forces[-1])
-        return self._result(depths, forces, disp, conv, f_sens, u_sens, sensitivities, t_start)
+        return self._result(
+            depths,
+            forces,
+            disp,
+            conv=conv,
+            f_sens=f_sens,
+            u_sens=u_sens,
+            sensitivities=sensitivities,
+            t_start=t_start,
+        )
 
     def _result(self, depths, forces, disp, conv, f_sens, u_sens, sensitivities, t_start) -> SimulationResult:
         mesh = self.mesh

@@ -112,12 +112,12 @@ class TrainingData:
         return TrainingData(
             self.theta[rows],
             self.force[rows],
-            self.displacement[rows],
-            self.depth,
-            self.top_xyz,
-            self.parameters,
-            self.source,
-            None if self.missing is None else self.missing[rows],
+            displacement=self.displacement[rows],
+            depth=self.depth,
+            top_xyz=self.top_xyz,
+            parameters=self.parameters,
+            source=self.source,
+            missing=None if self.missing is None else self.missing[rows],
         )
 
     @property

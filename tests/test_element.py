@@ -58,8 +58,26 @@ def test_forces_and_tangent_are_exact_derivatives(setup):
 
 def test_compiled_kernel_equals_numpy_reference(setup):
     mesh, geo, _, u, _ = setup
-    a = element_state(geo, u[mesh.elements], 10.0, 350.0, 1000.0, FIBER, True, True)
-    b = element_state_numpy(geo, u[mesh.elements], 10.0, 350.0, 1000.0, FIBER, True, True)
+    a = element_state(
+        geo,
+        u[mesh.elements],
+        10.0,
+        c5=350.0,
+        kappa=1000.0,
+        fiber=FIBER,
+        tangent=True,
+        parameter_derivatives=True,
+    )
+    b = element_state_numpy(
+        geo,
+        u[mesh.elements],
+        10.0,
+        c5=350.0,
+        kappa=1000.0,
+        fiber=FIBER,
+        tangent=True,
+        parameter_derivatives=True,
+    )
     assert a.energy == pytest.approx(b.energy, rel=1e-12)
     for x, y in (
         (a.force, b.force),
@@ -71,7 +89,16 @@ def test_compiled_kernel_equals_numpy_reference(setup):
 
 def test_parameter_derivative_of_forces(setup):
     mesh, geo, _, u, _ = setup
-    base = element_state(geo, u[mesh.elements], 10.0, 350.0, 1000.0, FIBER, False, True)
+    base = element_state(
+        geo,
+        u[mesh.elements],
+        10.0,
+        c5=350.0,
+        kappa=1000.0,
+        fiber=FIBER,
+        tangent=False,
+        parameter_derivatives=True,
+    )
     for k, (c1, c5) in enumerate(((11.0, 350.0), (10.0, 351.0))):
         other = element_state(geo, u[mesh.elements], c1, c5, 1000.0, FIBER, False)
         assert np.allclose(other.force - base.force, base.dforce_dtheta[:, k], atol=1e-9)
@@ -117,8 +144,12 @@ def test_per_element_mooney_rivlin_kernel_equals_numpy_and_is_exact(setup):
     c5 = np.where(fiber, 0.0, 350.0)
     kappa = np.where(fiber, 9.436e5, 1.94e4)
     ue = 0.02 * u[mesh.elements]
-    a = element_state(geo, ue, c1, c5, kappa, FIBER, True, True, c2=c2)
-    b = element_state_numpy(geo, ue, c1, c5, kappa, FIBER, True, True, c2=c2)
+    a = element_state(
+        geo, ue, c1, c5=c5, kappa=kappa, fiber=FIBER, tangent=True, parameter_derivatives=True, c2=c2
+    )
+    b = element_state_numpy(
+        geo, ue, c1, c5=c5, kappa=kappa, fiber=FIBER, tangent=True, parameter_derivatives=True, c2=c2
+    )
     # the fibers' energy c1 (I1~ - 3) + c2 (I2~ - 3) cancels ~1e4 kPa moduli: round-off of the sum
     scale = np.dot(np.abs(c1) + np.abs(c2), geo.volume) * 3.0
     assert abs(a.energy - b.energy) < 1e-13 * scale
@@ -139,16 +170,25 @@ def test_scalar_moduli_equal_per_element_arrays_bit_for_bit(setup):
     """The homogeneous model (scalars, c2 = 0) and the same moduli given per element agree to the last bit."""
     mesh, geo, _, u, _ = setup
     ne = mesh.n_elements
-    a = element_state(geo, u[mesh.elements], 10.0, 350.0, 1000.0, FIBER, True, True)
+    a = element_state(
+        geo,
+        u[mesh.elements],
+        10.0,
+        c5=350.0,
+        kappa=1000.0,
+        fiber=FIBER,
+        tangent=True,
+        parameter_derivatives=True,
+    )
     b = element_state(
         geo,
         u[mesh.elements],
         np.full(ne, 10.0),
-        np.full(ne, 350.0),
-        np.full(ne, 1000.0),
-        FIBER,
-        True,
-        True,
+        c5=np.full(ne, 350.0),
+        kappa=np.full(ne, 1000.0),
+        fiber=FIBER,
+        tangent=True,
+        parameter_derivatives=True,
         c2=np.zeros(ne),
     )
     assert a.energy == b.energy

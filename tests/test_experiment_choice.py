@@ -86,12 +86,12 @@ def test_certainty_ellipse_is_the_level_set_and_fig8_is_written(tmp_path):
     omap = ObjectiveMap(
         np.column_stack([g1.ravel(), g5.ravel()]),
         F.ravel(),
-        H,
-        0.05,
-        np.ones(2),
-        theta_star,
-        np.ones(4) / 4,
-        4.77,
+        hessian=H,
+        s=0.05,
+        bounds_pct=np.ones(2),
+        theta_star=theta_star,
+        eta=np.ones(4) / 4,
+        radius=4.77,
     )
     fig = objective_map_figure(omap)
     np.testing.assert_allclose(fig.axes[0].lines[1].get_xydata(), e)  # the ellipse drawn is the level set

@@ -241,13 +241,13 @@ def test_training_function_and_refusals(low, high_data, tmp_path):
     campaign = CampaignData(
         high_data.theta,
         high_data.force,
-        high_data.displacement,
-        high_data.depth,
-        high_data.top_xyz,
-        np.arange(len(high_data.top_xyz)),
-        high_data.parameters,
-        np.arange(high_data.n),
-        high_data.source,
+        displacement=high_data.displacement,
+        depth=high_data.depth,
+        top_xyz=high_data.top_xyz,
+        top_node_ids=np.arange(len(high_data.top_xyz)),
+        parameters=high_data.parameters,
+        points=np.arange(high_data.n),
+        spec=high_data.source,
     )
     model = train_multi_fidelity(low_file, campaign, folds=0)
     assert model.meta["validation"]["training"]["force_max_pct"] < 0.01
