@@ -113,11 +113,7 @@ def simulate(
     plot file stay in a folder beside the result file. Steps FEBio accepted off equilibrium are
     named on stderr and their forces are NaN (null in --json)."""
     if from_log is not None:
-        solver = SolverName.febio
-        model = model.replace(mesh_from=model.mesh_from or forward.feb_beside_log(from_log))
-        if model.mesh_from is None:
-            name = from_log.with_suffix(".feb").name
-            fail(f"--from-log {from_log}: no {name} beside it; give --mesh-from", as_json)
+        solver, model = SolverName.febio, _model_of_log(model, from_log, as_json)
     unit = "mm" if solver == SolverName.febio else "mN"
     with step_progress(err, f"simulate ({solver.value})", model.steps) as bar:
         try:
@@ -131,14 +127,7 @@ def simulate(
                 progress=lambda k, n, v: bar.update(k, f"{v:.2f} {unit}"),
                 say=say,
             )
-        except (
-            SpecError,
-            ValueError,
-            FileNotFoundError,
-            forward.SimulationError,
-            forward.febio.FebioLogError,
-            OSError,
-        ) as exc:
+        except SIMULATION_ERRORS as exc:
             fail(str(exc), as_json)
     for note in run.warnings:
         err.print(f"[bold yellow]warning:[/] {note}", soft_wrap=True, highlight=False)
@@ -146,6 +135,22 @@ def simulate(
         print(strict_json(run.to_dict()))
         return
     _print_simulation(run, model, solver.value)
+
+
+#: what a simulation raises for bad input or a run that does not converge (a clear error, no traceback)
+SIMULATION_ERRORS = (SpecError, ValueError, OSError, forward.SimulationError, forward.febio.FebioLogError)
+
+
+def _model_of_log(model: ModelOptions, from_log: Path, as_json: bool) -> ModelOptions:
+    """The model of a FEBio run read back from its log: its mesh is the .feb beside the log unless
+    ``--mesh-from`` names one."""
+    model = model.replace(mesh_from=model.mesh_from or forward.feb_beside_log(from_log))
+    if model.mesh_from is None:
+        fail(
+            f"--from-log {from_log}: no {from_log.with_suffix('.feb').name} beside it; give --mesh-from",
+            as_json,
+        )
+    return model
 
 
 def _print_simulation(run: forward.SimulationRun, model: ModelOptions, solver: str) -> None:

@@ -300,11 +300,7 @@ def compare_cmd(
         comparison = design.compare_candidate_designs(
             model.replace(c1=c1, c5=c5, steps=steps).spec(),
             out_dir,
-            radii=_floats(radii),
-            depths=_floats(depths),
-            every=[int(v) for v in _floats(every)],
-            fovs=[None if v.strip() == "all" else float(v) for v in fovs.split(",")],
-            noise=_floats(noise),
+            **_candidate_axes(radii, depths, every, fovs, noise),
             weights=_floats(weights),
             criterion=criterion,
             reading=reading,
@@ -322,6 +318,17 @@ def compare_cmd(
         comparison, f"theta* = {theta} kPa (fixed weights {weights}; optimised for {criterion})"
     )
     Console().print(f"wrote {comparison.csv} and {png}")
+
+
+def _candidate_axes(radii: str, depths: str, every: str, fovs: str, noise: str) -> dict[str, list]:
+    """The candidate designs' axes from the command's comma lists ('all': the whole top)."""
+    return {
+        "radii": _floats(radii),
+        "depths": _floats(depths),
+        "every": [int(v) for v in _floats(every)],
+        "fovs": [None if v.strip() == "all" else float(v) for v in fovs.split(",")],
+        "noise": _floats(noise),
+    }
 
 
 def _print_comparison(comparison: design.DesignComparison, at: str) -> None:
