@@ -40,7 +40,6 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import stats
 from scipy.linalg import cho_factor, cho_solve
-from scipy.spatial import cKDTree
 
 from ..forward.mesh_study import top_field_interpolator
 from .experiment_data import ExperimentData
@@ -48,6 +47,7 @@ from .experiment_errors import ExperimentDataError
 from .experiment_processing import (
     NodeInterpolation,
     RegisteredDIC,
+    _noise_neighbours,
     fit_sphere,
     node_interpolation,
 )
@@ -269,13 +269,7 @@ def dic_noise_mm(xy: np.ndarray, u: np.ndarray, neighbours: int = 24) -> np.ndar
     noise), the difference divided by sqrt(1 + c . c) with c the quadratic's weights of its
     neighbours at the point (the variance of the difference is sigma^2 (1 + c . c), exactly),
     and the robust spread (1.4826 MAD) of those over the points."""
-    ok = np.isfinite(u).all(axis=1)
-    xy, u = xy[ok], u[ok]
-    if len(xy) < neighbours + 1:
-        raise ExperimentDataError(f"too few correlated DIC points ({len(xy)}) to estimate the noise")
-    _, idx = cKDTree(xy).query(xy, k=neighbours + 1)
-    idx = idx[:, 1:]
-    d = xy[idx] - xy[:, None, :]  # (n, k, 2)
+    u, idx, d = _noise_neighbours(xy, u, neighbours)  # d: (n, k, 2)
     scale = np.sqrt(np.mean(np.sum(d**2, axis=2), axis=1))[:, None, None]
     d = d / scale
     A = np.concatenate(

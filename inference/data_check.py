@@ -27,12 +27,12 @@ from itertools import pairwise
 from pathlib import Path
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from .dic_checks import contact_radius, dic_field_warnings
 from .experiment_data import ExperimentData, ExperimentDataError, load_experiment
 from .experiment_processing import (
     RegisteredDIC,
+    _noise_neighbours,
     dic_to_nodes,
     fiber_angle_from_strain,
     fit_sphere,
@@ -141,13 +141,7 @@ def dic_noise(xy: np.ndarray, u: np.ndarray, neighbours: int = 12) -> np.ndarray
     positions ``xy`` (points, 2): each point against the least-squares plane through its
     ``neighbours`` nearest others, the robust spread (1.4826 MAD) of those differences divided by
     sqrt(1 + 3 / neighbours) (the plane's own noise at the point, to first order)."""
-    ok = np.isfinite(u).all(axis=1)
-    xy, u = xy[ok], u[ok]
-    if len(xy) < neighbours + 1:
-        raise ExperimentDataError(f"too few correlated DIC points ({len(xy)}) to estimate the noise")
-    _, idx = cKDTree(xy).query(xy, k=neighbours + 1)
-    idx = idx[:, 1:]
-    dx = xy[idx] - xy[:, None, :]
+    u, idx, dx = _noise_neighbours(xy, u, neighbours)
     A = np.concatenate([np.ones((*idx.shape, 1)), dx], axis=2)  # (n, k, 3)
     AtA = np.einsum("nki,nkj->nij", A, A) + 1e-12 * np.eye(3)
     Atu = np.einsum("nki,nkd->nid", A, u[idx])

@@ -65,6 +65,23 @@ def fit_sphere(points: np.ndarray) -> tuple[np.ndarray, float]:
     return centre, float(np.sqrt(r2))
 
 
+def _noise_neighbours(
+    xy: np.ndarray, u: np.ndarray, neighbours: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The DIC points of one step that a noise estimate compares: the correlated ones' displacements
+    ``u`` (n, 3), and of each its ``neighbours`` nearest others the indices (n, k) and the offsets
+    (n, k, 2) from it (:func:`.data_check.dic_noise`, :func:`.adequacy.dic_noise_mm`).
+
+    Raises ExperimentDataError if fewer than ``neighbours`` + 1 points are correlated."""
+    ok = np.isfinite(u).all(axis=1)
+    xy, u = xy[ok], u[ok]
+    if len(xy) < neighbours + 1:
+        raise ExperimentDataError(f"too few correlated DIC points ({len(xy)}) to estimate the noise")
+    _, idx = cKDTree(xy).query(xy, k=neighbours + 1)
+    idx = idx[:, 1:]
+    return u, idx, xy[idx] - xy[:, None, :]
+
+
 def in_plane_strain(xy: np.ndarray, u: np.ndarray, neighbours: int = 12) -> np.ndarray:
     """Green-Lagrange in-plane strain (n, 2, 2) at each point from a local least-squares fit of the
     displacement gradient over its nearest ``neighbours``."""
