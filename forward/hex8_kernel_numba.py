@@ -23,9 +23,13 @@ _FOUR_NINTHS = 4.0 / 9.0
 
 @njit(cache=True, nogil=True, parallel=True)
 def hex8_three_field_kernel(
-    dNdX, w, vol, ue, c1, c2, c5, kappa, a0, want_K, want_dtheta, force, K, energy, dforce
+    dNdX, w, vol, ue, c1, c2, c5, kappa, a0, want_K, want_dtheta, fiber_mean, force, K, energy, dforce
 ):  # pragma: no cover - compiled
     """Fill ``force`` (ne, 24), ``K`` (ne, 24, 24), ``energy`` (ne,), ``dforce`` (ne, 2, 24).
+
+    ``fiber_mean``: the fiber energy of eq. 3 is evaluated once per element at the element's mean
+    isochoric I4~ (volume average of the Gauss points' values) instead of at every Gauss point
+    (:func:`forward.hex8_mean_dilatation.element_state_numpy` has the closed form).
 
     Elements are split into chunks processed in parallel (numba threads; a campaign pins them
     to one per process). Returns the smallest Gauss-point det F (<= 0 signals an inverted
@@ -37,14 +41,48 @@ def hex8_three_field_kernel(
         lo = ch * ne // n_chunks
         hi = (ch + 1) * ne // n_chunks
         chunk_min[ch] = _elements(
-            lo, hi, dNdX, w, vol, ue, c1, c2, c5, kappa, a0, want_K, want_dtheta, force, K, energy, dforce
+            lo,
+            hi,
+            dNdX,
+            w,
+            vol,
+            ue,
+            c1,
+            c2,
+            c5,
+            kappa,
+            a0,
+            want_K,
+            want_dtheta,
+            fiber_mean,
+            force,
+            K,
+            energy,
+            dforce,
         )
     return chunk_min.min()
 
 
 @njit(cache=True, nogil=True)
 def _elements(
-    lo, hi, dNdX, w, vol, ue, c1_e, c2_e, c5_e, kappa_e, a0, want_K, want_dtheta, force, K, energy, dforce
+    lo,
+    hi,
+    dNdX,
+    w,
+    vol,
+    ue,
+    c1_e,
+    c2_e,
+    c5_e,
+    kappa_e,
+    a0,
+    want_K,
+    want_dtheta,
+    fiber_mean,
+    force,
+    K,
+    energy,
+    dforce,
 ):  # pragma: no cover - compiled
     """Elements lo..hi-1 of :func:`hex8_three_field_kernel`; returns their smallest det F."""
     minJ = np.inf
@@ -58,6 +96,7 @@ def _elements(
     dx = np.empty((8, 3))
     na = np.empty(8)
     gv = np.empty(24)
+    gf = np.empty(24)
     Fa = np.empty(3)
     C = np.empty((3, 3))
     B = np.empty((3, 3))
@@ -71,6 +110,7 @@ def _elements(
         c5 = c5_e[e]
         kappa = kappa_e[e]
         v = 0.0
+        i4sum = 0.0
         for g in range(8):
             for i in range(3):
                 for j in range(3):
@@ -87,8 +127,24 @@ def _elements(
             if det < minJ:
                 minJ = det
             v += w[e, g] * det
+            if fiber_mean and det > 0.0:
+                fa2 = 0.0
+                for i in range(3):
+                    t = F[g, i, 0] * a0[0] + F[g, i, 1] * a0[1] + F[g, i, 2] * a0[2]
+                    fa2 += t * t
+                i4sum += w[e, g] * det ** (-_TWO_THIRDS) * fa2
         if minJ <= 0.0:
             return minJ
+        # the element's fiber term (fiber_mean): h, h', h'' at the mean I4~
+        hm = 0.0
+        dhm = 0.0
+        d2hm = 0.0
+        if fiber_mean:
+            lam_m = math.sqrt(i4sum / vol[e])
+            if lam_m >= 1.0:
+                hm = lam_m - 1.0 - math.log(lam_m)
+                dhm = (lam_m - 1.0) / (2.0 * lam_m * lam_m)
+                d2hm = (2.0 - lam_m) / (4.0 * lam_m**4)
         Jbar = v / vol[e]
         lnJ = math.log(Jbar)
         p = kappa * lnJ / Jbar
@@ -97,6 +153,7 @@ def _elements(
         for r in range(24):
             force[e, r] = 0.0
             gv[r] = 0.0
+            gf[r] = 0.0
         if want_K:
             for r in range(24):
                 for c in range(24):
@@ -131,7 +188,9 @@ def _elements(
             hf = 0.0
             dh = 0.0
             d2h = 0.0
-            if lam >= 1.0:
+            if fiber_mean:
+                dh = dhm  # the element's: hf and h'' enter once per element below
+            elif lam >= 1.0:
                 hf = lam - 1.0 - math.log(lam)
                 dh = (lam - 1.0) / (2.0 * lam * lam)
                 d2h = (2.0 - lam) / (4.0 * lam**4)
@@ -162,6 +221,7 @@ def _elements(
                     dx[a, i] = sd
                     force[e, 3 * a + i] += wg * (ss + cP * sg)
                     gv[3 * a + i] += wg * J * sg
+                    gf[3 * a + i] += wg * sd
             if c2 != 0.0:
                 en += _mooney_rivlin_term(
                     e, g, wg, Fg, J, I1, c2, dNdX, gx, want_K, C, B, S2, fx, s2x, cdn, force, K
@@ -200,12 +260,14 @@ def _elements(
                                 if i == k:
                                     val += qab
                                 K[e, r, 3 * b + k] += val
+        en += vol[e] * c5 * hm
         energy[e] = en
         if want_K:
             cv = dp / vol[e]
+            cf = c5 * d2hm / vol[e]
             for r in range(24):
                 for c in range(r // 3 * 3, 24):
-                    K[e, r, c] += cv * gv[r] * gv[c]
+                    K[e, r, c] += cv * gv[r] * gv[c] + cf * gf[r] * gf[c]
             for r in range(24):  # mirror the upper block triangle
                 for c in range(r // 3 * 3):
                     K[e, r, c] = K[e, c, r]

@@ -118,11 +118,14 @@ def element_state(
     tangent: bool = True,
     parameter_derivatives: bool = False,
     c2: Modulus = 0.0,
+    *,
+    fiber_mean: bool = False,
 ) -> ElementState:
     """Energy, internal forces and exact tangent of every element at element displacements
     ``u_e`` (ne, 8, 3), by the compiled kernel (:mod:`forward.hex8_kernel_numba`). The moduli
     are scalars or one value per element; ``dforce_dtheta`` is d(force)/d(c1, c5) of a change
-    of c1 or c5 in every element alike."""
+    of c1 or c5 in every element alike. ``fiber_mean``: the fiber term at each element's mean
+    I4~ (:func:`element_state_numpy`)."""
     ne = u_e.shape[0]
     force = np.empty((ne, 24))
     K = np.empty((ne, 24, 24)) if tangent else np.empty((1, 24, 24))
@@ -140,6 +143,7 @@ def element_state(
         np.asarray(fiber, dtype=float),
         tangent,
         parameter_derivatives,
+        fiber_mean,
         force,
         K,
         energy,
@@ -166,6 +170,8 @@ def element_state_numpy(
     tangent: bool = True,
     parameter_derivatives: bool = False,
     c2: Modulus = 0.0,
+    *,
+    fiber_mean: bool = False,
 ) -> ElementState:
     """Reference numpy implementation of :func:`element_state` (same closed form).
 
@@ -189,6 +195,12 @@ def element_state_numpy(
                           + delta_ik (I1 dN_a.dN_b - dN_a.C dN_b)) ]
 
     to K.
+
+    With ``fiber_mean`` the fiber energy is V_e c5 h(I4m), evaluated once per element at the mean
+    I4m = (1 / V_e) sum_g w I4~_g, as the volumetric term is at J_bar: fibers much stiffer than the
+    matrix (c5 / c1 of 100 and more) otherwise lock a hex8 as near incompressibility does. Then h'
+    in a4 is the element's h'(I4m), the Gauss points' c5 h'' d d terms drop, and the element adds
+    c5 h''(I4m) / V_e (sum_g w d_ai)(sum_g w d_bk).
     """
     dNdX, w = geometry.dNdX, geometry.wdetJ0
     ne_all = u_e.shape[0]
@@ -208,6 +220,10 @@ def element_state_numpy(
     Fa = F @ a0
     I4 = np.einsum("egi,egi->eg", Fa, Fa)
     lam = np.sqrt(m * I4)
+    if fiber_mean:  # one stretch per element, the same at its Gauss points
+        lam = np.repeat(
+            np.sqrt(np.einsum("eg,eg->e", w, m * I4) / geometry.volume)[:, None], J.shape[1], axis=1
+        )
     on = lam > 1.0
     lam_on = np.where(on, lam, 1.0)
     h = np.where(on, lam_on - 1.0 - np.log(lam_on), 0.0)
@@ -226,8 +242,9 @@ def element_state_numpy(
     beta = a1 * I1 + a4 * I4
     P = S + ((pJ - (2.0 / 3.0) * beta)[..., None, None]) * H
     force = np.einsum("eg,egiJ,egaJ->eai", w, P, dNdX).reshape(-1, 24)
-    W_dev = c1 * (m * I1 - 3.0) + c5 * h
+    W_dev = c1 * (m * I1 - 3.0) + c5 * h  # h is the element's with fiber_mean: sum_g w h = V_e h
     energy = float(np.einsum("eg,eg->", w, W_dev) + np.dot(geometry.volume, U))
+    d2h_point = np.zeros_like(d2h) if fiber_mean else d2h
 
     K = None
     if tangent:
@@ -242,7 +259,7 @@ def element_state_numpy(
             [
                 wc3 * gx - (2.0 / 3.0) * wg * sx,
                 -(2.0 / 3.0) * wg * gx,
-                (w * c5 * d2h)[..., None, None] * dx,
+                (w * c5 * d2h_point)[..., None, None] * dx,
             ],
             axis=1,
         ).reshape(ne, -1, 24)
@@ -260,6 +277,10 @@ def element_state_numpy(
             K4[:, :, i, :, i] += q
         g = np.einsum("eg,egai->eai", w * J, gx).reshape(-1, 24)  # dv_e / du
         K += (dp / geometry.volume)[:, None, None] * g[:, :, None] * g[:, None, :]
+        if fiber_mean:
+            gf = np.einsum("eg,egai->eai", w, dx).reshape(-1, 24)  # V_e dI4m / du
+            cf = c5[:, 0] * d2h[:, 0] / geometry.volume
+            K += cf[:, None, None] * gf[:, :, None] * gf[:, None, :]
 
     if np.any(c2 != 0.0):
         energy, force, K = _mooney_rivlin_numpy(

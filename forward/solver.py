@@ -205,6 +205,7 @@ class EmbeddedSolver(NewtonSystem):
             tangent=tangent,
             parameter_derivatives=parameter_derivatives,
             c2=m.c2,
+            fiber_mean=self.spec.solver.fiber_stretch == "mean",
         )
         R = self.pattern.vector(st.force)
         K = self.pattern.matrix(st.stiffness) if tangent else None

@@ -447,11 +447,17 @@ class SolverOptions:
         How many times an increment may be halved.
     max_contact_passes : int, optional
         Re-solves of an increment until its contact set settles, at most.
+    fiber_stretch : {"gauss", "mean"}, optional
+        Where the element evaluates the fiber term of eq. 3: at each of its Gauss points (FEBio's
+        element, the default) or once at the element's mean isochoric I4 (as mean dilatation does
+        for the volume: fibers far stiffer than the matrix lock a hex8 otherwise;
+        :func:`forward.hex8_mean_dilatation.element_state_numpy`). Both converge to the same model.
 
     Raises
     ------
     SpecError
-        A count that is not a whole number in range, a tolerance that is not positive.
+        A count that is not a whole number in range, a tolerance that is not positive, an unknown
+        fiber stretch.
     """
 
     substeps: int = 1
@@ -461,8 +467,11 @@ class SolverOptions:
     max_newton: int = 25
     max_cutbacks: int = 6
     max_contact_passes: int = 12
+    fiber_stretch: str = "gauss"
 
     def __post_init__(self) -> None:
+        if self.fiber_stretch not in ("gauss", "mean"):
+            raise SpecError("solver.fiber_stretch", f"must be 'gauss' or 'mean', got {self.fiber_stretch!r}")
         for name in ("substeps", "max_newton", "max_contact_passes"):
             v = getattr(self, name)
             if int(v) != v or v < 1:
@@ -584,9 +593,10 @@ class ModelSpec:
     def to_dict(self) -> dict[str, Any]:
         """The spec as plain data (what every result file stores).
 
-        The contact is left out when it is the default (perfect stick), and a node-wise contact
-        keeps only its friction and penalty, so that specs, campaigns and result files written
-        before friction or the surface contact existed compare equal to today's.
+        The contact is left out when it is the default (perfect stick), a node-wise contact
+        keeps only its friction and penalty, and the solver's fiber stretch is left out when it is
+        the Gauss points', so that specs, campaigns and result files written before friction, the
+        surface contact or the element-mean fiber existed compare equal to today's.
 
         Returns
         -------
@@ -600,6 +610,8 @@ class ModelSpec:
             del d["contact"]["integration"], d["contact"]["order"]
         if self.composite is None:
             del d["composite"]
+        if self.solver.fiber_stretch == "gauss":  # as written before the element-mean fiber existed
+            del d["solver"]["fiber_stretch"]
         return d
 
     @classmethod

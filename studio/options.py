@@ -76,6 +76,9 @@ class ModelOptions:
         the top faces (stick and friction by a penalty; forward.contact_quadrature).
     contact_order : int
         Gauss points per face edge of the surface contact.
+    fiber_stretch : {"gauss", "mean"}
+        Where the element evaluates the fiber term: at its Gauss points (FEBio's) or at its mean
+        stretch (forward.spec.SolverOptions).
     """
 
     c1: float = 10.0
@@ -90,6 +93,7 @@ class ModelOptions:
     friction: float | None = None
     contact: str = "node"
     contact_order: int = 2
+    fiber_stretch: str = "gauss"
 
     def spec(self) -> ModelSpec:
         """The model spec of these options.
@@ -113,7 +117,7 @@ class ModelOptions:
             protocol=Protocol(step_size=self.step_size, steps=self.steps),
             material=Material(c1=self.c1, c5=self.c5, kappa=self.kappa),
             mesh=MeshChoice(preset=self.mesh, feb_file=str(self.mesh_from) if self.mesh_from else None),
-            solver=SolverOptions(substeps=self.substeps),
+            solver=SolverOptions(substeps=self.substeps, fiber_stretch=self.fiber_stretch),
             contact=Contact(friction=self.friction, integration=self.contact, order=self.contact_order),
         )
 
@@ -154,6 +158,13 @@ CONTACT = Annotated[
     ),
 ]
 CONTACT_ORDER = Annotated[int, typer.Option(help="Gauss points per face edge of --contact surface")]
+FIBER_STRETCH = Annotated[
+    str,
+    typer.Option(
+        help="where the element evaluates the fiber term: gauss (at its Gauss points, FEBio's) or mean "
+        "(once, at its mean stretch: no locking by stiff fibers)"
+    ),
+]
 JSON = Annotated[bool, typer.Option("--json", help="print one JSON object on stdout")]
 
 #: The flag of each :class:`ModelOptions` field, in the order the commands list them.
@@ -170,6 +181,7 @@ MODEL_FLAGS = {
     "friction": FRICTION,
     "contact": CONTACT,
     "contact_order": CONTACT_ORDER,
+    "fiber_stretch": FIBER_STRETCH,
 }
 
 

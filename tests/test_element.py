@@ -202,3 +202,41 @@ def test_bad_moduli_are_refused_by_name(setup, name, value):
     args[name] = value
     with pytest.raises(ValueError, match=name):
         element_state(geo, u[mesh.elements], args["c1"], args["c5"], args["kappa"], FIBER)
+
+
+def test_mean_fiber_stretch_kernel_equals_numpy_and_is_exact(setup):
+    """The fiber term at each element's mean I4~ (fiber_mean): the compiled kernel equals the
+    numpy closed form, forces and tangent are the energy's derivatives, d force / d c5 its own."""
+    mesh, geo, pattern, u, rng = setup
+    ue = u[mesh.elements]
+    kw = dict(c5=350.0, kappa=1000.0, fiber=FIBER, tangent=True, parameter_derivatives=True, fiber_mean=True)
+    a, b = element_state(geo, ue, 10.0, **kw), element_state_numpy(geo, ue, 10.0, **kw)
+    plain = element_state(geo, ue, 10.0, **{**kw, "fiber_mean": False})
+    assert a.energy == pytest.approx(b.energy, rel=1e-12)
+    assert abs(a.energy - plain.energy) > 1e-6 * plain.energy  # the mean is not the Gauss points' sum
+    for x, y in ((a.force, b.force), (a.stiffness, b.stiffness), (a.dforce_dtheta, b.dforce_dtheta)):
+        assert np.abs(x - y).max() < 1e-12 * np.abs(y).max()
+    _assert_force_and_tangent_are_derivatives(
+        lambda v: element_state(geo, v, 10.0, c5=350.0, kappa=1000.0, fiber=FIBER, fiber_mean=True),
+        ue,
+        mesh.elements,
+        pattern,
+        rng.standard_normal(u.shape),
+        h=1e-6,
+        rel=1e-6,
+    )
+    up = element_state(geo, ue, 10.0, c5=351.0, kappa=1000.0, fiber=FIBER, tangent=False, fiber_mean=True)
+    assert np.allclose(up.force - a.force, a.dforce_dtheta[:, 1], atol=1e-9)
+
+
+def test_mean_fiber_stretch_equals_gauss_points_under_a_homogeneous_stretch(setup):
+    """Where every Gauss point has the same I4~ (a homogeneous deformation), the element's mean
+    is that value: both evaluations give the same energy and forces."""
+    mesh, geo, *_ = setup
+    F = np.array([[1.0, 0.02, 0.0], [0.0, 1.12, 0.0], [0.0, 0.0, 1.0 / 1.12]])
+    ue = (mesh.nodes @ (F - np.eye(3)).T)[mesh.elements]
+    kw = dict(c5=350.0, kappa=1000.0, fiber=FIBER, tangent=False)
+    a = element_state(geo, ue, 10.0, **kw, fiber_mean=True)
+    b = element_state(geo, ue, 10.0, **kw)
+    assert b.energy > 0 and a.energy == pytest.approx(b.energy, rel=1e-12)
+    assert np.abs(a.force - b.force).max() < 1e-10 * np.abs(b.force).max()

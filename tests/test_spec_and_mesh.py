@@ -6,12 +6,14 @@ import numpy as np
 import pytest
 
 from indentation_studio.forward.feb_mesh import FebMeshError, read_feb_block_mesh
+from indentation_studio.forward.febio.writer import write_feb
 from indentation_studio.forward.mesh import MESH_PRESETS, preset_mesh
 from indentation_studio.forward.spec import (
     Indenter,
     Material,
     ModelSpec,
     Protocol,
+    SolverOptions,
     SpecError,
 )
 
@@ -28,6 +30,7 @@ from indentation_studio.forward.spec import (
         (lambda: Indenter(radius=-4.77), "indenter.radius"),
         (lambda: Protocol(step_size=0.5, steps=0), "protocol.steps"),
         (lambda: ModelSpec(protocol=Protocol(step_size=1.0, steps=40)), "protocol.steps"),
+        (lambda: SolverOptions(fiber_stretch="centre"), "solver.fiber_stretch"),
     ],
 )
 def test_bad_spec_names_the_field(build, field):
@@ -43,6 +46,17 @@ def test_spec_round_trips_and_normalises_fiber():
     assert ModelSpec.from_dict(spec.to_dict()) == spec
     assert Indenter.preset("large").radius == 8.0
     assert spec.protocol.max_depth == 14.0
+
+
+def test_element_mean_fiber_is_written_only_where_chosen(tmp_path):
+    """The Gauss points' fiber (FEBio's) leaves the spec's plain data as it was before the option
+    existed; the element mean round-trips, and FEBio, which has no such element, refuses it."""
+    assert "fiber_stretch" not in ModelSpec().to_dict()["solver"]
+    mean = ModelSpec(solver=SolverOptions(fiber_stretch="mean"))
+    assert mean.to_dict()["solver"]["fiber_stretch"] == "mean"
+    assert ModelSpec.from_dict(mean.to_dict()) == mean
+    with pytest.raises(ValueError, match="fiber_stretch"):
+        write_feb(mean, tmp_path / "m.feb")
 
 
 @pytest.mark.parametrize("name", sorted(MESH_PRESETS))

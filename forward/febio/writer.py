@@ -458,7 +458,17 @@ def write_feb(
     -------
     pathlib.Path
         The file written.
+
+    Raises
+    ------
+    ValueError
+        If the spec asks for the element-mean fiber stretch, which FEBio's element does not have.
     """
+    if spec.solver.fiber_stretch != "gauss":
+        raise ValueError(
+            f"solver.fiber_stretch = {spec.solver.fiber_stretch!r}: FEBio evaluates the fiber term at the "
+            "Gauss points only; write the model with fiber_stretch 'gauss'"
+        )
     path = Path(path)
     mesh = mesh if mesh is not None else build_mesh(spec)
     settings = settings or FebSettings()
