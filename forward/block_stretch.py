@@ -22,7 +22,7 @@ import numpy as np
 
 from .block_mesh import BlockMesh
 from .element_moduli import ElementModuli, element_moduli
-from .hex8_mean_dilatation import element_state, per_element
+from .hex8_mean_dilatation import per_element
 from .linear_solver import ConstrainedSymmetricSolver
 from .material import InvertedElementError, deviatoric_response
 from .spec import ModelSpec
@@ -201,17 +201,7 @@ def stretch_block(
     )
 
     def assemble(u: np.ndarray, tangent: bool):
-        st = element_state(
-            geo,
-            u[mesh.elements],
-            moduli.c1,
-            c5=moduli.c5,
-            kappa=moduli.kappa,
-            fiber=moduli.fiber,
-            tangent=tangent,
-            parameter_derivatives=False,
-            c2=moduli.c2,
-        )
+        st = moduli.element_state(geo, u[mesh.elements], tangent=tangent)
         return pattern.vector(st.force), (pattern.matrix(st.stiffness) if tangent else None)
 
     def _increment(u0: np.ndarray, lam_xy: np.ndarray) -> tuple[np.ndarray, int]:

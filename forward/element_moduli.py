@@ -8,6 +8,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .block_mesh import BlockMesh
+from .hex8_mean_dilatation import ElementState, ReferenceGeometry
+from .hex8_mean_dilatation import element_state as _element_state
 from .spec import CompositeMaterial, ModelSpec
 
 
@@ -33,6 +35,46 @@ class ElementModuli:
     def homogeneous(self) -> bool:
         """Whether the moduli are scalars (one material)."""
         return np.ndim(self.c1) == 0
+
+    def element_state(
+        self,
+        geometry: ReferenceGeometry,
+        u_e: np.ndarray,
+        *,
+        tangent: bool = True,
+        parameter_derivatives: bool = False,
+        fiber_mean: bool = False,
+    ) -> ElementState:
+        """Energy, forces and tangent of every element with these moduli.
+
+        The compiled kernel, :func:`forward.hex8_mean_dilatation.element_state`.
+
+        Parameters
+        ----------
+        geometry : ReferenceGeometry
+            The mesh's reference geometry.
+        u_e : numpy.ndarray
+            (ne, 8, 3) element displacements, mm.
+        tangent, parameter_derivatives, fiber_mean : bool, optional
+            As :func:`forward.hex8_mean_dilatation.element_state`.
+
+        Returns
+        -------
+        ElementState
+            The elements' state.
+        """
+        return _element_state(
+            geometry,
+            u_e,
+            self.c1,
+            c5=self.c5,
+            kappa=self.kappa,
+            fiber=self.fiber,
+            tangent=tangent,
+            parameter_derivatives=parameter_derivatives,
+            c2=self.c2,
+            fiber_mean=fiber_mean,
+        )
 
 
 def composite_moduli(composite: CompositeMaterial, mesh: BlockMesh, fiber: np.ndarray) -> ElementModuli:

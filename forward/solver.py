@@ -27,7 +27,7 @@ import numpy as np
 
 from .. import __version__
 from .element_moduli import element_moduli
-from .hex8_mean_dilatation import ReferenceGeometry, element_state
+from .hex8_mean_dilatation import ReferenceGeometry
 from .indenter_contact import IndenterContact
 from .linear_solver import ConstrainedSymmetricSolver
 from .mesh import BlockMesh, build_mesh
@@ -194,17 +194,11 @@ class EmbeddedSolver(NewtonSystem):
             An element turned inside out at ``u``.
         """
         t = time.perf_counter()
-        m = self._mat
-        st = element_state(
+        st = self._mat.element_state(
             self.geometry,
             u[self.mesh.elements],
-            m.c1,
-            c5=m.c5,
-            kappa=m.kappa,
-            fiber=m.fiber,
             tangent=tangent,
             parameter_derivatives=parameter_derivatives,
-            c2=m.c2,
             fiber_mean=self.spec.solver.fiber_stretch == "mean",
         )
         R = self.pattern.vector(st.force)
@@ -304,6 +298,19 @@ class EmbeddedSolver(NewtonSystem):
         u_sens = [np.zeros((nt, 3, n_p))]
         du_dtheta = np.zeros((n, 3, n_p)) if sensitivities else None
         last_dinc = np.zeros((n, 3, n_p)) if sensitivities else None
+
+        def result_so_far() -> SimulationResult:
+            return self._result(
+                depths,
+                forces,
+                disp,
+                conv=conv,
+                f_sens=f_sens,
+                u_sens=u_sens,
+                sensitivities=sensitivities,
+                t_start=t_start,
+            )
+
         d = 0.0
         nominal = proto.step_size / opts.substeps
         for k, d_target in enumerate(proto.depths, start=1):
@@ -327,16 +334,7 @@ class EmbeddedSolver(NewtonSystem):
                     rec["cutbacks"] += 1
                     smallest = dd <= nominal * 2.0**-opts.max_cutbacks * (1.0 + 1e-9)
                     if smallest or rec["cutbacks"] > CUTBACK_BUDGET * max(opts.max_cutbacks, 1):
-                        partial = self._result(
-                            depths,
-                            forces,
-                            disp,
-                            conv=conv,
-                            f_sens=f_sens,
-                            u_sens=u_sens,
-                            sensitivities=sensitivities,
-                            t_start=t_start,
-                        )
+                        partial = result_so_far()
                         raise SimulationError(
                             f"simulation failed at depth {d + dd:.4g} mm (last converged {d:.4g} mm of "
                             f"{proto.max_depth:g}): {exc}",
@@ -379,16 +377,7 @@ class EmbeddedSolver(NewtonSystem):
             conv["wall_s"].append(time.perf_counter() - t_step)
             if progress is not None:
                 progress(k, proto.steps, forces[-1])
-        return self._result(
-            depths,
-            forces,
-            disp,
-            conv=conv,
-            f_sens=f_sens,
-            u_sens=u_sens,
-            sensitivities=sensitivities,
-            t_start=t_start,
-        )
+        return result_so_far()
 
     def _result(self, depths, forces, disp, conv, f_sens, u_sens, sensitivities, t_start) -> SimulationResult:
         mesh = self.mesh

@@ -14,6 +14,8 @@ from indentation_studio.forward.mesh import preset_mesh
 from indentation_studio.forward.sparse_assembly import SparsePattern
 
 FIBER = np.array([0.2, 1.0, 0.1]) / np.linalg.norm([0.2, 1.0, 0.1])
+#: c5, kappa and the fiber of the homogeneous tests (c1 = 10 kPa by position)
+MODULI = {"c5": 350.0, "kappa": 1000.0, "fiber": FIBER}
 
 
 @pytest.fixture(scope="module")
@@ -58,26 +60,8 @@ def test_forces_and_tangent_are_exact_derivatives(setup):
 
 def test_compiled_kernel_equals_numpy_reference(setup):
     mesh, geo, _, u, _ = setup
-    a = element_state(
-        geo,
-        u[mesh.elements],
-        10.0,
-        c5=350.0,
-        kappa=1000.0,
-        fiber=FIBER,
-        tangent=True,
-        parameter_derivatives=True,
-    )
-    b = element_state_numpy(
-        geo,
-        u[mesh.elements],
-        10.0,
-        c5=350.0,
-        kappa=1000.0,
-        fiber=FIBER,
-        tangent=True,
-        parameter_derivatives=True,
-    )
+    a = element_state(geo, u[mesh.elements], 10.0, **MODULI, tangent=True, parameter_derivatives=True)
+    b = element_state_numpy(geo, u[mesh.elements], 10.0, **MODULI, tangent=True, parameter_derivatives=True)
     assert a.energy == pytest.approx(b.energy, rel=1e-12)
     for x, y in (
         (a.force, b.force),
@@ -89,16 +73,7 @@ def test_compiled_kernel_equals_numpy_reference(setup):
 
 def test_parameter_derivative_of_forces(setup):
     mesh, geo, _, u, _ = setup
-    base = element_state(
-        geo,
-        u[mesh.elements],
-        10.0,
-        c5=350.0,
-        kappa=1000.0,
-        fiber=FIBER,
-        tangent=False,
-        parameter_derivatives=True,
-    )
+    base = element_state(geo, u[mesh.elements], 10.0, **MODULI, tangent=False, parameter_derivatives=True)
     for k, (c1, c5) in enumerate(((11.0, 350.0), (10.0, 351.0))):
         other = element_state(geo, u[mesh.elements], c1, c5, 1000.0, FIBER, False)
         assert np.allclose(other.force - base.force, base.dforce_dtheta[:, k], atol=1e-9)
@@ -170,16 +145,7 @@ def test_scalar_moduli_equal_per_element_arrays_bit_for_bit(setup):
     """The homogeneous model (scalars, c2 = 0) and the same moduli given per element agree to the last bit."""
     mesh, geo, _, u, _ = setup
     ne = mesh.n_elements
-    a = element_state(
-        geo,
-        u[mesh.elements],
-        10.0,
-        c5=350.0,
-        kappa=1000.0,
-        fiber=FIBER,
-        tangent=True,
-        parameter_derivatives=True,
-    )
+    a = element_state(geo, u[mesh.elements], 10.0, **MODULI, tangent=True, parameter_derivatives=True)
     b = element_state(
         geo,
         u[mesh.elements],

@@ -364,37 +364,11 @@ def test_cli_import_and_check_of_an_imported_experiment(lab, tmp_path):
     root = lab["root"]
     common = ["--radius", "4.77", "--step-size", "0.5", "--steps", "4", "--fiber-angle", "60"]
     common += ["--indenter", str(lab["studio"] / "indenter.csv"), "--indenter-unit", "mm"]
-    out = _cli(
-        [
-            "import",
-            "matchid",
-            "--dic",
-            str(root / "matchid"),
-            "--out",
-            str(tmp_path / "e"),
-            *common,
-            "--load-frame",
-            str(root / "record.csv"),
-            "--frame-times",
-            str(root / "frame_times.csv"),
-        ]
-    )
+    matchid = ["import", "matchid", "--dic", str(root / "matchid"), "--out", str(tmp_path / "e"), *common]
+    matchid += ["--load-frame", str(root / "record.csv")]
+    out = _cli([*matchid, "--frame-times", str(root / "frame_times.csv")])
     assert out["exit_code"] == 0 and out["frames"] == [2, 4, 6, 8] and len(out["holds"]) == 4
-    again = _cli(
-        [
-            "import",
-            "matchid",
-            "--dic",
-            str(root / "matchid"),
-            "--out",
-            str(tmp_path / "e"),
-            *common,
-            "--load-frame",
-            str(root / "record.csv"),
-            "--frames",
-            "2:8:2",
-        ]
-    )
+    again = _cli([*matchid, "--frames", "2:8:2"])
     assert again["exit_code"] == 1 and "exists and is not empty" in again["error"]
     check = _cli(["check", "--experiment", str(tmp_path / "e")])
     assert check["exit_code"] == 0 and check["warnings"] == []
