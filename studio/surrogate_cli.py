@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from enum import StrEnum
 from pathlib import Path
 from typing import Annotated
@@ -44,11 +45,27 @@ def _errors_table(title: str, rows: dict[str, dict]) -> None:
     Console(width=120).print(table)
 
 
-def _say_trained(trained: surrogate.TrainedSurrogate, title: str, saved: str, what: str, absent: str) -> None:
-    """Print a trained surrogate's validation table, where it was saved and the error budget its
-    fits carry (``absent``: what they carry when there is none)."""
-    _errors_table(title, trained.model.meta["validation"])
-    Console().print(saved)
+def _train_and_say(
+    train: Callable[[], surrogate.TrainedSurrogate],
+    as_json: bool,
+    title: str,
+    what: str,
+    absent: str,
+) -> None:
+    """Train and save a surrogate (``train``), then print its JSON, or its validation table, its
+    file and the error budget its fits carry (``what``: the mesh the budget is of; ``absent``:
+    what the fits carry when there is none)."""
+    try:
+        trained = train()
+    except (ValueError, OSError) as exc:
+        fail(str(exc), as_json)
+    if as_json:
+        print(strict_json(trained.to_dict()))
+        return
+    meta = trained.model.meta
+    _errors_table(title, meta["validation"])
+    fit_s = f" (fit {meta['fit_s']:.1f} s)" if "fit_s" in meta else ""
+    Console().print(f"saved {trained.model_file}{fit_s}")
     budget = trained.error_budget
     if budget is None:
         Console().print(f"no error budget known for {what}: {absent}")
@@ -104,8 +121,8 @@ def train_mf(
     """Train a multi-fidelity surrogate: the low-fidelity surrogate corrected by a GP of its
     discrepancy from the high-fidelity campaign; fits on it refine on the high-fidelity mesh and carry
     the discrepancy's uncertainty (and the error budget's remaining bias) in their bounds."""
-    try:
-        trained = surrogate.train_and_save_multi_fidelity(
+    _train_and_say(
+        lambda: surrogate.train_and_save_multi_fidelity(
             low,
             campaign,
             test_campaign=test_campaign,
@@ -115,16 +132,9 @@ def train_mf(
             budget_model=budget_model,
             runs_dir=runs_dir,
             say=err.print,
-        )
-    except (ValueError, OSError) as exc:
-        fail(str(exc), as_json)
-    if as_json:
-        print(strict_json(trained.to_dict()))
-        return
-    _say_trained(
-        trained,
+        ),
+        as_json,
         "multi-fidelity surrogate: errors (percent)",
-        f"saved {trained.model_file}",
         "the high-fidelity mesh",
         "fits will carry the discrepancy's uncertainty only",
     )
@@ -146,8 +156,8 @@ def train(
     as_json: JSON = False,
 ) -> None:
     """Train a surrogate on a campaign, validate it, and save it next to the campaign."""
-    try:
-        trained = surrogate.train_and_save(
+    _train_and_say(
+        lambda: surrogate.train_and_save(
             campaign,
             kind.value,
             input_scale=input_scale,
@@ -160,16 +170,9 @@ def train(
             budget_model=budget_model,
             runs_dir=runs_dir,
             say=err.print,
-        )
-    except (ValueError, OSError) as exc:
-        fail(str(exc), as_json)
-    if as_json:
-        print(strict_json(trained.to_dict()))
-        return
-    _say_trained(
-        trained,
+        ),
+        as_json,
         f"{kind.value} surrogate of {campaign!r}: errors (percent)",
-        f"saved {trained.model_file} (fit {trained.model.meta['fit_s']:.1f} s)",
         "its mesh and test",
         "fits will say their bounds hold no model error",
     )
