@@ -5,6 +5,10 @@ Names are imported on first use (lazy_loader), so ``import indentation_studio.fo
 
 import lazy_loader as lazy
 
+from .numba_cache import ensure_numba_cache_dir
+
+ensure_numba_cache_dir()  # before numba is imported: a read-only install still finds a cache folder
+
 __getattr__, __dir__, __all__ = lazy.attach(
     __name__,
     submodules=["febio"],

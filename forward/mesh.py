@@ -9,14 +9,18 @@ of our meshes and of FEBio's coincide when the grids do.
 
 from __future__ import annotations
 
+import lazy_loader as lazy
 import numpy as np
-from scipy.optimize import brentq
 
 from .block_mesh import BlockMesh, grid_block
 from .composite_mesh import composite_mesh
 from .feb_mesh import read_feb_block_mesh
 from .mesh_presets import MESH_PRESETS, GradedAxis, MeshPreset
 from .spec import Geometry, ModelSpec
+
+#: scipy's root finder, imported on first use: scipy.optimize takes 0.1 to 0.2 s to import and only
+#: the graded presets need it (a run on a FEBio file's mesh never does)
+optimize = lazy.load("scipy.optimize", suppress_warning=True)
 
 __all__ = [
     "MESH_PRESETS",
@@ -44,7 +48,7 @@ def axis_coordinates(axis: GradedAxis, length: float) -> np.ndarray:
         if rest <= axis.h0 * n:  # would need shrinking cells: fall back to uniform
             sizes += [rest / n] * n
         else:
-            r = brentq(lambda r: axis.h0 * (r**n - 1.0) / (r - 1.0) - rest, 1.0 + 1e-12, 10.0)
+            r = optimize.brentq(lambda r: axis.h0 * (r**n - 1.0) / (r - 1.0) - rest, 1.0 + 1e-12, 10.0)
             sizes += list(axis.h0 * r ** np.arange(n))
     coords = np.concatenate([[0.0], np.cumsum(sizes)])
     coords[-1] = length

@@ -64,10 +64,13 @@ app = typer.Typer(
 @app.callback()
 def _headless() -> None:
     """Figures are written to files from the command line: matplotlib's Agg backend, set here
-    (the entry point) and nowhere else, so notebooks keep their inline backend."""
-    import matplotlib
-
-    matplotlib.use("Agg")
+    (the entry point) and nowhere else, so notebooks keep their inline backend. Through
+    ``MPLBACKEND`` when matplotlib is not imported yet: importing it here cost every command
+    0.15 to 0.2 s, most of which never draw (docs/validation/solver-and-speed.md, "Cold start")."""
+    if "matplotlib" in sys.modules:
+        sys.modules["matplotlib"].use("Agg")
+    else:
+        os.environ["MPLBACKEND"] = "Agg"
 
 
 app.add_typer(campaign_app, name="campaign")
@@ -127,7 +130,7 @@ def simulate(
                 progress=lambda k, n, v: bar.update(k, f"{v:.2f} {unit}"),
                 say=say,
             )
-        except SIMULATION_ERRORS as exc:
+        except _simulation_errors() as exc:
             fail(str(exc), as_json)
     for note in run.warnings:
         err.print(f"[bold yellow]warning:[/] {note}", soft_wrap=True, highlight=False)
@@ -137,8 +140,10 @@ def simulate(
     _print_simulation(run, model, solver.value)
 
 
-#: what a simulation raises for bad input or a run that does not converge (a clear error, no traceback)
-SIMULATION_ERRORS = (SpecError, ValueError, OSError, forward.SimulationError, forward.febio.FebioLogError)
+def _simulation_errors() -> tuple[type[Exception], ...]:
+    """What a simulation raises for bad input or a run that does not converge (a clear error, no
+    traceback); a function, so that importing the command line does not import the solver."""
+    return (SpecError, ValueError, OSError, forward.SimulationError, forward.febio.FebioLogError)
 
 
 def _model_of_log(model: ModelOptions, from_log: Path, as_json: bool) -> ModelOptions:
