@@ -195,6 +195,16 @@ def compare_with_paper(
     for (name, eta, p1, p5), opt in zip(PAPER_TABLE1, ours, strict=True):
         b = bounds_pct(combine(term_hessians, np.array(eta)), s)
         rows.append(
-            ComparisonRow(name, eta, p1, p5, float(b[0]), float(b[1]), opt.weights, opt.c1_pct, opt.c5_pct)
+            ComparisonRow(
+                name,
+                eta,
+                paper_c1_pct=p1,
+                paper_c5_pct=p5,
+                c1_pct_at_paper_weights=float(b[0]),
+                c5_pct_at_paper_weights=float(b[1]),
+                weights=opt.weights,
+                c1_pct=opt.c1_pct,
+                c5_pct=opt.c5_pct,
+            )
         )
     return rows

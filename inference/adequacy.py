@@ -560,7 +560,14 @@ def model_adequacy(
     p_value = float(stats.chi2.sf(statistic, dof)) if dof > 0 else float("nan")
     force_pct = float(np.median(100.0 * noise.force_sd_mN / np.abs(f_inf)))
     out = Adequacy(
-        float(statistic), int(dof), p_value, dof + fit.theta.size, fit.theta.size, terms, noise, force_pct
+        float(statistic),
+        int(dof),
+        p_value=p_value,
+        n=dof + fit.theta.size,
+        p=fit.theta.size,
+        terms=terms,
+        noise=noise,
+        force_sd_pct=force_pct,
     )
     out.named = _named(friction or {}, out.flagged, at_ends or [])
     return out

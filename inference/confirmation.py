@@ -165,5 +165,12 @@ def confirm(
             raise ValueError("the mesh check needs the embedded solver (exact sensitivities)")
         check, fe = check_mesh_at(inputs.spec, inputs.objective, inputs.eta, theta, check_mesh, say)
     return Confirmation(
-        inputs, theta, solver, fe, inputs.surrogate.predict(theta[None, :]), check, check_mesh, friction
+        inputs,
+        theta,
+        solver=solver,
+        fe=fe,
+        surrogate=inputs.surrogate.predict(theta[None, :]),
+        mesh_check=check,
+        check_mesh=check_mesh,
+        friction=friction,
     )

@@ -124,13 +124,13 @@ def check_holds(exp: ExperimentData) -> list[HoldCheck]:
             HoldCheck(
                 int(k),
                 len(t),
-                span,
-                fit.f_inf,
-                fit.f_inf_std,
-                fit.amplitude,
-                1.0 / fit.rate,
-                float(100.0 * left / abs(fit.f_inf)),
-                float(np.sqrt(np.mean((f - model) ** 2))),
+                hold_s=span,
+                f_inf_mN=fit.f_inf,
+                f_inf_std_mN=fit.f_inf_std,
+                amplitude_mN=fit.amplitude,
+                tau_s=1.0 / fit.rate,
+                unrelaxed_pct=float(100.0 * left / abs(fit.f_inf)),
+                residual_rms_mN=float(np.sqrt(np.mean((f - model) ** 2))),
             )
         )
     return out

@@ -532,7 +532,17 @@ def _fit_with_friction(
                 break
             final = again
             reach, notes, better = _mu_reach(obj, fitted_on, eta, final, mu_range, inside)
-    fit = ExperimentFit(inputs, first, final, refine, None, None, None, treatment, mu_range)
+    fit = ExperimentFit(
+        inputs,
+        first,
+        fit=final,
+        refined=refine,
+        mesh_check=None,
+        check_mesh=None,
+        model_error=None,
+        friction=treatment,
+        mu_range=mu_range,
+    )
     fit.model_error = _stick_mesh_budget(model, fit.contact, spec.contact.describe())
     fit.mu_reach, fit.mu_reach_notes, fit.restarts = reach, notes, restarts
     return fit

@@ -272,4 +272,13 @@ def sample_posterior_for(
         post = carried_to_finer_mesh(
             post, carried["theta"], carried["shift_pct"], carried["corrected_uncertainty_pct"], seed
         )
-    return ExperimentPosterior(inputs, post, fit, sigma, carried, model_error, treatment, mu_range)
+    return ExperimentPosterior(
+        inputs,
+        post,
+        fit=fit,
+        sigma=sigma,
+        carried=carried,
+        model_error=model_error,
+        friction=treatment,
+        mu_range=mu_range,
+    )

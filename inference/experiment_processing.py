@@ -196,7 +196,17 @@ def to_model_frame(exp: ExperimentData) -> RegisteredDIC:
     )
     Q = rotation_to_fibers(angle)
     rms = float(np.sqrt(np.mean((np.linalg.norm(exp.indenter_xyz - centre, axis=1) - radius) ** 2)))
-    return RegisteredDIC(xyz_l @ Q.T, u_l @ Q.T, origin, float(angle), estimated, radius, rms, Q @ L, frame)
+    return RegisteredDIC(
+        xyz_l @ Q.T,
+        u_l @ Q.T,
+        origin=origin,
+        fiber_angle_deg=float(angle),
+        fiber_angle_estimated=estimated,
+        sphere_radius=radius,
+        sphere_rms=rms,
+        rotation=Q @ L,
+        frame=frame,
+    )
 
 
 def _step_mask(steps: int, used: np.ndarray) -> np.ndarray:

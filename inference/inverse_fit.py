@@ -247,7 +247,19 @@ def fit_parameters(
         message += f"; {len(failed)} trial point(s) whose simulation failed were refused: " + "; ".join(
             failed
         )
-    return _fit_result(objective, eta, theta, r, J, s, alpha, history, t0, message, prediction)
+    return _fit_result(
+        objective,
+        eta,
+        theta,
+        r=r,
+        J=J,
+        s=s,
+        alpha=alpha,
+        history=history,
+        t0=t0,
+        message=message,
+        prediction=prediction,
+    )
 
 
 def _fit_result(objective, eta, theta, r, J, s, alpha, history, t0, message, prediction=None) -> FitResult:
@@ -317,4 +329,16 @@ def gauss_newton_refine(
             message = f"Gauss-Newton: last step {np.round(100 * delta, 3).tolist()} % within {tolerance:.2g} of the bounds"
             break
     # F, the Hessian and s of the last evaluation, at the stepped theta (first order)
-    return _fit_result(objective, eta, theta, r, J, None, alpha, history, t0, message, seen.get("prediction"))
+    return _fit_result(
+        objective,
+        eta,
+        theta,
+        r=r,
+        J=J,
+        s=None,
+        alpha=alpha,
+        history=history,
+        t0=t0,
+        message=message,
+        prediction=seen.get("prediction"),
+    )

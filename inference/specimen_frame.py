@@ -106,4 +106,13 @@ def specimen_frame(xyz: np.ndarray, centre: np.ndarray, radius: float) -> Specim
             f"times the points' {noise:.2g} mm spread about it; face tilted {tilt:.3g} deg from the DIC z): the "
             "indenter points and the DIC points are not in one frame, or a file is the wrong one"
         )
-    return SpecimenFrame(normal, point, R, tilt, rms, noise, ip, off)
+    return SpecimenFrame(
+        normal,
+        point,
+        leveling=R,
+        tilt_deg=tilt,
+        surface_rms_mm=rms,
+        surface_noise_mm=noise,
+        indentation_point_mm=ip,
+        off_surface_mm=off,
+    )

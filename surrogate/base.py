@@ -88,12 +88,12 @@ class TrainingData:
         return cls(
             data.theta,
             force,
-            data.displacement,
-            data.depth,
-            data.top_xyz,
-            data.parameters,
-            data.spec,
-            missing if missing.any() else None,
+            displacement=data.displacement,
+            depth=data.depth,
+            top_xyz=data.top_xyz,
+            parameters=data.parameters,
+            source=data.spec,
+            missing=missing if missing.any() else None,
         )
 
     def subset(self, rows: np.ndarray) -> TrainingData:

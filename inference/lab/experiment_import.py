@@ -298,13 +298,15 @@ def import_experiment(
     return ImportResult(
         out,
         dic.source,
-        len(xyz),
-        frame_ids,
-        np.isfinite(u).all(axis=2).sum(axis=1).tolist(),
-        len(indenter_xyz),
-        holds,
-        tare,
-        list(dic.notes) + record_info.get("notes", []) + ([clock.describe()] if clock is not None else []),
+        points=len(xyz),
+        frames=frame_ids,
+        points_per_step=np.isfinite(u).all(axis=2).sum(axis=1).tolist(),
+        indenter_points=len(indenter_xyz),
+        holds=holds,
+        tare_mN=tare,
+        notes=list(dic.notes)
+        + record_info.get("notes", [])
+        + ([clock.describe()] if clock is not None else []),
     )
 
 

@@ -279,15 +279,15 @@ def find_holds(
             Hold(
                 k,
                 a + r0,
-                b + r0,
-                float(t[a]),
-                float(t[b]),
-                float(np.median(depth[a : b + 1])),
-                b - a + 1,
-                fit.f_inf,
-                fit.f_inf_std,
-                fit.amplitude,
-                fit.rate,
+                last_row=b + r0,
+                start_s=float(t[a]),
+                end_s=float(t[b]),
+                depth_mm=float(np.median(depth[a : b + 1])),
+                readings=b - a + 1,
+                f_inf_mN=fit.f_inf,
+                f_inf_std_mN=fit.f_inf_std,
+                amplitude_mN=fit.amplitude,
+                rate_per_s=fit.rate,
             )
         )
     table = hold_force_table(record, search)
