@@ -77,11 +77,16 @@ def test_a_graded_preset_still_finds_its_root():
 
 
 def test_numba_keeps_its_own_choice_where_the_source_folder_is_writable(monkeypatch):
+    """A writable ``__pycache__`` beside the kernels (a checkout, an editable install) or a
+    ``NUMBA_CACHE_DIR`` of the user's: nothing is changed."""
     monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
-    assert numba_cache.ensure_numba_cache_dir() is None  # this checkout is writable
+    monkeypatch.setattr(numba_cache, "_writable", lambda folder: True)
+    assert numba_cache.ensure_numba_cache_dir() is None
+    assert "NUMBA_CACHE_DIR" not in numba_cache.os.environ
     monkeypatch.setenv("NUMBA_CACHE_DIR", "/somewhere")
     monkeypatch.setattr(numba_cache, "_writable", lambda folder: False)
-    assert numba_cache.ensure_numba_cache_dir() is None  # the user's choice stands
+    assert numba_cache.ensure_numba_cache_dir() is None
+    assert numba_cache.os.environ["NUMBA_CACHE_DIR"] == "/somewhere"
 
 
 def test_a_read_only_install_gets_a_cache_folder(monkeypatch, tmp_path):
