@@ -13,6 +13,7 @@ import pandas as pd
 from ..forward.febio.equilibrium import check_equilibrium
 from ..forward.predictor import Prediction
 from ..forward.result import SimulationResult
+from ..forward.spec import ModelSpec
 from .store import CampaignError, CampaignStore
 
 
@@ -132,8 +133,6 @@ class StoredResponses:
 
     def __init__(self, data: CampaignData) -> None:
         self.data = data
-        from ..forward.spec import ModelSpec
-
         self.parameters = tuple(data.parameters)
         self.spec = ModelSpec.from_dict(data.spec["model"])  # the model the responses were solved on
 

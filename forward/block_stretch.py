@@ -21,10 +21,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from .block_mesh import BlockMesh
+from .composite_mesh import phantom_mesh
 from .element_moduli import ElementModuli, element_moduli
 from .hex8_mean_dilatation import per_element
 from .linear_solver import ConstrainedSymmetricSolver
 from .material import InvertedElementError, deviatoric_response
+from .mesh import build_mesh
+from .mesh_presets import CompositeMeshPreset
+from .solver import mesh_structures
 from .spec import ModelSpec
 
 
@@ -99,8 +103,6 @@ def average_cauchy_stress(
     """Cauchy stress averaged over the current volume of ``elements`` (all by default), kPa:
     sum_g w_g J_g sigma_g / sum_g w_g J_g with sigma = P F^T / J, P the isochoric stress at the
     Gauss point plus the element's mean-dilatation pressure U'(J_bar) J F^-T."""
-    from .solver import mesh_structures
-
     geo, _ = mesh_structures(mesh)
     sel = np.arange(mesh.n_elements) if elements is None else np.asarray(elements)
     dNdX, w = geo.dNdX[sel], geo.wdetJ0[sel]
@@ -165,8 +167,6 @@ def stretch_block(
     StretchError
         If a step is not solved after the cutbacks.
     """
-    from .solver import mesh_structures
-
     if stretch_x is None and stretch_y is None:
         raise ValueError("stretch_block: stretch at least one of x and y")
     n_steps = len(stretch_x if stretch_x is not None else stretch_y)
@@ -332,9 +332,6 @@ def equibiaxial_phantom_mesh(spec: ModelSpec, cell: float = EQUIBIAXIAL_CELL) ->
     BlockMesh
         The mesh, element sets ``matrix`` and ``fibers``.
     """
-    from .composite_mesh import phantom_mesh
-    from .mesh_presets import CompositeMeshPreset
-
     preset = CompositeMeshPreset(cell, 0.0, 2, spec.geometry.half_y, 0.0)
     return phantom_mesh(spec.geometry, preset, name=f"equibiaxial, {cell:g} mm cells")
 
@@ -375,8 +372,6 @@ def equibiaxial_stretch(
     ValueError
         If ``max_stretch`` is not a number > 1 or ``steps`` not a whole number >= 1.
     """
-    from .mesh import build_mesh
-
     if not (np.isfinite(max_stretch) and max_stretch > 1.0):
         raise ValueError(f"max_stretch must be a number > 1, got {max_stretch!r}")
     if int(steps) != steps or steps < 1:

@@ -20,6 +20,7 @@ import numpy as np
 
 from .febio.runner import FebioSolver, find_febio
 from .result import SimulationResult
+from .solver import simulate
 from .spec import ModelSpec, SpecError
 
 
@@ -290,8 +291,6 @@ class FESolverPredictor:
         """
         spec = self.spec_at(point)
         if self.solver == "embedded":
-            from .solver import simulate
-
             return simulate(spec, sensitivities=self.sensitivities or sensitivities)
         workdir = self.workdir / f"point-{index:05d}" if self.workdir else None
         return FebioSolver(spec, workdir=workdir).run()

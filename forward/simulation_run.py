@@ -17,6 +17,7 @@ from .febio.runner import FebioSolver
 from .result import SimulationResult
 from .solver import EmbeddedSolver, SimulationError
 from .spec import ModelSpec
+from .vtu_export import write_vtu_series
 
 __all__ = ["SimulationRun", "default_result_file", "feb_beside_log", "run_simulation"]
 
@@ -203,7 +204,5 @@ def run_simulation(
     path = result.save(out)
     pvd = None
     if vtu is not None:
-        from .vtu_export import write_vtu_series
-
         pvd = write_vtu_series(result, engine.mesh, vtu)
     return SimulationRun(result, path, pvd, list(equilibrium_notes(result)), time.perf_counter() - t0)

@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..forward.mesh import preset_mesh
 from .dic_checks import contact_radius, dic_field_warnings
 from .experiment_data import ExperimentData, ExperimentDataError, load_experiment
 from .experiment_processing import (
@@ -173,8 +174,6 @@ def _coverage(exp: ExperimentData, dic: RegisteredDIC) -> list[StepCoverage]:
 
 
 def _top_nodes(mesh: str) -> np.ndarray:
-    from ..forward.mesh import preset_mesh
-
     m = preset_mesh(mesh)
     return m.nodes[m.top][:, :2]
 

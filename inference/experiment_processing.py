@@ -24,6 +24,7 @@ import numpy as np
 from scipy import sparse
 from scipy.spatial import cKDTree
 
+from ..design.objective import Objective
 from .experiment_data import ExperimentData, ExperimentDataError
 from .relaxation import RelaxationFit, relaxation_fit  # noqa: F401 (eq. 9's names, kept here too)
 from .specimen_frame import SpecimenFrame, specimen_frame
@@ -369,8 +370,6 @@ def experiment_objective(exp: ExperimentData, top_xyz: np.ndarray, reading: str 
         If an excluded step is not in 1..N.
     """
     from dataclasses import replace
-
-    from ..design.objective import Objective
 
     bad = [k for k in excluded_steps if not 1 <= int(k) <= exp.steps]
     if bad:

@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from ..forward.febio.log import FebioLogError
 from ..forward.febio.readback import logged_block_material, read_febio_run
 from ..forward.predictor import Prediction, as_theta
 from ..forward.spec import Indenter, Material, MeshChoice, ModelSpec, Protocol
@@ -175,8 +176,6 @@ def experiment_from_febio_run(
     FileExistsError
         If an experiment folder is already there (unless ``overwrite``).
     """
-    from ..forward.febio.log import FebioLogError
-
     if (Path(out_dir) / "experiment.json").exists() and not overwrite:
         raise FileExistsError(
             f"{out_dir}: an experiment is already there (overwrite=True, or --overwrite, replaces it)"

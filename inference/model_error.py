@@ -27,6 +27,7 @@ import numpy as np
 
 from ..design.objective import Objective, check_weights
 from ..forward.predictor import Prediction
+from ..forward.spec import ModelSpec
 from ..surrogate.error_budgets import surrogate_error_budget
 
 __all__ = ["Z95", "ModelError", "combined_pct", "model_error_at", "model_error_scope", "with_model_error"]
@@ -185,8 +186,6 @@ def _perturbed(prediction: Prediction, force_log: np.ndarray, field: np.ndarray)
 def _contact_of(surrogate) -> str:
     """The contact of the FE model a surrogate emulates, in words (the perfect stick when its
     file does not say)."""
-    from ..forward.spec import ModelSpec
-
     model = (getattr(surrogate, "meta", None) or {}).get("campaign", {}).get("model")
     return ModelSpec.from_dict(model).contact.describe() if model else "perfect stick"
 

@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING
 from ..campaign.loader import CampaignData, load_campaign
 from .base import FieldSurrogate, TrainingData
 from .error_budgets import surrogate_error_budget
+from .persistence import load_surrogate
 from .validation import k_fold_errors, prediction_errors
 
 if TYPE_CHECKING:
@@ -201,7 +202,6 @@ def train_multi_fidelity(
         The trained surrogate.
     """
     from .multi_fidelity import MultiFidelitySurrogate
-    from .persistence import load_surrogate
 
     low_model = low if isinstance(low, FieldSurrogate) else load_surrogate(low)
     data = training_data(high_campaign, runs_dir)
