@@ -468,25 +468,11 @@ def test_force_csv_in_hold_form_needs_the_frames_named(lab, tmp_path):
     root, studio = lab["root"], lab["studio"]
     force = ForceSource(force_csv=studio / "force.csv")
     indenter = IndenterSource(studio / "indenter.csv", "mm")
+    kw = {"protocol": PROTOCOL, "force": force, "indenter": indenter, "length_unit": "mm"}
     with pytest.raises(ExperimentDataError, match="name the DIC frame of every step"):
-        import_duodic(
-            root / "duodic_v73.mat",
-            tmp_path / "e",
-            protocol=PROTOCOL,
-            force=force,
-            indenter=indenter,
-            length_unit="mm",
-        )
+        import_duodic(root / "duodic_v73.mat", tmp_path / "e", **kw)
     _no_leftovers(tmp_path / "e")
-    import_duodic(
-        root / "duodic_v73.mat",
-        tmp_path / "e",
-        protocol=PROTOCOL,
-        force=force,
-        indenter=indenter,
-        length_unit="mm",
-        frames=FrameChoice(frames=(1, 2, 3, 4)),
-    )
+    import_duodic(root / "duodic_v73.mat", tmp_path / "e", **kw, frames=FrameChoice(frames=(1, 2, 3, 4)))
     r, _ = _residuals(load_experiment(tmp_path / "e"), lab["model"], TRUE)
     r_studio, _ = _residuals(lab["exp"], lab["model"], TRUE)
     assert np.abs(r - r_studio).max() <= 1e-6 * np.abs(r_studio).max()
