@@ -221,7 +221,8 @@ def _elements(
                     dx[a, i] = sd
                     force[e, 3 * a + i] += wg * (ss + cP * sg)
                     gv[3 * a + i] += wg * J * sg
-                    gf[3 * a + i] += wg * sd
+                    if fiber_mean:
+                        gf[3 * a + i] += wg * sd
             if c2 != 0.0:
                 en += _mooney_rivlin_term(
                     e, g, wg, Fg, J, I1, c2, dNdX, gx, want_K, C, B, S2, fx, s2x, cdn, force, K
@@ -264,10 +265,14 @@ def _elements(
         energy[e] = en
         if want_K:
             cv = dp / vol[e]
-            cf = c5 * d2hm / vol[e]
             for r in range(24):
                 for c in range(r // 3 * 3, 24):
-                    K[e, r, c] += cv * gv[r] * gv[c] + cf * gf[r] * gf[c]
+                    K[e, r, c] += cv * gv[r] * gv[c]
+            if fiber_mean:
+                cf = c5 * d2hm / vol[e]
+                for r in range(24):
+                    for c in range(r // 3 * 3, 24):
+                        K[e, r, c] += cf * gf[r] * gf[c]
             for r in range(24):  # mirror the upper block triangle
                 for c in range(r // 3 * 3):
                     K[e, r, c] = K[e, c, r]
