@@ -3,14 +3,17 @@
 Each case (the paper protocol on FEBio's baseline mesh, R = 4.77 mm, 28 x 0.5 mm, {10, 350} kPa;
 the same with sensitivities, with Coulomb mu = 0.3, and at R = 8 mm) is timed warm in this process,
 interleaved with a fixed amount of numpy work (dense products and a sparse factorisation on one
-thread). The figure kept is the **ratio** of the case's median time to the numpy work's median
-time: a slower or busier machine slows both, so the ratio moves little with machine noise, while a
-slower solver moves it one for one. Cold figures (a fresh ``indent-studio simulate --json``: its
+thread). The figure kept is the **ratio** of the case's median time on one thread to the numpy
+work's median time (also on one thread): a slower or busier machine slows both, so the ratio moves
+little with machine noise, while a slower solver moves it one for one. The case is also timed with
+the thread policy's choice (``forward.threads``; the time a user sees), which a busy machine moves
+twice: fewer idle cores, fewer threads. Cold figures (a fresh ``indent-studio simulate --json``: its
 ``wall_s`` and the whole command timed from outside) are recorded beside it.
 
 Every run appends one record (date, commit, machine, load average, every figure) to
-``benchmarks/history/speed.jsonl``. A case whose ratio is more than ``--threshold`` (1.3) times
-the median ratio of its last five records is reported loudly and the script exits with status 1.
+``benchmarks/history/speed.jsonl``. A case whose one-thread ratio is more than ``--threshold``
+(1.3) times the median of its last five one-thread records' (older records count where their
+thread policy had chosen one thread) is reported loudly and the script exits with status 1.
 
     .venv/bin/python benchmarks/speed_history.py                 # all cases, 5 repeats, record
     .venv/bin/python benchmarks/speed_history.py --cases paper --repeats 3 --no-record
@@ -49,25 +52,41 @@ CASES = {
 }
 
 
+#: The yardstick's version: records compare only with records of the same yardstick.
+YARDSTICK = 2
+
+
 def reference_work() -> float:
-    """A fixed amount of numpy and scipy work on one thread (s): the yardstick of the machine."""
+    """A fixed amount of numpy and scipy work on one thread (s), the yardstick of the machine.
+
+    It mixes what the solver does: dense products in cache, streaming over arrays far larger than
+    the caches (the assembly's memory traffic, which other jobs on the machine contend for) and a
+    sparse LU of a 3D Laplacian (a factorisation with fill-in)."""
     rng = np.random.default_rng(0)
     a = rng.standard_normal((300, 300))
-    lap = sp.diags([-1.0, 2.0, -1.0], [-1, 0, 1], shape=(20_000, 20_000), format="csc")
-    grid = sp.kronsum(lap[:100, :100], lap[:100, :100], format="csc")
+    big = rng.random(8_000_000)
+    lap = sp.diags([-1.0, 2.0, -1.0], [-1, 0, 1], shape=(20, 20), format="csc")
+    eye = sp.identity(20, format="csc")
+    grid = (
+        sp.kron(sp.kron(lap, eye), eye) + sp.kron(sp.kron(eye, lap), eye) + sp.kron(sp.kron(eye, eye), lap)
+    ).tocsc()
     with threadpool_limits(1):
         t0 = time.perf_counter()
-        for _ in range(100):
+        for _ in range(150):
             a = np.tanh(a @ a.T / 300.0)
-        for _ in range(3):
-            lu = spla.splu(grid)
-            for _ in range(40):
-                lu.solve(np.ones(grid.shape[0]))
+        for _ in range(6):
+            b = big * 1.0001 + 0.5
+            np.sqrt(b, out=b)
+            big = b - 0.5
+        lu = spla.splu(grid)
+        for _ in range(10):
+            lu.solve(np.ones(grid.shape[0]))
         return time.perf_counter() - t0
 
 
-def solve_case(case: str) -> dict[str, Any]:
-    """One warm run of ``case``; returns its wall time and solver statistics."""
+def solve_case(case: str, threads: int | None = None) -> dict[str, Any]:
+    """One warm run of ``case`` on ``threads`` threads (None: the thread policy's choice); returns
+    its wall time and solver statistics."""
     from indentation_studio.forward.solver import EmbeddedSolver
     from indentation_studio.forward.spec import Indenter, MeshChoice, ModelSpec
 
@@ -76,7 +95,7 @@ def solve_case(case: str) -> dict[str, Any]:
     spec = spec.with_friction(opts["friction"])
     solver = EmbeddedSolver(spec)
     t0 = time.perf_counter()
-    result = solver.run(sensitivities=opts["sensitivities"])
+    result = solver.run(sensitivities=opts["sensitivities"], threads=threads)
     return {
         "wall_s": time.perf_counter() - t0,
         "force_14mm_mN": float(result.force[-1]),
@@ -113,23 +132,29 @@ def measure(cases: list[str], repeats: int, cold_repeats: int) -> dict[str, Any]
     figures: dict[str, Any] = {}
     yardstick: list[float] = []
     for case in cases:
-        times, refs, last = [], [], {}
+        times, one, refs, last = [], [], [], {}
         for k in range(repeats):
             refs.append(reference_work())
+            one.append(solve_case(case, threads=1)["wall_s"])
             last = solve_case(case)
             times.append(last["wall_s"])
             print(
-                f"{case} {k + 1}/{repeats}: {times[-1]:.3f} s (yardstick {refs[-1]:.3f} s)", file=sys.stderr
+                f"{case} {k + 1}/{repeats}: {times[-1]:.3f} s, one thread {one[-1]:.3f} s "
+                f"(yardstick {refs[-1]:.3f} s)",
+                file=sys.stderr,
             )
         yardstick += refs
         figures[case] = {
             "median_s": statistics.median(times),
             "runs_s": [round(t, 4) for t in times],
-            "ratio": statistics.median(times) / statistics.median(refs),
+            "one_thread_s": statistics.median(one),
+            "ratio": statistics.median(one) / statistics.median(refs),
+            "ratio_policy": statistics.median(times) / statistics.median(refs),
             **{k: v for k, v in last.items() if k != "wall_s"},
         }
     out = {
         "cases": figures,
+        "yardstick": YARDSTICK,
         "yardstick_s": statistics.median(yardstick),
         "threads_chosen": solver_threads(),
         "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
@@ -161,10 +186,17 @@ def read_history(path: Path) -> list[dict[str, Any]]:
 
 
 def regressions(record: dict[str, Any], history: list[dict[str, Any]], threshold: float) -> list[str]:
-    """Cases whose ratio exceeds ``threshold`` x the median ratio of their last five records."""
+    """Cases whose one-thread ratio exceeds ``threshold`` x the median ratio of their last five
+    records."""
     out = []
     for case, fig in record["cases"].items():
-        past = [h["cases"][case]["ratio"] for h in history if case in h.get("cases", {})][-5:]
+        past = [
+            h["cases"][case]["ratio"]
+            for h in history
+            if case in h.get("cases", {})
+            and h.get("yardstick", 1) == YARDSTICK
+            and ("one_thread_s" in h["cases"][case] or h.get("threads_chosen") == 1)  # one thread
+        ][-5:]
         if not past:
             continue
         base = statistics.median(past)
@@ -212,7 +244,8 @@ def main() -> int:
     else:
         for case, fig in record["cases"].items():
             print(
-                f"{case:14s} median {fig['median_s']:.3f} s  ratio {fig['ratio']:.2f}  "
+                f"{case:14s} median {fig['median_s']:.3f} s ({record['threads_chosen']} threads), "
+                f"one thread {fig['one_thread_s']:.3f} s, ratio {fig['ratio']:.2f}  "
                 f"Newton {fig['newton_iterations']}  factorisations {fig['factorizations']}  "
                 f"F(14 mm) {fig['force_14mm_mN']:.1f} mN"
             )
