@@ -40,50 +40,22 @@ def hex8_three_field_kernel(
     for ch in prange(n_chunks):
         lo = ch * ne // n_chunks
         hi = (ch + 1) * ne // n_chunks
+        # fmt: off
         chunk_min[ch] = _elements(
-            lo,
-            hi,
-            dNdX,
-            w,
-            vol,
-            ue,
-            c1,
-            c2,
-            c5,
-            kappa,
-            a0,
-            want_K,
-            want_dtheta,
-            fiber_mean,
-            force,
-            K,
-            energy,
-            dforce,
+            lo, hi, dNdX, w, vol, ue, c1, c2, c5, kappa, a0,
+            want_K, want_dtheta, fiber_mean, force, K, energy, dforce,
         )
+        # fmt: on
     return chunk_min.min()
 
 
+# fmt: off
 @njit(cache=True, nogil=True)
 def _elements(
-    lo,
-    hi,
-    dNdX,
-    w,
-    vol,
-    ue,
-    c1_e,
-    c2_e,
-    c5_e,
-    kappa_e,
-    a0,
-    want_K,
-    want_dtheta,
-    fiber_mean,
-    force,
-    K,
-    energy,
-    dforce,
+    lo, hi, dNdX, w, vol, ue, c1_e, c2_e, c5_e, kappa_e, a0,
+    want_K, want_dtheta, fiber_mean, force, K, energy, dforce,
 ):  # pragma: no cover - compiled
+    # fmt: on
     """Elements lo..hi-1 of :func:`hex8_three_field_kernel`; returns their smallest det F."""
     minJ = np.inf
     F = np.empty((8, 3, 3))
