@@ -15,6 +15,7 @@ from matplotlib.ticker import ScalarFormatter
 
 from ..atomic_write import atomic_write
 from ..design.objective_over_plane import ObjectiveMap
+from ..forward.material import equibiaxial_stress_incompressible
 
 
 def certainty_ellipse(H: np.ndarray, s: float, centre=(1.0, 1.0), n: int = 200) -> np.ndarray:
@@ -360,8 +361,6 @@ def equibiaxial_figure(
     matplotlib.figure.Figure
         The plot.
     """
-    from ..forward.material import equibiaxial_stress_incompressible
-
     lam = np.asarray(stretch, dtype=float)
     fig, ax = plt.subplots(figsize=(5.6, 4.2), constrained_layout=True)
     ax.plot(lam, sigma_fiber, "o", ms=4, color="C0", label="FE, along the fibers")
