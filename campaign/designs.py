@@ -123,6 +123,7 @@ def parse_grid(text: str) -> Design:
 
 
 _CANONICAL = ("c1", "c5", "mu")
+_BOX_RANGE = re.compile(r"^\s*(\w+)\s*=\s*([^:]+):([^:]+)(:log)?\s*$")
 
 
 def points_from_csv(path: str | Path, parameters: tuple[str, ...] = ("c1", "c5")) -> Design:
@@ -147,12 +148,19 @@ def points_from_csv(path: str | Path, parameters: tuple[str, ...] = ("c1", "c5")
 
 
 def space_filling(
-    kind: str, n: int, bounds: dict[str, tuple[float, float]] | None = None, seed: int = 0
+    kind: str,
+    n: int,
+    bounds: dict[str, tuple[float, float]] | None = None,
+    seed: int = 0,
+    *,
+    log_axes: frozenset[str] = frozenset(),
 ) -> Design:
     """A Latin hypercube (``lhs``) or scrambled Sobol (``sobol``) design of ``n`` points.
 
     The points come from scipy.stats.qmc, scaled into ``bounds``, and are reproducible from
-    ``seed``.
+    ``seed``. An axis in ``log_axes`` is filled evenly in log: a friction coefficient over 0.1 to
+    3 then gets two thirds of its points below 1, where slip changes the response (README,
+    "Friction"; above about 1 nothing slips and the response is the stick's).
 
     Parameters
     ----------
@@ -164,16 +172,19 @@ def space_filling(
         Parameter -> (low, high), kPa; default the paper's box (c1 in [1, 21], c5 in [82.5, 578]).
     seed : int, default 0
         Seed of the generator.
+    log_axes : frozenset of str, optional
+        Parameters filled evenly in log (their LO must be > 0).
 
     Returns
     -------
     Design
-        The points, described as ``"<kind>:n=<n>:seed=<seed>"``.
+        The points, described as ``"<kind>:n=<n>:seed=<seed>"`` (with the bounds that differ from
+        the paper's box after a comma, as :func:`design_from_option` reads them).
 
     Raises
     ------
     DesignError
-        If ``n < 1`` or ``kind`` is neither ``lhs`` nor ``sobol``.
+        If ``n < 1``, ``kind`` is neither ``lhs`` nor ``sobol``, or a log axis has LO <= 0.
 
     Examples
     --------
@@ -191,8 +202,19 @@ def space_filling(
         unit = qmc.Sobol(d=d, scramble=True, seed=seed).random(n)
     else:
         raise DesignError(f"unknown design kind {kind!r}; use 'lhs' or 'sobol'")
-    lo, hi = np.array(list(bounds.values())).T
-    return Design(qmc.scale(unit, lo, hi), tuple(bounds), f"{kind}:n={n}:seed={seed}")
+    lo, hi = np.array(list(bounds.values()), dtype=float).T
+    logged = np.array([k in log_axes for k in bounds])
+    if np.any(lo[logged] <= 0):
+        raise DesignError(f"{kind}: a log-filled axis needs LO > 0, got {dict(bounds)}")
+    lo[logged], hi[logged] = np.log(lo[logged]), np.log(hi[logged])
+    points = qmc.scale(unit, lo, hi)
+    points[:, logged] = np.exp(points[:, logged])
+    extra = [
+        f"{k}={a:g}:{b:g}" + (":log" if k in log_axes else "")
+        for k, (a, b) in bounds.items()
+        if PAPER_BOUNDS.get(k) != (a, b) or k in log_axes
+    ]
+    return Design(points, tuple(bounds), ",".join([f"{kind}:n={n}:seed={seed}", *extra]))
 
 
 def design_from_option(text: str) -> Design:
@@ -203,7 +225,8 @@ def design_from_option(text: str) -> Design:
     text : str
         ``paper`` (:func:`paper_grid`), a CSV path (one column per parameter), a grid
         ``c1=LO:HI:N,c5=LO:HI:N``, or ``lhs:N[:SEED]`` / ``sobol:N[:SEED]`` over the paper's box
-        (:func:`space_filling`).
+        (:func:`space_filling`), after which ``,NAME=LO:HI[:log]`` parts change a range or add
+        an axis (``sobol:512:1,mu=0.1:3:log``: friction filled evenly in log).
 
     Returns
     -------
@@ -220,19 +243,37 @@ def design_from_option(text: str) -> Design:
     >>> from indentation_studio.campaign import design_from_option
     >>> design_from_option("c1=1:21:3,c5=82.5:578:2").points.shape
     (6, 2)
+    >>> design_from_option("sobol:8:1,mu=0.1:3:log").parameters
+    ('c1', 'c5', 'mu')
     """
     t = text.strip()
     if t == "paper":
         return paper_grid()
     kind = t.split(":", 1)[0]
     if kind in ("lhs", "sobol"):
-        parts = t.split(":")
+        head, *ranges = t.split(",")
+        parts = head.split(":")
         try:
             n = int(parts[1])
             seed = int(parts[2]) if len(parts) > 2 else 0
         except (IndexError, ValueError) as exc:
             raise DesignError(f"--grid {t!r}: expected {kind}:N or {kind}:N:SEED") from exc
-        return space_filling(kind, n, seed=seed)
+        bounds, log_axes = dict(PAPER_BOUNDS), set()
+        for part in ranges:
+            m = _BOX_RANGE.match(part)
+            if not m:
+                raise DesignError(f"--grid part {part!r}: expected NAME=LO:HI[:log], e.g. mu=0.1:3:log")
+            try:
+                bounds[m.group(1)] = (float(m.group(2)), float(m.group(3)))
+            except ValueError as exc:
+                raise DesignError(f"--grid part {part!r}: LO and HI must be numbers") from exc
+            if not bounds[m.group(1)][0] < bounds[m.group(1)][1]:
+                raise DesignError(f"--grid part {part!r}: need LO < HI")
+            if m.group(4):
+                log_axes.add(m.group(1))
+        order = sorted(bounds, key=lambda k: _CANONICAL.index(k) if k in _CANONICAL else len(_CANONICAL))
+        bounds = {k: bounds[k] for k in order}
+        return space_filling(kind, n, bounds, seed, log_axes=frozenset(log_axes))
     if t.lower().endswith(".csv"):
         return points_from_csv(t)
     return parse_grid(t)

@@ -20,11 +20,12 @@ from ..design.friction_treatment import (
 from ..design.objective import PAPER_WEIGHTS
 from ..forward.predictor import FESolverPredictor
 from ..forward.solver import SimulationError
-from ..surrogate.base import FieldSurrogate
+from ..surrogate.base import SPARSE_GAP, FieldSurrogate
 from ..surrogate.error_budgets import surrogate_error_budget
 from .adequacy import fit_adequacy
 from .budget_check import budget_status
 from .experiment_data import ExperimentData
+from .fit_confirmation import FitConfirmation, confirm_fit
 from .fit_inputs import FitInputs, prepare_fit
 from .inverse_fit import (
     PAPER_F_STOP,
@@ -38,13 +39,22 @@ from .mesh_check import MeshCheck, check_mesh_at
 from .model_error import ModelError, combined_pct, has_high_fidelity_level, model_error_at, model_error_scope
 
 __all__ = [
+    "FE_STAGES",
     "ExperimentFit",
     "check_parameter_order",
     "default_friction",
     "fit_experiment",
     "fit_on_surrogate_with_mu",
+    "resolved_fe_stage",
     "surrogate_with_mu",
 ]
+
+#: What follows the fit on the surrogate (``fit_experiment(fe_stage=...)``): ``confirm``, one FE run
+#: at the fit and the Gauss-Newton step it points to (:mod:`inference.fit_confirmation`); ``fit``,
+#: Levenberg-Marquardt on the FE model (paper 2.8.2; minutes with mu); ``none``; ``auto``,
+#: ``confirm`` on a surrogate trained with mu and ``fit`` on one without (its FE stage is what
+#: brings mu in, or refines the stick's fit).
+FE_STAGES = ("auto", "confirm", "fit", "none")
 
 
 @dataclass
@@ -81,6 +91,8 @@ class ExperimentFit:
         The chi-square test: can the model explain the data.
     adequacy_note : str or None
         Why the adequacy test was not made.
+    confirmation : FitConfirmation or None
+        The FE confirmation at a fit on the surrogate (``fe_stage="confirm"``).
     """
 
     inputs: FitInputs
@@ -97,6 +109,7 @@ class ExperimentFit:
     restarts: list[dict] = field(default_factory=list)  # fits again from a better point found at an end
     adequacy: object | None = None  # inference.adequacy.Adequacy: can the model explain the data
     adequacy_note: str | None = None  # why the adequacy test was not made
+    confirmation: FitConfirmation | None = None  # fe_stage "confirm": one FE run at the surrogate's fit
 
     @property
     def friction_bounds(self) -> dict | None:
@@ -154,7 +167,55 @@ class ExperimentFit:
                 f"F = {final.F:.4g}: the surrogate misses these data (a fit on it alone, or a posterior "
                 "sampled on it, would be wrong here); train it on a denser campaign around the fit"
             )
+        if self.confirmation is not None:
+            out.extend(self.confirmation.warnings)
+        region = self.training_region
+        if region is not None and region["at_box_edge"]:
+            out.append(
+                f"the fit sits at the edge of the surrogate's training box in {', '.join(region['at_box_edge'])}: "
+                "the data may want a value outside it, which the surrogate cannot give; train on a wider box"
+            )
+        if region is not None and region["gap"] is not None and region["gap"] > SPARSE_GAP:
+            out.append(
+                f"the fit lies in a region without training points (nearest {region['gap']:.1f} median "
+                "spacings away: a corner of the box, or points of the campaign that did not converge); "
+                "the surrogate interpolates far there"
+            )
         return out
+
+    @property
+    def training_region(self) -> dict | None:
+        """Where a fit that ended on the surrogate lies in its training data.
+
+        Returns
+        -------
+        dict or None
+            ``at_box_edge``: the parameters within 0.5 % of the training box's width from its edge
+            (mu's range end is named by fit.json's 'friction' instead); ``gap``: the distance to the
+            nearest training point in median spacings
+            (:meth:`surrogate.base.FieldSurrogate.training_gap`; None for a surrogate saved before
+            its points were kept); ``sparse_gap``: the gap beyond which the fit says so. None
+            after an FE fit.
+        """
+        if self.refined:
+            return None
+        model, theta = self.inputs.surrogate, self.fit.theta
+        lo, hi = np.asarray(model.scaler.lo, float), np.asarray(model.scaler.hi, float)
+        if theta.size != lo.size:  # mu held: theta is (c1, c5) of a surrogate over (c1, c5, mu)
+            lo, hi = lo[: theta.size], hi[: theta.size]
+        width = hi - lo
+        edge = (theta <= lo + 0.005 * width) | (theta >= hi - 0.005 * width)
+        names = list(model.parameters[: theta.size])
+        at_edge = [k for k, e in zip(names, edge, strict=True) if e and k != "mu"]
+        gap = float(model.training_gap(self._theta_in_surrogate())[0])
+        return {"at_box_edge": at_edge, "gap": None if np.isnan(gap) else gap, "sparse_gap": SPARSE_GAP}
+
+    def _theta_in_surrogate(self) -> np.ndarray:
+        """The fit as the surrogate's full theta (mu held: put back)."""
+        theta = self.fit.theta
+        if "mu" in self.inputs.surrogate.parameters and theta.size == 2:
+            theta = np.append(theta, self.friction.value)
+        return theta[None, :]
 
     def to_dict(self) -> dict:
         """fit.json: theta, bounds (statistical only unless a mesh check is present), provenance."""
@@ -183,6 +244,8 @@ class ExperimentFit:
             "fe_fit": {"evaluations": final.evaluations, "wall_s": final.wall_s, "message": final.message}
             if self.refined
             else None,
+            "fe_confirmation": None if self.confirmation is None else self.confirmation.to_dict(),
+            "training_region": self.training_region,
             "fiber_angle_deg": inputs.dic.fiber_angle_deg,
             "fiber_angle_estimated": inputs.dic.fiber_angle_estimated,
             "registration": inputs.dic.to_dict(),
@@ -255,14 +318,16 @@ def fit_experiment(
     friction: FrictionTreatment | str | float | None = None,
     force_noise: float | None = None,
     dic_noise: float | None = None,
+    fe_stage: str = "auto",
 ) -> ExperimentFit:
     """Fit (c1, c5) to a measured experiment: on the surrogate, then on its FE model (paper 2.8.2).
 
-    LM from {6, 300} kPa on the surrogate, then (``refine``) on the FE model the surrogate was
-    trained on, with its exact sensitivities; eq. 6 to 8 bounds with s from the data. On a
+    LM from {6, 300} kPa on the surrogate, then the FE stage on the FE model the surrogate was
+    trained on (``fe_stage``, :data:`FE_STAGES`): one confirming run with the Gauss-Newton step it
+    points to, or LM with its exact sensitivities; eq. 6 to 8 bounds with s from the data. On a
     surrogate trained with mu as a parameter (a campaign with a mu axis) the surrogate stage fits
-    or holds mu too; on one without, that stage fits (c1, c5) with its contact as a start, and
-    the FE stage (needed then) brings mu in. Every fit is tested for model adequacy
+    or holds mu too, and by default the FE model confirms the fit (seconds); on one without, that
+    stage fits (c1, c5) with its contact as a start, and the FE fit (needed then) brings mu in. Every fit is tested for model adequacy
     (:mod:`inference.adequacy`: its residuals against the data's noise) and says whether its test
     has an error budget (:mod:`inference.budget_check`).
 
@@ -275,7 +340,7 @@ def fit_experiment(
     weights : array_like, default PAPER_WEIGHTS
         The weights of eq. 5.
     refine : bool, default True
-        Refine on the FE model.
+        Run the FE stage at all (False: ``fe_stage="none"``).
     paper_stop : bool, default False
         Stop as soon as F < 3e-2 (the paper's rule).
     check_mesh : str, optional
@@ -293,11 +358,19 @@ def fit_experiment(
         Declared force noise (relative, per reading) for the adequacy test; default measured.
     dic_noise : float, optional
         Declared DIC noise (mm) for the adequacy test; default measured.
+    fe_stage : {"auto", "confirm", "fit", "none"}, default "auto"
+        What follows the surrogate's fit (:data:`FE_STAGES`).
 
     Returns
     -------
     ExperimentFit
         Both stages, the bounds and the checks.
+
+    Raises
+    ------
+    ValueError
+        If ``fe_stage`` is none of :data:`FE_STAGES`, or the friction treatment needs an FE fit
+        that is not asked for.
 
     Examples
     --------
@@ -307,14 +380,15 @@ def fit_experiment(
     """
     say = say or (lambda message: None)
     inputs = prepare_fit(experiment, surrogate, weights, exclude_steps)
+    stage = resolved_fe_stage(fe_stage, inputs.surrogate, refine=refine)
     treatment = (
-        default_friction(inputs.surrogate, refine and check_mesh is None)
+        default_friction(inputs.surrogate, stage == "fit" and check_mesh is None)
         if friction is None
         else FrictionTreatment.parse(friction)
     )
     f_stop = PAPER_F_STOP if paper_stop else None
     if treatment.mode != "assumed" or "mu" in inputs.surrogate.parameters:
-        result = _fit_with_friction(inputs, treatment, refine, f_stop, check_mesh, say)
+        result = _fit_with_friction(inputs, treatment, stage, f_stop, check_mesh, say)
         result.adequacy, result.adequacy_note = fit_adequacy(
             result, force_noise=force_noise, dic_noise=dic_noise
         )
@@ -323,7 +397,7 @@ def fit_experiment(
     first = fit_parameters(inputs.objective, inputs.surrogate, inputs.eta, f_stop=f_stop)
     final = first
     two_level = has_high_fidelity_level(inputs.surrogate)
-    if refine:
+    if stage == "fit":
         fe = FESolverPredictor(inputs.spec)
         if (
             two_level and not paper_stop
@@ -343,9 +417,58 @@ def fit_experiment(
     if two_level:
         say("the model error at the fit (discrepancy and error budget) ...")
     model_error = model_error_at(inputs.objective, inputs.eta, inputs.surrogate, final.theta)
-    result = ExperimentFit(inputs, first, final, refine, check, check_mesh, model_error)
+    result = ExperimentFit(inputs, first, final, stage == "fit", check, check_mesh, model_error)
+    if stage == "confirm":
+        say(f"confirming on the FE solver at {first.theta.round(3).tolist()} kPa ...")
+        result.confirmation = _confirm(result, FESolverPredictor(inputs.spec), None)
     result.adequacy, result.adequacy_note = fit_adequacy(result, force_noise=force_noise, dic_noise=dic_noise)
     return result
+
+
+def resolved_fe_stage(fe_stage: str, surrogate, *, refine: bool = True) -> str:
+    """The FE stage a fit runs (:data:`FE_STAGES`): ``auto`` made ``confirm`` on a surrogate trained
+    with mu, ``fit`` on one without; ``none`` whenever ``refine`` is False.
+
+    Parameters
+    ----------
+    fe_stage : str
+        One of :data:`FE_STAGES`.
+    surrogate : FieldSurrogate
+        The surrogate the fit starts on.
+    refine : bool, default True
+        False: no FE stage at all.
+
+    Returns
+    -------
+    str
+        ``confirm``, ``fit`` or ``none``.
+
+    Raises
+    ------
+    ValueError
+        If ``fe_stage`` is none of :data:`FE_STAGES`.
+    """
+    if fe_stage not in FE_STAGES:
+        raise ValueError(f"fe_stage {fe_stage!r}: use one of {', '.join(FE_STAGES)}")
+    if not refine:
+        return "none"
+    if fe_stage == "auto":
+        return "confirm" if "mu" in surrogate.parameters else "fit"
+    return fe_stage
+
+
+def _confirm(fit: ExperimentFit, fe, box) -> FitConfirmation:
+    """The FE confirmation of a fit that ended on the surrogate (:func:`confirm_fit`)."""
+    inputs = fit.inputs
+    return confirm_fit(
+        inputs.objective,
+        fe,
+        inputs.eta,
+        fit.fit.theta,
+        F_surrogate=fit.fit.F,
+        statistical_pct=fit.statistical_pct,
+        box=box,
+    )
 
 
 def default_friction(surrogate, fe_stage: bool = True) -> FrictionTreatment:
@@ -457,7 +580,7 @@ def fit_on_surrogate_with_mu(
 def _fit_with_friction(
     inputs: FitInputs,
     treatment: FrictionTreatment,
-    refine: bool,
+    stage: str,
     f_stop: float | None,
     check_mesh: str | None,
     say: Callable[[str], None],
@@ -474,11 +597,17 @@ def _fit_with_friction(
         check_parameter_order(model)
     if check_mesh is not None:
         raise ValueError("friction: the mesh check is made with the perfect stick; fit without --check-mesh")
+    refine = stage == "fit"
     mu_range = _mu_range(treatment, model, fe_stage=refine)
-    if not with_mu and not refine:
+    if not with_mu and not refine and treatment.fits_mu:
         raise ValueError(
             f"friction {treatment.mode}: the surrogate has no mu, so only the FE stage can bring it in; "
-            "fit with the FE refinement"
+            "fit with the FE refinement (--fe-stage fit)"
+        )
+    if not with_mu and not refine:  # mu known: the surrogate's contact is not that mu's
+        raise ValueError(
+            f"friction {treatment.mode}: the surrogate has no mu, so only the FE fit can hold it at "
+            f"{treatment.value:g}; fit with --fe-stage fit"
         )
     obj, eta = inputs.objective, inputs.eta
     say(
@@ -545,6 +674,13 @@ def _fit_with_friction(
     )
     fit.model_error = _stick_mesh_budget(model, fit.contact, spec.contact.describe())
     fit.mu_reach, fit.mu_reach_notes, fit.restarts = reach, notes, restarts
+    if stage == "confirm":
+        say(f"confirming on the FE solver at {np.round(final.theta, 3).tolist()} ...")
+        if treatment.mode == "known":
+            fe = FESolverPredictor(spec.with_friction(treatment.value))
+        else:
+            fe = FESolverPredictor(spec, parameters=("c1", "c5", "mu"))
+        fit.confirmation = _confirm(fit, fe, inside if treatment.fits_mu else None)
     return fit
 
 

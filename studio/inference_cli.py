@@ -62,7 +62,15 @@ POSTERIOR_FRICTION = Annotated[
     ),
 ]
 
-REFINE = Annotated[bool, typer.Option(help="refine on the FE solver with exact sensitivities")]
+REFINE = Annotated[bool, typer.Option(help="run an FE stage after the surrogate's fit (--no-refine: none)")]
+FE_STAGE = Annotated[
+    str,
+    typer.Option(
+        help="after the surrogate's fit: confirm (one FE run at the fit and the Gauss-Newton step it points "
+        "to, seconds), fit (Levenberg-Marquardt on the FE solver with exact sensitivities, minutes with mu) "
+        "or auto (confirm on a surrogate trained with mu, fit on one without)"
+    ),
+]
 PAPER_STOP = Annotated[bool, typer.Option(help="stop as soon as F < 3e-2 (the paper's rule)")]
 WALKERS = Annotated[int, typer.Option(help="emcee walkers")]
 CHAIN_STEPS = Annotated[int, typer.Option(help="emcee steps per walker")]
@@ -96,6 +104,7 @@ def fit(
     surrogate: SURROGATE,
     weights: WEIGHTS = "0.45,0.35,0.2,0",
     refine: REFINE = True,
+    fe_stage: FE_STAGE = "auto",
     paper_stop: PAPER_STOP = False,
     check_mesh: CHECK_MESH = None,
     exclude_steps: EXCLUDE = "",
@@ -105,8 +114,10 @@ def fit(
     out: OUT = None,
     as_json: JSON = False,
 ) -> None:
-    """Inverse fit (2.8.2): Levenberg-Marquardt from {6, 300} kPa on the surrogate, then on the FE
-    solver with its exact sensitivities; bounds from eq. 6 to 8 with s from the data. With
+    """Inverse fit (2.8.2): Levenberg-Marquardt from {6, 300} kPa on the surrogate, then the FE
+    stage: on a surrogate trained with mu one FE run confirms the fit (the step it points to against
+    the bounds), else Levenberg-Marquardt on the FE solver with its exact sensitivities (--fe-stage
+    chooses); bounds from eq. 6 to 8 with s from the data. With
     --check-mesh, the fit carried to the finer mesh (``posterior --mesh-check`` reads fit.json then).
     ``--friction`` holds the indenter's friction coefficient mu at a value, or identifies or
     marginalises it with (c1, c5) (README, "Friction"). Every fit is tested for model adequacy
@@ -125,6 +136,7 @@ def fit(
             friction=friction,
             force_noise=force_noise,
             dic_noise=dic_noise,
+            fe_stage=fe_stage,
         )
         path = result.save(out or Path(experiment) / "results")
     except (ValueError, OSError, RuntimeError) as exc:
@@ -172,6 +184,16 @@ def _print_fit(result: inference.ExperimentFit, payload: dict, check_mesh: str |
             if note.startswith("taken as reached"):
                 Console().print(f"  mu's {side} end {note}")
     Console().print(f"  bounds: {payload['bounds_include']}")
+    confirmation = payload["fe_confirmation"]
+    if confirmation is not None and confirmation["error"] is None:
+        shift = ", ".join(
+            f"{k} {v:+.2f} %"
+            for k, v in zip(confirmation["parameters"], confirmation["gauss_newton_shift_pct"], strict=True)
+        )
+        Console().print(
+            f"  FE confirmation ({confirmation['wall_s']:.1f} s): F = {confirmation['F_fe']:.4g} on the FE model "
+            f"(surrogate {confirmation['F_surrogate']:.4g}); one Gauss-Newton step from it moves {shift}"
+        )
     check = payload["mesh_check"]
     if check is not None:
         t, u = check["theta_on_finer_mesh"], check["corrected_combined_pct"]

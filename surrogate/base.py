@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from scipy.spatial import cKDTree
 from sklearn.decomposition import PCA
 
 from ..campaign.loader import fill_missing_steps
@@ -26,6 +27,11 @@ from ..forward.predictor import Prediction, ReducedBasis
 from .sklearn_state import estimator_from_state, estimator_state
 
 INPUT_SCALES = ("linear", "log")
+
+#: A point whose nearest training point lies more than this many median training spacings away
+#: (:meth:`FieldSurrogate.training_gap`) lies in a region without training points. Inside a
+#: space-filling design every point of the box lies within about 1 of them.
+SPARSE_GAP = 2.0
 
 
 @dataclass
@@ -190,6 +196,7 @@ class FieldSurrogate(ABC):
 
     def __init__(self, input_scale: str = "log", pca_tol: float = 1e-3, max_components: int = 40) -> None:
         self.input_scale = input_scale
+        self.training_theta: np.ndarray | None = None  # the campaign's points, kept for training_gap
         self.pca_tol = pca_tol
         self.max_components = max_components
         self.meta: dict[str, Any] = {}
@@ -226,6 +233,7 @@ class FieldSurrogate(ABC):
         self.top_xyz = np.asarray(data.top_xyz, float)
         self.n_steps, self.n_nodes = data.displacement.shape[1], data.displacement.shape[2]
         self.scaler = InputScaler(theta.min(axis=0), theta.max(axis=0), self.input_scale)
+        self.training_theta = theta.copy()
         logf = np.log(data.force)
         U = data.displacement.reshape(data.n, -1)
         u_max = np.abs(data.displacement).max(axis=(0, 1, 2))  # per direction
@@ -379,6 +387,7 @@ class FieldSurrogate(ABC):
             "scaler.hi": self.scaler.hi,
             "score_mean": self.score_mean,
             "score_std": self.score_std,
+            **({} if self.training_theta is None else {"training_theta": self.training_theta}),
             **force_arrays,
             **field_arrays,
             **regressor_arrays,
@@ -416,6 +425,7 @@ class FieldSurrogate(ABC):
         model.depth, model.top_xyz = arrays["depth"], arrays["top_xyz"]
         model.scaler = InputScaler(arrays["scaler.lo"], arrays["scaler.hi"], config["input_scale"])
         model.score_mean, model.score_std = arrays["score_mean"], arrays["score_std"]
+        model.training_theta = arrays.get("training_theta")  # None in files written before it was kept
         model.force_pca = estimator_from_state(config["force_pca"], arrays, "force_pca")
         model.field_pca = estimator_from_state(config["field_pca"], arrays, "field_pca")
         model._restore_regressor(config["regressor"], arrays)
@@ -428,6 +438,31 @@ class FieldSurrogate(ABC):
     @abstractmethod
     def _restore_regressor(self, config: dict[str, Any], arrays: dict[str, np.ndarray]) -> None:
         """Set the regressor that :meth:`_regressor_state` described."""
+
+    def training_gap(self, theta) -> np.ndarray:
+        """How far each point lies from the nearest training point, in median training spacings.
+
+        The distance is measured in the scaled inputs the regressor sees, in units of the training
+        points' own median nearest-neighbour spacing. About 1 or below: the point lies among training points; well above (``SPARSE_GAP``): in a
+        region without them (a corner of the box, or a hole left by campaign points that did not
+        converge), where the surrogate interpolates over a long way.
+
+        Parameters
+        ----------
+        theta : array_like
+            (n, p) points, kPa.
+
+        Returns
+        -------
+        numpy.ndarray
+            (n,) gaps; NaN for a surrogate saved before its training points were kept.
+        """
+        theta = np.atleast_2d(np.asarray(theta, float))
+        if self.training_theta is None or len(self.training_theta) < 2:
+            return np.full(len(theta), np.nan)
+        train = self.scaler(self.training_theta)
+        spacing = float(np.median(cKDTree(train).query(train, k=2)[0][:, 1]))
+        return cKDTree(train).query(self.scaler(theta))[0] / max(spacing, 1e-12)
 
     def inside_box(self, theta) -> np.ndarray:
         """Which points lie in the training box (the surrogate extrapolates outside it).

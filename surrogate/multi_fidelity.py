@@ -408,6 +408,24 @@ class MultiFidelitySurrogate(FieldSurrogate):
         return sd[: self.n_steps], sd[self.n_steps :].reshape(self.n_steps, self.n_nodes, 3)
 
     # ------------------------------------------------------------------ saving (no pickle)
+    def training_gap(self, theta) -> np.ndarray:
+        """The low-fidelity level's :meth:`FieldSurrogate.training_gap`.
+
+        Its campaign covers the box; the discrepancy's few high-fidelity points are sparse by
+        design (their GP says so in the bounds).
+
+        Parameters
+        ----------
+        theta : array_like
+            (n, p) points, kPa.
+
+        Returns
+        -------
+        numpy.ndarray
+            (n,) gaps in median training spacings.
+        """
+        return self.low.training_gap(theta)
+
     def to_state(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
         """Both levels' states, the arrays under ``low.`` and ``discrepancy.``.
 

@@ -1,5 +1,6 @@
 """Shared fixtures. ``febio_baseline``: the real FEBio 4 run of ../shared/febio/baseline, or a skip
-that names the missing folder when the clone has no ../shared beside it."""
+that names the missing folder when the clone has no ../shared beside it; ``mu_surrogate``: a GP over
+(c1, c5, mu) on a small coarse campaign."""
 
 from __future__ import annotations
 
@@ -19,3 +20,24 @@ def febio_baseline() -> Path:
     if not (folder / "baseline.feb").is_file() or not (folder / "baseline.npz").is_file():
         pytest.skip(f"shared FEBio data absent: {folder} (clone with ../shared beside it to run this test)")
     return folder
+
+
+@pytest.fixture(scope="session")
+def mu_campaign(tmp_path_factory) -> Path:
+    """The runs folder of campaign ``mu``: a 2 x 2 x 3 coarse grid over (c1, c5, mu), 3 steps of 0.5 mm."""
+    from indentation_studio.campaign.runner import run_named_campaign
+    from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
+
+    runs = tmp_path_factory.mktemp("runs")
+    base = ModelSpec(mesh=MeshChoice("coarse"), protocol=Protocol(step_size=0.5, steps=3))
+    summary = run_named_campaign("mu", "c1=6:12:2,c5=250:450:2,mu=0.2:2:3:log", base, runs_dir=runs, jobs=1)
+    assert summary["done"] == 12
+    return runs
+
+
+@pytest.fixture(scope="session")
+def mu_surrogate(mu_campaign):
+    """A GP over (c1, c5, mu) trained on campaign ``mu``."""
+    from indentation_studio.surrogate.training import train_surrogate
+
+    return train_surrogate("mu", "gp", runs_dir=mu_campaign)

@@ -70,6 +70,24 @@ def test_user_grids_csv_and_space_filling_designs(tmp_path):
     for j, (lo, hi) in enumerate([(1, 21), (82.5, 578)]):  # one point in each of the 10 strata
         strata = np.floor((lhs[:, j] - lo) / (hi - lo) * 10).astype(int)
         assert sorted(strata) == list(range(10))
+    # friction as a third axis filled evenly in log: an LHS puts one point in each log stratum of
+    # 0.1 .. 3, so 2/3 of them lie below 1 where slip changes the response
+    mu = design_from_option("lhs:30:2,mu=0.1:3:log")
+    assert mu.parameters == ("c1", "c5", "mu") and mu.description == "lhs:n=30:seed=2,mu=0.1:3:log"
+    strata = np.floor(np.log(mu.points[:, 2] / 0.1) / np.log(30) * 30).astype(int)
+    assert sorted(strata) == list(range(30))
+    assert np.sum(mu.points[:, 2] < 1.0) in (20, 21)  # 30 log(10) / log(30) = 20.3 strata lie below 1
+    assert np.all((mu.points[:, :2] >= [1, 82.5]) & (mu.points[:, :2] <= [21, 578]))
+    narrowed = design_from_option("sobol:8:0,c1=2:5,mu=0.2:2")  # a range changed, mu linear
+    assert np.all((narrowed.points[:, 0] >= 2) & (narrowed.points[:, 0] <= 5))
+    assert narrowed.description == "sobol:n=8:seed=0,c1=2:5,mu=0.2:2"
+    for bad, message in (
+        ("sobol:8,mu=0:3:log", "LO > 0"),
+        ("sobol:8,mu=3:1", "LO < HI"),
+        ("lhs:8,mu", "NAME=LO:HI"),
+    ):
+        with pytest.raises(DesignError, match=message):
+            design_from_option(bad)
 
 
 def _spec(name: str, design: str, model: ModelSpec = SMALL) -> CampaignSpec:

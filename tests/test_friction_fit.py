@@ -87,20 +87,6 @@ def test_bounds_with_mu_are_the_schur_complement_and_the_prior_sits_between():
     assert flat["mu_share_pct"] == [0.0, 0.0]
 
 
-@pytest.fixture(scope="module")
-def mu_surrogate(tmp_path_factory):
-    """A GP over (c1, c5, mu) trained on a 2 x 2 x 3 coarse campaign (3 steps of 0.5 mm)."""
-    from indentation_studio.campaign.runner import run_named_campaign
-    from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
-    from indentation_studio.surrogate.training import train_surrogate
-
-    runs = tmp_path_factory.mktemp("runs")
-    base = ModelSpec(mesh=MeshChoice("coarse"), protocol=Protocol(step_size=0.5, steps=3))
-    summary = run_named_campaign("mu", "c1=6:12:2,c5=250:450:2,mu=0.2:2:3:log", base, runs_dir=runs, jobs=1)
-    assert summary["done"] == 12
-    return train_surrogate("mu", "gp", runs_dir=runs)
-
-
 def test_a_surrogate_with_mu_is_a_three_parameter_predictor(mu_surrogate):
     model = mu_surrogate
     assert model.parameters == ("c1", "c5", "mu")
@@ -304,9 +290,9 @@ def test_the_fe_stage_identifies_mu_on_data_of_the_fe_model(mu_surrogate, tmp_pa
         fe, truth, tmp_path / "e", radius=4.77, step_size=0.5, u_noise_mm=0.002, f_noise=0.002, seed=1
     )
     said: list[str] = []
-    fit = fit_experiment(exp, mu_surrogate, friction="identify", say=said.append)
+    fit = fit_experiment(exp, mu_surrogate, friction="identify", say=said.append, fe_stage="fit")
     d = fit.to_dict()
-    assert fit.refined and d["fe_fit"]["evaluations"] >= 3
+    assert fit.refined and d["fe_fit"]["evaluations"] >= 3 and d["fe_confirmation"] is None
     assert any("FE evaluation" in line for line in said)
     theta = np.array([d["c1"], d["c5"]])
     assert np.all(np.abs(theta / truth[:2] - 1) * 100 <= d["statistical_pct"]), (theta, d["statistical_pct"])

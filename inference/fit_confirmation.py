@@ -1,0 +1,201 @@
+"""The FE confirmation that ends a fit on a surrogate (paper 2.9: the FE model confirms the selected
+fit): one FE run with its exact sensitivities at the fitted theta, the objective there, and how far
+one Gauss-Newton step from that run would move each parameter, against the fit's statistical bound.
+
+A step inside the bound says the surrogate's minimum is the FE model's to within what the data
+resolve; a step beyond it is a warning with numbers (the surrogate misses the FE model there, and a
+fit on the FE stage, ``fe_stage="fit"``, is worth its minutes). A run that fails is said, and the
+surrogate's fit is kept.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import lsq_linear
+
+from ..design.objective import Objective
+from ..forward.solver import SimulationError
+from .inverse_fit import residuals_at
+
+__all__ = ["FitConfirmation", "confirm_fit", "gauss_newton_step"]
+
+
+@dataclass
+class FitConfirmation:
+    """One FE run at a surrogate's fit and the Gauss-Newton step it points to.
+
+    Attributes
+    ----------
+    theta : numpy.ndarray
+        Where the FE model ran: (c1, c5) kPa, and mu when fitted.
+    parameters : tuple of str
+        The names of theta's entries.
+    F_surrogate : float
+        The objective (eq. 4) at theta on the surrogate.
+    statistical_pct : numpy.ndarray
+        The fit's statistical 95 % half-widths of (c1, c5), percent (eq. 6).
+    F_fe : float or None
+        The objective at theta on the FE model; None when the run failed.
+    shift_pct : numpy.ndarray or None
+        The move of each parameter one Gauss-Newton step from the FE run would make, percent
+        (a parameter held at its range's end stays there); None when the run failed.
+    wall_s : float
+        Time of the run.
+    error : str or None
+        Why the run failed.
+    """
+
+    theta: np.ndarray
+    parameters: tuple[str, ...]
+    F_surrogate: float
+    statistical_pct: np.ndarray
+    F_fe: float | None = None
+    shift_pct: np.ndarray | None = None
+    wall_s: float = 0.0
+    error: str | None = None
+
+    @property
+    def shift_beyond_bound(self) -> list[str]:
+        """The parameters among (c1, c5) whose Gauss-Newton shift exceeds their statistical bound."""
+        if self.shift_pct is None:
+            return []
+        return [
+            k
+            for k, shift, half in zip(
+                self.parameters[:2], self.shift_pct[:2], self.statistical_pct, strict=True
+            )
+            if abs(shift) > half
+        ]
+
+    @property
+    def warnings(self) -> list[str]:
+        """A failed run, or a shift beyond the statistical bound, in words with the numbers."""
+        if self.error is not None:
+            return [
+                f"the FE confirmation at {_named(self.parameters, self.theta)} failed ({self.error}); "
+                "the surrogate's fit is kept unconfirmed"
+            ]
+        beyond = self.shift_beyond_bound
+        if not beyond:
+            return []
+        moves = ", ".join(
+            f"{k} {self.shift_pct[j]:+.2f} % (bound +- {self.statistical_pct[j]:.2f} %)"
+            for j, k in enumerate(self.parameters[:2])
+            if k in beyond
+        )
+        return [
+            f"the FE confirmation disagrees with the surrogate's fit: one Gauss-Newton step from the FE run "
+            f"moves {moves}, F = {self.F_fe:.4g} on the FE model against {self.F_surrogate:.4g} on the "
+            "surrogate; the surrogate misses the FE model here: fit with --fe-stage fit"
+        ]
+
+    def to_dict(self) -> dict:
+        """fit.json's ``fe_confirmation``."""
+        return {
+            "theta": self.theta.tolist(),
+            "parameters": list(self.parameters),
+            "F_fe": self.F_fe,
+            "F_surrogate": self.F_surrogate,
+            "gauss_newton_shift_pct": None if self.shift_pct is None else self.shift_pct.tolist(),
+            "statistical_pct": self.statistical_pct.tolist(),
+            "shift_beyond_bound": self.shift_beyond_bound,
+            "wall_s": self.wall_s,
+            "error": self.error,
+        }
+
+
+def confirm_fit(
+    objective: Objective,
+    fe,
+    eta,
+    theta,
+    *,
+    F_surrogate: float,
+    statistical_pct,
+    box: tuple[np.ndarray, np.ndarray] | None = None,
+) -> FitConfirmation:
+    """Run the FE model once at a surrogate's fit and measure the Gauss-Newton step from there.
+
+    The step is delta = -(J^T J)^-1 J^T r in log theta (eq. 4's residuals r and their exact
+    sensitivities J from the FE run), as :func:`inference.inverse_fit.gauss_newton_refine` takes
+    it, kept inside ``box`` (:func:`gauss_newton_step`: mu at or near its range's end, where the
+    data barely move it, stays in the range and the others' step is the best one with it there).
+
+    Parameters
+    ----------
+    objective : Objective
+        The fit's objective (eq. 4, 5).
+    fe : Predictor
+        The FE model the surrogate emulates, over the fit's parameters, with sensitivities.
+    eta : array_like
+        The weights of eq. 5.
+    theta : array_like
+        The surrogate's fit: (c1, c5) kPa, and mu when fitted.
+    F_surrogate : float
+        The objective at theta on the surrogate.
+    statistical_pct : array_like
+        The fit's statistical 95 % half-widths of (c1, c5), percent.
+    box : tuple of numpy.ndarray, optional
+        (lo, hi) of theta in the fit.
+
+    Returns
+    -------
+    FitConfirmation
+        The run's F, the step in percent, or the reason it failed.
+    """
+    theta = np.asarray(theta, float)
+    out = FitConfirmation(
+        theta, tuple(fe.parameters), float(F_surrogate), np.asarray(statistical_pct, float)[:2]
+    )
+    t0 = time.perf_counter()
+    try:
+        r, J = residuals_at(objective, fe, eta, theta)
+    except (SimulationError, RuntimeError, ValueError) as exc:
+        out.error, out.wall_s = f"{type(exc).__name__}: {exc}", time.perf_counter() - t0
+        return out
+    out.wall_s = time.perf_counter() - t0
+    out.F_fe = float(r @ r)
+    out.shift_pct = 100.0 * np.expm1(gauss_newton_step(r, J, theta, box))
+    return out
+
+
+def gauss_newton_step(r: np.ndarray, J: np.ndarray, theta: np.ndarray, box=None) -> np.ndarray:
+    """The Gauss-Newton step in log theta, kept inside ``box``: argmin |r + J delta| with
+    theta exp(delta) in the box (bounded linear least squares, :func:`scipy.optimize.lsq_linear`).
+
+    Without a box, delta = -(J^T J)^-1 J^T r. A parameter whose unconstrained step would leave the
+    box (mu, poorly fixed by the data, can be sent far past its range's end by a linearisation that
+    holds only near the fit) ends on the box's edge, and the others' step is the best one with it
+    there.
+
+    Parameters
+    ----------
+    r : numpy.ndarray
+        (m,) residuals (eq. 4).
+    J : numpy.ndarray
+        (m, p) their Jacobian with respect to log theta.
+    theta : numpy.ndarray
+        (p,) where they were evaluated.
+    box : tuple of numpy.ndarray, optional
+        (lo, hi) of theta.
+
+    Returns
+    -------
+    numpy.ndarray
+        (p,) delta; the step takes theta to theta exp(delta).
+    """
+    if box is None:
+        return np.linalg.lstsq(J, -r, rcond=None)[0]
+    lo, hi = (np.broadcast_to(np.asarray(b, float), theta.shape) for b in box)
+    with np.errstate(divide="ignore"):
+        lower = np.where(lo > 0, np.log(np.maximum(lo, 1e-300) / theta), -np.inf)
+        upper = np.where(np.isfinite(hi), np.log(hi / theta), np.inf)
+    lower, upper = np.minimum(lower, 0.0), np.maximum(upper, 0.0)  # theta itself inside, to round-off
+    return lsq_linear(J, -r, bounds=(lower, upper), method="bvls").x
+
+
+def _named(names: tuple[str, ...], theta: np.ndarray) -> str:
+    return "(" + ", ".join(f"{k} = {v:.4g}" for k, v in zip(names, theta, strict=True)) + ")"

@@ -1,0 +1,159 @@
+"""A fit on a surrogate over (c1, c5, mu) ended by one FE confirmation (inference.fit_confirmation):
+the run's F and the Gauss-Newton step it points to, recorded in fit.json and checked against the
+FE model by hand; a shift beyond the bound and a failed run said; the three-parameter MLP's
+Jacobian against central differences; where a fit lies in the training data."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from indentation_studio.campaign.loader import load_campaign
+from indentation_studio.forward.predictor import FESolverPredictor
+from indentation_studio.forward.solver import SimulationError
+from indentation_studio.forward.spec import ModelSpec
+from indentation_studio.inference.experiment_fit import FE_STAGES, fit_experiment, resolved_fe_stage
+from indentation_studio.inference.fit_confirmation import confirm_fit, gauss_newton_step
+from indentation_studio.inference.synthetic_experiment import write_synthetic_experiment
+from indentation_studio.surrogate.base import SPARSE_GAP, TrainingData
+from indentation_studio.surrogate.mlp import MLPSurrogate
+from indentation_studio.surrogate.persistence import load_surrogate, save_surrogate
+
+TRUTH = np.array([9.0, 330.0, 0.35])
+
+
+@pytest.fixture(scope="module")
+def fe_experiment(mu_surrogate, tmp_path_factory):
+    """Data of the coarse FE model the surrogate emulates, at TRUTH, and that model over (c1, c5, mu)."""
+    spec = ModelSpec.from_dict(mu_surrogate.meta["campaign"]["model"])
+    fe = FESolverPredictor(spec, parameters=("c1", "c5", "mu"))
+    folder = tmp_path_factory.mktemp("exp") / "e"
+    exp = write_synthetic_experiment(
+        fe, TRUTH, folder, radius=4.77, step_size=0.5, u_noise_mm=0.002, f_noise=0.002, seed=1
+    )
+    return exp, fe
+
+
+def test_the_fe_stage_is_confirm_on_a_surrogate_with_mu_and_fit_on_one_without(mu_surrogate):
+    stick = type("Stick", (), {"parameters": ("c1", "c5")})()
+    assert resolved_fe_stage("auto", mu_surrogate) == "confirm"
+    assert resolved_fe_stage("auto", stick) == "fit"
+    assert resolved_fe_stage("fit", mu_surrogate) == "fit"
+    assert resolved_fe_stage("confirm", mu_surrogate, refine=False) == "none"
+    assert FE_STAGES == ("auto", "confirm", "fit", "none")
+    with pytest.raises(ValueError, match="fe_stage 'lm': use one of auto, confirm, fit, none"):
+        resolved_fe_stage("lm", mu_surrogate)
+
+
+def test_the_default_fit_is_confirmed_by_one_fe_run_recorded_in_fit_json(
+    mu_surrogate, fe_experiment, tmp_path
+):
+    exp, fe = fe_experiment
+    said: list[str] = []
+    fit = fit_experiment(exp, mu_surrogate, say=said.append)
+    assert not fit.refined and fit.friction.mode == "marginalise"
+    assert any(line.startswith("confirming on the FE solver") for line in said)
+    d = json.loads(fit.save(tmp_path).read_text())
+    c = d["fe_confirmation"]
+    assert d["fe_fit"] is None and c["error"] is None and c["parameters"] == ["c1", "c5", "mu"]
+    theta = np.array(c["theta"])
+    np.testing.assert_array_equal(theta, fit.fit.theta)  # at the surrogate's fit, mu included
+    # F and the step, computed again by hand from the FE model: eq. 4's residuals and their exact
+    # sensitivities in log theta, delta = -(J^T J)^-1 J^T r
+    obj, eta = fit.inputs.objective, fit.inputs.eta
+    pred = fe.predict(theta[None, :], jacobian=True)
+    r, J = obj.residuals(pred, eta)[0], obj.jacobian(pred, eta)[0] * theta
+    np.testing.assert_allclose(c["F_fe"], r @ r, rtol=1e-10)
+    assert c["F_fe"] == pytest.approx(float(obj.value(pred, eta)[0]), rel=1e-10)
+    assert c["F_surrogate"] == pytest.approx(fit.fit.F, rel=1e-12)
+    np.testing.assert_allclose(c["statistical_pct"], d["statistical_pct"], rtol=1e-12)
+    # the step: least squares of the linearised residuals, mu kept in its range (optimality by hand:
+    # the gradient J^T (r + J delta) vanishes in a free parameter and points out of the range in one
+    # held on its edge)
+    delta = np.log1p(np.array(c["gauss_newton_shift_pct"]) / 100)
+    lo, hi = fit.mu_range
+    mu_after = theta[2] * np.exp(delta[2])
+    assert lo * (1 - 1e-9) <= mu_after <= hi * (1 + 1e-9)
+    g = J.T @ (r + J @ delta)
+    scale = np.abs(J.T @ r).max()
+    np.testing.assert_allclose(g[:2], 0.0, atol=1e-6 * scale)
+    if np.isclose(mu_after, lo):
+        assert g[2] >= -1e-6 * scale
+    elif np.isclose(mu_after, hi):
+        assert g[2] <= 1e-6 * scale
+    else:
+        assert abs(g[2]) <= 1e-6 * scale
+    free = gauss_newton_step(r, J, theta)  # no range: the normal equations
+    np.testing.assert_allclose(free, np.linalg.solve(J.T @ J, -J.T @ r), rtol=1e-8)
+    shift, half = np.abs(c["gauss_newton_shift_pct"][:2]), np.array(c["statistical_pct"])
+    beyond = [k for k, s, b in zip(("c1", "c5"), shift, half, strict=True) if s > b]
+    assert c["shift_beyond_bound"] == beyond
+    assert any("FE confirmation disagrees" in w for w in d["warnings"]) == bool(beyond)
+    region = d["training_region"]
+    assert region["at_box_edge"] == [] and region["gap"] < SPARSE_GAP
+
+
+def test_a_shift_beyond_the_bound_is_a_warning_and_a_failed_run_keeps_the_fit(mu_surrogate, fe_experiment):
+    exp, fe = fe_experiment
+    fit = fit_experiment(exp, mu_surrogate, refine=False)
+    obj, eta, theta = fit.inputs.objective, fit.inputs.eta, fit.fit.theta
+    tight = confirm_fit(obj, fe, eta, theta, F_surrogate=fit.fit.F, statistical_pct=[1e-6, 1e-6])
+    assert tight.shift_beyond_bound == ["c1", "c5"]
+    (warning,) = tight.warnings
+    assert f"c1 {tight.shift_pct[0]:+.2f} % (bound +- 0.00 %)" in warning and "--fe-stage fit" in warning
+    loose = confirm_fit(obj, fe, eta, theta, F_surrogate=fit.fit.F, statistical_pct=[1e6, 1e6])
+    assert loose.warnings == [] and loose.F_fe == tight.F_fe
+
+    class Diverges:
+        parameters = fe.parameters
+
+        def predict(self, theta, jacobian=False):
+            raise SimulationError("Newton did not converge at 1.5 mm", 1.0)
+
+    failed = confirm_fit(obj, Diverges(), eta, theta, F_surrogate=fit.fit.F, statistical_pct=[1.0, 1.0])
+    assert failed.F_fe is None and failed.shift_pct is None and "Newton did not converge" in failed.error
+    assert "failed" in failed.warnings[0] and "kept unconfirmed" in failed.warnings[0]
+    # mu on its range's edge with the free step pointing out of the range: held there, and the
+    # others' step is no longer the free one
+    free = confirm_fit(obj, fe, eta, theta, F_surrogate=fit.fit.F, statistical_pct=[1, 1])
+    outward = np.sign(free.shift_pct[2])
+    lo = np.array([0.0, 0.0, theta[2] if outward < 0 else 0.01])
+    hi = np.array([np.inf, np.inf, theta[2] if outward > 0 else 100.0])
+    held = confirm_fit(obj, fe, eta, theta, F_surrogate=fit.fit.F, statistical_pct=[1, 1], box=(lo, hi))
+    assert held.shift_pct[2] == 0.0 and not np.allclose(held.shift_pct[:2], free.shift_pct[:2])
+    wide = confirm_fit(
+        obj, fe, eta, theta, F_surrogate=fit.fit.F, statistical_pct=[1, 1], box=(lo * 0, hi * 0 + 1e9)
+    )
+    np.testing.assert_allclose(wide.shift_pct, free.shift_pct, rtol=1e-8)  # a box it stays inside
+
+
+def test_a_three_parameter_mlp_has_the_jacobian_of_its_central_differences(mu_campaign, tmp_path):
+    data = TrainingData.from_campaign(load_campaign("mu", runs_dir=mu_campaign))
+    model = MLPSurrogate(width=16, hidden_layers=2, adam_epochs=150, lbfgs_steps=20).fit(data, seed=0)
+    assert model.parameters == ("c1", "c5", "mu")
+    theta = np.array([[8.0, 300.0, 0.5]])
+    pred = model.predict(theta, jacobian=True)
+    for k in range(3):
+        e = np.zeros(3)
+        e[k] = 1e-5 * theta[0, k]
+        up, down = model.predict(theta + e), model.predict(theta - e)
+        fd_f = (up.force - down.force) / (2 * e[k])
+        fd_u = (up.displacement - down.displacement) / (2 * e[k])
+        np.testing.assert_allclose(pred.force_jacobian[0, :, k], fd_f[0], rtol=1e-5, atol=1e-9)
+        np.testing.assert_allclose(pred.displacement_jacobian[0, ..., k], fd_u[0], rtol=1e-4, atol=1e-8)
+    # the training points travel with the saved file; a point far from them is named sparse
+    again = load_surrogate(save_surrogate(model, tmp_path / "s.safetensors"))
+    np.testing.assert_array_equal(again.training_theta, data.theta)
+    gaps = again.training_gap(np.vstack([data.theta[:1], [[12.0, 450.0, 2.0]], [[6.0, 250.0, 0.2]]]))
+    assert gaps[0] == 0.0 and gaps[2] == 0.0
+    # inside a cell of the 2 x 2 x 3 grid (log-scaled to the unit cube: mu's levels at 0, 1/2, 1, so
+    # the median spacing is 1/2): the nearest corner lies sqrt(dc1^2 + dc5^2 + dmu^2) away
+    x = np.log([9.0 / 6.0, 350.0 / 250.0, 0.6 / 0.2]) / np.log([2.0, 1.8, 10.0])
+    nearest = np.minimum(x, 1 - x)
+    nearest[2] = min(abs(x[2] - 0.5), x[2])
+    expected = np.sqrt(np.sum(nearest**2)) / 0.5
+    assert again.training_gap(np.array([[9.0, 350.0, 0.6]]))[0] == pytest.approx(expected, rel=1e-9)
+    # a box's corner far from any point: beyond SPARSE_GAP
+    assert again.training_gap(np.array([[12.0, 450.0, 2.0 * 10.0**1.2]]))[0] > SPARSE_GAP
