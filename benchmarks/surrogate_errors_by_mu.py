@@ -7,6 +7,7 @@ point), the held-out points of every fold pooled within each mu band (< 0.5, 0.5
 over all; the campaign's failed points are counted beside it.
 
     .venv/bin/python benchmarks/surrogate_errors_by_mu.py runs/mu-R4.77 [--kind mlp] [--folds 5]
+    .venv/bin/python benchmarks/surrogate_errors_by_mu.py runs/mu-R4.77 --kind slip --stick runs/stick-R4.77/surrogate-mlp.safetensors
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from sklearn.model_selection import KFold
 from indentation_studio.atomic_write import atomic_write_json
 from indentation_studio.campaign.loader import load_campaign
 from indentation_studio.surrogate.base import TrainingData
+from indentation_studio.surrogate.persistence import load_surrogate
 from indentation_studio.surrogate.training import make_surrogate
 from indentation_studio.surrogate.validation import prediction_errors
 
@@ -35,7 +37,9 @@ def main() -> None:
     ap.add_argument("--kind", default="mlp")
     ap.add_argument("--folds", type=int, default=5)
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--stick", type=Path, help="--kind slip: the perfect-stick surrogate file")
     args = ap.parse_args()
+    extra = {} if args.stick is None else {"stick": load_surrogate(args.stick)}
     data = TrainingData.from_campaign(load_campaign(args.campaign))
     index = pd.read_parquet(args.campaign / "index.parquet")
     j = data.parameters.index("mu")
@@ -45,7 +49,7 @@ def main() -> None:
     for fold, (train, test) in enumerate(
         KFold(args.folds, shuffle=True, random_state=args.seed).split(data.theta)
     ):
-        model = make_surrogate(args.kind).fit(data.subset(train), seed=args.seed)
+        model = make_surrogate(args.kind, **extra).fit(data.subset(train), seed=args.seed)
         for name, lo, hi in (*BANDS, ("all", 0.0, np.inf)):
             rows = test[(data.theta[test, j] >= lo) & (data.theta[test, j] < hi)]
             if len(rows) == 0:

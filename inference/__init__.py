@@ -15,7 +15,8 @@ _lazy_getattr, __dir__, __all__ = lazy.attach(
         "synthetic_experiment": ["write_experiment_from_model", "write_synthetic_experiment"],
         "inverse_fit": ["FitResult", "fit_parameters"],
         "fit_inputs": ["FitInputs", "prepare_fit"],
-        "experiment_fit": ["ExperimentFit", "default_friction", "fit_experiment"],
+        "experiment_fit": ["ExperimentFit", "FE_STAGES", "default_friction", "fit_experiment"],
+        "fit_confirmation": ["FitConfirmation", "confirm_fit"],
         "posterior": ["Posterior", "sample_posterior"],
         "model_error": [
             "ModelError",

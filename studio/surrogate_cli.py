@@ -27,6 +27,7 @@ RUNS_DIR = Annotated[Path, typer.Option(help="where campaigns live")]
 class Kind(StrEnum):
     gp = "gp"
     mlp = "mlp"
+    slip = "slip"
 
 
 def _errors_table(title: str, rows: dict[str, dict]) -> None:
@@ -88,7 +89,13 @@ BUDGET_MODEL = Annotated[
 ]
 
 
-KIND = Annotated[Kind, typer.Option(help="gp (scikit-learn) or mlp (torch)")]
+KIND = Annotated[
+    Kind,
+    typer.Option(
+        help="gp (scikit-learn), mlp (torch) or slip (a perfect-stick surrogate, --stick, plus an MLP of "
+        "what slip changes, on a campaign with a mu axis)"
+    ),
+]
 INPUT_SCALE = Annotated[str, typer.Option(help="linear or log scaling of the parameters")]
 PCA_TOL = Annotated[float, typer.Option(help="PCA reconstruction tolerance (relative)")]
 TEST_CAMPAIGN = Annotated[str | None, typer.Option(help="a campaign of points to test on")]
@@ -153,6 +160,10 @@ def train(
     error_budget: ERROR_BUDGET = None,
     budget_model: BUDGET_MODEL = None,
     runs_dir: RUNS_DIR = Path("runs"),
+    stick: Annotated[
+        Path | None,
+        typer.Option(help="--kind slip: the perfect-stick surrogate file the campaign with mu corrects"),
+    ] = None,
     as_json: JSON = False,
 ) -> None:
     """Train a surrogate on a campaign, validate it, and save it next to the campaign."""
@@ -170,6 +181,7 @@ def train(
             budget_model=budget_model,
             runs_dir=runs_dir,
             say=err.print,
+            stick=stick,
         ),
         as_json,
         f"{kind.value} surrogate of {campaign!r}: errors (percent)",

@@ -1,6 +1,6 @@
 """Emulators of the forward model trained on a campaign: Gaussian process (scikit-learn) and MLP
-(torch), the multi-fidelity correction of one by a second campaign, their training, validation and
-files."""
+(torch), the multi-fidelity correction of one by a second campaign, the perfect stick plus slip over
+(c1, c5, mu), their training, validation and files."""
 
 import lazy_loader as lazy
 
@@ -11,6 +11,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
         "gaussian_process": ["GaussianProcessSurrogate"],
         "mlp": ["MLPSurrogate"],
         "multi_fidelity": ["MultiFidelitySurrogate"],
+        "slip_surrogate": ["SlipSurrogate"],
         "training": [
             "SURROGATE_KINDS",
             "make_surrogate",

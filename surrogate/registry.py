@@ -15,6 +15,7 @@ SAVED_KINDS: dict[str, str] = {
     "gp": "gaussian_process:GaussianProcessSurrogate",
     "mlp": "mlp:MLPSurrogate",
     "mf": "multi_fidelity:MultiFidelitySurrogate",
+    "slip": "slip_surrogate:SlipSurrogate",
 }
 
 
@@ -23,7 +24,7 @@ def surrogate_class(kind: str) -> type:
 
     Parameters
     ----------
-    kind : {"gp", "mlp", "mf"}
+    kind : {"gp", "mlp", "mf", "slip"}
         The kind a surrogate file records.
 
     Returns

@@ -112,6 +112,7 @@ def train_and_save(
     budget_model: str | None = None,
     runs_dir: str | Path = "runs",
     say: Callable[[str], None] | None = None,
+    stick: str | Path | None = None,
 ) -> TrainedSurrogate:
     """Train a ``kind`` surrogate on ``campaign`` and save it.
 
@@ -122,8 +123,8 @@ def train_and_save(
     campaign : str
         The training campaign.
     kind : str
-        'gp' or 'mlp'.
-    input_scale, pca_tol, test_campaign, kfold, seed, runs_dir
+        'gp', 'mlp' or 'slip'.
+    input_scale, pca_tol, test_campaign, kfold, seed, runs_dir, stick
         As :func:`surrogate.training.train_surrogate`.
     out : str or Path, optional
         The model file (default ``<runs_dir>/<campaign>/surrogate-<kind>.safetensors``).
@@ -150,6 +151,7 @@ def train_and_save(
         seed=seed,
         runs_dir=runs_dir,
         error_budget=budget,
+        stick=stick,
     )
     name = model.meta["campaign"].get("name", campaign)
     path = save_surrogate(model, out or Path(runs_dir) / name / f"surrogate-{kind}.safetensors")

@@ -9,6 +9,7 @@ from ..campaign.loader import CampaignData, load_campaign
 from .base import FieldSurrogate, TrainingData
 from .error_budgets import surrogate_error_budget
 from .persistence import load_surrogate
+from .registry import surrogate_class
 from .validation import k_fold_errors, prediction_errors
 
 if TYPE_CHECKING:
@@ -16,9 +17,10 @@ if TYPE_CHECKING:
 
 __all__ = ["SURROGATE_KINDS", "make_surrogate", "train_multi_fidelity", "train_surrogate", "training_data"]
 
-#: The kinds trained on one campaign; a multi-fidelity surrogate ('mf') is trained on a second
-#: campaign from one of them (:func:`train_multi_fidelity`).
-SURROGATE_KINDS = ("gp", "mlp")
+#: The kinds trained on one campaign ('slip': on a campaign with a mu axis, from a trained
+#: perfect-stick surrogate); a multi-fidelity surrogate ('mf') is trained on a second campaign from
+#: one of them (:func:`train_multi_fidelity`).
+SURROGATE_KINDS = ("gp", "mlp", "slip")
 
 
 def make_surrogate(kind: str, input_scale: str = "log", pca_tol: float = 1e-3, **kwargs) -> FieldSurrogate:
@@ -26,9 +28,10 @@ def make_surrogate(kind: str, input_scale: str = "log", pca_tol: float = 1e-3, *
 
     Parameters
     ----------
-    kind : {"gp", "mlp"}
+    kind : {"gp", "mlp", "slip"}
         ``gp``: :class:`GaussianProcessSurrogate` (scikit-learn); ``mlp``: :class:`MLPSurrogate`
-        (torch ensemble).
+        (torch ensemble); ``slip``: :class:`surrogate.slip_surrogate.SlipSurrogate`, a perfect-stick
+        surrogate (``stick=``, a trained surrogate or its file) plus an MLP of what slip changes.
     input_scale : {"log", "linear"}, default "log"
         Scaling of the inputs over the training box.
     pca_tol : float, default 1e-3
@@ -54,12 +57,18 @@ def make_surrogate(kind: str, input_scale: str = "log", pca_tol: float = 1e-3, *
         from .mlp import MLPSurrogate
 
         return MLPSurrogate(input_scale=input_scale, pca_tol=pca_tol, **kwargs)
+    if kind == "slip":
+        if "stick" not in kwargs:
+            raise ValueError("a 'slip' surrogate is built on a trained perfect-stick surrogate: give stick=")
+        stick = kwargs.pop("stick")
+        stick = stick if isinstance(stick, FieldSurrogate) else load_surrogate(stick)
+        return surrogate_class("slip")(stick, input_scale=input_scale, pca_tol=pca_tol, **kwargs)
     if kind == "mf":
         raise ValueError(
             "a multi-fidelity surrogate ('mf') is made from a trained low-fidelity surrogate and a "
             "high-fidelity campaign: use train_multi_fidelity"
         )
-    raise ValueError(f"unknown surrogate kind {kind!r}; use 'gp' or 'mlp'")
+    raise ValueError(f"unknown surrogate kind {kind!r}; use 'gp', 'mlp' or 'slip'")
 
 
 def training_data(campaign: str | Path | CampaignData, runs_dir: str | Path = "runs") -> TrainingData:
@@ -92,6 +101,7 @@ def train_surrogate(
     seed: int = 0,
     runs_dir: str | Path = "runs",
     error_budget: dict | None = None,
+    stick: str | Path | FieldSurrogate | None = None,
 ) -> FieldSurrogate:
     """Train a ``kind`` surrogate on ``campaign``, with its validation and error budget in ``meta``.
 
@@ -102,7 +112,7 @@ def train_surrogate(
     ----------
     campaign : str, pathlib.Path or CampaignData
         The training campaign (name, folder or loaded).
-    kind : {"gp", "mlp"}, default "gp"
+    kind : {"gp", "mlp", "slip"}, default "gp"
         The surrogate (:func:`make_surrogate`).
     input_scale : {"log", "linear"}, default "log"
         Scaling of the inputs over the training box.
@@ -120,6 +130,8 @@ def train_surrogate(
         What a budget leaves for the campaign's mesh (:func:`surrogate.error_budgets.remaining_bias`);
         default the studio's shipped budget for that mesh and test, if any. It goes to
         ``meta['error_budget']``: fits carry it in their bounds.
+    stick : str, pathlib.Path or FieldSurrogate, optional
+        ``kind="slip"``: the perfect-stick surrogate over (c1, c5) on the same mesh and test.
 
     Returns
     -------
@@ -133,11 +145,14 @@ def train_surrogate(
     >>> model.meta["validation"]["kfold"]["force_rms_pct"]  # doctest: +SKIP
     """
     data = training_data(campaign, runs_dir)
-    model = make_surrogate(kind, input_scale, pca_tol).fit(data, seed=seed)
+    extra = {}
+    if stick is not None:
+        extra["stick"] = stick if isinstance(stick, FieldSurrogate) else load_surrogate(stick)
+    model = make_surrogate(kind, input_scale, pca_tol, **extra).fit(data, seed=seed)
     validation = {"training": prediction_errors(model, data)}
     if kfold:
         validation["kfold"] = k_fold_errors(
-            lambda: make_surrogate(kind, input_scale, pca_tol), data, kfold, seed
+            lambda: make_surrogate(kind, input_scale, pca_tol, **extra), data, kfold, seed
         )
     if test_campaign is not None:
         validation["test"] = prediction_errors(model, training_data(test_campaign, runs_dir))

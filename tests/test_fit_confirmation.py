@@ -157,3 +157,58 @@ def test_a_three_parameter_mlp_has_the_jacobian_of_its_central_differences(mu_ca
     assert again.training_gap(np.array([[9.0, 350.0, 0.6]]))[0] == pytest.approx(expected, rel=1e-9)
     # a box's corner far from any point: beyond SPARSE_GAP
     assert again.training_gap(np.array([[12.0, 450.0, 2.0 * 10.0**1.2]]))[0] > SPARSE_GAP
+
+
+@pytest.fixture(scope="module")
+def stick_and_slip(mu_campaign, mu_surrogate):
+    """A perfect-stick MLP over (c1, c5) on the coarse model of campaign ``mu``, and a slip surrogate on it."""
+    from indentation_studio.campaign.runner import run_named_campaign
+    from indentation_studio.surrogate.training import train_surrogate
+
+    spec = ModelSpec.from_dict(mu_surrogate.meta["campaign"]["model"])
+    run_named_campaign("stick", "c1=5:13:3,c5=200:500:3", spec, runs_dir=mu_campaign, jobs=1)
+    small = {"width": 16, "hidden_layers": 2, "adam_epochs": 150, "lbfgs_steps": 20}
+    stick = MLPSurrogate(**small).fit(
+        TrainingData.from_campaign(load_campaign("stick", runs_dir=mu_campaign))
+    )
+    slip = train_surrogate("mu", "slip", runs_dir=mu_campaign, stick=stick)
+    return stick, slip
+
+
+def test_a_slip_surrogate_is_the_stick_plus_an_mlp_of_the_slip(stick_and_slip, mu_campaign, tmp_path):
+    from indentation_studio.surrogate.slip_surrogate import SlipSurrogate
+
+    stick, slip = stick_and_slip
+    assert isinstance(slip, SlipSurrogate) and slip.parameters == ("c1", "c5", "mu")
+    theta = np.array([[8.0, 300.0, 0.5], [11.0, 420.0, 1.7]])
+    pred, s, d = slip.predict(theta, jacobian=True), stick.predict(theta[:, :2]), slip.slip.predict(theta)
+    np.testing.assert_allclose(pred.force, s.force * d.force, rtol=1e-12)  # eq. 1a
+    np.testing.assert_allclose(pred.displacement, s.displacement + d.displacement, rtol=1e-12, atol=1e-15)
+    for k in range(3):  # its Jacobian against central differences, d/dmu from the slip part alone
+        e = np.zeros(3)
+        e[k] = 1e-5 * theta[0, k]
+        up, down = slip.predict(theta[:1] + e), slip.predict(theta[:1] - e)
+        np.testing.assert_allclose(
+            pred.force_jacobian[0, :, k], (up.force - down.force)[0] / (2 * e[k]), rtol=1e-5, atol=1e-9
+        )
+        fd_u = (up.displacement - down.displacement)[0] / (2 * e[k])
+        np.testing.assert_allclose(pred.displacement_jacobian[0, ..., k], fd_u, rtol=1e-4, atol=1e-8)
+    # the reduced basis gives the same prediction (the posterior evaluates F there)
+    basis = slip.reduced_basis()
+    zf, zu = basis.coordinates(theta)
+    np.testing.assert_allclose(np.exp(basis.force_mean + zf @ basis.force_basis), pred.force, rtol=1e-10)
+    field = (basis.field_mean + zu @ basis.field_basis).reshape(pred.displacement.shape)
+    np.testing.assert_allclose(field, pred.displacement, rtol=1e-10, atol=1e-12)
+    # saved and loaded bit for bit; it is over the slip MLP's box and training points
+    again = load_surrogate(save_surrogate(slip, tmp_path / "slip.safetensors"))
+    np.testing.assert_array_equal(again.predict(theta).force, pred.force)
+    np.testing.assert_array_equal(again.training_theta, slip.slip.training_theta)
+    np.testing.assert_allclose([again.scaler.lo[2], again.scaler.hi[2]], [0.2, 2.0])
+    # a campaign without mu, or over another box, is refused with the reason
+    with pytest.raises(ValueError, match=r"need the stick surrogate's \('c1', 'c5'\) then 'mu'"):
+        SlipSurrogate(stick).fit(TrainingData.from_campaign(load_campaign("stick", runs_dir=mu_campaign)))
+    narrow = MLPSurrogate(width=8, hidden_layers=1, adam_epochs=20, lbfgs_steps=2).fit(
+        TrainingData.from_campaign(load_campaign("stick", runs_dir=mu_campaign)).subset(np.arange(4))
+    )
+    with pytest.raises(ValueError, match="outside the stick surrogate's training box"):
+        SlipSurrogate(narrow).fit(TrainingData.from_campaign(load_campaign("mu", runs_dir=mu_campaign)))
