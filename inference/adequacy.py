@@ -617,7 +617,8 @@ def parameters_at_ends(result) -> list[dict]:
 def fit_adequacy(
     result, *, force_noise: float | None = None, dic_noise: float | None = None
 ) -> tuple[Adequacy | None, str | None]:
-    """The adequacy test of an :class:`inference.experiment_fit.ExperimentFit`'s final fit, with
+    """The adequacy test of an :class:`inference.experiment_fit.ExperimentFit`'s final fit (its
+    ``tested_fit``: the FE model's residuals at the fit when an FE confirmation ran), with
     the parameters it names; or None and why the test could not be made (the fit's residuals
     missing, a hold without a standard error and no noise declared, too few DIC points)."""
     try:
@@ -625,7 +626,7 @@ def fit_adequacy(
         return (
             model_adequacy(
                 result.inputs,
-                result.fit,
+                result.tested_fit,
                 force_noise=force_noise,
                 dic_noise=dic_noise,
                 at_ends=parameters_at_ends(result),

@@ -5,7 +5,7 @@ at the fit (:mod:`inference.mesh_check`) and the fit carried to the finer mesh."
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -123,6 +123,18 @@ class ExperimentFit:
         return friction_bounds(f.hessian, f.s, f.residual_sd, self.friction, self.mu_range, f.n_residuals)
 
     @property
+    def tested_fit(self) -> FitResult:
+        """The fit the adequacy test reads: with an FE confirmation that ran, the FE model's residuals one
+        Gauss-Newton step from the surrogate's fit, linearised (r + J delta: the model, not its
+        surrogate, is what must explain the data, and a surrogate's miss that the step corrects is
+        the confirmation's warning, not the model's inadequacy); else the final fit's own."""
+        c = self.confirmation
+        if c is None or c.residuals is None:
+            return self.fit
+        r = c.residuals + c.jacobian @ np.log1p(c.shift_pct / 100.0)
+        return replace(self.fit, F=float(r @ r), residuals=r, jacobian=c.jacobian, prediction=c.prediction)
+
+    @property
     def statistical_pct(self) -> np.ndarray:
         """Eq. 6's half-widths of (c1, c5): with mu fitted, those with mu's uncertainty in them."""
         fb = self.friction_bounds
@@ -231,7 +243,14 @@ class ExperimentFit:
             "statistical_pct": self.statistical_pct.tolist(),
             "friction": self._friction_dict(),
             "warnings": self.warnings,
-            "adequacy": self.adequacy.to_dict()
+            "adequacy": (
+                self.adequacy.to_dict()
+                | {
+                    "tested_on": "the FE model one Gauss-Newton step from the fit (linearised)"
+                    if self.tested_fit is not self.fit
+                    else "the fit"
+                }
+            )
             if self.adequacy is not None
             else {"note": self.adequacy_note},
             "error_budget": budget,
@@ -458,15 +477,20 @@ def resolved_fe_stage(fe_stage: str, surrogate, *, refine: bool = True) -> str:
 
 
 def _confirm(fit: ExperimentFit, fe, box) -> FitConfirmation:
-    """The FE confirmation of a fit that ended on the surrogate (:func:`confirm_fit`)."""
+    """The FE confirmation of a fit that ended on the surrogate (:func:`confirm_fit`); with mu fitted,
+    mu's own bound (eq. 6) beside those of (c1, c5)."""
     inputs = fit.inputs
+    bounds = fit.statistical_pct
+    fb = fit.friction_bounds
+    if fb is not None and fit.fit.theta.size == 3:
+        bounds = np.append(bounds, fb["mu_pct"] if np.isfinite(fb["mu_pct"]) else np.inf)
     return confirm_fit(
         inputs.objective,
         fe,
         inputs.eta,
         fit.fit.theta,
         F_surrogate=fit.fit.F,
-        statistical_pct=fit.statistical_pct,
+        statistical_pct=bounds,
         box=box,
     )
 

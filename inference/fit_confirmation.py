@@ -11,12 +11,13 @@ surrogate's fit is kept.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.optimize import lsq_linear
 
 from ..design.objective import Objective
+from ..forward.predictor import Prediction
 from ..forward.solver import SimulationError
 from .inverse_fit import residuals_at
 
@@ -36,7 +37,8 @@ class FitConfirmation:
     F_surrogate : float
         The objective (eq. 4) at theta on the surrogate.
     statistical_pct : numpy.ndarray
-        The fit's statistical 95 % half-widths of (c1, c5), percent (eq. 6).
+        The fit's statistical 95 % half-widths of (c1, c5), percent (eq. 6), and of mu when fitted
+        (infinite where the data do not bound it).
     F_fe : float or None
         The objective at theta on the FE model; None when the run failed.
     shift_pct : numpy.ndarray or None
@@ -46,6 +48,12 @@ class FitConfirmation:
         Time of the run.
     error : str or None
         Why the run failed.
+    residuals : numpy.ndarray or None
+        The FE run's residuals (eq. 4), for the adequacy test of the FE model at the fit.
+    jacobian : numpy.ndarray or None
+        Their Jacobian with respect to log theta.
+    prediction : Prediction or None
+        The FE run's response.
     """
 
     theta: np.ndarray
@@ -56,16 +64,20 @@ class FitConfirmation:
     shift_pct: np.ndarray | None = None
     wall_s: float = 0.0
     error: str | None = None
+    residuals: np.ndarray | None = field(default=None, repr=False)
+    jacobian: np.ndarray | None = field(default=None, repr=False)
+    prediction: Prediction | None = field(default=None, repr=False)
 
     @property
     def shift_beyond_bound(self) -> list[str]:
-        """The parameters among (c1, c5) whose Gauss-Newton shift exceeds their statistical bound."""
+        """The parameters whose Gauss-Newton shift exceeds their statistical bound."""
         if self.shift_pct is None:
             return []
+        n = len(self.statistical_pct)
         return [
             k
             for k, shift, half in zip(
-                self.parameters[:2], self.shift_pct[:2], self.statistical_pct, strict=True
+                self.parameters[:n], self.shift_pct[:n], self.statistical_pct, strict=True
             )
             if abs(shift) > half
         ]
@@ -83,7 +95,7 @@ class FitConfirmation:
             return []
         moves = ", ".join(
             f"{k} {self.shift_pct[j]:+.2f} % (bound +- {self.statistical_pct[j]:.2f} %)"
-            for j, k in enumerate(self.parameters[:2])
+            for j, k in enumerate(self.parameters[: len(self.statistical_pct)])
             if k in beyond
         )
         return [
@@ -100,7 +112,7 @@ class FitConfirmation:
             "F_fe": self.F_fe,
             "F_surrogate": self.F_surrogate,
             "gauss_newton_shift_pct": None if self.shift_pct is None else self.shift_pct.tolist(),
-            "statistical_pct": self.statistical_pct.tolist(),
+            "statistical_pct": [float(v) if np.isfinite(v) else None for v in self.statistical_pct],
             "shift_beyond_bound": self.shift_beyond_bound,
             "wall_s": self.wall_s,
             "error": self.error,
@@ -137,7 +149,7 @@ def confirm_fit(
     F_surrogate : float
         The objective at theta on the surrogate.
     statistical_pct : array_like
-        The fit's statistical 95 % half-widths of (c1, c5), percent.
+        The fit's statistical 95 % half-widths of (c1, c5), percent, and of mu when fitted.
     box : tuple of numpy.ndarray, optional
         (lo, hi) of theta in the fit.
 
@@ -148,16 +160,18 @@ def confirm_fit(
     """
     theta = np.asarray(theta, float)
     out = FitConfirmation(
-        theta, tuple(fe.parameters), float(F_surrogate), np.asarray(statistical_pct, float)[:2]
+        theta, tuple(fe.parameters), float(F_surrogate), np.asarray(statistical_pct, float)[: theta.size]
     )
     t0 = time.perf_counter()
+    seen: dict = {}
     try:
-        r, J = residuals_at(objective, fe, eta, theta)
+        r, J = residuals_at(objective, fe, eta, theta, keep=seen)
     except (SimulationError, RuntimeError, ValueError) as exc:
         out.error, out.wall_s = f"{type(exc).__name__}: {exc}", time.perf_counter() - t0
         return out
     out.wall_s = time.perf_counter() - t0
     out.F_fe = float(r @ r)
+    out.residuals, out.jacobian, out.prediction = r, J, seen.get("prediction")
     out.shift_pct = 100.0 * np.expm1(gauss_newton_step(r, J, theta, box))
     return out
 

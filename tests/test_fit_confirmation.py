@@ -68,7 +68,9 @@ def test_the_default_fit_is_confirmed_by_one_fe_run_recorded_in_fit_json(
     np.testing.assert_allclose(c["F_fe"], r @ r, rtol=1e-10)
     assert c["F_fe"] == pytest.approx(float(obj.value(pred, eta)[0]), rel=1e-10)
     assert c["F_surrogate"] == pytest.approx(fit.fit.F, rel=1e-12)
-    np.testing.assert_allclose(c["statistical_pct"], d["statistical_pct"], rtol=1e-12)
+    np.testing.assert_allclose(c["statistical_pct"][:2], d["statistical_pct"], rtol=1e-12)
+    mu_half = d["friction"]["mu_pct"]  # mu's own bound beside them (None where the data do not bound it)
+    assert c["statistical_pct"][2] == (mu_half if mu_half is not None and np.isfinite(mu_half) else None)
     # the step: least squares of the linearised residuals, mu kept in its range (optimality by hand:
     # the gradient J^T (r + J delta) vanishes in a free parameter and points out of the range in one
     # held on its edge)
@@ -87,12 +89,18 @@ def test_the_default_fit_is_confirmed_by_one_fe_run_recorded_in_fit_json(
         assert abs(g[2]) <= 1e-6 * scale
     free = gauss_newton_step(r, J, theta)  # no range: the normal equations
     np.testing.assert_allclose(free, np.linalg.solve(J.T @ J, -J.T @ r), rtol=1e-8)
-    shift, half = np.abs(c["gauss_newton_shift_pct"][:2]), np.array(c["statistical_pct"])
-    beyond = [k for k, s, b in zip(("c1", "c5"), shift, half, strict=True) if s > b]
+    shift = np.abs(c["gauss_newton_shift_pct"])
+    half = np.array([np.inf if b is None else b for b in c["statistical_pct"]])
+    beyond = [k for k, s, b in zip(("c1", "c5", "mu"), shift, half, strict=True) if s > b]
     assert c["shift_beyond_bound"] == beyond
     assert any("FE confirmation disagrees" in w for w in d["warnings"]) == bool(beyond)
     region = d["training_region"]
     assert region["at_box_edge"] == [] and region["gap"] < SPARSE_GAP
+    # the adequacy test reads the FE model's residuals one Gauss-Newton step from the fit
+    # (linearised), not the surrogate's
+    assert d["adequacy"]["tested_on"] == "the FE model one Gauss-Newton step from the fit (linearised)"
+    np.testing.assert_allclose(fit.tested_fit.residuals, r + J @ delta, rtol=1e-9, atol=1e-12)
+    assert fit.tested_fit.F <= c["F_fe"] * (1 + 1e-12) and fit.fit.F == c["F_surrogate"]
 
 
 def test_a_shift_beyond_the_bound_is_a_warning_and_a_failed_run_keeps_the_fit(mu_surrogate, fe_experiment):
