@@ -220,3 +220,22 @@ def test_a_slip_surrogate_is_the_stick_plus_an_mlp_of_the_slip(stick_and_slip, m
     )
     with pytest.raises(ValueError, match="outside the stick surrogate's training box"):
         SlipSurrogate(narrow).fit(TrainingData.from_campaign(load_campaign("mu", runs_dir=mu_campaign)))
+
+
+def test_a_fit_at_the_training_box_edge_is_named(mu_surrogate, tmp_path):
+    truth = np.array([5.5, 330.0, 0.35])  # c1 below the box's 6 kPa: the fit stops on its edge
+    exp = write_synthetic_experiment(
+        mu_surrogate,
+        truth,
+        tmp_path / "e",
+        radius=4.77,
+        step_size=0.5,
+        u_noise_mm=0.002,
+        f_noise=0.002,
+        seed=2,
+    )
+    fit = fit_experiment(exp, mu_surrogate, refine=False)
+    d = fit.to_dict()
+    assert fit.fit.theta[0] == pytest.approx(6.0, rel=1e-6)
+    assert d["training_region"]["at_box_edge"] == ["c1"] and d["fe_confirmation"] is None
+    assert any("edge of the surrogate's training box in c1" in w for w in d["warnings"])
