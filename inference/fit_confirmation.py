@@ -1,6 +1,7 @@
 """The FE confirmation that ends a fit on a surrogate (paper 2.8.2 runs the inverse fit on the FE
-model itself; here the FE model confirms the surrogate's fit, as in 3.4): one FE run with its exact sensitivities at the fitted theta, the objective there, and how far
-one Gauss-Newton step from that run would move each parameter, against the fit's statistical bound.
+model itself; here the FE model confirms the surrogate's fit, as in 3.4): one FE run with its exact
+sensitivities at the fitted theta, the objective there, and how far one Gauss-Newton step from that
+run would move each parameter, against the fit's statistical bound.
 
 A step inside the bound says the surrogate's minimum is the FE model's to within what the data
 resolve; a step beyond it is a warning with numbers (the surrogate misses the FE model there, and a
