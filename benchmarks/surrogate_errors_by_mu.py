@@ -55,8 +55,14 @@ def main() -> None:
     ap.add_argument("--folds", type=int, default=5)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--stick", type=Path, help="--kind slip: the perfect-stick surrogate file")
+    ap.add_argument(
+        "--max-components", type=int, help="PCA components per output at most (default the kind's)"
+    )
+    ap.add_argument("--pca-tol", type=float, default=1e-3)
     args = ap.parse_args()
     extra = {} if args.stick is None else {"stick": load_surrogate(args.stick)}
+    if args.max_components is not None:
+        extra["max_components"] = args.max_components
     data = TrainingData.from_campaign(load_campaign(args.campaign))
     index = pd.read_parquet(args.campaign / "index.parquet")
     radius = float(data.source["model"]["indenter"]["radius"])
@@ -67,7 +73,9 @@ def main() -> None:
     for fold, (train, test) in enumerate(
         KFold(args.folds, shuffle=True, random_state=args.seed).split(data.theta)
     ):
-        model = make_surrogate(args.kind, **extra).fit(data.subset(train), seed=args.seed)
+        model = make_surrogate(args.kind, pca_tol=args.pca_tol, **extra).fit(
+            data.subset(train), seed=args.seed
+        )
         for k, v in _squared_errors(model.predict(data.theta[test]), data, test, outside).items():
             per_point[k][test] = v
         print(f"fold {fold + 1}/{args.folds} ({time.perf_counter() - t0:.0f} s)", flush=True)
