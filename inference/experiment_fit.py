@@ -124,10 +124,18 @@ class ExperimentFit:
 
     @property
     def tested_fit(self) -> FitResult:
-        """The fit the adequacy test reads: with an FE confirmation that ran, the FE model's residuals one
-        Gauss-Newton step from the surrogate's fit, linearised (r + J delta: the model, not its
-        surrogate, is what must explain the data, and a surrogate's miss that the step corrects is
-        the confirmation's warning, not the model's inadequacy); else the final fit's own."""
+        """The fit the adequacy test reads.
+
+        With an FE confirmation that ran: the FE model's residuals one Gauss-Newton step from the
+        surrogate's fit, linearised (r + J delta: the model, not its surrogate, is what must explain
+        the data, and a surrogate's miss that the step corrects is the confirmation's warning, not
+        the model's inadequacy); else the final fit's own.
+
+        Returns
+        -------
+        FitResult
+            The final fit, with those residuals, F, Jacobian and prediction when confirmed.
+        """
         c = self.confirmation
         if c is None or c.residuals is None:
             return self.fit

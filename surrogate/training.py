@@ -17,10 +17,11 @@ if TYPE_CHECKING:
 
 __all__ = ["SURROGATE_KINDS", "make_surrogate", "train_multi_fidelity", "train_surrogate", "training_data"]
 
-#: The kinds trained on one campaign ('slip': on a campaign with a mu axis, from a trained
-#: perfect-stick surrogate); a multi-fidelity surrogate ('mf') is trained on a second campaign from
-#: one of them (:func:`train_multi_fidelity`).
-SURROGATE_KINDS = ("gp", "mlp", "slip")
+#: The kinds trained on one campaign alone; a stick-plus-slip surrogate ('slip') is trained on a
+#: campaign with a mu axis from a trained perfect-stick one (``make_surrogate("slip", stick=...)``),
+#: and a multi-fidelity surrogate ('mf') on a second campaign from one of them
+#: (:func:`train_multi_fidelity`).
+SURROGATE_KINDS = ("gp", "mlp")
 
 
 def make_surrogate(kind: str, input_scale: str = "log", pca_tol: float = 1e-3, **kwargs) -> FieldSurrogate:
