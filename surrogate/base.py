@@ -443,9 +443,10 @@ class FieldSurrogate(ABC):
         """How far each point lies from the nearest training point, in median training spacings.
 
         The distance is measured in the scaled inputs the regressor sees, in units of the training
-        points' own median nearest-neighbour spacing. About 1 or below: the point lies among training points; well above (``SPARSE_GAP``): in a
-        region without them (a corner of the box, or a hole left by campaign points that did not
-        converge), where the surrogate interpolates over a long way.
+        points' own median nearest-neighbour spacing. About 1 or below: the point lies among
+        training points; well above (``SPARSE_GAP``): in a region without them (a corner of the box,
+        or a hole left by campaign points that did not converge), where the surrogate interpolates
+        over a long way.
 
         Parameters
         ----------
