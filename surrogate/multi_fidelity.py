@@ -31,7 +31,7 @@ from ..forward.mesh_study import top_field_interpolator
 from ..forward.predictor import Prediction, ReducedBasis
 from .base import FieldSurrogate, TrainingData
 from .gaussian_process import GaussianProcessSurrogate
-from .registry import surrogate_class
+from .two_level import TwoLevelSurrogate
 
 __all__ = ["MultiFidelitySurrogate", "interpolation_matrix", "model_differences"]
 
@@ -65,7 +65,7 @@ def model_differences(low: dict[str, Any], high: dict[str, Any]) -> list[str]:
     ]
 
 
-class MultiFidelitySurrogate(FieldSurrogate):
+class MultiFidelitySurrogate(TwoLevelSurrogate):
     """A low-fidelity surrogate plus a GP of its discrepancy from a high-fidelity campaign.
 
     Predicts the high fidelity on the high campaign's top nodes (module docstring, eq. 1a, 1b).
@@ -91,6 +91,8 @@ class MultiFidelitySurrogate(FieldSurrogate):
     """
 
     kind = "mf"
+    levels = ("low", "discrepancy")
+    first_meta_key = "low_fidelity"
 
     def __init__(
         self,
@@ -105,18 +107,6 @@ class MultiFidelitySurrogate(FieldSurrogate):
         self.low = low
         super().__init__(input_scale, pca_tol, max_components)
         self.restarts, self.per_component, self.folds = restarts, per_component, folds
-
-    @property
-    def meta(self) -> dict[str, Any]:
-        """The surrogate's record (provenance, validation, error budget)."""
-        return self._meta
-
-    @meta.setter
-    def meta(self, value: dict[str, Any]) -> None:
-        """A loaded model gets its meta after it is built: the low surrogate's goes back to it."""
-        self._meta = value
-        if "low_fidelity" in value:
-            self.low.meta = value["low_fidelity"]
 
     def hyperparameters(self) -> dict[str, Any]:
         """The constructor's arguments (the low surrogate apart)."""
@@ -276,19 +266,6 @@ class MultiFidelitySurrogate(FieldSurrogate):
             **{f"u{'xyz'[j]}_rms_mm": float(np.sqrt(np.mean(err_u[..., j] ** 2))) for j in range(3)},
         }
 
-    # the single-fidelity regressor hooks: this class predicts through its two levels instead
-    def _fit_regressor(self, X: np.ndarray, T: np.ndarray, seed: int) -> None:
-        raise NotImplementedError("a multi-fidelity surrogate fits its discrepancy model in fit()")
-
-    def _regress(self, X: np.ndarray, jacobian: bool):
-        raise NotImplementedError("a multi-fidelity surrogate predicts through its two levels")
-
-    def _regressor_state(self):
-        raise NotImplementedError("a multi-fidelity surrogate saves its two levels in to_state()")
-
-    def _restore_regressor(self, config, arrays) -> None:
-        raise NotImplementedError("a multi-fidelity surrogate restores its two levels in from_state()")
-
     # ------------------------------------------------------------------ prediction
     def _carried(self, u: np.ndarray) -> np.ndarray:
         """A low-fidelity array with the top nodes on axis 2, (n, steps, nodes, ...), at the high
@@ -407,7 +384,6 @@ class MultiFidelitySurrogate(FieldSurrogate):
         sd = np.sqrt(np.einsum("ko,ko->o", L, L))
         return sd[: self.n_steps], sd[self.n_steps :].reshape(self.n_steps, self.n_nodes, 3)
 
-    # ------------------------------------------------------------------ saving (no pickle)
     def training_gap(self, theta) -> np.ndarray:
         """The low-fidelity level's :meth:`FieldSurrogate.training_gap`.
 
@@ -426,65 +402,16 @@ class MultiFidelitySurrogate(FieldSurrogate):
         """
         return self.low.training_gap(theta)
 
-    def to_state(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-        """Both levels' states, the arrays under ``low.`` and ``discrepancy.``.
-
-        W is rebuilt from the two sets of top nodes.
-
-        Returns
-        -------
-        config : dict
-            Kind, hyperparameters, parameters and both levels' configurations.
-        arrays : dict of str to numpy.ndarray
-            The named arrays.
-        """
-        low_config, low_arrays = self.low.to_state()
-        delta_config, delta_arrays = self.discrepancy.to_state()
-        config = {
-            "kind": self.kind,
-            "hyperparameters": self.hyperparameters(),
-            "parameters": list(self.parameters),
-            "low": low_config,
-            "discrepancy": delta_config,
-        }
-        arrays = {
-            **{f"low.{k}": v for k, v in low_arrays.items()},
-            **{f"discrepancy.{k}": v for k, v in delta_arrays.items()},
-        }
-        return config, arrays
-
+    # ------------------------------------------------------------------ saving (no pickle): TwoLevelSurrogate
     @classmethod
-    def from_state(cls, config: dict[str, Any], arrays: dict[str, np.ndarray]) -> MultiFidelitySurrogate:
-        """The surrogate that :meth:`to_state` described.
-
-        Parameters
-        ----------
-        config : dict
-            Both levels' configurations.
-        arrays : dict of str to numpy.ndarray
-            The arrays under ``low.`` and ``discrepancy.``.
-
-        Returns
-        -------
-        MultiFidelitySurrogate
-            The surrogate.
-        """
-        if config["kind"] != cls.kind:
-            raise ValueError(f"a {config['kind']!r} surrogate cannot be rebuilt as {cls.kind!r}")
-
-        def level(name: str) -> FieldSurrogate:
-            prefix = f"{name}."
-            own = {k[len(prefix) :]: v for k, v in arrays.items() if k.startswith(prefix)}
-            return surrogate_class(config[name]["kind"]).from_state(config[name], own)
-
-        low, discrepancy = level("low"), level("discrepancy")
-        if not isinstance(discrepancy, GaussianProcessSurrogate):
-            raise ValueError(f"the discrepancy model must be a 'gp' surrogate, not {discrepancy.kind!r}")
-        model = cls(low, **config["hyperparameters"])
-        model.discrepancy = discrepancy
-        model.parameters = tuple(config["parameters"])
-        model.depth, model.top_xyz = discrepancy.depth, discrepancy.top_xyz
-        model.n_steps, model.n_nodes = discrepancy.n_steps, discrepancy.n_nodes
-        model.scaler = discrepancy.scaler
-        model.interpolation = interpolation_matrix(low.top_xyz, model.top_xyz)
+    def _from_levels(
+        cls, config: dict[str, Any], first: FieldSurrogate, second: FieldSurrogate
+    ) -> MultiFidelitySurrogate:
+        """The surrogate from its low level and its discrepancy GP; W rebuilt from their top nodes."""
+        if not isinstance(second, GaussianProcessSurrogate):
+            raise ValueError(f"the discrepancy model must be a 'gp' surrogate, not {second.kind!r}")
+        model = cls(first, **config["hyperparameters"])
+        model.discrepancy = second
+        model.scaler = second.scaler
+        model.interpolation = interpolation_matrix(first.top_xyz, second.top_xyz)
         return model

@@ -29,12 +29,12 @@ from ..forward.predictor import Prediction, ReducedBasis
 from .base import FieldSurrogate, TrainingData
 from .mlp import MLPSurrogate
 from .multi_fidelity import model_differences
-from .registry import surrogate_class
+from .two_level import TwoLevelSurrogate
 
 __all__ = ["SlipSurrogate"]
 
 
-class SlipSurrogate(FieldSurrogate):
+class SlipSurrogate(TwoLevelSurrogate):
     """A perfect-stick surrogate over (c1, c5) plus an MLP of the slip's change over (c1, c5, mu).
 
     See the module docstring (eq. 1a, 1b). A Predictor over ``stick.parameters + ("mu",)`` with
@@ -56,6 +56,8 @@ class SlipSurrogate(FieldSurrogate):
     """
 
     kind = "slip"
+    levels = ("stick", "slip")
+    first_meta_key = "stick"
 
     def __init__(
         self,
@@ -69,18 +71,6 @@ class SlipSurrogate(FieldSurrogate):
         self.mlp_options = dict(mlp_options)
         self.slip: MLPSurrogate | None = None
         super().__init__(input_scale, pca_tol, max_components)
-
-    @property
-    def meta(self) -> dict[str, Any]:
-        """The surrogate's record (provenance, validation); the stick surrogate's under ``stick``."""
-        return self._meta
-
-    @meta.setter
-    def meta(self, value: dict[str, Any]) -> None:
-        """A loaded model gets its meta after it is built: the stick surrogate's goes back to it."""
-        self._meta = value
-        if "stick" in value:
-            self.stick.meta = value["stick"]
 
     def hyperparameters(self) -> dict[str, Any]:
         """The constructor's arguments (the stick surrogate apart).
@@ -208,19 +198,6 @@ class SlipSurrogate(FieldSurrogate):
         self.scaler = self.slip.scaler
         self.training_theta = self.slip.training_theta
 
-    # the single-level regressor hooks: this class predicts through its two parts instead
-    def _fit_regressor(self, X: np.ndarray, T: np.ndarray, seed: int) -> None:
-        raise NotImplementedError("a slip surrogate fits its slip model in fit()")
-
-    def _regress(self, X: np.ndarray, jacobian: bool):
-        raise NotImplementedError("a slip surrogate predicts through its two parts")
-
-    def _regressor_state(self):
-        raise NotImplementedError("a slip surrogate saves its two parts in to_state()")
-
-    def _restore_regressor(self, config, arrays) -> None:
-        raise NotImplementedError("a slip surrogate restores its two parts in from_state()")
-
     # ------------------------------------------------------------------ prediction
     def predict(self, theta, jacobian: bool = False) -> Prediction:
         """Force curves and fields at ``theta`` (module eq. 1a, 1b).
@@ -278,63 +255,14 @@ class SlipSurrogate(FieldSurrogate):
             coordinates=coordinates,
         )
 
-    # ------------------------------------------------------------------ saving (no pickle)
-    def to_state(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-        """Both parts' states, the arrays under ``stick.`` and ``slip.``.
-
-        Returns
-        -------
-        config : dict
-            Kind, hyperparameters, parameters and both parts' configurations.
-        arrays : dict of str to numpy.ndarray
-            The named arrays.
-        """
-        stick_config, stick_arrays = self.stick.to_state()
-        slip_config, slip_arrays = self.slip.to_state()
-        config = {
-            "kind": self.kind,
-            "hyperparameters": self.hyperparameters(),
-            "parameters": list(self.parameters),
-            "stick": stick_config,
-            "slip": slip_config,
-        }
-        arrays = {
-            **{f"stick.{k}": v for k, v in stick_arrays.items()},
-            **{f"slip.{k}": v for k, v in slip_arrays.items()},
-        }
-        return config, arrays
-
     @classmethod
-    def from_state(cls, config: dict[str, Any], arrays: dict[str, np.ndarray]) -> SlipSurrogate:
-        """The surrogate that :meth:`to_state` described.
-
-        Parameters
-        ----------
-        config : dict
-            Both parts' configurations.
-        arrays : dict of str to numpy.ndarray
-            The arrays under ``stick.`` and ``slip.``.
-
-        Returns
-        -------
-        SlipSurrogate
-            The surrogate, with bit-for-bit the same predictions.
-        """
-        if config["kind"] != cls.kind:
-            raise ValueError(f"a {config['kind']!r} surrogate cannot be rebuilt as {cls.kind!r}")
-
-        def part(name: str) -> FieldSurrogate:
-            prefix = f"{name}."
-            own = {k[len(prefix) :]: v for k, v in arrays.items() if k.startswith(prefix)}
-            return surrogate_class(config[name]["kind"]).from_state(config[name], own)
-
-        stick, slip = part("stick"), part("slip")
-        if not isinstance(slip, MLPSurrogate):
-            raise ValueError(f"the slip model must be an 'mlp' surrogate, not {slip.kind!r}")
-        model = cls(stick, **config["hyperparameters"])
-        model.slip = slip
-        model.parameters = tuple(config["parameters"])
-        model.depth, model.top_xyz = slip.depth, slip.top_xyz
-        model.n_steps, model.n_nodes = slip.n_steps, slip.n_nodes
+    def _from_levels(
+        cls, config: dict[str, Any], first: FieldSurrogate, second: FieldSurrogate
+    ) -> SlipSurrogate:
+        """The surrogate from its stick surrogate and its slip MLP."""
+        if not isinstance(second, MLPSurrogate):
+            raise ValueError(f"the slip model must be an 'mlp' surrogate, not {second.kind!r}")
+        model = cls(first, **config["hyperparameters"])
+        model.slip = second
         model._share_slip_arrays()
         return model
