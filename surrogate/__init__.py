@@ -12,6 +12,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
         "mlp": ["MLPSurrogate"],
         "multi_fidelity": ["MultiFidelitySurrogate"],
         "slip_surrogate": ["SlipSurrogate"],
+        "two_level": ["TwoLevelSurrogate"],
         "training": [
             "SURROGATE_KINDS",
             "make_surrogate",

@@ -18,14 +18,20 @@ __all__ = ["TwoLevelSurrogate"]
 
 
 class TwoLevelSurrogate(FieldSurrogate):
-    """A surrogate made of two trained surrogates, saved as one (the base of
-    :class:`surrogate.multi_fidelity.MultiFidelitySurrogate` and
-    :class:`surrogate.slip_surrogate.SlipSurrogate`).
+    """A surrogate made of two trained surrogates, saved as one.
 
-    A subclass names its two levels' attributes in ``levels`` (the first, the one the second
+    The base of :class:`surrogate.multi_fidelity.MultiFidelitySurrogate` and
+    :class:`surrogate.slip_surrogate.SlipSurrogate`. A subclass names its two levels' attributes in ``levels`` (the first, the one the second
     corrects, is set before ``FieldSurrogate.__init__`` runs), the key of the first level's record
     in its own ``meta`` in ``first_meta_key``, and rebuilds itself from the two levels in
     :meth:`_from_levels`.
+
+    Attributes
+    ----------
+    levels : tuple of str
+        The attributes holding the two levels, the corrected one first.
+    first_meta_key : str
+        Where the first level's ``meta`` is kept in this one's.
     """
 
     levels: ClassVar[tuple[str, str]]
