@@ -573,6 +573,22 @@ def model_adequacy(
     return out
 
 
+def training_box_ends(model, theta) -> list[tuple[int, str]]:
+    """The entries of ``theta`` at or beyond an end of the box ``model`` was trained on, within
+    0.5 % (outside it a surrogate extrapolates): (index, ``lower`` or ``upper``); none for a
+    Predictor without a training box. ``theta`` may be shorter than the model's parameters (mu held)."""
+    scaler = getattr(model, "scaler", None)
+    if scaler is None:
+        return []
+    out = []
+    for j in range(min(np.size(theta), len(model.parameters))):
+        lo, hi = float(scaler.lo[j]), float(scaler.hi[j])
+        where = "lower" if theta[j] <= lo * 1.005 else "upper" if theta[j] >= hi * 0.995 else None
+        if where is not None:
+            out.append((j, where))
+    return out
+
+
 def parameters_at_ends(result) -> list[dict]:
     """The parameters of an :class:`inference.experiment_fit.ExperimentFit` that sit at an end of
     their range: mu on its range's limit, and c1, c5 (and mu) at or beyond the ends of the box
@@ -590,16 +606,11 @@ def parameters_at_ends(result) -> list[dict]:
             }
         )
     model = result.inputs.surrogate
-    scaler = getattr(model, "scaler", None)
-    if scaler is None:
-        return out
-    for j, name in enumerate(model.parameters):
-        if j >= theta.size or (name == "mu" and out):
+    for j, where in training_box_ends(model, theta):
+        name = model.parameters[j]
+        if name == "mu" and out:
             continue
-        lo, hi = float(scaler.lo[j]), float(scaler.hi[j])
-        where = "lower" if theta[j] <= lo * 1.005 else "upper" if theta[j] >= hi * 0.995 else None
-        if where is None:
-            continue
+        lo, hi = float(model.scaler.lo[j]), float(model.scaler.hi[j])
         beyond = theta[j] < lo or theta[j] > hi
         stage = "the FE stage's fit" if result.refined else "the fit"
         out.append(

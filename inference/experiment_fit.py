@@ -22,7 +22,7 @@ from ..forward.predictor import FESolverPredictor
 from ..forward.solver import SimulationError
 from ..surrogate.base import SPARSE_GAP, FieldSurrogate
 from ..surrogate.error_budgets import surrogate_error_budget
-from .adequacy import fit_adequacy
+from .adequacy import fit_adequacy, training_box_ends
 from .budget_check import budget_status
 from .experiment_data import ExperimentData
 from .fit_confirmation import FitConfirmation, confirm_fit
@@ -123,6 +123,11 @@ class ExperimentFit:
         return friction_bounds(f.hessian, f.s, f.residual_sd, self.friction, self.mu_range, f.n_residuals)
 
     @property
+    def _confirmed(self) -> bool:
+        """Whether an FE confirmation ran and left its residuals."""
+        return self.confirmation is not None and self.confirmation.residuals is not None
+
+    @property
     def tested_fit(self) -> FitResult:
         """The fit the adequacy test reads.
 
@@ -136,9 +141,9 @@ class ExperimentFit:
         FitResult
             The final fit, with those residuals, F, Jacobian and prediction when confirmed.
         """
-        c = self.confirmation
-        if c is None or c.residuals is None:
+        if not self._confirmed:
             return self.fit
+        c = self.confirmation
         r = c.residuals + c.jacobian @ np.log1p(c.shift_pct / 100.0)
         return replace(self.fit, F=float(r @ r), residuals=r, jacobian=c.jacobian, prediction=c.prediction)
 
@@ -210,8 +215,9 @@ class ExperimentFit:
         Returns
         -------
         dict or None
-            ``at_box_edge``: the parameters within 0.5 % of the training box's width from its edge
-            (mu's range end is named by fit.json's 'friction' instead); ``gap``: the distance to the
+            ``at_box_edge``: the parameters at or within 0.5 % of an end of the training box
+            (:func:`inference.adequacy.training_box_ends`; mu's range end is named by fit.json's
+            'friction' instead); ``gap``: the distance to the
             nearest training point in median spacings
             (:meth:`surrogate.base.FieldSurrogate.training_gap`; None for a surrogate saved before
             its points were kept); ``sparse_gap``: the gap beyond which the fit says so. None
@@ -219,14 +225,9 @@ class ExperimentFit:
         """
         if self.refined:
             return None
-        model, theta = self.inputs.surrogate, self.fit.theta
-        lo, hi = np.asarray(model.scaler.lo, float), np.asarray(model.scaler.hi, float)
-        if theta.size != lo.size:  # mu held: theta is (c1, c5) of a surrogate over (c1, c5, mu)
-            lo, hi = lo[: theta.size], hi[: theta.size]
-        width = hi - lo
-        edge = (theta <= lo + 0.005 * width) | (theta >= hi - 0.005 * width)
-        names = list(model.parameters[: theta.size])
-        at_edge = [k for k, e in zip(names, edge, strict=True) if e and k != "mu"]
+        model = self.inputs.surrogate
+        ends = training_box_ends(model, self.fit.theta)
+        at_edge = [model.parameters[j] for j, _ in ends if model.parameters[j] != "mu"]
         gap = float(model.training_gap(self._theta_in_surrogate())[0])
         return {"at_box_edge": at_edge, "gap": None if np.isnan(gap) else gap, "sparse_gap": SPARSE_GAP}
 
@@ -255,7 +256,7 @@ class ExperimentFit:
                 self.adequacy.to_dict()
                 | {
                     "tested_on": "the FE model one Gauss-Newton step from the fit (linearised)"
-                    if self.tested_fit is not self.fit
+                    if self._confirmed
                     else "the fit"
                 }
             )

@@ -461,9 +461,9 @@ class FieldSurrogate(ABC):
         theta = np.atleast_2d(np.asarray(theta, float))
         if self.training_theta is None or len(self.training_theta) < 2:
             return np.full(len(theta), np.nan)
-        train = self.scaler(self.training_theta)
-        spacing = float(np.median(cKDTree(train).query(train, k=2)[0][:, 1]))
-        return cKDTree(train).query(self.scaler(theta))[0] / max(spacing, 1e-12)
+        tree = cKDTree(self.scaler(self.training_theta))
+        spacing = float(np.median(tree.query(tree.data, k=2)[0][:, 1]))
+        return tree.query(self.scaler(theta))[0] / max(spacing, 1e-12)
 
     def inside_box(self, theta) -> np.ndarray:
         """Which points lie in the training box (the surrogate extrapolates outside it).
