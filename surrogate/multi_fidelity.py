@@ -31,12 +31,9 @@ from ..forward.mesh_study import top_field_interpolator
 from ..forward.predictor import Prediction, ReducedBasis
 from .base import FieldSurrogate, TrainingData
 from .gaussian_process import GaussianProcessSurrogate
-from .two_level import TwoLevelSurrogate
+from .two_level import TwoLevelSurrogate, model_differences
 
 __all__ = ["MultiFidelitySurrogate", "interpolation_matrix", "model_differences"]
-
-# the parts of the two campaigns' FE models that must agree (the mesh and the solver may differ)
-SHARED_MODEL_PARTS = ("geometry", "indenter", "protocol")
 
 
 def interpolation_matrix(source_xyz: np.ndarray, target_xyz: np.ndarray) -> sparse.csr_array:
@@ -53,16 +50,6 @@ def interpolation_matrix(source_xyz: np.ndarray, target_xyz: np.ndarray) -> spar
         )
     W[np.abs(W) < 1e-13] = 0.0  # rounding of the interpolants of unit vectors
     return sparse.csr_array(W)
-
-
-def model_differences(low: dict[str, Any], high: dict[str, Any]) -> list[str]:
-    """The parts of two campaigns' FE model specs (campaign.json ``model``) that differ and must
-    not: geometry, indenter and protocol; an empty list when they agree."""
-    return [
-        f"{part}: {low.get(part)} (low) vs {high.get(part)} (high)"
-        for part in SHARED_MODEL_PARTS
-        if low.get(part) != high.get(part)
-    ]
 
 
 class MultiFidelitySurrogate(TwoLevelSurrogate):
@@ -132,16 +119,7 @@ class MultiFidelitySurrogate(TwoLevelSurrogate):
         problems = []
         if tuple(data.parameters) != tuple(low.parameters):
             problems.append(f"parameters: {low.parameters} (low) vs {tuple(data.parameters)} (high)")
-        depth = np.asarray(data.depth, float)
-        if depth.shape != low.depth.shape or not np.allclose(depth, low.depth, rtol=0, atol=1e-9):
-            problems.append(
-                f"depths: {len(low.depth)} steps to {low.depth[-1]:g} mm (low) vs "
-                f"{len(depth)} steps to {depth[-1]:g} mm (high)"
-            )
-        low_model = (low.meta.get("campaign") or {}).get("model")
-        high_model = (data.source or {}).get("model")
-        if low_model is not None and high_model is not None:
-            problems += model_differences(low_model, high_model)
+        problems += self._same_test_problems(data, ("low", "high"))
         if problems:
             raise ValueError(
                 "the high-fidelity campaign does not describe the low-fidelity surrogate's test: "
@@ -172,15 +150,7 @@ class MultiFidelitySurrogate(TwoLevelSurrogate):
             The discrepancies at the same points.
         """
         low = self.low.predict(data.theta)
-        return TrainingData(
-            data.theta,
-            data.force / low.force,
-            data.displacement - self._carried(low.displacement),
-            data.depth,
-            data.top_xyz,
-            tuple(data.parameters),
-            data.source,
-        )
+        return self._correction_data(data, low.force, self._carried(low.displacement))
 
     def fit(self, data: TrainingData, seed: int = 0) -> MultiFidelitySurrogate:
         """Learn the discrepancy of the low surrogate from the high-fidelity campaign ``data``.

@@ -28,7 +28,6 @@ import numpy as np
 from ..forward.predictor import Prediction, ReducedBasis
 from .base import FieldSurrogate, TrainingData
 from .mlp import MLPSurrogate
-from .multi_fidelity import model_differences
 from .two_level import TwoLevelSurrogate
 
 __all__ = ["SlipSurrogate"]
@@ -99,18 +98,14 @@ class SlipSurrogate(TwoLevelSurrogate):
                 f"parameters: {tuple(data.parameters)} (campaign), need the stick surrogate's "
                 f"{stick.parameters} then 'mu'"
             )
-        depth = np.asarray(data.depth, float)
-        if depth.shape != stick.depth.shape or not np.allclose(depth, stick.depth, rtol=0, atol=1e-9):
-            problems.append(f"depths: {len(stick.depth)} steps (stick) vs {len(depth)} steps (campaign)")
+        problems += self._same_test_problems(data, ("stick", "campaign"))
         top = np.asarray(data.top_xyz, float)
         if top.shape != stick.top_xyz.shape or not np.allclose(top, stick.top_xyz, rtol=0, atol=1e-9):
             problems.append(f"top nodes: {len(stick.top_xyz)} (stick) vs {len(top)} (campaign): not one mesh")
         stick_model = (stick.meta.get("campaign") or {}).get("model")
         model = (data.source or {}).get("model")
-        if stick_model is not None and model is not None:
-            problems += model_differences(stick_model, model)
-            if stick_model.get("mesh") != model.get("mesh"):
-                problems.append(f"mesh: {stick_model.get('mesh')} (stick) vs {model.get('mesh')} (campaign)")
+        if stick_model is not None and model is not None and stick_model.get("mesh") != model.get("mesh"):
+            problems.append(f"mesh: {stick_model.get('mesh')} (stick) vs {model.get('mesh')} (campaign)")
         if problems:
             raise ValueError(
                 "the campaign with mu does not describe the stick surrogate's test: " + "; ".join(problems)
@@ -136,15 +131,7 @@ class SlipSurrogate(TwoLevelSurrogate):
             The changes at the same points (its 'force' is the ratio).
         """
         stick = self.stick.predict(data.theta[:, :-1])
-        return TrainingData(
-            data.theta,
-            data.force / stick.force,
-            data.displacement - stick.displacement,
-            data.depth,
-            data.top_xyz,
-            tuple(data.parameters),
-            data.source,
-        )
+        return self._correction_data(data, stick.force, stick.displacement)
 
     def fit(self, data: TrainingData, seed: int = 0) -> SlipSurrogate:
         """Learn the slip's change from the campaign with mu, ``data``.

@@ -11,10 +11,33 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from .base import FieldSurrogate
+from .base import FieldSurrogate, TrainingData
 from .registry import surrogate_class
 
-__all__ = ["TwoLevelSurrogate"]
+__all__ = ["TwoLevelSurrogate", "model_differences"]
+
+# the parts of the two levels' FE models that must agree (the mesh, the solver and the contact may differ)
+SHARED_MODEL_PARTS = ("geometry", "indenter", "protocol")
+
+
+def model_differences(low: dict[str, Any], high: dict[str, Any]) -> list[str]:
+    """The parts of two campaigns' FE model specs (campaign.json ``model``) that differ and must not.
+
+    Parameters
+    ----------
+    low, high : dict
+        The two specs (the first level's campaign's, the second's).
+
+    Returns
+    -------
+    list of str
+        Geometry, indenter and protocol where they differ; empty when they agree.
+    """
+    return [
+        f"{part}: {low.get(part)} (low) vs {high.get(part)} (high)"
+        for part in SHARED_MODEL_PARTS
+        if low.get(part) != high.get(part)
+    ]
 
 
 class TwoLevelSurrogate(FieldSurrogate):
@@ -48,6 +71,37 @@ class TwoLevelSurrogate(FieldSurrogate):
         self._meta = value
         if self.first_meta_key in value:
             getattr(self, self.levels[0]).meta = value[self.first_meta_key]
+
+    def _same_test_problems(self, data: TrainingData, labels: tuple[str, str]) -> list[str]:
+        """Where the campaign ``data`` (the second level's) does not describe the first level's test:
+        its depths, and the parts of its FE model that must agree (:func:`model_differences`)."""
+        first = getattr(self, self.levels[0])
+        problems = []
+        depth = np.asarray(data.depth, float)
+        if depth.shape != first.depth.shape or not np.allclose(depth, first.depth, rtol=0, atol=1e-9):
+            problems.append(
+                f"depths: {len(first.depth)} steps to {first.depth[-1]:g} mm ({labels[0]}) vs "
+                f"{len(depth)} steps to {depth[-1]:g} mm ({labels[1]})"
+            )
+        first_model = (first.meta.get("campaign") or {}).get("model")
+        model = (data.source or {}).get("model")
+        if first_model is not None and model is not None:
+            problems += model_differences(first_model, model)
+        return problems
+
+    @staticmethod
+    def _correction_data(data: TrainingData, force: np.ndarray, displacement: np.ndarray) -> TrainingData:
+        """What the second level learns at the campaign's points: F / F_first (learned in log) and
+        u - u_first, with the first level's prediction ``force``, ``displacement`` there."""
+        return TrainingData(
+            data.theta,
+            data.force / force,
+            data.displacement - displacement,
+            data.depth,
+            data.top_xyz,
+            tuple(data.parameters),
+            data.source,
+        )
 
     # the single-level regressor hooks: these surrogates fit and predict through their two levels
     def _fit_regressor(self, X: np.ndarray, T: np.ndarray, seed: int) -> None:
