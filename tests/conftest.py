@@ -4,9 +4,17 @@ that names the missing folder when the clone has no ../shared beside it; ``mu_su
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
+
+from indentation_studio.forward.threads import THREADS_ENV
+
+# The suite runs in two processes on CI's two cores (pyproject's addopts), so every solve takes one
+# thread: two runs a test compares then use the same thread count whatever the machine's load
+# (the thread policy, which reads the load, is tested with the variable removed: test_threads.py).
+os.environ.setdefault(THREADS_ENV, "1")
 
 SHARED = Path(__file__).resolve().parents[2] / "shared"
 #: The real FEBio 4 run of the paper's baseline (tests that need it skip, naming it, when absent).
