@@ -16,7 +16,7 @@ from .febio.readback import read_febio_run
 from .febio.runner import FebioSolver
 from .result import SimulationResult
 from .solver import EmbeddedSolver, SimulationError
-from .spec import ModelSpec
+from .spec import DEFAULT_CONTACT_PENALTY, ModelSpec
 from .vtu_export import write_vtu_series
 
 __all__ = ["SimulationRun", "default_result_file", "feb_beside_log", "run_simulation"]
@@ -90,13 +90,16 @@ def default_result_file(spec: ModelSpec, solver: str = "embedded") -> Path:
     Returns
     -------
     Path
-        ``runs/simulations/c1=.._c5=.._R=..[_mu=..][_surface<order>]_<mesh>_<solver>.npz``.
+        ``runs/simulations/c1=.._c5=.._R=..[_mu=..][_surface<order>][_penalty=..]_<mesh>_<solver>.npz``
+        (the penalty where a penalty contact's is not the default).
     """
     tag = Path(spec.mesh.feb_file).stem if spec.mesh.feb_file else spec.mesh.preset
     mu = spec.contact.friction
     contact = "" if mu is None else f"_mu={mu:g}"
     if spec.contact.integration == "surface":
         contact += f"_surface{spec.contact.order}"
+    if spec.contact.penalised and spec.contact.penalty != DEFAULT_CONTACT_PENALTY:
+        contact += f"_penalty={spec.contact.penalty:g}"
     m = spec.material
     return (
         Path("runs/simulations")

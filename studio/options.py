@@ -17,6 +17,7 @@ from rich.console import Console
 from ..atomic_write import strict_json
 from ..forward.mesh_presets import COMPOSITE_MESH_PRESETS
 from ..forward.spec import (
+    DEFAULT_CONTACT_PENALTY,
     CompositeMaterial,
     Contact,
     Geometry,
@@ -76,6 +77,9 @@ class ModelOptions:
         the top faces (stick and friction by a penalty; forward.contact_quadrature).
     contact_order : int
         Gauss points per face edge of the surface contact.
+    contact_penalty : float
+        The penalty contact's stiffness, kPa per mm of penetration (and of elastic slip under
+        stick), times each contact point's area.
     fiber_stretch : {"gauss", "mean"}
         Where the element evaluates the fiber term: at its Gauss points (FEBio's) or at its mean
         stretch (forward.spec.SolverOptions).
@@ -93,6 +97,7 @@ class ModelOptions:
     friction: float | None = None
     contact: str = "node"
     contact_order: int = 2
+    contact_penalty: float = DEFAULT_CONTACT_PENALTY
     fiber_stretch: str = "gauss"
 
     def spec(self) -> ModelSpec:
@@ -118,7 +123,12 @@ class ModelOptions:
             material=Material(c1=self.c1, c5=self.c5, kappa=self.kappa),
             mesh=MeshChoice(preset=self.mesh, feb_file=str(self.mesh_from) if self.mesh_from else None),
             solver=SolverOptions(substeps=self.substeps, fiber_stretch=self.fiber_stretch),
-            contact=Contact(friction=self.friction, integration=self.contact, order=self.contact_order),
+            contact=Contact(
+                friction=self.friction,
+                integration=self.contact,
+                order=self.contact_order,
+                penalty=self.contact_penalty,
+            ),
         )
 
     def replace(self, **changes: Any) -> ModelOptions:
@@ -158,6 +168,13 @@ CONTACT = Annotated[
     ),
 ]
 CONTACT_ORDER = Annotated[int, typer.Option(help="Gauss points per face edge of --contact surface")]
+CONTACT_PENALTY = Annotated[
+    float,
+    typer.Option(
+        help="the penalty contact's stiffness (friction, or --contact surface), kPa per mm of penetration "
+        "times each point's area"
+    ),
+]
 FIBER_STRETCH = Annotated[
     str,
     typer.Option(
@@ -181,6 +198,7 @@ MODEL_FLAGS = {
     "friction": FRICTION,
     "contact": CONTACT,
     "contact_order": CONTACT_ORDER,
+    "contact_penalty": CONTACT_PENALTY,
     "fiber_stretch": FIBER_STRETCH,
 }
 

@@ -68,7 +68,7 @@ OUT_DIR = Annotated[Path, typer.Option(help="every run and study.json; a run alr
 FIGURE = Annotated[Path | None, typer.Option(help="PNG of the first case's convergence (log-log)")]
 
 
-@model_options("kappa", "steps", "step_size", "contact", "contact_order", "fiber_stretch")
+@model_options("kappa", "steps", "step_size", "contact", "contact_order", "contact_penalty", "fiber_stretch")
 def verification_study(
     family: FAMILY = "8x8:1.2:1.5",
     levels: LEVELS = "0,1,2,3",

@@ -132,3 +132,14 @@ def test_default_result_file_names_material_radius_contact_mesh_and_solver():
         == "runs/simulations/c1=9.4_c5=350_R=8_mu=0.3_coarse_febio.npz"
     )
     assert default_result_file(ModelOptions().spec()).name == "c1=10_c5=350_R=4.77_default_embedded.npz"
+    surface = ModelOptions(contact="surface", contact_order=1, contact_penalty=1e6).spec()
+    assert (surface.contact.integration, surface.contact.order, surface.contact.penalty) == (
+        "surface",
+        1,
+        1e6,
+    )
+    assert (
+        default_result_file(surface).name == "c1=10_c5=350_R=4.77_surface1_penalty=1e+06_default_embedded.npz"
+    )
+    # the default penalty is not named (files written before the flag keep their names)
+    assert "penalty" not in default_result_file(ModelOptions(contact="surface").spec()).name
