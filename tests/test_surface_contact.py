@@ -77,6 +77,31 @@ def test_surface_contact_against_the_node_wise_contacts():
     assert surface.contact_status[-1].sum() >= exact.contact_status[-1].sum()  # nodes touching a contact face
 
 
+def test_one_stick_point_per_face_converges_in_the_penalty_like_one_over_the_penalty():
+    """A penalty stick's error falls like 1 / penalty: refined by tens (1e4, 1e5, 1e6 kPa/mm), the
+    force's change from 1e5 to 1e6 is a tenth of its change from 1e4 to 1e5 at every step (one
+    point per face; docs/validation/verification.md, "The penalty and the points per face", where
+    four points per face do not converge so: an over-constrained stick)."""
+    spec = ModelSpec(
+        mesh=MeshChoice("coarse"),
+        protocol=Protocol(step_size=0.5, steps=6),
+        material=Material(c1=11.0, c5=330.0),
+    )
+    force = np.array(
+        [
+            EmbeddedSolver(
+                dataclasses.replace(spec, contact=Contact(integration="surface", order=1, penalty=p))
+            )
+            .run()
+            .force[1:]
+            for p in (1e4, 1e5, 1e6)
+        ]
+    )
+    assert np.all(np.diff(force, axis=0) > 0.0)  # a stiffer penalty, a stiffer stick
+    ratio = (force[2] - force[1]) / (force[1] - force[0])
+    np.testing.assert_allclose(ratio, 0.1, atol=0.02)
+
+
 @pytest.mark.parametrize("friction", [None, 1.0])
 def test_surface_contact_sensitivities_match_central_differences(friction):
     spec = ModelSpec(
