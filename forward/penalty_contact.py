@@ -54,6 +54,14 @@ HOLDING_PASS = 4
 #: A penalty contact's statuses follow the state in the first this many Newton iterations of a
 #: solve (EmbeddedSolver._statuses_follow), then stay as they are until the solve ends.
 STATUS_NEWTON_UPDATES = 8
+#: Under the penalty stick a Newton step moves no node by more than this fraction of the
+#: increment's depth (longer steps are shortened to it; PenaltyContact._damped_step). Below a
+#: soft matrix whose fibers are slack in compression the tangent at a state far from
+#: equilibrium can be nearly singular: steps of 100 to 900 mm were seen (c1 = 3, c5 = 540 kPa,
+#: one stick point per face), each inverting elements at every halving. Not under friction, whose
+#: equilibrium within an increment depends on the path to it (docs/validation/verification.md,
+#: "The penalty and the points per face").
+STICK_STEP_LIMIT = 0.2
 
 
 class PenaltyContact(IndenterContact):
@@ -88,6 +96,8 @@ class PenaltyContact(IndenterContact):
         #: None outside an increment
         self._state: FrictionContactState | None = None
         self._depth = 0.0
+        #: the longest step a Newton step may take under the stick (mm; None: no limit)
+        self._step_limit: float | None = None
         #: late in an increment's contact passes, points may come into contact but not leave it
         self._holding = False
 
@@ -304,14 +314,18 @@ class PenaltyContact(IndenterContact):
         self, u: np.ndarray, du: np.ndarray, norm: float, cmask: np.ndarray, halve: bool
     ) -> tuple[np.ndarray, np.ndarray] | None:
         """The state ``u - alpha du`` and its residual, ``du`` first shortened so that no
-        slipping node passes its anchor (:meth:`FrictionContactState.step_fraction`): with
-        ``halve``, alpha halved until the residual falls below ``norm`` (else the best trial);
-        without, the whole step if it lowers the residual, else None."""
+        slipping node passes its anchor (:meth:`FrictionContactState.step_fraction`) and, under
+        the stick, so that no node moves farther than ``STICK_STEP_LIMIT`` times the increment's
+        depth: with ``halve``, alpha halved until the residual falls below ``norm`` (else the
+        best trial); without, the whole step if it lowers the residual, else None."""
         s = self.solver
         c, top, pts = self._state, s.top, self._points
         du = du * c.step_fraction(
             pts.to_points(u.reshape(-1, 3)[top]), pts.to_points(-du.reshape(-1, 3)[top]), self._depth
         )
+        longest = float(np.abs(du).max(initial=0.0))
+        if self._step_limit is not None and longest > self._step_limit:
+            du = du * (self._step_limit / longest)
         alpha, best = 1.0, None
         for _ in range(MAX_HALVINGS + 2 if halve else 1):
             trial = u - alpha * du
@@ -357,6 +371,7 @@ class PenaltyContact(IndenterContact):
         cmask = s.bc_fixed.ravel()
         trial, iters, seen = u_pred, 0, set()
         self._state, self._depth, self._holding = c, d1, False
+        self._step_limit = STICK_STEP_LIMIT * abs(d1 - d0) if self.friction is None else None
         try:
             for passes in range(1, s.spec.solver.max_contact_passes + 1):
                 eq = self.equilibrate(trial, cmask)
