@@ -54,8 +54,8 @@ HOLDING_PASS = 4
 #: A penalty contact's statuses follow the state in the first this many Newton iterations of a
 #: solve (EmbeddedSolver._statuses_follow), then stay as they are until the solve ends.
 STATUS_NEWTON_UPDATES = 8
-#: Under the penalty stick a Newton step moves no node by more than this fraction of the
-#: increment's depth (longer steps are shortened to it; PenaltyContact._damped_step). Below a
+#: Under the penalty stick a Newton step changes no displacement component by more than this
+#: fraction of the increment's depth (longer steps are shortened to it; PenaltyContact._damped_step). Below a
 #: soft matrix whose fibers are slack in compression the tangent at a state far from
 #: equilibrium can be nearly singular: steps of 100 to 900 mm were seen (c1 = 3, c5 = 540 kPa,
 #: one stick point per face), each inverting elements at every halving. Not under friction, whose
@@ -315,8 +315,8 @@ class PenaltyContact(IndenterContact):
     ) -> tuple[np.ndarray, np.ndarray] | None:
         """The state ``u - alpha du`` and its residual, ``du`` first shortened so that no
         slipping node passes its anchor (:meth:`FrictionContactState.step_fraction`) and, under
-        the stick, so that no node moves farther than ``STICK_STEP_LIMIT`` times the increment's
-        depth: with ``halve``, alpha halved until the residual falls below ``norm`` (else the
+        the stick, so that no displacement component changes by more than ``STICK_STEP_LIMIT``
+        times the increment's depth: with ``halve``, alpha halved until the residual falls below ``norm`` (else the
         best trial); without, the whole step if it lowers the residual, else None."""
         s = self.solver
         c, top, pts = self._state, s.top, self._points
