@@ -50,14 +50,8 @@ def make_surrogate(kind: str, input_scale: str = "log", pca_tol: float = 1e-3, *
     ValueError
         If ``kind`` is unknown, or ``mf`` (use :func:`train_multi_fidelity`).
     """
-    if kind == "gp":
-        from .gaussian_process import GaussianProcessSurrogate
-
-        return GaussianProcessSurrogate(input_scale=input_scale, pca_tol=pca_tol, **kwargs)
-    if kind == "mlp":
-        from .mlp import MLPSurrogate
-
-        return MLPSurrogate(input_scale=input_scale, pca_tol=pca_tol, **kwargs)
+    if kind in ("gp", "mlp"):  # through the registry: a GP never imports torch
+        return surrogate_class(kind)(input_scale=input_scale, pca_tol=pca_tol, **kwargs)
     if kind == "slip":
         if "stick" not in kwargs:
             raise ValueError("a 'slip' surrogate is built on a trained perfect-stick surrogate: give stick=")
@@ -217,13 +211,11 @@ def train_multi_fidelity(
     MultiFidelitySurrogate
         The trained surrogate.
     """
-    from .multi_fidelity import MultiFidelitySurrogate
-
     low_model = low if isinstance(low, FieldSurrogate) else load_surrogate(low)
     data = training_data(high_campaign, runs_dir)
-    model = MultiFidelitySurrogate(
-        low_model, pca_tol=pca_tol, max_components=max_components, folds=folds
-    ).fit(data, seed=seed)
+    model = surrogate_class("mf")(low_model, pca_tol=pca_tol, max_components=max_components, folds=folds).fit(
+        data, seed=seed
+    )
     validation = {"training": prediction_errors(model, data)}
     if test_campaign is not None:
         validation["test"] = prediction_errors(model, training_data(test_campaign, runs_dir))
