@@ -7,9 +7,10 @@ geometric grading,
     x(xi) = L (exp(beta xi) - 1) / (exp(beta) - 1),
 
 with beta set so that the base level's first cell (at the indentation point) is ``h0``. Level k has
-``round(n * ratio^k)`` cells along an axis of n base cells, the same xi-spacing refined by ``ratio``,
-so every cell shrinks by the same ratio wherever it is (Roache's systematic refinement), and the
-representative size h = (V / N)^(1/3) falls by ``ratio`` from level to level.
+n ratio^k cells along an axis of n base cells (rounded half up where it is not whole), the same
+xi-spacing refined by ``ratio``, so every cell shrinks by the same ratio wherever it is (Roache's
+systematic refinement), and the representative size h = (V / N)^(1/3) falls by ``ratio`` from level
+to level (by the rounded counts' own ratio where a level was rounded).
 
 A family may instead follow the contact (``core_xy`` > 0): along x and y the map is uniform over a
 core of ``core_xy`` mm (the region the contact edge sweeps and the inner DIC field) on the first
@@ -115,7 +116,13 @@ class MeshFamily:
             )
 
     def cells(self, level: int) -> tuple[int, int]:
-        """The cell counts at ``level``.
+        """The cell counts at ``level``: n ratio^level, rounded half up where it is not whole.
+
+        A rounded level is refined from the one before by a ratio a little off ``ratio`` (8 x 1.5^4
+        = 40.5 becomes 41, 41 / 27 = 1.52 instead of 1.5); the map from xi to the coordinate is the
+        same, so every cell still shrinks by that one ratio, and the observed order and the GCI use
+        each level's own size (``size``), which is what Celik et al.'s procedure asks for when the
+        ratio is not constant.
 
         Parameters
         ----------
@@ -126,22 +133,8 @@ class MeshFamily:
         -------
         tuple of int
             (cells along x and y, cells along z).
-
-        Raises
-        ------
-        ValueError
-            If ratio^level does not make whole numbers (the refinement would not be systematic).
         """
-        out = []
-        for n in (self.cells_xy, self.cells_z):
-            exact = n * self.ratio**level
-            if abs(exact - round(exact)) > 1e-6:
-                raise ValueError(
-                    f"level {level}: {n} x {self.ratio:g}^{level} = {exact:g} cells is not a whole number; "
-                    "choose base counts divisible by the ratio's denominator"
-                )
-            out.append(round(exact))
-        return out[0], out[1]
+        return tuple(int(np.floor(n * self.ratio**level + 0.5 + 1e-9)) for n in (self.cells_xy, self.cells_z))
 
     def mesh(self, level: int, geometry: Geometry | None = None) -> BlockMesh:
         """The hex8 quarter block of ``level``.

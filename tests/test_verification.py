@@ -53,8 +53,8 @@ def test_four_levels_in_the_asymptotic_range_and_out_of_it():
 def test_family_refines_every_cell_by_the_same_ratio():
     fam = MeshFamily(cells_xy=8, cells_z=8, h0_xy=1.2, h0_z=1.0, ratio=1.5)
     assert fam.cells(2) == (18, 18)
-    with pytest.raises(ValueError, match="not a whole number"):
-        fam.cells(4)
+    assert fam.cells(4) == (41, 41)  # 40.5 rounded half up: the ratio from level 3 is 41 / 27
+    assert fam.size(3) / fam.size(4) == pytest.approx(41 / 27, rel=1e-12)
     coarse, fine = fam.mesh(0), fam.mesh(2)
     xc, xf = np.unique(coarse.nodes[:, 0]), np.unique(fine.nodes[:, 0])
     assert xc[1] == pytest.approx(1.2, rel=1e-9) and xf[-1] == 50.0
