@@ -71,7 +71,9 @@ class ErrorBudget:
     dic_noise : float
         DIC noise, mm.
     reference : dict
-        Where the reference came from (provenance).
+        Where the reference came from (provenance); ``"extrapolated": true`` when its responses are
+        extrapolated values (a verification study's), which lets a fit interpolate the budget
+        between its points (``surrogate.error_budgets.budget_at``).
     fov_mm : float or None
         The field of view measured, mm (None: the whole top).
     fe_steps : int or None

@@ -21,7 +21,7 @@ from ..design.objective import PAPER_WEIGHTS
 from ..forward.predictor import FESolverPredictor
 from ..forward.solver import SimulationError
 from ..surrogate.base import SPARSE_GAP, FieldSurrogate
-from ..surrogate.error_budgets import surrogate_error_budget
+from ..surrogate.error_budgets import budget_at, surrogate_error_budget
 from .adequacy import fit_adequacy, training_box_ends
 from .budget_check import budget_status
 from .experiment_data import ExperimentData
@@ -705,7 +705,7 @@ def _fit_with_friction(
         friction=treatment,
         mu_range=mu_range,
     )
-    fit.model_error = _stick_mesh_budget(model, fit.contact, spec.contact.describe())
+    fit.model_error = _stick_mesh_budget(model, fit.contact, spec.contact.describe(), theta=final.theta)
     fit.mu_reach, fit.mu_reach_notes, fit.restarts = reach, notes, restarts
     if stage == "confirm":
         say(f"confirming on the FE solver at {np.round(final.theta, 3).tolist()} ...")
@@ -818,15 +818,22 @@ def _profile_at(
     return profile.F, np.append(profile.theta, mu), profile.F
 
 
-def _stick_mesh_budget(surrogate, contact: str, measured_with: str = "perfect stick") -> ModelError | None:
+def _stick_mesh_budget(
+    surrogate, contact: str, measured_with: str = "perfect stick", *, theta=None
+) -> ModelError | None:
     """The mesh's error budget of the surrogate's (c1, c5), measured with the perfect stick, for a
     fit with friction: that mesh's error does not vanish when mu is held or fitted, and no budget
     measured with friction is shipped; leaving it out would leave bounds of noise alone (a fit of
     FEBio's baseline with mu identified: c5 +34 % outside +-3.9 %). Its source says which contact
     it was measured with (``measured_with``: the surrogate's campaign's contact, which the shipped
-    budget was matched on)."""
+    budget was matched on). At the fit ``theta`` the budget is interpolated between its test points
+    (``surrogate.error_budgets.budget_at``); without it, its largest value holds."""
 
-    budget = surrogate_error_budget(surrogate)
+    budget = (
+        surrogate_error_budget(surrogate)
+        if theta is None
+        else budget_at(surrogate_error_budget(surrogate), theta)
+    )
     if not budget:
         return None
     source = dict(budget.get("source") or {}) | {"measured_with": measured_with}

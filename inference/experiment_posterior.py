@@ -254,7 +254,7 @@ def sample_posterior_for(
         "mu" in model.parameters
     ):  # the stick-measured mesh budget of (c1, c5) (experiment_fit._stick_mesh_budget)
         contact = treatment.describe(inputs.spec.contact.describe(), mu_range)
-        model_error = _stick_mesh_budget(model, contact, inputs.spec.contact.describe())
+        model_error = _stick_mesh_budget(model, contact, inputs.spec.contact.describe(), theta=fit.theta)
         if model_error is not None and fit.theta.size == 3:  # mu sampled: no budget of its own
             model_error = replace(
                 model_error,

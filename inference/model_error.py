@@ -28,7 +28,7 @@ import numpy as np
 from ..design.objective import Objective, check_weights
 from ..forward.predictor import Prediction
 from ..forward.spec import ModelSpec
-from ..surrogate.error_budgets import surrogate_error_budget
+from ..surrogate.error_budgets import budget_at, surrogate_error_budget
 
 __all__ = ["Z95", "ModelError", "combined_pct", "model_error_at", "model_error_scope", "with_model_error"]
 
@@ -131,15 +131,32 @@ def model_error_scope(
     src = model.budget_source
     if isinstance(src, dict) and src.get("model"):
         measured = f", measured with the {src['measured_with']}" if src.get("measured_with") else ""
-        budget = (
-            f" ({src.get('model')}'s largest bias at {src.get('points')} test points of {src.get('file')}"
-            f"{measured})"
-        )
+        budget = f" ({_budget_words(src)}{measured})"
     if not model.has_discrepancy:
         return f"{noise} and the mesh's error budget{budget}; not the surrogate's own error nor {assumed}"
     return (
         f"{noise} and model error (the discrepancy's uncertainty and the error budget{budget}); not {assumed}"
     )
+
+
+def _budget_words(src: dict) -> str:
+    """Where a budget's value at a fit came from (``surrogate.error_budgets.budget_at``), in words."""
+    model, points, file = src.get("model"), src.get("points"), src.get("file")
+    where = src.get("where")
+    if where == "interpolated":
+        return f"{model}'s bias interpolated at the fit between {points} test points of {file}"
+    if where == "outside":
+        nearest = ", ".join("{" + f"{c1:g}, {c5:g}" + "}" for c1, c5 in src.get("nearest", []))
+        return (
+            f"the fit lies outside the {points} test points of {file}: {model}'s largest bias at the "
+            f"nearest ({nearest} kPa)"
+        )
+    if where == "largest" and not src.get("reference_extrapolated", True):
+        return (
+            f"{model}'s largest bias at {points} test points of {file}, held at every theta: "
+            "measured against one finer mesh, not interpolated"
+        )
+    return f"{model}'s largest bias at {points} test points of {file}"
 
 
 def combined_pct(statistical_pct: np.ndarray, model: ModelError | None) -> np.ndarray:
@@ -214,7 +231,7 @@ def model_error_at(objective: Objective, eta, surrogate, theta: np.ndarray) -> M
         The parts; None for a single-level surrogate without a budget (its bounds then hold no
         model error, and say so).
     """
-    budget = surrogate_error_budget(surrogate) or {}
+    budget = budget_at(surrogate_error_budget(surrogate), theta) or {}
     contact = _contact_of(surrogate)
     budget_pct = np.array([float(budget.get(f"{name}_pct", 0.0)) for name in surrogate.parameters])
     if not has_high_fidelity_level(surrogate):

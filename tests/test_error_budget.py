@@ -273,6 +273,51 @@ def test_the_shipped_budget_of_the_paper_test():
     assert surrogate_error_budget(recorded) is None  # recorded as none: kept
 
 
+def test_a_budget_varies_with_theta_between_its_points_and_says_where_it_is_read():
+    """The shipped budget of 'default' at the paper's test holds its largest value everywhere (it
+    was measured against one finer mesh). Its rows read as a budget against extrapolated values:
+    at a test point what that point leaves (c5 24.1 % below the truth at {3, 540} is 31.8 % of the
+    fit; 11.6 % at {11, 330}), between two points linear in log theta, outside them the largest of
+    the nearest three, and the bounds' sentence says which."""
+    from indentation_studio.inference.model_error import ModelError, model_error_scope
+    from indentation_studio.surrogate.error_budgets import budget_at, shipped_budget
+
+    shipped = shipped_budget(ModelSpec())  # against one finer mesh ('reference'): its largest value
+    assert budget_at(shipped, [11.0, 330.0])["c5_pct"] == shipped["c5_pct"]
+    assert budget_at(shipped, [11.0, 330.0])["source"]["where"] == "largest"
+    held = ModelError(
+        np.zeros(2), np.zeros(2), np.zeros((2, 2)), budget_at(shipped, [11, 330])["source"], False
+    )
+    assert "measured against one finer mesh, not interpolated" in model_error_scope(held)
+    # the same rows as if measured against extrapolated values
+    left = shipped | {"source": shipped["source"] | {"reference_extrapolated": True}}
+    assert len(left["points"]) == 9 and left["c5_pct"] == pytest.approx(
+        100 * (1 / (1 - 0.2414) - 1), abs=0.05
+    )
+    at = budget_at(left, [3.0, 540.0])
+    assert at["c5_pct"] == pytest.approx(left["c5_pct"]) and at["source"]["where"] == "interpolated"
+    middle = budget_at(left, [11.0, 330.0])
+    assert middle["c5_pct"] == pytest.approx(11.56, abs=0.01) and middle["c1_pct"] == pytest.approx(
+        2.78, abs=0.01
+    )
+    # halfway in log c5 between {11, 120} (9.55 %) and {11, 330} (11.56 %)
+    half = budget_at(left, [11.0, float(np.sqrt(120.0 * 330.0))])
+    assert half["c5_pct"] == pytest.approx(0.5 * (9.55 + 11.56), abs=0.01)
+    outside = budget_at(left, [1.0, 540.0])  # c1 below the points' 3 kPa
+    assert outside["source"]["where"] == "outside" and [3.0, 540.0] in outside["source"]["nearest"]
+    assert outside["c5_pct"] == pytest.approx(left["c5_pct"])  # {3, 540} is among the nearest
+    assert budget_at(left, [2.0, 120.0, 0.3])["source"]["where"] == "outside"  # mu is not in a budget
+    words = model_error_scope(ModelError(np.zeros(2), np.zeros(2), np.zeros((2, 2)), middle["source"], False))
+    assert "interpolated at the fit between 9 test points" in words
+    words = model_error_scope(
+        ModelError(np.zeros(2), np.zeros(2), np.zeros((2, 2)), outside["source"], False)
+    )
+    assert "outside the 9 test points" in words and "{3, 540}" in words
+    old = {k: v for k, v in left.items() if k != "points"}  # recorded before the points were
+    assert budget_at(old, [11.0, 330.0])["c5_pct"] == left["c5_pct"]
+    assert budget_at(old, [11.0, 330.0])["source"]["where"] == "largest"
+
+
 def _on(spec: ModelSpec, mesh: str) -> ModelSpec:
     from dataclasses import replace
 
