@@ -52,14 +52,18 @@ def composite_spec(
     steps: int = 28,
     step_size: float = 0.5,
     friction: float | None = None,
+    *,
+    contact: Contact | None = None,
 ) -> ModelSpec:
     """The phantom's indentation spec: its constituents (3.1) on the composite mesh ``preset``,
-    the sphere of ``radius``, ``steps`` x ``step_size`` mm, the paper's stick (or Coulomb mu)."""
+    the sphere of ``radius``, ``steps`` x ``step_size`` mm, the paper's stick (or Coulomb mu);
+    ``contact``, when given, is the whole contact (e.g. the surface-integrated stick) and
+    ``friction`` is not read."""
     return ModelSpec.composite_phantom(
         preset,
         indenter=Indenter(radius=radius),
         protocol=Protocol(steps=steps, step_size=step_size),
-        contact=Contact(friction=friction),
+        contact=contact if contact is not None else Contact(friction=friction),
     )
 
 
@@ -72,6 +76,8 @@ def composite_indentation(
     friction: float | None = None,
     progress: Callable[[int, int, float], None] | None = None,
     say: Callable[[str], None] | None = None,
+    *,
+    contact: Contact | None = None,
     **experiment_options,
 ) -> tuple[SimulationResult, Path]:
     """Indent the composite phantom on the embedded solver and write the experiment folder from it.
@@ -98,6 +104,9 @@ def composite_indentation(
         ``progress(step, steps, force)`` of the run.
     say : callable, optional
         Where messages go.
+    contact : Contact, optional
+        The whole contact (e.g. ``Contact(integration="surface", order=1)``); ``friction`` is then
+        not read.
     **experiment_options
         Passed to :func:`experiment_from_composite` (``seed``, ``overwrite``, recording options).
 
@@ -119,7 +128,7 @@ def composite_indentation(
     if (out / "experiment.json").exists() and not experiment_options.get("overwrite", False):
         raise FileExistsError(f"{out}: an experiment is already there (overwrite=True replaces it)")
     out.mkdir(parents=True, exist_ok=True)
-    spec = composite_spec(radius, preset, steps, step_size, friction)
+    spec = composite_spec(radius, preset, steps, step_size, friction, contact=contact)
     run = run_simulation(spec, out / RESULT_FILE, progress=progress, say=say)
     return run.result, experiment_from_composite(run.result, out, **experiment_options)
 
@@ -176,6 +185,7 @@ def write_composite_experiment(
     steps: int = 28,
     step_size: float = 0.5,
     friction: float | None = None,
+    contact: Contact | None = None,
     progress: Callable[[int, int, float], None] | None = None,
     say: Callable[[str], None] | None = None,
     seed: int = 0,
@@ -192,7 +202,7 @@ def write_composite_experiment(
         The experiment folder (a run keeps its result in it).
     from_result : str or Path, optional
         A composite result (.npz) to write the experiment from instead of running.
-    radius, preset, steps, step_size, friction
+    radius, preset, steps, step_size, friction, contact
         The run's model (:func:`composite_spec`).
     progress, say
         The run's progress and messages (:func:`composite_indentation`).
@@ -220,6 +230,7 @@ def write_composite_experiment(
         friction,
         progress=progress,
         say=say,
+        contact=contact,
         seed=seed,
         overwrite=overwrite,
     )

@@ -16,8 +16,20 @@ from rich.console import Console
 
 from .. import design, forward, inference, studio  # lazy packages: a command imports what it runs
 from ..atomic_write import strict_json
-from ..forward.spec import SpecError
-from .options import FRICTION, JSON, RADIUS, STEP_SIZE, STEPS, err, fail, say
+from ..forward.spec import DEFAULT_CONTACT_PENALTY, SpecError
+from .options import (
+    CONTACT,
+    CONTACT_ORDER,
+    CONTACT_PENALTY,
+    FRICTION,
+    JSON,
+    RADIUS,
+    STEP_SIZE,
+    STEPS,
+    err,
+    fail,
+    say,
+)
 from .progress import step_progress
 
 composite_app = typer.Typer(help="The composite phantom (paper 2.4.2, 2.9): TPU fibers in a silicone matrix.")
@@ -84,6 +96,9 @@ def indent(
     steps: STEPS = 28,
     step_size: STEP_SIZE = 0.5,
     friction: FRICTION = None,
+    contact: CONTACT = "node",
+    contact_order: CONTACT_ORDER = 2,
+    contact_penalty: CONTACT_PENALTY = DEFAULT_CONTACT_PENALTY,
     from_result: FROM_RESULT = None,
     seed: SEED = 0,
     overwrite: OVERWRITE = False,
@@ -94,6 +109,9 @@ def indent(
     ``indent-studio fit --experiment OUT`` identifies with the homogeneous model."""
     run_now = from_result is None  # a progress bar only for a run
     try:
+        model_contact = forward.Contact(
+            friction=friction, integration=contact, order=contact_order, penalty=contact_penalty
+        )
         with step_progress(err, "composite indentation", steps) if run_now else nullcontext() as bar:
             done = inference.write_composite_experiment(
                 out,
@@ -102,7 +120,7 @@ def indent(
                 preset=mesh,
                 steps=steps,
                 step_size=step_size,
-                friction=friction,
+                contact=model_contact,
                 progress=lambda k, n, f: bar.update(k, f"{f:.1f} mN"),
                 say=say,
                 seed=seed,
