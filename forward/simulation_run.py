@@ -5,8 +5,11 @@ of the whole block as VTU for ParaView."""
 from __future__ import annotations
 
 import math
+import signal
+import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -19,7 +22,7 @@ from .solver import EmbeddedSolver, SimulationError
 from .spec import DEFAULT_CONTACT_PENALTY, ModelSpec
 from .vtu_export import write_vtu_series
 
-__all__ = ["SimulationRun", "default_result_file", "feb_beside_log", "run_simulation"]
+__all__ = ["SimulationRun", "default_result_file", "feb_beside_log", "run_simulation", "termination_as_interrupt"]
 
 SOLVERS = ("embedded", "febio")
 
@@ -124,6 +127,31 @@ def feb_beside_log(log: str | Path) -> Path | None:
     return feb if feb.is_file() else None
 
 
+@contextmanager
+def termination_as_interrupt() -> Iterator[None]:
+    """Within the block, SIGTERM (a job killed by a scheduler, ``kill``) raises KeyboardInterrupt
+    as Ctrl-C does, so that a run can keep its finished steps; the previous handler is restored
+    after. Outside the main thread (where signals cannot be handled) it does nothing.
+
+    Yields
+    ------
+    None
+        The block runs with SIGTERM as an interrupt.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def interrupt(signum: int, frame: Any) -> None:
+        raise KeyboardInterrupt(f"signal {signum}")
+
+    previous = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
 def run_simulation(
     spec: ModelSpec,
     out: str | Path | None = None,
@@ -137,7 +165,8 @@ def run_simulation(
 ) -> SimulationRun:
     """Solve ``spec`` and write the result: what ``indent-studio simulate`` does.
 
-    A failed simulation keeps its finished steps in ``<out>.partial.npz``.
+    A failed simulation keeps its finished steps in ``<out>.partial.npz``, and so does an embedded
+    run stopped by Ctrl-C or SIGTERM (:func:`termination_as_interrupt`) before it re-raises.
 
     Parameters
     ----------
@@ -197,12 +226,17 @@ def run_simulation(
             result = engine.run(progress=progress)
         else:
             engine = EmbeddedSolver(spec)
-            result = engine.run(sensitivities=sensitivities, progress=progress, full_field=vtu is not None)
-    except SimulationError as exc:
-        if exc.partial is not None and len(exc.partial.depth) > 1:
-            partial = exc.partial.save(out.with_name(out.stem + ".partial.npz"))
+            with termination_as_interrupt():
+                result = engine.run(
+                    sensitivities=sensitivities, progress=progress, full_field=vtu is not None
+                )
+    except (SimulationError, KeyboardInterrupt) as exc:
+        kept = getattr(exc, "partial", None)
+        if kept is not None and len(kept.depth) > 1:
+            partial = kept.save(out.with_name(out.stem + ".partial.npz"))
             if say is not None:
-                say(f"steps completed before the failure are kept in {partial}")
+                what = "the failure" if isinstance(exc, SimulationError) else "the interruption"
+                say(f"steps completed before {what} are kept in {partial}")
         raise
     path = result.save(out)
     pvd = None

@@ -313,70 +313,79 @@ class EmbeddedSolver(NewtonSystem):
 
         d = 0.0
         nominal = proto.step_size / opts.substeps
-        for k, d_target in enumerate(proto.depths, start=1):
-            t_step = time.perf_counter()
-            rec = dict.fromkeys(("newton_iterations", "increments", "cutbacks", "contact_passes"), 0)
-            inc = nominal
-            eq = None
-            while d < d_target - 1e-12:
-                dd = min(inc, d_target - d)
-                if d_target - (d + dd) < 1e-9 * proto.step_size:
-                    dd = d_target - d
-                ratio = dd / last_dd if last_dd > 0 else 0.0
-                u_pred = u + ratio * last_inc
-                du_pred = du_dtheta + ratio * last_dinc if sensitivities else None
-                try:
-                    eq, contact_new, its, passes, sens = increment(
-                        u, u_pred, d, d + dd, contact, du_dtheta, du_pred
-                    )
-                except IncrementFailed as exc:
-                    log.debug("increment %.4g -> %.4g mm failed: %s", d, d + dd, exc)
-                    rec["cutbacks"] += 1
-                    smallest = dd <= nominal * 2.0**-opts.max_cutbacks * (1.0 + 1e-9)
-                    if smallest or rec["cutbacks"] > CUTBACK_BUDGET * max(opts.max_cutbacks, 1):
-                        partial = result_so_far()
-                        raise SimulationError(
-                            f"simulation failed at depth {d + dd:.4g} mm (last converged {d:.4g} mm of "
-                            f"{proto.max_depth:g}): {exc}",
-                            depth_reached=d,
-                            partial=partial,
-                        ) from exc
-                    inc = dd / 2.0
-                    continue
-                last_inc = eq.u - u
-                last_dd = dd
-                u = eq.u
-                contact = contact_new
+        try:
+            for k, d_target in enumerate(proto.depths, start=1):
+                t_step = time.perf_counter()
+                rec = dict.fromkeys(("newton_iterations", "increments", "cutbacks", "contact_passes"), 0)
+                inc = nominal
+                eq = None
+                while d < d_target - 1e-12:
+                    dd = min(inc, d_target - d)
+                    if d_target - (d + dd) < 1e-9 * proto.step_size:
+                        dd = d_target - d
+                    ratio = dd / last_dd if last_dd > 0 else 0.0
+                    u_pred = u + ratio * last_inc
+                    du_pred = du_dtheta + ratio * last_dinc if sensitivities else None
+                    try:
+                        eq, contact_new, its, passes, sens = increment(
+                            u, u_pred, d, d + dd, contact, du_dtheta, du_pred
+                        )
+                    except IncrementFailed as exc:
+                        log.debug("increment %.4g -> %.4g mm failed: %s", d, d + dd, exc)
+                        rec["cutbacks"] += 1
+                        smallest = dd <= nominal * 2.0**-opts.max_cutbacks * (1.0 + 1e-9)
+                        if smallest or rec["cutbacks"] > CUTBACK_BUDGET * max(opts.max_cutbacks, 1):
+                            partial = result_so_far()
+                            raise SimulationError(
+                                f"simulation failed at depth {d + dd:.4g} mm (last converged {d:.4g} mm of "
+                                f"{proto.max_depth:g}): {exc}",
+                                depth_reached=d,
+                                partial=partial,
+                            ) from exc
+                        inc = dd / 2.0
+                        continue
+                    last_inc = eq.u - u
+                    last_dd = dd
+                    u = eq.u
+                    contact = contact_new
+                    if sensitivities:
+                        last_dinc = sens - du_dtheta
+                    du_dtheta = sens
+                    d += dd
+                    rec["newton_iterations"] += its
+                    rec["increments"] += 1
+                    rec["contact_passes"] += passes
+                    inc = min(nominal, 2.0 * inc)
+                assert eq is not None
+                F_quarter = self.contact.quarter_force(eq, contact)
+                depths.append(d_target)
+                forces.append(SYMMETRY_FACTOR * F_quarter)
+                disp.append(u[self.top].copy())
+                if self._full is not None:
+                    self._full.append(u.copy())
                 if sensitivities:
-                    last_dinc = sens - du_dtheta
-                du_dtheta = sens
-                d += dd
-                rec["newton_iterations"] += its
-                rec["increments"] += 1
-                rec["contact_passes"] += passes
-                inc = min(nominal, 2.0 * inc)
-            assert eq is not None
-            F_quarter = self.contact.quarter_force(eq, contact)
-            depths.append(d_target)
-            forces.append(SYMMETRY_FACTOR * F_quarter)
-            disp.append(u[self.top].copy())
+                    f_sens.append(
+                        SYMMETRY_FACTOR * self.contact.quarter_force_sensitivity(eq, contact, du_dtheta)
+                    )
+                    u_sens.append(du_dtheta[self.top].copy())
+                for key, val in rec.items():
+                    conv[key].append(val)
+                attached, slipping = self.contact.node_status(contact)
+                conv["attached_nodes"].append(int(attached.sum()))
+                self._status.append(attached.astype(np.int8) + slipping)
+                if "mu" in self.contact.parameters:
+                    conv.setdefault("slipping_nodes", [0]).append(int(slipping.sum()))
+                conv["wall_s"].append(time.perf_counter() - t_step)
+                if progress is not None:
+                    progress(k, proto.steps, forces[-1])
+        except KeyboardInterrupt as exc:  # Ctrl-C (or SIGTERM under run_simulation): keep the steps done
+            done = len(conv["wall_s"])  # appended last of a step's records
+            for seq in (depths, forces, disp, f_sens, u_sens, self._status, *conv.values()):
+                del seq[done:]
             if self._full is not None:
-                self._full.append(u.copy())
-            if sensitivities:
-                f_sens.append(
-                    SYMMETRY_FACTOR * self.contact.quarter_force_sensitivity(eq, contact, du_dtheta)
-                )
-                u_sens.append(du_dtheta[self.top].copy())
-            for key, val in rec.items():
-                conv[key].append(val)
-            attached, slipping = self.contact.node_status(contact)
-            conv["attached_nodes"].append(int(attached.sum()))
-            self._status.append(attached.astype(np.int8) + slipping)
-            if "mu" in self.contact.parameters:
-                conv.setdefault("slipping_nodes", [0]).append(int(slipping.sum()))
-            conv["wall_s"].append(time.perf_counter() - t_step)
-            if progress is not None:
-                progress(k, proto.steps, forces[-1])
+                del self._full[done:]
+            exc.partial = result_so_far() if done > 1 else None
+            raise
         return result_so_far()
 
     def _result(self, depths, forces, disp, conv, f_sens, u_sens, sensitivities, t_start) -> SimulationResult:
