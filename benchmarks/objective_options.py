@@ -11,7 +11,8 @@ beside it the 95 % half-width of eq. 6 to 8 that a typical experiment gives with
 
 - ``paper``: the weights (0.45, 0.35, 0.2, 0), the top nodes within 25 mm, those under the sphere
   (r < R) obscured;
-- ``rings >= k R``: the nodes under k R left out as well;
+- ``rings >= k R``: the nodes under k R left out as well (1.2 R is where the authors' code's ring
+  of data starts, ``design.nodal_weights.default_selection(reading="authors")``);
 - ``with uz``: weights (0.45, 0.2, 0.15, 0.2);
 - ``fov F``: the nodes within F mm.
 
@@ -40,6 +41,7 @@ DIC_NOISE_MM = 0.02
 #: name: (weights, field of view in mm, inner rings left out in R)
 OPTIONS = {
     "paper": (PAPER_WEIGHTS, 25.0, 1.0),
+    "rings >= 1.2 R": (PAPER_WEIGHTS, 25.0, 1.2),  # the inner edge of the authors' code's ring
     "rings >= 1.5 R": (PAPER_WEIGHTS, 25.0, 1.5),
     "rings >= 2 R": (PAPER_WEIGHTS, 25.0, 2.0),
     "with uz": ((0.45, 0.2, 0.15, 0.2), 25.0, 1.0),
