@@ -22,7 +22,13 @@ from .solver import EmbeddedSolver, SimulationError
 from .spec import DEFAULT_CONTACT_PENALTY, ModelSpec
 from .vtu_export import write_vtu_series
 
-__all__ = ["SimulationRun", "default_result_file", "feb_beside_log", "run_simulation", "termination_as_interrupt"]
+__all__ = [
+    "SimulationRun",
+    "default_result_file",
+    "feb_beside_log",
+    "run_simulation",
+    "termination_as_interrupt",
+]
 
 SOLVERS = ("embedded", "febio")
 
