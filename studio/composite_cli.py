@@ -16,20 +16,8 @@ from rich.console import Console
 
 from .. import design, forward, inference, studio  # lazy packages: a command imports what it runs
 from ..atomic_write import strict_json
-from ..forward.spec import DEFAULT_CONTACT_PENALTY, SpecError
-from .options import (
-    CONTACT,
-    CONTACT_ORDER,
-    CONTACT_PENALTY,
-    FRICTION,
-    JSON,
-    RADIUS,
-    STEP_SIZE,
-    STEPS,
-    err,
-    fail,
-    say,
-)
+from ..forward.spec import SpecError
+from .options import JSON, ModelOptions, err, fail, model_options, say
 from .progress import step_progress
 
 composite_app = typer.Typer(help="The composite phantom (paper 2.4.2, 2.9): TPU fibers in a silicone matrix.")
@@ -89,38 +77,31 @@ OVERWRITE = Annotated[bool, typer.Option(help="replace an experiment already in 
 
 
 @composite_app.command("indent")
+@model_options("radius", "steps", "step_size", "friction", "contact", "contact_order", "contact_penalty")
 def indent(
     out: EXPERIMENT_OUT,
-    radius: RADIUS = 4.77,
     mesh: COMPOSITE_MESH = "composite",
-    steps: STEPS = 28,
-    step_size: STEP_SIZE = 0.5,
-    friction: FRICTION = None,
-    contact: CONTACT = "node",
-    contact_order: CONTACT_ORDER = 2,
-    contact_penalty: CONTACT_PENALTY = DEFAULT_CONTACT_PENALTY,
     from_result: FROM_RESULT = None,
     seed: SEED = 0,
     overwrite: OVERWRITE = False,
     as_json: JSON = False,
+    *,
+    model: ModelOptions,
 ) -> None:
     """Indent the composite phantom (its fibers and matrix, the paper's stick) and write the run as
     a DIC-like experiment (0.02 mm DIC noise, 2 % force noise, 0.1 mm misregistration) that
     ``indent-studio fit --experiment OUT`` identifies with the homogeneous model."""
     run_now = from_result is None  # a progress bar only for a run
     try:
-        model_contact = forward.Contact(
-            friction=friction, integration=contact, order=contact_order, penalty=contact_penalty
-        )
-        with step_progress(err, "composite indentation", steps) if run_now else nullcontext() as bar:
+        with step_progress(err, "composite indentation", model.steps) if run_now else nullcontext() as bar:
             done = inference.write_composite_experiment(
                 out,
                 from_result=from_result,
-                radius=radius,
+                radius=model.radius,
                 preset=mesh,
-                steps=steps,
-                step_size=step_size,
-                contact=model_contact,
+                steps=model.steps,
+                step_size=model.step_size,
+                contact=model.contact_spec(),
                 progress=lambda k, n, f: bar.update(k, f"{f:.1f} mN"),
                 say=say,
                 seed=seed,

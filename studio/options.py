@@ -123,12 +123,27 @@ class ModelOptions:
             material=Material(c1=self.c1, c5=self.c5, kappa=self.kappa),
             mesh=MeshChoice(preset=self.mesh, feb_file=str(self.mesh_from) if self.mesh_from else None),
             solver=SolverOptions(substeps=self.substeps, fiber_stretch=self.fiber_stretch),
-            contact=Contact(
-                friction=self.friction,
-                integration=self.contact,
-                order=self.contact_order,
-                penalty=self.contact_penalty,
-            ),
+            contact=self.contact_spec(),
+        )
+
+    def contact_spec(self) -> Contact:
+        """The contact of these options.
+
+        Returns
+        -------
+        Contact
+            Friction (or the stick), where it is evaluated, its order and penalty.
+
+        Raises
+        ------
+        SpecError
+            An option out of its range.
+        """
+        return Contact(
+            friction=self.friction,
+            integration=self.contact,
+            order=self.contact_order,
+            penalty=self.contact_penalty,
         )
 
     def replace(self, **changes: Any) -> ModelOptions:
