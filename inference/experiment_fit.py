@@ -818,22 +818,15 @@ def _profile_at(
     return profile.F, np.append(profile.theta, mu), profile.F
 
 
-def _stick_mesh_budget(
-    surrogate, contact: str, measured_with: str = "perfect stick", *, theta=None
-) -> ModelError | None:
+def _stick_mesh_budget(surrogate, contact: str, measured_with: str, *, theta) -> ModelError | None:
     """The mesh's error budget of the surrogate's (c1, c5), measured with the perfect stick, for a
     fit with friction: that mesh's error does not vanish when mu is held or fitted, and no budget
     measured with friction is shipped; leaving it out would leave bounds of noise alone (a fit of
     FEBio's baseline with mu identified: c5 +34 % outside +-3.9 %). Its source says which contact
     it was measured with (``measured_with``: the surrogate's campaign's contact, which the shipped
-    budget was matched on). At the fit ``theta`` the budget is interpolated between its test points
-    (``surrogate.error_budgets.budget_at``); without it, its largest value holds."""
+    budget was matched on), read at the fit ``theta`` (``surrogate.error_budgets.budget_at``)."""
 
-    budget = (
-        surrogate_error_budget(surrogate)
-        if theta is None
-        else budget_at(surrogate_error_budget(surrogate), theta)
-    )
+    budget = budget_at(surrogate_error_budget(surrogate), theta)
     if not budget:
         return None
     source = dict(budget.get("source") or {}) | {"measured_with": measured_with}
