@@ -22,8 +22,9 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+from objective_options import fit_c5  # the sibling script's one Gauss-Newton step with rings left out
 
-from indentation_studio.design.objective import PAPER_WEIGHTS, Objective
+from indentation_studio.design.objective import PAPER_WEIGHTS
 from indentation_studio.forward.mesh_study import top_field_interpolator
 from indentation_studio.forward.predictor import Prediction
 from indentation_studio.forward.result import SimulationResult
@@ -31,27 +32,6 @@ from indentation_studio.inference.mesh_check import prediction_at_nodes
 from indentation_studio.inference.verification_study import FIT_FIELD_OF_VIEW, parameter_bias
 
 COMPONENTS = {"ux": (0.45, 0.55, 0.0, 0.0), "uy": (0.45, 0.0, 0.55, 0.0), "uz": (0.45, 0.0, 0.0, 0.55)}
-
-
-def c5_with_inner_rings_left_out(model: SimulationResult, data: SimulationResult, k: float) -> float:
-    """The c5 one Gauss-Newton step fits to ``data`` with the top nodes under k R left out."""
-    theta = np.array([model.spec["material"]["c1"], model.spec["material"]["c5"]], float)
-    top = np.asarray(model.top_xyz)
-    radius = float(model.spec["indenter"]["radius"])
-    r = np.hypot(top[:, 0], top[:, 1])
-    target = prediction_at_nodes(data, top)
-    objective = Objective(
-        target.force[0],
-        target.displacement[0],
-        top,
-        radius,
-        mask=(r <= FIT_FIELD_OF_VIEW) & (r >= k * radius),
-    )
-    pred = Prediction.from_results([model], ("c1", "c5"))
-    res = objective.residuals(pred, PAPER_WEIGHTS)[0]
-    J = objective.jacobian(pred, PAPER_WEIGHTS)[0] * theta
-    delta, *_ = np.linalg.lstsq(J, -res, rcond=None)
-    return float(theta[1] * np.exp(delta[1]))
 
 
 def main() -> None:
@@ -65,6 +45,7 @@ def main() -> None:
     theta = np.array([model.spec["material"]["c1"], model.spec["material"]["c5"]], float)
     field = np.moveaxis(model.displacement, 0, 1)
     rings = [float(k) for k in args.rings.split(",") if k.strip()]
+    pred = Prediction.from_results([model], ("c1", "c5"))
     print(f"{args.case}: c5 bias (% of {theta[1]:g} kPa) of each level fitted by level {finest}")
     head = ["level", "whole", "force", "field", *(f"field {c}" for c in COMPONENTS), "interpolation"]
     head += [f"rings >= {k:g} R" for k in rings]
@@ -82,7 +63,10 @@ def main() -> None:
         interpolation = parameter_bias(
             model, replace(run, displacement=np.moveaxis(resampled, 1, 0), force=model.force)
         )
-        inner = [c5_with_inner_rings_left_out(model, run, k) / theta[1] - 1 for k in rings]
+        target = prediction_at_nodes(run, model.top_xyz)
+        inner = [
+            fit_c5(model, pred, target, PAPER_WEIGHTS, FIT_FIELD_OF_VIEW, k)[0] / theta[1] - 1 for k in rings
+        ]
         cells = [whole, whole - field_part, field_part, *parts, interpolation[1] / theta[1] - 1, *inner]
         print(f"| {level} | " + " | ".join(f"{100 * v:+.2f}" for v in cells) + " |")
 

@@ -22,6 +22,7 @@ beside it the 95 % half-width of eq. 6 to 8 that a typical experiment gives with
 from __future__ import annotations
 
 import argparse
+import json
 from pathlib import Path
 
 import numpy as np
@@ -98,8 +99,6 @@ def main() -> None:
 
 def _family_of(case: Path) -> dict:
     """The mesh family of the study a case folder belongs to (its study.json, two folders up)."""
-    import json
-
     return json.loads((case.parent.parent / "study.json").read_text())["family"]
 
 
