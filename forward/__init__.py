@@ -72,6 +72,12 @@ __getattr__, __dir__, __all__ = lazy.attach(
         "febio.runner": ["FebioSolver", "find_febio"],
         "mesh_study": ["MeshErrors", "convergence_study", "mesh_errors"],
         "vtu_export": ["write_vtu_series"],
-        "simulation_run": ["SimulationRun", "default_result_file", "feb_beside_log", "run_simulation"],
+        "simulation_run": [
+            "SimulationRun",
+            "default_result_file",
+            "feb_beside_log",
+            "run_simulation",
+            "termination_as_interrupt",
+        ],
     },
 )

@@ -30,6 +30,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
         "pickle_conversion": ["convert_pickled_surrogate"],
         "validation": ["k_fold_errors", "prediction_errors"],
         "error_budgets": [
+            "budget_at",
             "remaining_bias",
             "shipped_budget",
             "shipped_budgets_folder",

@@ -44,6 +44,9 @@ def test_model_error_is_reachable_from_a_notebook():
     assert callable(ins.design.remaining_bias) and callable(ins.design.surrogate_error_budget)
     assert "hold no model error" in ins.inference.model_error_scope(None)
     assert callable(ins.inference.combined_pct) and callable(ins.forward.thread_limits)
+    at = ins.surrogate.budget_at(left, [11.0, 330.0])  # a budget against one finer mesh: its largest value
+    assert at["c5_pct"] == left["c5_pct"] and at["source"]["where"] == "largest"
+    assert callable(ins.forward.termination_as_interrupt) and ins.forward.MeshFamily().cells(4) == (41, 41)
 
 
 def test_friction_is_reachable_from_a_notebook():
