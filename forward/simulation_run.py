@@ -135,9 +135,10 @@ def feb_beside_log(log: str | Path) -> Path | None:
 
 @contextmanager
 def termination_as_interrupt() -> Iterator[None]:
-    """Within the block, SIGTERM (a job killed by a scheduler, ``kill``) raises KeyboardInterrupt
-    as Ctrl-C does, so that a run can keep its finished steps; the previous handler is restored
-    after. Outside the main thread (where signals cannot be handled) it does nothing.
+    """Within the block, SIGTERM raises KeyboardInterrupt as Ctrl-C does.
+
+    So a run killed by a scheduler or ``kill`` can keep its finished steps; the previous handler is
+    restored after. Outside the main thread (where signals cannot be handled) it does nothing.
 
     Yields
     ------

@@ -123,6 +123,7 @@ def budget_at(budget: dict | None, theta) -> dict | None:
 
     Examples
     --------
+    >>> from indentation_studio.surrogate import budget_at
     >>> source = {"model": "m", "points": 4, "reference_extrapolated": True}
     >>> b = {"c1_pct": 4.0, "c5_pct": 20.0, "source": source, "points": [
     ...     {"c1": c1, "c5": c5, "c1_pct": c1 / 5, "c5_pct": c5 / 27} for c1 in (5, 20) for c5 in (135, 540)]}
