@@ -705,7 +705,12 @@ def _fit_with_friction(
         friction=treatment,
         mu_range=mu_range,
     )
-    fit.model_error = _stick_mesh_budget(model, fit.contact, spec.contact.describe(), theta=final.theta)
+    if with_mu and has_high_fidelity_level(model):  # its discrepancy (learned at the stick or over mu)
+        say("the model error at the fit (discrepancy and error budget, mu held) ...")
+        error = model_error_at(obj, eta, model, final.theta, free=2)
+        fit.model_error = None if error is None else replace(error, contact=fit.contact)
+    else:
+        fit.model_error = _stick_mesh_budget(model, fit.contact, spec.contact.describe(), theta=final.theta)
     fit.mu_reach, fit.mu_reach_notes, fit.restarts = reach, notes, restarts
     if stage == "confirm":
         say(f"confirming on the FE solver at {np.round(final.theta, 3).tolist()} ...")

@@ -207,7 +207,9 @@ def _contact_of(surrogate) -> str:
     return ModelSpec.from_dict(model).contact.describe() if model else "perfect stick"
 
 
-def model_error_at(objective: Objective, eta, surrogate, theta: np.ndarray) -> ModelError | None:
+def model_error_at(
+    objective: Objective, eta, surrogate, theta: np.ndarray, *, free: int | None = None
+) -> ModelError | None:
     """The model-error parts at the fit ``theta`` on ``surrogate``.
 
     A multi-fidelity surrogate gives the discrepancy's part (its predictive covariance carried to
@@ -224,6 +226,11 @@ def model_error_at(objective: Objective, eta, surrogate, theta: np.ndarray) -> M
         The surrogate fitted.
     theta : numpy.ndarray
         (p,) the fit, kPa.
+    free : int, optional
+        Only the first ``free`` parameters move with the discrepancy, the rest held at ``theta``
+        (mu of a fit with friction, whose own bound is its profile's; at mu's range ends, where
+        nothing slips, d/dmu vanishes and a fit over all three would not be determined). The parts
+        are then over those ``free`` parameters. Default all.
 
     Returns
     -------
@@ -233,17 +240,18 @@ def model_error_at(objective: Objective, eta, surrogate, theta: np.ndarray) -> M
     """
     budget = budget_at(surrogate_error_budget(surrogate), theta) or {}
     contact = _contact_of(surrogate)
-    budget_pct = np.array([float(budget.get(f"{name}_pct", 0.0)) for name in surrogate.parameters])
+    names = surrogate.parameters[:free]
+    budget_pct = np.array([float(budget.get(f"{name}_pct", 0.0)) for name in names])
     if not has_high_fidelity_level(surrogate):
         if not budget:
             return None
-        p = len(surrogate.parameters)
+        p = len(names)
         return ModelError(np.zeros(p), budget_pct, np.zeros((p, p)), budget.get("source"), False, contact)
     e = check_weights(eta)
     theta = np.asarray(theta, float)
     pred = surrogate.predict(theta[None, :], jacobian=True)
     r0 = objective.residuals(pred, e)[0]
-    J = objective.jacobian(pred, e)[0] * theta  # d r / d log theta
+    J = (objective.jacobian(pred, e)[0] * theta)[:, : len(names)]  # d r / d log theta (the free ones)
     L = surrogate.discrepancy_covariance_factor(theta)  # (k, steps + steps * nodes * 3)
     steps = pred.force.shape[1]
     L_force, L_field = L[:, :steps], L[:, steps:]

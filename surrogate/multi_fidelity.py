@@ -16,6 +16,18 @@ Jacobians follow from (1) through both levels; the reduced basis stacks the low 
 W with the discrepancy's. The discrepancy's predictive covariance (GP variance of each score
 through its PCA components) and its k-fold errors (what the PCA truncation and the GP leave) are
 what a fit can add to its bounds as model error.
+
+Friction. With a low surrogate over (c1, c5, mu) made of a perfect-stick surrogate plus the slip
+(:class:`surrogate.slip_surrogate.SlipSurrogate`), the high campaign may be a perfect-stick
+campaign over (c1, c5): delta is then learned from the high points' differences to the low
+level's STICK surrogate and applied at every mu,
+
+    log F(c1, c5, mu) = log F_lo(c1, c5, mu) + delta_f(c1, c5)                          (2a)
+    u(c1, c5, mu)     = W u_lo(c1, c5, mu)   + delta_u(c1, c5)                          (2b)
+
+which holds where the finer mesh changes the response the same way whatever the friction
+(measured: docs/validation/surrogates.md, "A multi-fidelity surrogate with mu"). A high campaign
+with the mu axis learns delta over (c1, c5, mu) instead, with eq. 1.
 """
 
 from __future__ import annotations
@@ -29,8 +41,9 @@ from sklearn.model_selection import KFold
 
 from ..forward.mesh_study import top_field_interpolator
 from ..forward.predictor import Prediction, ReducedBasis
-from .base import FieldSurrogate, TrainingData
+from .base import FieldSurrogate, InputScaler, TrainingData
 from .gaussian_process import GaussianProcessSurrogate
+from .slip_surrogate import SlipSurrogate
 from .two_level import TwoLevelSurrogate, model_differences
 
 __all__ = ["MultiFidelitySurrogate", "interpolation_matrix", "model_differences"]
@@ -113,12 +126,48 @@ class MultiFidelitySurrogate(TwoLevelSurrogate):
             max_components=self.max_components,
         )
 
+    @property
+    def learned_at_stick(self) -> bool:
+        """Whether the discrepancy was learned at the perfect stick and is applied at every mu.
+
+        True when it is over fewer parameters (c1, c5) than the low level's (c1, c5, mu): module
+        eq. 2a, 2b.
+
+        Returns
+        -------
+        bool
+        """
+        return len(self.discrepancy.parameters) < len(self.low.parameters)
+
+    def _low_for(self, data: TrainingData) -> FieldSurrogate:
+        """The low level the high campaign ``data`` is compared with: the low surrogate itself over
+        the same parameters, or the stick surrogate of a stick-plus-slip low level when ``data`` is
+        a perfect-stick campaign over (c1, c5)."""
+        low = self.low
+        if tuple(data.parameters) == tuple(low.parameters):
+            return low
+        if isinstance(low, SlipSurrogate) and tuple(data.parameters) == tuple(low.stick.parameters):
+            return low.stick
+        raise ValueError(
+            f"parameters: {low.parameters} (low) vs {tuple(data.parameters)} (high); a high campaign over "
+            "(c1, c5) needs a stick-plus-slip low surrogate ('slip') to be learned at the stick"
+        )
+
     # ------------------------------------------------------------------ training
     def _check_compatible(self, data: TrainingData) -> None:
-        low = self.low
         problems = []
-        if tuple(data.parameters) != tuple(low.parameters):
-            problems.append(f"parameters: {low.parameters} (low) vs {tuple(data.parameters)} (high)")
+        try:
+            low = self._low_for(data)
+        except ValueError as exc:
+            raise ValueError(
+                f"the high-fidelity campaign does not describe the low-fidelity surrogate's test: {exc}"
+            ) from None
+        contact = ((data.source or {}).get("model") or {}).get("contact") or {}
+        if low is not self.low and contact.get("friction") is not None:
+            problems.append(
+                f"contact: a high campaign over (c1, c5) with mu = {contact['friction']:g} cannot be learned "
+                "at the stick; run it with the perfect stick or with a mu axis"
+            )
         problems += self._same_test_problems(data, ("low", "high"))
         if problems:
             raise ValueError(
@@ -149,7 +198,7 @@ class MultiFidelitySurrogate(TwoLevelSurrogate):
         TrainingData
             The discrepancies at the same points.
         """
-        low = self.low.predict(data.theta)
+        low = self._low_for(data).predict(data.theta)
         return self._correction_data(data, low.force, self._carried(low.displacement))
 
     def fit(self, data: TrainingData, seed: int = 0) -> MultiFidelitySurrogate:
@@ -171,14 +220,14 @@ class MultiFidelitySurrogate(TwoLevelSurrogate):
         """
         t0 = time.perf_counter()
         self._check_compatible(data)
-        self.parameters = tuple(data.parameters)
+        self.parameters = tuple(self.low.parameters)
         self.depth = np.asarray(data.depth, float)
         self.top_xyz = np.asarray(data.top_xyz, float)
         self.n_steps, self.n_nodes = data.displacement.shape[1], data.displacement.shape[2]
         self.interpolation = interpolation_matrix(self.low.top_xyz, self.top_xyz)
         D = self.discrepancy_data(data)
         self.discrepancy = self._discrepancy_model().fit(D, seed=seed)
-        self.scaler = self.discrepancy.scaler
+        self._set_box()
         d = self.discrepancy.meta
         self.meta.update(
             {
@@ -188,7 +237,8 @@ class MultiFidelitySurrogate(TwoLevelSurrogate):
                 "force_components": d["force_components"],
                 "field_components": d["field_components"],
                 "pca_tol": self.pca_tol,
-                "box": d["box"],
+                "box": [self.scaler.lo.tolist(), self.scaler.hi.tolist()],
+                "discrepancy_parameters": list(self.discrepancy.parameters),
                 "discrepancy": {
                     **{k: d[k] for k in ("kernels", "force_pca_error", "field_pca_error")},
                     "truncation": self._truncation_errors(D),
@@ -201,6 +251,44 @@ class MultiFidelitySurrogate(TwoLevelSurrogate):
             self.meta["discrepancy_kfold"] = self._k_fold_errors(D, seed)
         self.meta["fit_s"] = time.perf_counter() - t0
         return self
+
+    def _set_box(self) -> None:
+        """The box a fit stays in: the discrepancy's over its parameters (the high campaign's), the
+        low level's over the rest (mu, for a discrepancy learned at the stick)."""
+        d, k = self.discrepancy.scaler, len(self.discrepancy.parameters)
+        lo = np.concatenate([d.lo, self.low.scaler.lo[k:]])
+        hi = np.concatenate([d.hi, self.low.scaler.hi[k:]])
+        self.scaler = InputScaler(lo, hi, d.scale)
+
+    def _discrepancy_theta(self, theta: np.ndarray) -> np.ndarray:
+        """The parameters the discrepancy is a function of: all, or (c1, c5) when learned at the stick."""
+        return theta[:, : len(self.discrepancy.parameters)]
+
+    def stick_level(self) -> MultiFidelitySurrogate:
+        """This surrogate at the perfect stick, over (c1, c5).
+
+        The stick-plus-slip low level's stick surrogate plus the same discrepancy (module eq. 1;
+        what the high stick campaign is validated against).
+
+        Returns
+        -------
+        MultiFidelitySurrogate
+            Over (c1, c5), sharing this one's discrepancy.
+
+        Raises
+        ------
+        ValueError
+            If the discrepancy was not learned at the stick.
+        """
+        if not self.learned_at_stick:
+            raise ValueError("the discrepancy was learned over the low level's parameters, not at the stick")
+        model = type(self)(self.low.stick, **self.hyperparameters())
+        model.discrepancy, model.interpolation = self.discrepancy, self.interpolation
+        model.parameters = tuple(self.discrepancy.parameters)
+        model.depth, model.top_xyz = self.depth, self.top_xyz
+        model.n_steps, model.n_nodes = self.n_steps, self.n_nodes
+        model._set_box()
+        return model
 
     def _truncation_errors(self, D: TrainingData) -> dict[str, float]:
         """What the discrepancy's PCA leaves of its training data (largest force % and field mm)."""
@@ -261,13 +349,18 @@ class MultiFidelitySurrogate(TwoLevelSurrogate):
         """
         theta = self._checked_theta(theta)
         low = self.low.predict(theta, jacobian)
-        delta = self.discrepancy.predict(theta, jacobian)  # force: the ratio exp(delta_f)
+        delta = self.discrepancy.predict(self._discrepancy_theta(theta), jacobian)  # force: exp(delta_f)
         force = low.force * delta.force
         disp = self._carried(low.displacement) + delta.displacement
         fj = dj = None
         if jacobian:
-            fj = low.force_jacobian * delta.force[..., None] + low.force[..., None] * delta.force_jacobian
-            dj = self._carried(low.displacement_jacobian) + delta.displacement_jacobian
+            pad = theta.shape[1] - delta.force_jacobian.shape[-1]  # d delta / d mu = 0 (eq. 2)
+            dfj = np.pad(delta.force_jacobian, [(0, 0)] * (delta.force_jacobian.ndim - 1) + [(0, pad)])
+            ddj = np.pad(
+                delta.displacement_jacobian, [(0, 0)] * (delta.displacement_jacobian.ndim - 1) + [(0, pad)]
+            )
+            fj = low.force_jacobian * delta.force[..., None] + low.force[..., None] * dfj
+            dj = self._carried(low.displacement_jacobian) + ddj
         return Prediction(force, disp, self.depth, self.top_xyz, self.parameters, fj, dj)
 
     def reduced_basis(self) -> ReducedBasis:
@@ -289,7 +382,7 @@ class MultiFidelitySurrogate(TwoLevelSurrogate):
 
         def coordinates(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             theta = self._checked_theta(theta)
-            (zf, zu), (df, du) = low.coordinates(theta), delta.coordinates(theta)
+            (zf, zu), (df, du) = low.coordinates(theta), delta.coordinates(self._discrepancy_theta(theta))
             return np.hstack([zf, df]), np.hstack([zu, du])
 
         return ReducedBasis(
@@ -328,7 +421,7 @@ class MultiFidelitySurrogate(TwoLevelSurrogate):
         if len(theta) != 1:
             raise ValueError(f"one parameter point at a time, got {len(theta)}")
         d = self.discrepancy
-        scale = d.predict_std(theta)[0] * d.score_std  # (k,): score units
+        scale = d.predict_std(self._discrepancy_theta(theta))[0] * d.score_std  # (k,): score units
         kf, n_force = d.k_force, d.force_pca.components_.shape[1]
         L = np.zeros((len(scale), n_force + d.field_pca.components_.shape[1]))
         L[:kf, :n_force] = scale[:kf, None] * d.force_pca.components_
@@ -382,6 +475,6 @@ class MultiFidelitySurrogate(TwoLevelSurrogate):
             raise ValueError(f"the discrepancy model must be a 'gp' surrogate, not {second.kind!r}")
         model = cls(first, **config["hyperparameters"])
         model.discrepancy = second
-        model.scaler = second.scaler
+        model._set_box()
         model.interpolation = interpolation_matrix(first.top_xyz, second.top_xyz)
         return model

@@ -164,6 +164,14 @@ def _record_error_budget(model: FieldSurrogate, error_budget: dict | None) -> No
     model.meta["error_budget"] = None if known is None else dict(known)
 
 
+def _scored_on(model: MultiFidelitySurrogate, data) -> MultiFidelitySurrogate:
+    """The multi-fidelity surrogate that predicts campaign ``data``: itself, or its stick level for
+    a perfect-stick campaign over (c1, c5) when its discrepancy was learned at the stick."""
+    if model.learned_at_stick and len(data.parameters) < len(model.parameters):
+        return model.stick_level()
+    return model
+
+
 def train_multi_fidelity(
     low: str | Path | FieldSurrogate,
     high_campaign: str | Path | CampaignData,
@@ -216,9 +224,10 @@ def train_multi_fidelity(
     model = surrogate_class("mf")(low_model, pca_tol=pca_tol, max_components=max_components, folds=folds).fit(
         data, seed=seed
     )
-    validation = {"training": prediction_errors(model, data)}
+    validation = {"training": prediction_errors(_scored_on(model, data), data)}
     if test_campaign is not None:
-        validation["test"] = prediction_errors(model, training_data(test_campaign, runs_dir))
+        test = training_data(test_campaign, runs_dir)
+        validation["test"] = prediction_errors(_scored_on(model, test), test)
     model.meta["validation"] = validation
     _record_error_budget(model, error_budget)
     return model

@@ -300,3 +300,122 @@ def test_fit_on_two_fe_campaigns(tmp_path):
     assert np.abs(fit.theta / truth - 1).max() < 5e-3  # measured c1 -0.02 %, c5 -0.08 %
     assert np.abs(fit_low.theta / truth - 1).max() > 0.1  # measured c1 +1.5 %, c5 -29 %
     assert 0 < mf.meta["discrepancy_kfold"]["force_max_pct"] < 2.0  # measured 0.66 % (3 folds of 9)
+
+
+MU_LO, MU_HI = 0.2, 3.0
+
+
+def slip_response(theta: np.ndarray, xyz: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The low model with friction (n, 3): slip lowers the force and the in-plane field by a share
+    that fades with mu (zero at the stick)."""
+    force, disp = response(theta[:, :2], xyz, False)
+    slip = np.exp(-theta[:, 2])[:, None]  # (n, 1)
+    disp = disp.copy()
+    disp[..., :2] *= (1.0 - 0.3 * slip)[:, :, None, None]
+    return force * (1.0 - 0.1 * slip), disp
+
+
+@pytest.fixture(scope="module")
+def slip_low(low):
+    """A stick-plus-slip low level over (c1, c5, mu): the `low` GP and a small MLP of the slip."""
+    from indentation_studio.surrogate.slip_surrogate import SlipSurrogate
+
+    rng = np.random.default_rng(3)
+    theta = np.column_stack([box_points(60, seed=4), np.exp(rng.uniform(np.log(MU_LO), np.log(MU_HI), 60))])
+    force, disp = slip_response(theta, LOW_XYZ)
+    model = {**MODEL, "mesh": {"preset": "coarse"}}
+    data = TrainingData(
+        theta, force, disp, DEPTH, LOW_XYZ, ("c1", "c5", "mu"), {"name": "mu-campaign", "model": model}
+    )
+    return SlipSurrogate(low, width=16, hidden_layers=2, adam_epochs=300, lbfgs_steps=20).fit(data)
+
+
+@pytest.fixture(scope="module")
+def mf3(slip_low, high_data) -> MultiFidelitySurrogate:
+    """Over (c1, c5, mu): the stick-plus-slip low level and a discrepancy learned at the stick."""
+    return MultiFidelitySurrogate(slip_low, restarts=1, folds=0).fit(high_data, seed=0)
+
+
+def test_a_discrepancy_learned_at_the_stick_carries_mu(mf3, slip_low, low, high_data, tmp_path):
+    """Module eq. 2: over a stick-plus-slip low level, a perfect-stick high campaign over (c1, c5)
+    gives a surrogate over (c1, c5, mu) whose discrepancy is the stick's at every mu; its stick
+    level is the multi-fidelity surrogate of the low level's stick surrogate."""
+    assert mf3.parameters == ("c1", "c5", "mu") and mf3.learned_at_stick
+    assert mf3.meta["discrepancy_parameters"] == ["c1", "c5"]
+    theta = np.array([[6.0, 200.0, 0.3], [12.0, 400.0, 2.0]])
+    pred, low_pred = mf3.predict(theta, jacobian=True), slip_low.predict(theta)
+    delta = mf3.discrepancy.predict(theta[:, :2])
+    np.testing.assert_allclose(pred.force, low_pred.force * delta.force, rtol=1e-12)  # eq. 2a
+    W = interpolation_matrix(LOW_XYZ, HIGH_XYZ).toarray()
+    carried = np.einsum("ij,nsjk->nsik", W, low_pred.displacement)
+    np.testing.assert_allclose(pred.displacement, carried + delta.displacement, atol=1e-12)  # eq. 2b
+    # Jacobian against central differences; d/dmu is the low level's alone, carried to the high nodes
+    for k in range(3):
+        e = np.zeros(3)
+        e[k] = 1e-4 * theta[0, k]
+        up, down = mf3.predict(theta[:1] + e), mf3.predict(theta[:1] - e)
+        fd_f = (up.force - down.force)[0] / (2 * e[k])
+        fd_u = (up.displacement - down.displacement)[0] / (2 * e[k])
+        np.testing.assert_allclose(pred.force_jacobian[0, :, k], fd_f, rtol=0, atol=1e-4 * np.abs(fd_f).max())
+        np.testing.assert_allclose(
+            pred.displacement_jacobian[0, ..., k], fd_u, rtol=0, atol=1e-4 * np.abs(fd_u).max()
+        )
+    # the stick level is the 2-parameter multi-fidelity surrogate of the stick surrogate, exactly
+    stick = mf3.stick_level()
+    direct = MultiFidelitySurrogate(low, restarts=1, folds=0).fit(high_data, seed=0)
+    np.testing.assert_allclose(
+        stick.predict(theta[:, :2]).force, direct.predict(theta[:, :2]).force, rtol=1e-12
+    )
+    # the box: (c1, c5) the high campaign's, mu the low level's; saved and loaded bit for bit
+    np.testing.assert_allclose(mf3.scaler.lo, [*HIGH_THETA.min(axis=0), slip_low.scaler.lo[2]])
+    again = load_surrogate(save_surrogate(mf3, tmp_path / "mf3.safetensors"))
+    np.testing.assert_array_equal(again.predict(theta).force, pred.force)
+    np.testing.assert_array_equal(again.scaler.hi, mf3.scaler.hi)
+    assert again.learned_at_stick and again.discrepancy_covariance_factor(theta[0]).shape[1] == 4 + 4 * 81 * 3
+
+
+def test_a_high_campaign_with_mu_learns_the_discrepancy_over_mu(slip_low):
+    """Module eq. 1 over (c1, c5, mu): a high campaign with the mu axis (where the finer mesh's
+    change depends on friction) gives a discrepancy over all three parameters."""
+    rng = np.random.default_rng(5)
+    theta = np.column_stack([HIGH_THETA, np.exp(rng.uniform(np.log(0.3), np.log(2.5), len(HIGH_THETA)))])
+    force, disp = slip_response(theta, HIGH_XYZ)
+    high_force, _ = response(theta[:, :2], HIGH_XYZ, True)
+    low_force, _ = response(theta[:, :2], HIGH_XYZ, False)
+    force = force * high_force / low_force * (1.0 + 0.02 * np.exp(-theta[:, 2]))[:, None]  # mu-dependent
+    model = {**MODEL, "mesh": {"preset": "default"}}
+    data = TrainingData(
+        theta, force, disp, DEPTH, HIGH_XYZ, ("c1", "c5", "mu"), {"name": "hi-mu", "model": model}
+    )
+    mf3 = MultiFidelitySurrogate(slip_low, restarts=1, folds=0).fit(data, seed=0)
+    assert not mf3.learned_at_stick and mf3.discrepancy.parameters == ("c1", "c5", "mu")
+    np.testing.assert_allclose(mf3.predict(theta[:3]).force, force[:3], rtol=1e-4)  # the GP interpolates
+
+
+def test_a_discrepancy_at_the_stick_is_refused_where_it_cannot_be(slip_low, low, high_data):
+    with_mu = TrainingData(**{**vars(high_data), "source": {**high_data.source}})
+    with_mu.source["model"] = {**with_mu.source["model"], "contact": {"friction": 0.3}}
+    with pytest.raises(ValueError, match=r"with mu = 0.3 cannot be learned at the stick"):
+        MultiFidelitySurrogate(slip_low, folds=0).fit(with_mu)
+    other = TrainingData(**{**vars(high_data), "parameters": ("c1", "c5", "x")})
+    with pytest.raises(ValueError, match=r"needs a stick-plus-slip low surrogate"):
+        MultiFidelitySurrogate(low, folds=0).fit(other)
+    with pytest.raises(ValueError, match="learned over the low level's parameters, not at the stick"):
+        MultiFidelitySurrogate(low, restarts=1, folds=0).fit(high_data).stick_level()
+
+
+def test_a_fit_with_mu_carries_the_discrepancy_into_its_bounds(mf3, tmp_path):
+    """A fit on the surrogate over (c1, c5, mu) marginalises mu and adds the discrepancy's
+    uncertainty to the bounds of (c1, c5), mu held (its own bound is its profile's)."""
+    from indentation_studio.inference.experiment_fit import fit_experiment
+    from indentation_studio.inference.synthetic_experiment import write_synthetic_experiment
+
+    truth = np.array([8.0, 260.0, 0.5])
+    exp = write_synthetic_experiment(
+        mf3, truth, tmp_path / "e", radius=RADIUS, step_size=0.5, u_noise_mm=0.002, f_noise=0.002, seed=1
+    )
+    d = fit_experiment(exp, mf3, refine=False).to_dict()
+    error = d["model_error"]
+    assert len(error["discrepancy_pct"]) == 2 and min(error["discrepancy_pct"]) > 0  # measured 0.03, 0.06 %
+    assert "Coulomb friction, mu marginalised" in error["includes"]
+    assert d["friction"]["treatment"] == "marginalise"
