@@ -15,7 +15,8 @@ import numpy as np
 from .block_mesh import BlockMesh, grid_block
 from .composite_mesh import composite_mesh
 from .feb_mesh import read_feb_block_mesh
-from .mesh_presets import MESH_PRESETS, GradedAxis, MeshPreset
+from .mesh_family import contact_mesh
+from .mesh_presets import CONTACT_MESH_LEVELS, MESH_PRESETS, GradedAxis, MeshPreset
 from .spec import Geometry, ModelSpec
 
 #: scipy's root finder, imported on first use: scipy.optimize takes 0.1 to 0.2 s to import and only
@@ -104,7 +105,10 @@ def preset_mesh(name: str, geometry: Geometry | None = None) -> BlockMesh:
 
 
 def build_mesh(spec: ModelSpec) -> BlockMesh:
-    """The block mesh a spec asks for: a preset (of the composite phantom too), or a FEBio file's.
+    """The block mesh a spec asks for: a preset, or a FEBio file's.
+
+    A preset of the composite phantom, or one that follows the spec's indenter
+    (``contact-L0`` to ``contact-L4``), is built for that spec.
 
     Parameters
     ----------
@@ -127,4 +131,6 @@ def build_mesh(spec: ModelSpec) -> BlockMesh:
         return read_feb_block_mesh(spec.mesh.feb_file)
     if spec.mesh.is_composite:
         return composite_mesh(spec.mesh.preset, spec.geometry)
+    if spec.mesh.preset in CONTACT_MESH_LEVELS:
+        return contact_mesh(spec.mesh.preset, spec.indenter.radius, spec.geometry)
     return preset_mesh(spec.mesh.preset, spec.geometry)

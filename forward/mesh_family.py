@@ -24,16 +24,20 @@ the same map at every level, so the refinement stays systematic.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
+import lazy_loader as lazy
 import numpy as np
-from scipy.optimize import brentq
 
 from .block_mesh import BlockMesh, grid_block
 from .grid_convergence import representative_size
+from .mesh_presets import CONTACT_CORE_PER_RADIUS, CONTACT_MESH_LEVELS
 from .spec import Geometry
 
-__all__ = ["MeshFamily", "cored_coordinates", "graded_coordinates"]
+# scipy.optimize loads on first use: a simulation's cold start does not pay for it (tests/test_cold_start.py)
+optimize = lazy.load("scipy.optimize", suppress_warning=True)
+
+__all__ = ["MeshFamily", "contact_family", "contact_mesh", "cored_coordinates", "graded_coordinates"]
 
 
 def graded_coordinates(length: float, cells: int, beta: float) -> np.ndarray:
@@ -58,7 +62,7 @@ def cored_coordinates(length: float, cells: int, core: float, fraction: float) -
             f"a core of {core:g} mm on {fraction:g} of the cells leaves too little to grow into over "
             f"{length:g} mm; make the core smaller or its fraction larger"
         )
-    b = float(brentq(lambda b: slope * np.expm1(b * span) / b - rest, 1e-9, 200.0))
+    b = float(optimize.brentq(lambda b: slope * np.expm1(b * span) / b - rest, 1e-9, 200.0))
     x = np.where(xi <= fraction, slope * xi, core + slope * np.expm1(b * (xi - fraction)) / b)
     x[-1] = length
     return x
@@ -72,7 +76,7 @@ def _rate(length: float, cells: int, first: float) -> float:
         )
     if abs(first - length / cells) < 1e-12:
         return 0.0
-    return float(brentq(lambda b: length * np.expm1(b / cells) / np.expm1(b) - first, 1e-9, 200.0))
+    return float(optimize.brentq(lambda b: length * np.expm1(b / cells) / np.expm1(b) - first, 1e-9, 200.0))
 
 
 @dataclass(frozen=True)
@@ -222,3 +226,60 @@ class MeshFamily:
         if self.core_xy > 0.0:  # families written before cores existed read the same
             d |= {"core_xy": self.core_xy, "core_fraction": self.core_fraction}
         return d
+
+
+def contact_family(radius: float) -> MeshFamily:
+    """The family of meshes that follow the contact of a sphere of ``radius``.
+
+    8 x 8 cells at level 0, refined by 1.5, half of the in-plane cells in a uniform core
+    ``CONTACT_CORE_PER_RADIUS`` R wide (rounded to whole mm; 8 mm at R = 4.77, 13 mm at R = 8:
+    the families of the verification study, ``--family 8x8:1.2:1.5:core8`` and ``core13``).
+
+    Parameters
+    ----------
+    radius : float
+        The indenter's radius, mm.
+
+    Returns
+    -------
+    MeshFamily
+        The family.
+
+    Examples
+    --------
+    >>> from indentation_studio.forward.mesh_family import contact_family
+    >>> contact_family(4.77).name, contact_family(8.0).node_count(3)
+    ('8x8-h1.2x1.2-r1.5-core8x0.5', 21952)
+    """
+    if not radius > 0.0:
+        raise ValueError(f"the indenter's radius must be > 0, got {radius!r}")
+    core = max(1.0, float(round(CONTACT_CORE_PER_RADIUS * radius)))
+    return MeshFamily(8, 8, 1.2, 1.2, 1.5, core_xy=core, core_fraction=0.5)
+
+
+def contact_mesh(name: str, radius: float, geometry: Geometry | None = None) -> BlockMesh:
+    """The radius-following preset ``name`` (``contact-L0`` to ``contact-L4``) for a sphere of ``radius``.
+
+    Parameters
+    ----------
+    name : str
+        A key of ``CONTACT_MESH_LEVELS``.
+    radius : float
+        The indenter's radius, mm.
+    geometry : Geometry, optional
+        The block; default ``Geometry()``.
+
+    Returns
+    -------
+    BlockMesh
+        Level ``CONTACT_MESH_LEVELS[name]`` of :func:`contact_family`, named ``contact-Lk@R<radius>``.
+
+    Raises
+    ------
+    ValueError
+        If ``name`` is not such a preset.
+    """
+    if name not in CONTACT_MESH_LEVELS:
+        raise ValueError(f"unknown radius-following mesh {name!r}; use one of {sorted(CONTACT_MESH_LEVELS)}")
+    mesh = contact_family(radius).mesh(CONTACT_MESH_LEVELS[name], geometry)
+    return replace(mesh, source=f"preset:{name}@R{radius:g}")

@@ -1,6 +1,7 @@
 """Gradings of the structured quarter-block meshes (paper 2.4.1): cells of ``h0`` in a core around
 the indentation point, then geometric growth to the far faces. Plain data: the model spec
-validates a preset name against :data:`MESH_PRESETS`, :mod:`forward.mesh` builds the mesh."""
+validates a preset name against :data:`MESH_PRESETS` (and the radius-following
+:data:`CONTACT_MESH_LEVELS`), :mod:`forward.mesh` builds the mesh."""
 
 from __future__ import annotations
 
@@ -61,3 +62,16 @@ COMPOSITE_MESH_PRESETS: dict[str, CompositeMeshPreset] = {
     "composite-medium": CompositeMeshPreset(1.0, 0.06, 2, 1.0, 0.15),
     "composite": CompositeMeshPreset(0.7, 0.03, 2, 0.5, 0.07),
 }
+
+
+#: Meshes that follow the contact, whose grading depends on the indenter's radius: level k of the
+#: verification family whose uniform core, ``CONTACT_CORE_PER_RADIUS`` R wide along x and y, holds
+#: every material point the sphere touches (measured at 14 mm: r = 1.36 R at R = 4.77 mm and
+#: 1.21 R at R = 8 mm, docs/validation/verification.md) with margin, and grows beyond
+#: (:func:`forward.mesh_family.contact_family`). The levels are those of the verification study's
+#: tables: ``contact-L3`` at R = 4.77 mm is its core-8 family's level 3 (21,952 nodes).
+CONTACT_MESH_LEVELS: dict[str, int] = {f"contact-L{k}": k for k in range(5)}
+
+#: The uniform core's width per indenter radius (rounded to whole mm: 8 mm at R = 4.77, 13 at R = 8,
+#: the cores the verification study measured).
+CONTACT_CORE_PER_RADIUS = 1.65

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 from scipy.interpolate import LinearNDInterpolator, RegularGridInterpolator
 
-from .mesh_presets import MESH_PRESETS
+from .mesh import build_mesh
 from .result import SimulationResult
 from .solver import EmbeddedSolver
 from .spec import MeshChoice, ModelSpec
@@ -141,7 +141,7 @@ def solve_or_reuse(
     kept in ``saved``."""
     if saved is not None and saved.exists():
         previous = SimulationResult.load(saved)
-        nodes = MESH_PRESETS[spec.mesh.preset].node_count() if spec.mesh.feb_file is None else None
+        nodes = build_mesh(spec).n_nodes if spec.mesh.feb_file is None else None
         if previous.spec == spec.to_dict() and previous.solver.get("mesh", {}).get("nodes") == nodes:
             if say is not None:
                 say(f"mesh {spec.mesh.preset}: read {saved} (same spec)")

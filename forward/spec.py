@@ -13,7 +13,7 @@ import math
 from dataclasses import asdict, dataclass, field, fields, replace
 from typing import Any
 
-from .mesh_presets import COMPOSITE_MESH_PRESETS, MESH_PRESETS
+from .mesh_presets import COMPOSITE_MESH_PRESETS, CONTACT_MESH_LEVELS, MESH_PRESETS
 
 #: Indenter radii of the paper's two spheres (9.5 mm and 16 mm diameter), mm.
 INDENTER_PRESETS: dict[str, float] = {"small": 4.77, "large": 8.0}
@@ -329,7 +329,9 @@ class MeshChoice:
     Parameters
     ----------
     preset : str, optional
-        A preset of :mod:`forward.mesh` or of the composite phantom (``COMPOSITE_MESH_PRESETS``).
+        A preset of :mod:`forward.mesh`, of the composite phantom (``COMPOSITE_MESH_PRESETS``), or
+        one that follows the contact of the spec's indenter (``contact-L0`` to ``contact-L4``,
+        ``CONTACT_MESH_LEVELS``: :func:`forward.mesh_family.contact_mesh`).
     feb_file : str or None, optional
         A FEBio file whose hex8 block is the mesh (then ``preset`` is not used).
 
@@ -343,7 +345,7 @@ class MeshChoice:
     feb_file: str | None = None
 
     def __post_init__(self) -> None:
-        known = {**MESH_PRESETS, **COMPOSITE_MESH_PRESETS}
+        known = {**MESH_PRESETS, **COMPOSITE_MESH_PRESETS, **CONTACT_MESH_LEVELS}
         if self.feb_file is None and self.preset not in known:
             raise SpecError("mesh.preset", f"unknown preset {self.preset!r}; use {sorted(known)}")
 

@@ -33,7 +33,7 @@ from ..campaign.loader import load_point, open_campaign, require_sound
 from ..design.certainty import bounds_pct, s_from_data
 from ..design.objective import PAPER_WEIGHTS, Objective, check_weights
 from ..forward.mesh import build_mesh
-from ..forward.mesh_presets import MESH_PRESETS
+from ..forward.mesh_presets import CONTACT_MESH_LEVELS, MESH_PRESETS
 from ..forward.predictor import CachedPredictor, FESolverPredictor, Prediction
 from ..forward.result import SimulationResult
 from ..forward.richardson import RichardsonPredictor
@@ -408,11 +408,12 @@ def resolve_model(name: str, reference_spec, fe_cache: dict | None = None) -> tu
             cache[key] = CachedPredictor(FESolverPredictor(spec))
         return cache[key]
 
-    if name in MESH_PRESETS:
+    presets = {**MESH_PRESETS, **CONTACT_MESH_LEVELS}
+    if name in presets:
         return fe(replace(reference_spec, mesh=MeshChoice(name))), None
     if name.startswith("richardson:"):
         parts = name.split(":", 1)[1].split(",")
-        if len(parts) not in (2, 3) or not all(m in MESH_PRESETS for m in parts[:2]):
+        if len(parts) not in (2, 3) or not all(m in presets for m in parts[:2]):
             raise ValueError(f"model {name!r}: use richardson:FINE,COARSE[,ORDER] with mesh presets")
         fine, coarse = (fe(replace(reference_spec, mesh=MeshChoice(m))) for m in parts[:2])
         return RichardsonPredictor(fine, coarse, float(parts[2]) if len(parts) == 3 else 1.0), None
@@ -421,7 +422,7 @@ def resolve_model(name: str, reference_spec, fe_cache: dict | None = None) -> tu
         return fe(replace(reference_spec, mesh=MeshChoice(feb_file=str(path)))), None
     if not path.is_file():
         raise ValueError(
-            f"model {name!r}: not a mesh preset ({', '.join(MESH_PRESETS)}), richardson:FINE,COARSE, "
+            f"model {name!r}: not a mesh preset ({', '.join(presets)}), richardson:FINE,COARSE, "
             ".feb file or surrogate file"
         )
     surrogate = load_surrogate(path)

@@ -7,15 +7,17 @@ import pytest
 
 from indentation_studio.forward.feb_mesh import FebMeshError, read_feb_block_mesh
 from indentation_studio.forward.febio.writer import write_feb
-from indentation_studio.forward.mesh import MESH_PRESETS, preset_mesh
+from indentation_studio.forward.mesh import MESH_PRESETS, build_mesh, preset_mesh
 from indentation_studio.forward.spec import (
     Indenter,
     Material,
+    MeshChoice,
     ModelSpec,
     Protocol,
     SolverOptions,
     SpecError,
 )
+from indentation_studio.studio.verification_cli import parse_family
 
 
 @pytest.mark.parametrize(
@@ -126,3 +128,22 @@ def test_top_field_interpolator_reproduces_linear_fields(structured: bool) -> No
     assert got.shape == (301, 1, 3)
     np.testing.assert_allclose(got[:-1, 0], expect, atol=1e-10)
     np.testing.assert_allclose(got[-1, 0], [1.0 + 10.0, 0.0, -3.0 + 0.5], atol=1e-10)
+
+
+@pytest.mark.parametrize(("radius", "family"), [(4.77, "8x8:1.2:1.5:core8"), (8.0, "8x8:1.2:1.5:core13x0.5")])
+def test_contact_presets_are_the_verification_families_levels(radius, family):
+    """``contact-Lk`` is level k of the family the verification study measured at that radius
+    (docs/validation/verification.md), node for node; its uniform core holds every material point
+    the sphere touches (1.36 R at R = 4.77, 1.21 R at R = 8, measured at 14 mm)."""
+    for level in (1, 2):
+        spec = ModelSpec(mesh=MeshChoice(f"contact-L{level}"), indenter=Indenter(radius))
+        mesh = build_mesh(spec)
+        np.testing.assert_array_equal(mesh.nodes, parse_family(family).mesh(level).nodes)
+        assert mesh.source == f"preset:contact-L{level}@R{radius:g}"
+    x = np.unique(mesh.nodes[mesh.top, 0])
+    core = x[x <= 1.65 * radius + 0.5]
+    assert core[-1] >= 1.36 * radius + 1.0  # the touched region and a margin of uniform cells
+    np.testing.assert_allclose(np.diff(core), np.diff(core)[0])  # uniform
+    # a store's mesh record differs between radii: the same preset name is never reused across them
+    other = build_mesh(ModelSpec(mesh=MeshChoice("contact-L2"), indenter=Indenter(12.5 - radius)))
+    assert other.geometry_record()["sha256"] != mesh.geometry_record()["sha256"]
