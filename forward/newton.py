@@ -53,9 +53,6 @@ KRYLOV_MAXITER_LARGE = 30
 KRYLOV_DOFS_PER_ITERATION = 3000
 #: Relative residual of the sensitivity solves (their CG runs on the exact converged tangent).
 SENSITIVITY_RTOL = 1e-11
-#: Meshes with at least this many dofs factorise in single precision (PARDISO): the factorisation
-#: only preconditions CG and makes corrections that Newton's residual checks, and costs half.
-SINGLE_PRECISION_DOFS = 20_000
 #: With friction, a step made with a fresh factorisation is GMRES on the tangent to this relative
 #: residual, in at most this many iterations (EmbeddedSolver._fresh_step).
 FRESH_RTOL = 1e-8

@@ -70,6 +70,9 @@ class SimulationError(RuntimeError):
 CUTBACK_BUDGET = 4
 #: Meshes with at least this many dofs factorise in single precision (PARDISO): the factorisation
 #: only preconditions CG and makes corrections that Newton's residual checks, and costs half.
+#: Smaller meshes stay in double: single precision would save 13 to 19 % there but make the result
+#: depend on the thread count up to Newton's tolerance (1 against 2 threads on FEBio's mesh:
+#: 1.1e-8 mm stick, 1.6e-5 mm with mu = 0.3, against 1e-14 in double; docs/validation/solver-and-speed.md).
 SINGLE_PRECISION_DOFS = 20_000
 
 _STRUCTURES: dict[bytes, tuple[ReferenceGeometry, SparsePattern]] = {}
