@@ -55,7 +55,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
         "penalty_contact": ["PenaltyContact"],
         "newton": ["Equilibrium", "IncrementFailed", "NewtonSystem"],
         "threads": ["busy_cores", "solver_threads", "thread_limits"],
-        "mesh_family": ["MeshFamily"],
+        "mesh_family": ["MeshFamily", "contact_family", "contact_mesh"],
         "grid_convergence": ["ConvergenceOfQuantity", "GridTriplet", "observed_order", "study_quantity"],
         "material": ["InvertedElementError"],
         "result": ["SimulationResult"],

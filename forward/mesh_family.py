@@ -245,6 +245,11 @@ def contact_family(radius: float) -> MeshFamily:
     MeshFamily
         The family.
 
+    Raises
+    ------
+    ValueError
+        If ``radius`` is not positive.
+
     Examples
     --------
     >>> from indentation_studio.forward.mesh_family import contact_family

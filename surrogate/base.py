@@ -132,6 +132,13 @@ class TrainingData:
         return len(self.theta)
 
 
+def padded_jacobian(jacobian: np.ndarray, parameters: int) -> np.ndarray:
+    """A Jacobian over the leading parameters extended with zero columns to ``parameters`` (the
+    derivative of a part that does not depend on the trailing ones, e.g. mu: last axis)."""
+    missing = parameters - jacobian.shape[-1]
+    return np.pad(jacobian, [(0, 0)] * (jacobian.ndim - 1) + [(0, missing)])
+
+
 class InputScaler:
     """theta -> x in [0, 1]^p over the box [lo, hi], linearly or in log(theta)."""
 

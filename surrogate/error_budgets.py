@@ -141,11 +141,12 @@ def budget_at(budget: dict | None, theta) -> dict | None:
     at = np.asarray(theta, float)[:2]
     out["source"]["at"] = at.tolist()
     points = budget.get("points") or []
-    xy = np.log([[p["c1"], p["c5"]] for p in points]) if len(points) >= 3 else np.ones((1, 2))
-    lo, span = xy.min(axis=0), np.ptp(xy, axis=0)
-    if not out["source"].get("reference_extrapolated", False) or np.any(span <= 0) or not np.all(at > 0):
+    extrapolated = out["source"].get("reference_extrapolated", False)
+    xy = np.log([[p["c1"], p["c5"]] for p in points]) if extrapolated and len(points) >= 3 else None
+    if xy is None or np.any(np.ptp(xy, axis=0) <= 0) or not np.all(at > 0):
         out["source"]["where"] = "largest"  # one finer mesh's budget, or too few points to interpolate
         return out
+    lo, span = xy.min(axis=0), np.ptp(xy, axis=0)
     xy, q = (xy - lo) / span, (np.log(at) - lo) / span
     values = np.array([[p["c1_pct"], p["c5_pct"]] for p in points])
     try:

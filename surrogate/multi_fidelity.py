@@ -41,7 +41,7 @@ from sklearn.model_selection import KFold
 
 from ..forward.mesh_study import top_field_interpolator
 from ..forward.predictor import Prediction, ReducedBasis
-from .base import FieldSurrogate, InputScaler, TrainingData
+from .base import FieldSurrogate, InputScaler, TrainingData, padded_jacobian
 from .gaussian_process import GaussianProcessSurrogate
 from .slip_surrogate import SlipSurrogate
 from .two_level import TwoLevelSurrogate, model_differences
@@ -354,11 +354,8 @@ class MultiFidelitySurrogate(TwoLevelSurrogate):
         disp = self._carried(low.displacement) + delta.displacement
         fj = dj = None
         if jacobian:
-            pad = theta.shape[1] - delta.force_jacobian.shape[-1]  # d delta / d mu = 0 (eq. 2)
-            dfj = np.pad(delta.force_jacobian, [(0, 0)] * (delta.force_jacobian.ndim - 1) + [(0, pad)])
-            ddj = np.pad(
-                delta.displacement_jacobian, [(0, 0)] * (delta.displacement_jacobian.ndim - 1) + [(0, pad)]
-            )
+            p = theta.shape[1]  # d delta / d mu = 0 when learned at the stick (eq. 2)
+            dfj, ddj = (padded_jacobian(j, p) for j in (delta.force_jacobian, delta.displacement_jacobian))
             fj = low.force_jacobian * delta.force[..., None] + low.force[..., None] * dfj
             dj = self._carried(low.displacement_jacobian) + ddj
         return Prediction(force, disp, self.depth, self.top_xyz, self.parameters, fj, dj)

@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 
 from ..forward.predictor import Prediction, ReducedBasis
-from .base import FieldSurrogate, TrainingData
+from .base import FieldSurrogate, TrainingData, padded_jacobian
 from .mlp import MLPSurrogate
 from .two_level import TwoLevelSurrogate
 
@@ -208,13 +208,12 @@ class SlipSurrogate(TwoLevelSurrogate):
         disp = stick.displacement + slip.displacement
         fj = dj = None
         if jacobian:
-            pad = [(0, 0)] * (stick.force_jacobian.ndim - 1) + [(0, 1)]  # d/dmu of the stick: 0
+            p = theta.shape[1]  # d/dmu of the stick: 0
             fj = (
-                np.pad(stick.force_jacobian, pad) * slip.force[..., None]
+                padded_jacobian(stick.force_jacobian, p) * slip.force[..., None]
                 + stick.force[..., None] * slip.force_jacobian
             )
-            pad = [(0, 0)] * (stick.displacement_jacobian.ndim - 1) + [(0, 1)]
-            dj = np.pad(stick.displacement_jacobian, pad) + slip.displacement_jacobian
+            dj = padded_jacobian(stick.displacement_jacobian, p) + slip.displacement_jacobian
         return Prediction(force, disp, self.depth, self.top_xyz, self.parameters, fj, dj)
 
     def reduced_basis(self) -> ReducedBasis:

@@ -18,12 +18,15 @@ from indentation_studio.forward.mesh_study import top_field_interpolator
 from indentation_studio.forward.predictor import Prediction
 from indentation_studio.forward.solver import simulate
 from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
+from indentation_studio.inference.experiment_fit import fit_experiment
 from indentation_studio.inference.inverse_fit import fit_parameters
 from indentation_studio.inference.mesh_check import prediction_at_nodes
+from indentation_studio.inference.synthetic_experiment import write_synthetic_experiment
 from indentation_studio.surrogate.base import FieldSurrogate, TrainingData
 from indentation_studio.surrogate.gaussian_process import GaussianProcessSurrogate
 from indentation_studio.surrogate.multi_fidelity import MultiFidelitySurrogate, interpolation_matrix
 from indentation_studio.surrogate.persistence import load_surrogate, save_surrogate
+from indentation_studio.surrogate.slip_surrogate import SlipSurrogate
 from indentation_studio.surrogate.training import make_surrogate, train_multi_fidelity, train_surrogate
 
 LO, HI = np.array([2.0, 100.0]), np.array([20.0, 500.0])
@@ -318,8 +321,6 @@ def slip_response(theta: np.ndarray, xyz: np.ndarray) -> tuple[np.ndarray, np.nd
 @pytest.fixture(scope="module")
 def slip_low(low):
     """A stick-plus-slip low level over (c1, c5, mu): the `low` GP and a small MLP of the slip."""
-    from indentation_studio.surrogate.slip_surrogate import SlipSurrogate
-
     rng = np.random.default_rng(3)
     theta = np.column_stack([box_points(60, seed=4), np.exp(rng.uniform(np.log(MU_LO), np.log(MU_HI), 60))])
     force, disp = slip_response(theta, LOW_XYZ)
@@ -407,9 +408,6 @@ def test_a_discrepancy_at_the_stick_is_refused_where_it_cannot_be(slip_low, low,
 def test_a_fit_with_mu_carries_the_discrepancy_into_its_bounds(mf3, tmp_path):
     """A fit on the surrogate over (c1, c5, mu) marginalises mu and adds the discrepancy's
     uncertainty to the bounds of (c1, c5), mu held (its own bound is its profile's)."""
-    from indentation_studio.inference.experiment_fit import fit_experiment
-    from indentation_studio.inference.synthetic_experiment import write_synthetic_experiment
-
     truth = np.array([8.0, 260.0, 0.5])
     exp = write_synthetic_experiment(
         mf3, truth, tmp_path / "e", radius=RADIUS, step_size=0.5, u_noise_mm=0.002, f_noise=0.002, seed=1

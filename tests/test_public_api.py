@@ -47,6 +47,9 @@ def test_model_error_is_reachable_from_a_notebook():
     at = ins.surrogate.budget_at(left, [11.0, 330.0])  # a budget against one finer mesh: its largest value
     assert at["c5_pct"] == left["c5_pct"] and at["source"]["where"] == "largest"
     assert callable(ins.forward.termination_as_interrupt) and ins.forward.MeshFamily().cells(4) == (41, 41)
+    # the meshes that follow the contact: by name in a spec, or by radius
+    assert ins.forward.contact_family(8.0).core_xy == 13.0
+    assert ins.forward.contact_mesh("contact-L1", 4.77).n_nodes == 2197
 
 
 def test_friction_is_reachable_from_a_notebook():
