@@ -83,11 +83,6 @@ def environment(path: Path | None) -> dict[str, str]:
     return env
 
 
-def load_average() -> float:
-    with open("/proc/loadavg") as fh:
-        return float(fh.read().split()[0])
-
-
 def cold(env: dict[str, str], case: str, out: Path) -> tuple[float, float]:
     """One fresh ``simulate --json``: (its wall_s, the whole command's time)."""
     t0 = time.perf_counter()
@@ -129,14 +124,13 @@ def main() -> None:
     args = ap.parse_args()
     trees = {"before": tree_path(args.before), "after": tree_path(args.after) if args.after else None}
     envs = {label: environment(path) for label, path in trees.items()}
-    WORK.mkdir(parents=True, exist_ok=True)
     for label, env in envs.items():  # fill each tree's numba cache, untimed
         cold(env, "paper", WORK / f"{label}.npz")
     record: dict[str, dict] = {}
     for case in args.cases.split(","):
         for _ in range(args.repeats):
             for label, env in envs.items():
-                load = load_average()
+                load = os.getloadavg()[0]
                 wall, command = cold(env, case, WORK / f"{label}.npz")
                 r = record.setdefault(f"{label}:{case}", {"wall_s": [], "command_s": [], "load": []})
                 r["wall_s"].append(wall)
