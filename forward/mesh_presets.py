@@ -72,6 +72,17 @@ COMPOSITE_MESH_PRESETS: dict[str, CompositeMeshPreset] = {
 #: tables: ``contact-L3`` at R = 4.77 mm is its core-8 family's level 3 (21,952 nodes).
 CONTACT_MESH_LEVELS: dict[str, int] = {f"contact-L{k}": k for k in range(5)}
 
+#: The model of the studio's fits, the surrogates they use, their error budgets and the design
+#: advice for a new test: the low level of the meshes that follow the contact (with their default,
+#: surface-integrated contact). ``default`` (FEBio's mesh node for node, node-wise stick) stays
+#: what reproduces the paper (its 775-point campaign, Table 1, Fig. 8) and what is compared with
+#: FEBio. Why level 1: docs/validation/verification.md ("The fit's model").
+FIT_MESH = "contact-L1"
+
+#: The high-fidelity level the fit's model is judged and corrected against (error budgets, the
+#: multi-fidelity discrepancy), its own GCI carried in the budgets.
+HIGH_FIDELITY_MESH = "contact-L3"
+
 #: The uniform core's width per indenter radius (rounded to whole mm: 8 mm at R = 4.77, 13 at R = 8,
 #: the cores the verification study measured).
 CONTACT_CORE_PER_RADIUS = 1.65

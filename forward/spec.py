@@ -354,6 +354,11 @@ class MeshChoice:
         """Whether the mesh is a composite phantom's preset."""
         return self.feb_file is None and self.preset in COMPOSITE_MESH_PRESETS
 
+    @property
+    def follows_contact(self) -> bool:
+        """Whether the mesh is one of the levels that follow the contact (``contact-L0`` to ``-L4``)."""
+        return self.feb_file is None and self.preset in CONTACT_MESH_LEVELS
+
 
 #: Penalty of the frictional contact (kPa per mm of penetration) unless the spec says otherwise;
 #: why this value: README, "Friction".
@@ -371,13 +376,18 @@ class Contact:
         paper's near-perfect stick.
     penalty : float, optional
         kPa per mm of penetration (and of elastic slip under stick) of a penalty contact.
-    integration : {"node", "surface"}, optional
+    integration : {"node", "surface"} or None, optional
         Where the contact is evaluated (:mod:`forward.contact_quadrature`): node by node (the
-        default; the stick imposed exactly, :mod:`forward.stick_contact`, friction by a
-        penalty), or at ``order`` x ``order`` Gauss points of every top face (stick and friction
-        by a penalty, :mod:`forward.coulomb_contact`).
-    order : int, optional
-        Gauss points per face edge of the surface contact (1 to 8).
+        stick imposed exactly, :mod:`forward.stick_contact`, friction by a penalty), or at
+        ``order`` x ``order`` Gauss points of every top face (stick and friction by a penalty,
+        :mod:`forward.coulomb_contact`). None (the default): the mesh's own, which a
+        :class:`ModelSpec` fills in (:func:`mesh_contact`): the surface contact with one point
+        per face on the meshes that follow the contact (``contact-L0`` to ``contact-L4``, the
+        fit's model, docs/validation/verification.md), node by node on every other mesh (the
+        paper's reproduction, FEBio's mesh node for node).
+    order : int or None, optional
+        Gauss points per face edge of the surface contact (1 to 8); None: the mesh's own (1 on
+        the ``contact-L`` meshes, 2 elsewhere).
 
     Raises
     ------
@@ -388,8 +398,8 @@ class Contact:
 
     friction: float | None = None
     penalty: float = DEFAULT_CONTACT_PENALTY
-    integration: str = "node"
-    order: int = 2
+    integration: str | None = None
+    order: int | None = None
 
     def __post_init__(self) -> None:
         if self.friction is not None:
@@ -406,11 +416,34 @@ class Contact:
                 )
             object.__setattr__(self, "friction", mu)
         object.__setattr__(self, "penalty", _finite_positive("contact.penalty", self.penalty))
-        if self.integration not in ("node", "surface"):
-            raise SpecError("contact.integration", f"must be 'node' or 'surface', got {self.integration!r}")
-        if int(self.order) != self.order or not 1 <= self.order <= 8:
-            raise SpecError("contact.order", f"must be a whole number from 1 to 8, got {self.order!r}")
-        object.__setattr__(self, "order", int(self.order))
+        if self.integration not in ("node", "surface", None):
+            raise SpecError(
+                "contact.integration",
+                f"must be 'node', 'surface' or None (the mesh's), got {self.integration!r}",
+            )
+        if self.order is not None:
+            if int(self.order) != self.order or not 1 <= self.order <= 8:
+                raise SpecError("contact.order", f"must be a whole number from 1 to 8, got {self.order!r}")
+            object.__setattr__(self, "order", int(self.order))
+
+    def on_mesh(self, mesh: MeshChoice) -> Contact:
+        """This contact with what it leaves open (``integration``, ``order``) set to ``mesh``'s own.
+
+        Parameters
+        ----------
+        mesh : MeshChoice
+            The mesh the contact acts on.
+
+        Returns
+        -------
+        Contact
+            Fully specified: the surface contact with one point per face on the ``contact-L``
+            meshes, node by node elsewhere, unless this contact says otherwise.
+        """
+        follows = mesh.follows_contact
+        integration = self.integration or ("surface" if follows else "node")
+        order = self.order or (1 if follows else 2)
+        return replace(self, integration=integration, order=order)
 
     @property
     def penalised(self) -> bool:
@@ -424,11 +457,15 @@ class Contact:
         -------
         str
         """
-        where = (
-            "" if self.integration == "node" else f", surface-integrated ({self.order}x{self.order} per face)"
-        )
+        if self.integration is None:
+            where = ", the mesh's contact"
+        elif self.integration == "node":
+            where = ""
+        else:
+            order = self.order or 2
+            where = f", surface-integrated ({order}x{order} per face)"
         if self.friction is None:
-            return ("perfect stick" if self.integration == "node" else "stick by penalty") + where
+            return ("stick by penalty" if self.integration == "surface" else "perfect stick") + where
         law = "frictionless" if self.friction == 0 else f"Coulomb friction mu = {self.friction:g}"
         return law + where
 
@@ -514,6 +551,7 @@ class ModelSpec:
     composite: CompositeMaterial | None = None
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "contact", self.contact.on_mesh(self.mesh))
         if self.composite is None and self.mesh.is_composite:
             raise SpecError(
                 "mesh.preset",
@@ -595,10 +633,12 @@ class ModelSpec:
     def to_dict(self) -> dict[str, Any]:
         """The spec as plain data (what every result file stores).
 
-        The contact is left out when it is the default (perfect stick), a node-wise contact
-        keeps only its friction and penalty, and the solver's fiber stretch is left out when it is
-        the Gauss points', so that specs, campaigns and result files written before friction, the
-        surface contact or the element-mean fiber existed compare equal to today's.
+        On a mesh that does not follow the contact, the contact is left out when it is the default
+        (perfect stick, node by node) and a node-wise contact keeps only its friction and penalty,
+        so that specs, campaigns and result files written before friction or the surface contact
+        existed compare equal to today's; on the ``contact-L`` meshes, whose default contact is
+        the surface one, it is always written whole. The solver's fiber stretch is left out when
+        it is the Gauss points'.
 
         Returns
         -------
@@ -606,7 +646,9 @@ class ModelSpec:
         """
         d = asdict(self)
         d["material"]["fiber"] = list(self.material.fiber)
-        if self.contact == Contact():
+        if self.mesh.follows_contact:
+            pass  # its default is the surface contact: written whole
+        elif self.contact == Contact().on_mesh(self.mesh):
             del d["contact"]
         elif self.contact.integration == "node":  # as written before surface contact existed
             del d["contact"]["integration"], d["contact"]["order"]

@@ -72,11 +72,13 @@ class ModelOptions:
         Solver increments per step.
     friction : float or None
         Coulomb's friction coefficient mu (0: frictionless); None: the paper's near-perfect stick.
-    contact : {"node", "surface"}
+    contact : {"node", "surface"} or None
         Where the contact is evaluated: node by node (the stick exact), or at Gauss points of
-        the top faces (stick and friction by a penalty; forward.contact_quadrature).
-    contact_order : int
-        Gauss points per face edge of the surface contact.
+        the top faces (stick and friction by a penalty; forward.contact_quadrature); None: the
+        mesh's own (surface on the contact-L meshes, node elsewhere; forward.spec.Contact).
+    contact_order : int or None
+        Gauss points per face edge of the surface contact; None: the mesh's own (1 on the
+        contact-L meshes, 2 elsewhere).
     contact_penalty : float
         The penalty contact's stiffness, kPa per mm of penetration (and of elastic slip under
         stick), times each contact point's area.
@@ -95,8 +97,8 @@ class ModelOptions:
     mesh_from: Path | None = None
     substeps: int = 1
     friction: float | None = None
-    contact: str = "node"
-    contact_order: int = 2
+    contact: str | None = None
+    contact_order: int | None = None
     contact_penalty: float = DEFAULT_CONTACT_PENALTY
     fiber_stretch: str = "gauss"
 
@@ -176,14 +178,20 @@ FRICTION = Annotated[
     ),
 ]
 CONTACT = Annotated[
-    str,
+    str | None,
     typer.Option(
         "--contact",
         help="where the contact is evaluated: node (node by node, the stick exact) or surface (Gauss "
-        "points of the top faces, stick and friction by a penalty)",
+        "points of the top faces, stick and friction by a penalty); default: the mesh's own, surface "
+        "on contact-L0 .. contact-L4, node on every other mesh",
     ),
 ]
-CONTACT_ORDER = Annotated[int, typer.Option(help="Gauss points per face edge of --contact surface")]
+CONTACT_ORDER = Annotated[
+    int | None,
+    typer.Option(
+        help="Gauss points per face edge of --contact surface; default: 1 on contact-L meshes, 2 elsewhere"
+    ),
+]
 CONTACT_PENALTY = Annotated[
     float,
     typer.Option(

@@ -9,6 +9,7 @@ from indentation_studio.forward.feb_mesh import FebMeshError, read_feb_block_mes
 from indentation_studio.forward.febio.writer import write_feb
 from indentation_studio.forward.mesh import MESH_PRESETS, build_mesh, preset_mesh
 from indentation_studio.forward.spec import (
+    Contact,
     Indenter,
     Material,
     MeshChoice,
@@ -48,6 +49,34 @@ def test_spec_round_trips_and_normalises_fiber():
     assert ModelSpec.from_dict(spec.to_dict()) == spec
     assert Indenter.preset("large").radius == 8.0
     assert spec.protocol.max_depth == 14.0
+
+
+def test_each_mesh_has_its_own_default_contact():
+    """The contact-L meshes (the fit's model) take the surface stick with one point per face; every
+    other mesh the node-wise stick, written as before; a contact said aloud is kept on any mesh."""
+    paper = ModelSpec()
+    assert (paper.contact.integration, paper.contact.order) == ("node", 2)
+    assert "contact" not in paper.to_dict()  # as files written before the surface contact read
+    for level in ("contact-L0", "contact-L1", "contact-L4"):
+        spec = ModelSpec(mesh=MeshChoice(level))
+        assert (spec.contact.integration, spec.contact.order, spec.contact.friction) == ("surface", 1, None)
+        assert spec.to_dict()["contact"] == {
+            "friction": None,
+            "penalty": 1e5,
+            "integration": "surface",
+            "order": 1,
+        }
+        assert ModelSpec.from_dict(spec.to_dict()) == spec
+        assert spec.with_friction(0.3).contact.integration == "surface"
+    node = ModelSpec(mesh=MeshChoice("contact-L1"), contact=Contact(integration="node"))
+    assert node.contact.integration == "node" and ModelSpec.from_dict(node.to_dict()) == node
+    surface2 = ModelSpec(contact=Contact(integration="surface"))  # the order of a preset mesh: 2
+    assert surface2.contact.order == 2 and ModelSpec.from_dict(surface2.to_dict()) == surface2
+    assert Contact().describe() == "perfect stick, the mesh's contact"
+    assert (
+        ModelSpec(mesh=MeshChoice("contact-L1")).contact.describe()
+        == "stick by penalty, surface-integrated (1x1 per face)"
+    )
 
 
 def test_element_mean_fiber_is_written_only_where_chosen(tmp_path):
