@@ -10,6 +10,7 @@ _lazy_getattr, __dir__, __all__ = lazy.attach(
     __name__,
     submod_attrs={
         "objective": ["PAPER_WEIGHTS", "Objective", "check_weights"],
+        "nodal_weights": ["FIT_INNER_RADII", "READINGS", "default_selection"],
         "reduced_objective": ["FieldObjective", "ReducedObjective", "objective_function"],
         "certainty": ["DESIGN_BOUNDS_INCLUDE", "bounds_pct", "combine", "s_from_data"],
         "study": [

@@ -88,7 +88,7 @@ def compare_designs(
     theta_star=(10.0, 350.0),
     weights=PAPER_COMBINED_WEIGHTS,
     criterion: str = "combined",
-    reading: str = "paper",
+    reading: str = "fit",
     progress=None,
 ) -> pd.DataFrame:
     """Compare candidate test designs by their certainty bounds (eq. 6) at ``theta_star``.
@@ -108,8 +108,9 @@ def compare_designs(
         The weights eta (eq. 5).
     criterion : str, default "combined"
         What :func:`optimise_weights` minimises.
-    reading : str, default "paper"
-        How the objective is read (:class:`Objective`).
+    reading : str, default "fit"
+        How the objective is read (:class:`Objective`): design advice for a new test uses the
+        fit's objective, as the fit of that test will.
     progress : callable, optional
         Called with a message before each simulation.
 
@@ -234,7 +235,7 @@ def compare_candidate_designs(
     noise=(0.05,),
     weights=PAPER_COMBINED_WEIGHTS,
     criterion: str = "combined",
-    reading: str = "paper",
+    reading: str = "fit",
     progress=None,
 ) -> DesignComparison:
     """Compare every candidate design of the given choices at the spec's own (c1, c5).

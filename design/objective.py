@@ -6,6 +6,10 @@ Readings (the paper as printed, or the authors' public code), chosen with ``read
 * ``paper`` (default): eq. 4a sums over all steps the force error relative to that step's
   measured force; eq. 4b sums over all steps the displacement errors over max |u_j,exp| with the
   normalised B.1 to B.3 weights, nodes within the sphere's radius of the axis obscured.
+* ``fit``: as ``paper``, with the rings from R to 1.5 R left out too
+  (:data:`~indentation_studio.design.nodal_weights.FIT_INNER_RADII`): the studio's fits, error
+  budgets and design advice (docs/validation/verification.md, "What a decision on R = 8 mm can
+  choose from").
 * ``authors``: one step (``step``, default the deepest); force error over max |f_exp|;
   displacement errors over max |u_j,exp| at the last step; the 1.2 R to 5.5 R ring; unnormalised
   inverse-distance weights.
@@ -76,7 +80,7 @@ class Objective:
         (nodes, 3) the top-surface nodes, mm.
     radius : float
         The indenter's radius, mm.
-    reading : {"paper", "authors"}, default "paper"
+    reading : {"paper", "fit", "authors"}, default "paper"
         How eq. 4 is read (module docstring).
     step : int, optional
         Compare this step only (index from 0); default all (``paper``) or the deepest

@@ -78,6 +78,9 @@ class ErrorBudget:
         The field of view measured, mm (None: the whole top).
     fe_steps : int or None
         Gauss-Newton steps of the FE models' fits.
+    reading : str
+        The objective's reading (:class:`~indentation_studio.design.objective.Objective`): ``fit``
+        (DIC from 1.5 R, the studio's fits) unless the budget was made for another.
     """
 
     table: pd.DataFrame  # one row per (model, test point)
@@ -87,6 +90,7 @@ class ErrorBudget:
     reference: dict = field(default_factory=dict)  # where the reference came from (provenance)
     fov_mm: float | None = 25.0
     fe_steps: int | None = None  # Gauss-Newton steps of the FE models' fits
+    reading: str = "fit"
 
     def summary(self) -> pd.DataFrame:
         """The budget per model: largest bias, median half-width, their ratio, whether converged.
@@ -132,6 +136,7 @@ class ErrorBudget:
             "force_noise": self.force_noise,
             "dic_noise_mm": self.dic_noise,
             "field_of_view_mm": self.fov_mm,
+            "reading": self.reading,
             "converged_fraction": CONVERGED_FRACTION,
             "half_width_include": "eq. 6 to 8 of a typical experiment: measurement noise only "
             f"({100 * self.force_noise:g} % force, {self.dic_noise:g} mm DIC)",
@@ -238,6 +243,7 @@ def compute_error_budget(
     done_rows: Sequence[dict] = (),
     on_row: Callable[[ErrorBudget], None] | None = None,
     fe_names: Mapping[str, str] | None = None,
+    reading: str = "fit",
 ) -> ErrorBudget:
     """Fit each model to each noise-free reference response and tabulate the biases.
 
@@ -276,6 +282,9 @@ def compute_error_budget(
         Surrogate name -> the name its FE model has among ``models`` (e.g. its mesh preset): when
         that FE model is budgeted too, its fit at the same point is the surrogate's
         discretisation part, not fitted a second time.
+    reading : str, default "fit"
+        How eq. 4 is read (:class:`Objective`): by default as the studio's fits read it (DIC
+        from 1.5 R), so that the budget is the bias of those fits.
 
     Returns
     -------
@@ -299,7 +308,7 @@ def compute_error_budget(
 
     def budget() -> ErrorBudget:
         source = dict(reference_source or {})
-        return ErrorBudget(pd.DataFrame(rows), eta, force_noise, dic_noise, source, fov_mm, fe_steps)
+        return ErrorBudget(pd.DataFrame(rows), eta, force_noise, dic_noise, source, fov_mm, fe_steps, reading)
 
     for name, model in models.items():
         top = None
@@ -318,7 +327,7 @@ def compute_error_budget(
             target = reference_prediction(result, top)
             in_view = None if fov_mm is None else np.linalg.norm(top[:, :2], axis=1) <= fov_mm
             objective = Objective.from_prediction(
-                target, radius=float(result.spec["indenter"]["radius"]), mask=in_view
+                target, radius=float(result.spec["indenter"]["radius"]), mask=in_view, reading=reading
             )
             theta_fit, J = _fit_bias(model, objective, eta, theta_t, fe_steps)
             s = s_from_data(
@@ -446,6 +455,7 @@ def campaign_error_budget(
     progress: Callable[[str], None] | None = None,
     fov_mm: float | None = 25.0,
     out=None,
+    reading: str = "fit",
 ) -> ErrorBudget:
     """:func:`compute_error_budget` with the reference given as a campaign and the models by name.
 
@@ -473,6 +483,8 @@ def campaign_error_budget(
         A JSON path: the budget is saved after every row (``"complete": false`` until the end),
         and a budget stopped before its end resumes from that file when run again with the same
         reference and settings: finished rows are not fitted again.
+    reading : str, default "fit"
+        How eq. 4 is read (:func:`compute_error_budget`).
 
     Returns
     -------
@@ -500,7 +512,12 @@ def campaign_error_budget(
             fe_names[name] = mesh.preset or str(mesh.feb_file)
     source = {"campaign": str(store.root), "points": len(results), "model": store.spec.model.to_dict()}
     settings = {"weights": check_weights(weights).tolist(), "force_noise": force_noise}
-    settings |= {"dic_noise_mm": dic_noise, "field_of_view_mm": fov_mm, "fe_steps": fe_steps}
+    settings |= {
+        "dic_noise_mm": dic_noise,
+        "field_of_view_mm": fov_mm,
+        "fe_steps": fe_steps,
+        "reading": reading,
+    }
     done_rows = _resumable_rows(out, source, settings) if out is not None else []
     if done_rows and progress is not None:
         progress(f"resuming {out}: {len(done_rows)} rows kept")
@@ -523,6 +540,7 @@ def campaign_error_budget(
         done_rows=done_rows,
         on_row=save if out is not None else None,
         fe_names=fe_names,
+        reading=reading,
     )
     if out is not None:
         save(budget, complete=True)

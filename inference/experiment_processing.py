@@ -340,7 +340,7 @@ def dic_to_nodes(
     return out, plan.measured
 
 
-def experiment_objective(exp: ExperimentData, top_xyz: np.ndarray, reading: str = "paper", excluded_steps=()):
+def experiment_objective(exp: ExperimentData, top_xyz: np.ndarray, reading: str = "fit", excluded_steps=()):
     """The objective (eq. 4, 5) of a measured experiment against a model with top nodes ``top_xyz``.
 
     Static forces from eq. 9, DIC registered and interpolated at the nodes, nodes without data
@@ -352,8 +352,9 @@ def experiment_objective(exp: ExperimentData, top_xyz: np.ndarray, reading: str 
         The experiment.
     top_xyz : numpy.ndarray
         (nodes, 3) the model's top nodes, mm.
-    reading : str, default "paper"
-        How eq. 4 is read (:class:`Objective`).
+    reading : str, default "fit"
+        How eq. 4 is read (:class:`Objective`): by default the studio's fit objective, the
+        paper's without the DIC rings from R to 1.5 R (design.nodal_weights).
     excluded_steps : sequence of int, default ()
         Steps (1..N) left out beside ``exp.excluded_steps``.
 

@@ -12,6 +12,7 @@ from rich.table import Table
 
 from .. import design, inference, studio  # lazy packages: a command imports what it runs
 from ..atomic_write import atomic_write_json, strict_json
+from ..forward.mesh_presets import FIT_MESH
 from ..forward.spec import SpecError
 from .options import JSON, MODEL_FLAGS, ModelOptions, err, fail, model_options
 
@@ -22,7 +23,13 @@ design_app = typer.Typer(
 THETA = Annotated[str, typer.Option(help="theta* = c1,c5 in kPa")]
 S = Annotated[float, typer.Option("--s", help="noise level s of eq. 6 (design stage: 0.05)")]
 METHOD = Annotated[str, typer.Option(help="Hessian: exact (Gauss-Newton, solver sensitivities) or fd")]
-READING = Annotated[str, typer.Option(help="objective reading: paper (eq. 4 as printed) or authors")]
+READING = Annotated[
+    str,
+    typer.Option(
+        help="objective reading: paper (eq. 4 as printed, DIC from 1 R), fit (the studio's fits: DIC from "
+        "1.5 R) or authors (their code's 1.2 R to 5.5 R ring)"
+    ),
+]
 FD_STEP = Annotated[
     str,
     typer.Option(
@@ -276,7 +283,7 @@ COMPARISON_DIR = Annotated[Path, typer.Option(help="folder for design-comparison
 
 
 @design_app.command("compare")
-@model_options("kappa", "step_size", "mesh", "mesh_from")
+@model_options("kappa", "step_size", "mesh", "mesh_from", mesh=FIT_MESH)
 def compare_cmd(
     radii: RADII = "4.77,8",
     depths: DEPTHS = "5,7,10.5,14",
@@ -288,12 +295,13 @@ def compare_cmd(
     theta: THETA = "10,350",
     *,
     model: ModelOptions,
-    reading: READING = "paper",
+    reading: READING = "fit",
     out_dir: COMPARISON_DIR = Path("runs/design"),
     as_json: JSON = False,
 ) -> None:
     """Which experiment to run: bounds of every candidate design (radius x depth x sampling x field
-    of view x noise), as a table and a plot (one simulation with sensitivities per radius)."""
+    of view x noise), as a table and a plot (one simulation with sensitivities per radius), on the
+    fit's model and objective (contact-L1, DIC from 1.5 R) unless told otherwise."""
     try:
         c1, c5 = _floats(theta)
         steps = int(np.ceil(max(_floats(depths)) / model.step_size - 1e-9))  # the deepest candidate's
@@ -415,6 +423,51 @@ def error_budget_cmd(
     Console().print(f"wrote {path}")
 
 
+STUDY_DIR = Annotated[
+    Path, typer.Option(help="a verification study's folder (study.json and its runs), one radius")
+]
+STUDY_MODELS = Annotated[str, typer.Option(help="comma-separated contact-L presets to budget")]
+REFERENCE_LEVEL = Annotated[int, typer.Option(help="the study's high-fidelity level (its GCI is carried)")]
+STUDY_BUDGET_OUT = Annotated[Path, typer.Option(help="JSON to write")]
+
+
+@design_app.command("study-budget")
+def study_budget_cmd(
+    study: STUDY_DIR,
+    out: STUDY_BUDGET_OUT,
+    models: STUDY_MODELS = "contact-L1",
+    reference_level: REFERENCE_LEVEL = 3,
+    weights: WEIGHTS = "0.45,0.35,0.2,0",
+    force_noise: FORCE_NOISE = 0.02,
+    dic_noise: DIC_NOISE = 0.02,
+    fe_steps: FE_STEPS = 2,
+    fov: FOV = 25.0,
+    as_json: JSON = False,
+) -> None:
+    """The error budget of the fit's model against a verification study's high-fidelity level,
+    that level's GCI carried in every row (what the studio ships for the paper's tests)."""
+    try:
+        budget = inference.study_error_budget(
+            study,
+            [m for m in models.split(",") if m],
+            reference_level=reference_level,
+            weights=_floats(weights),
+            force_noise=force_noise,
+            dic_noise=dic_noise,
+            fe_steps=fe_steps,
+            fov_mm=fov or None,
+            progress=err.print,
+        )
+        atomic_write_json(out, budget.to_dict())
+    except (SpecError, ValueError, OSError) as exc:
+        fail(str(exc), as_json)
+    if as_json:
+        print(strict_json(budget.to_dict() | {"json_file": str(out)}))
+        return
+    _print_budget(budget, f"level {reference_level} of {study}")
+    Console().print(f"wrote {out}")
+
+
 def _print_budget(budget: inference.ErrorBudget, reference: str) -> None:
     """Each model's bias per test point beside the 95 % half-width, and whether it converged."""
     view = Table(title=f"error budget against {reference} ({budget.reference['points']} test points)")
@@ -433,6 +486,8 @@ def _print_budget(budget: inference.ErrorBudget, reference: str) -> None:
         split = ""
         if "c5_discretisation_pct" in r and r["c5_discretisation_pct"] == r["c5_discretisation_pct"]:
             split = f"mesh {r['c5_discretisation_pct']:+.2f}, surrogate {r['c5_surrogate_pct']:+.2f}"
+        if r.get("c5_reference_gci_pct") is not None:  # a budget against a verification study's level
+            split = f"reference GCI {r['c5_reference_gci_pct']:.2f}"
         view.add_row(
             r["model"],
             f"{r['c1_true']:g}",

@@ -66,6 +66,12 @@ SUBSTEP_COUNTS = Annotated[str, typer.Option(help="increments per step; all of t
 SUBSTEP_LEVELS = Annotated[int, typer.Option(help="how many finest levels get every substep count")]
 OUT_DIR = Annotated[Path, typer.Option(help="every run and study.json; a run already there is read back")]
 FIGURE = Annotated[Path | None, typer.Option(help="PNG of the first case's convergence (log-log)")]
+READING = Annotated[
+    str,
+    typer.Option(
+        help="objective of the fitted (c1, c5): fit (DIC from 1.5 R, the studio's fits) or paper (from 1 R)"
+    ),
+]
 
 
 @model_options("kappa", "steps", "step_size", "contact", "contact_order", "contact_penalty", "fiber_stretch")
@@ -80,6 +86,7 @@ def verification_study(
     model: ModelOptions,
     out_dir: OUT_DIR = Path("runs/verification"),
     figure: FIGURE = None,
+    reading: READING = "fit",
     as_json: JSON = False,
 ) -> None:
     """Verification study (Roache's GCI, ASME V&V 20): observed orders, asymptotic range,
@@ -104,6 +111,7 @@ def verification_study(
                 out_dir=out_dir,
                 progress=_steps_progress(bar),
                 say=say,
+                reading=reading,
             )
     except (SpecError, ValueError, forward.SimulationError, OSError) as exc:
         fail(str(exc), as_json)

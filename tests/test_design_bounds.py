@@ -38,6 +38,25 @@ def test_appendix_b_weights():
     assert not default_selection(1.0, "authors").measured(np.array([[6.0, 0.0]]))[0]  # beyond 5.5 R
 
 
+@pytest.mark.parametrize("radius", [4.77, 8.0])
+def test_fit_reading_leaves_the_rings_under_one_and_a_half_radii_out(radius):
+    # nodes on the x and y axes and a diagonal at 0.5 to 3 R: the paper's objective takes r > R,
+    # the fit's r > 1.5 R; both normalise B.1 to B.3 over what they take
+    rho = np.array([0.5, 0.99, 1.01, 1.3, 1.49, 1.51, 2.0, 3.0]) * radius
+    xy = np.concatenate([np.c_[rho, 0 * rho], np.c_[0 * rho, rho], np.c_[rho, rho] / np.sqrt(2)])
+    paper = default_selection(radius).measured(xy)
+    fit = default_selection(radius, "fit").measured(xy)
+    np.testing.assert_array_equal(paper, np.tile([0, 0, 1, 1, 1, 1, 1, 1], 3).astype(bool))
+    np.testing.assert_array_equal(fit, np.tile([0, 0, 0, 0, 0, 1, 1, 1], 3).astype(bool))
+    w = nodal_weights(xy, fit, "fit")
+    assert all(w[k].sum() == pytest.approx(1.0) and np.all(w[k][~fit] == 0) for k in ("ux", "uy", "uz"))
+    # on the same nodes the weights are the paper's renormalised: ratios between nodes unchanged
+    wp = nodal_weights(xy, paper)
+    np.testing.assert_allclose(w["ux"][fit] / w["ux"][fit][0], wp["ux"][fit] / wp["ux"][fit][0])
+    with pytest.raises(ValueError, match="unknown reading 'rings'"):
+        default_selection(radius, "rings")
+
+
 def test_simplex_is_enforced():
     assert check_weights([0.45, 0.35, 0.2, 0]).sum() == pytest.approx(1)
     for bad in ([0.5, 0.5, 0.5, 0], [1.2, -0.2, 0, 0], [0.5, 0.5, 0], [np.nan, 1, 0, 0]):
