@@ -46,6 +46,7 @@ _lazy_getattr, __dir__, __all__ = lazy.attach(
             "resolve_model",
         ],
         "verification_study": ["VerificationStudy", "parameter_bias", "run_verification_study"],
+        "study_budget": ["reference_uncertainty_pct", "study_error_budget"],
         "febio_experiment": [
             "RecordedRun",
             "experiment_from_febio_run",

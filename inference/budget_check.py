@@ -13,20 +13,31 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["FOV_TOLERANCE", "HOW_TO_MEASURE", "budget_status"]
+from ..forward.mesh_presets import CONTACT_CORE_PER_RADIUS
+
+__all__ = ["FOV_TOLERANCE", "HOW_TO_MEASURE", "budget_status", "how_to_measure"]
 
 #: A budget measured over a field of view whose radius differs from the data's by more than
 #: this fraction is not this test's.
 FOV_TOLERANCE = 0.2
 
-#: How to measure a budget for a new test (docs: Fit and posterior, "No error budget").
+#: How to measure a budget for a new test (docs: Fit and posterior, "No error budget"); {core}
+#: is the contact family's core at the test's radius, {radius} the radius.
 HOW_TO_MEASURE = (
-    "measure one: a campaign on a finer mesh at this test (indent-studio campaign run --name ref9 "
-    "--grid c1=3:19:3,c5=120:540:3 --mesh reference, with this test's radius and protocol), then "
-    "indent-studio design error-budget --reference ref9 --model <this surrogate's mesh>, and train "
-    "the surrogate again with --error-budget runs/ref9/error-budget.json (docs: Fit and posterior, "
+    "measure one: a verification study of the meshes that follow the contact at this test "
+    "(indent-studio verification-study --family 8x8:1.2:1.5:core{core} --levels 0,1,2,3 "
+    "--points 3:120,3:330,3:540,11:120,11:330,11:540,19:120,19:330,19:540 --radii {radius} --substeps 1 "
+    "--contact surface --contact-order 1 --out-dir runs/verification-R{radius}, with this test's protocol), "
+    "then indent-studio design study-budget --study runs/verification-R{radius} --out budget.json, and "
+    "train the surrogate on a contact-L1 campaign with --error-budget budget.json (docs: Fit and posterior, "
     "'No error budget')"
 )
+
+
+def how_to_measure(radius: float) -> str:
+    """:data:`HOW_TO_MEASURE` for a sphere of ``radius`` mm."""
+    core = max(1, round(CONTACT_CORE_PER_RADIUS * radius))
+    return HOW_TO_MEASURE.format(core=core, radius=f"{radius:g}")
 
 
 def _test(spec, fov_mm: float) -> str:
@@ -60,7 +71,7 @@ def budget_status(result) -> dict:
                 f"no error budget is known for this test ({test}) on the surrogate's mesh ({mesh}): "
                 "the bounds hold measurement noise only, no model error, and can miss the truth by many "
                 "times their width (the 'default' mesh alone put c5 up to 24 % off at the paper's test); "
-                + HOW_TO_MEASURE
+                + how_to_measure(inputs.spec.indenter.radius)
             ),
         }
     budget_fov = source.get("field_of_view_mm") if isinstance(source, dict) else None
@@ -71,7 +82,8 @@ def budget_status(result) -> dict:
             "source": source,
             "warning": (
                 f"the error budget in these bounds was measured over a {float(budget_fov):g} mm field of view; "
-                f"these data cover {fov:.3g} mm ({test}): it may not hold here; " + HOW_TO_MEASURE
+                f"these data cover {fov:.3g} mm ({test}): it may not hold here; "
+                + how_to_measure(inputs.spec.indenter.radius)
             ),
         }
     return {"known": True, "test": test, "source": source, "warning": None}

@@ -33,7 +33,10 @@ def remaining_bias(budget_file, model: str) -> dict:
 
     The largest distance between truth and fit over the test points, in percent of the fit (as a
     fit's bounds are), and never less than in percent of the truth: max(|b|, |1 / (1 + b) - 1|)
-    for a bias b. (A fit 18 % below the truth is 22 % of the fit away from it.)
+    for a bias b. (A fit 18 % below the truth is 22 % of the fit away from it.) Where the rows
+    carry the reference level's own uncertainty (``c1_reference_gci_pct``, a budget against a
+    verification study's level, :func:`indentation_studio.inference.study_error_budget`), it is
+    added at each point.
 
     Parameters
     ----------
@@ -73,6 +76,14 @@ def remaining_bias(budget_file, model: str) -> dict:
         if np.any(b <= -1.0) or not np.all(np.isfinite(b)):
             raise ValueError(f"{budget_file}: {model!r} has a bias of {name} that is not a fit")
         each[name] = 100.0 * np.maximum(np.abs(b), np.abs(1.0 / (1.0 + b) - 1.0))
+        carried = [row.get(f"{name}_reference_gci_pct") for row in rows]
+        if any(u is not None for u in carried):  # the reference level's own uncertainty (its GCI)
+            u = np.array([np.nan if v is None else v for v in carried], float)
+            if not np.all(np.isfinite(u) & (u >= 0)):
+                raise ValueError(
+                    f"{budget_file}: {model!r} has a reference GCI of {name} that is not a number >= 0"
+                )
+            each[name] = each[name] + u
         left[f"{name}_pct"] = float(np.max(each[name]))
     try:
         left["points"] = [
@@ -87,6 +98,7 @@ def remaining_bias(budget_file, model: str) -> dict:
         "model": model,
         "points": len(rows),
         "reference_extrapolated": bool(reference.get("extrapolated", False)),
+        "reference_gci_carried": bool(reference.get("gci_carried", False)),
     }
     return left
 
@@ -95,7 +107,8 @@ def budget_at(budget: dict | None, theta) -> dict | None:
     """What a budget leaves at the parameters ``theta``: interpolated between its test points.
 
     Only a budget measured against extrapolated values (its file's ``reference`` says
-    ``"extrapolated": true``; the forward-model verification study's) is interpolated. One
+    ``"extrapolated": true``) or against a verification study's level with that level's GCI in
+    its rows (``"gci_carried": true``) is interpolated. One
     measured against a single finer mesh keeps its largest value everywhere: that mesh's own error
     is not in its rows, and the largest value over the box is the margin that covers it
     (the shipped paper budget against 'reference', interpolated, would leave 11.9 % on c5 at
@@ -141,8 +154,11 @@ def budget_at(budget: dict | None, theta) -> dict | None:
     at = np.asarray(theta, float)[:2]
     out["source"]["at"] = at.tolist()
     points = budget.get("points") or []
-    extrapolated = out["source"].get("reference_extrapolated", False)
-    xy = np.log([[p["c1"], p["c5"]] for p in points]) if extrapolated and len(points) >= 3 else None
+    # a reference whose own error is in the rows (extrapolated values, or a level with its GCI)
+    whole = out["source"].get("reference_extrapolated", False) or out["source"].get(
+        "reference_gci_carried", False
+    )
+    xy = np.log([[p["c1"], p["c5"]] for p in points]) if whole and len(points) >= 3 else None
     if xy is None or np.any(np.ptp(xy, axis=0) <= 0) or not np.all(at > 0):
         out["source"]["where"] = "largest"  # one finer mesh's budget, or too few points to interpolate
         return out

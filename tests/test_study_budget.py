@@ -1,0 +1,152 @@
+"""Error budgets against a verification study's high-fidelity level with its GCI carried
+(inference.study_budget), what a fit reads of them (surrogate.error_budgets), and the fit's model
+and objective (forward.mesh_presets.FIT_MESH, the ``fit`` reading)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from indentation_studio.design.nodal_weights import FIT_INNER_RADII
+from indentation_studio.forward.mesh_family import contact_family
+from indentation_studio.forward.mesh_presets import FIT_MESH, HIGH_FIDELITY_MESH
+from indentation_studio.forward.predictor import CachedPredictor, FESolverPredictor
+from indentation_studio.forward.result import SimulationResult
+from indentation_studio.forward.spec import Contact, MeshChoice, ModelSpec, Protocol
+from indentation_studio.inference.error_budget import compute_error_budget
+from indentation_studio.inference.study_budget import (
+    FS_ASYMPTOTIC,
+    FS_OUTSIDE,
+    reference_uncertainty_pct,
+    study_error_budget,
+)
+from indentation_studio.inference.verification_study import run_verification_study
+from indentation_studio.surrogate.error_budgets import budget_at, remaining_bias
+
+
+def test_reference_uncertainty_is_roaches_gci_with_the_order_limited():
+    h = [1.0, 1.5, 2.25, 3.375]
+    # exact second order with one triplet's worth of agreement: Fs 1.25 |e| / (1.5^2 - 1)
+    f = [100.0 + 4.0 * x**2 for x in h]
+    e = abs(f[0] - f[1]) / f[0]
+    assert reference_uncertainty_pct(f, h, 0) == pytest.approx(100 * FS_ASYMPTOTIC * e / 1.25)
+    # a fourth-order sequence is read at order 2 (levels that agree by chance give no small GCI)
+    f4 = [100.0 + 0.5 * x**4 for x in h]
+    e4 = abs(f4[0] - f4[1]) / f4[0]
+    assert reference_uncertainty_pct(f4, h, 0) == pytest.approx(100 * FS_ASYMPTOTIC * e4 / 1.25)
+    # first order on the finest triplet, second on the next: not asymptotic, Fs = 3, p = 1
+    g = [100.0, 101.0, 102.5, 104.0]  # orders log(1.5)/log(1.5) = 1, then 0
+    u = reference_uncertainty_pct(g, h, 0)
+    assert u == pytest.approx(100 * FS_OUTSIDE * 0.01 / 0.5)
+    # oscillating: order 2, Fs 3
+    osc = [100.0, 98.0, 101.0, 99.0]
+    assert reference_uncertainty_pct(osc, h, 0) == pytest.approx(100 * FS_OUTSIDE * 0.02 / 1.25)
+    # the second level (index 1) reads its own triplet
+    assert reference_uncertainty_pct(f, h, 1) == pytest.approx(
+        100 * FS_OUTSIDE * abs(f[1] - f[2]) / f[1] / 1.25
+    )
+    with pytest.raises(ValueError, match="no coarser level"):
+        reference_uncertainty_pct(f, h, 3)
+
+
+def _budget_file(tmp_path, rows, gci_carried=True):
+    path = tmp_path / "budget.json"
+    reference = {
+        "gci_carried": gci_carried,
+        "model": ModelSpec(mesh=MeshChoice(HIGH_FIDELITY_MESH)).to_dict(),
+    }
+    path.write_text(json.dumps({"rows": rows, "reference": reference}))
+    return path
+
+
+def test_a_budget_adds_the_reference_gci_and_interpolates_between_its_points(tmp_path):
+    rows = [
+        {
+            "model": FIT_MESH,
+            "c1_true": c1,
+            "c5_true": c5,
+            "c1_bias_pct": 1.0,
+            "c5_bias_pct": -5.0 if c5 < 300 else 3.0,
+            "c1_reference_gci_pct": 0.5,
+            "c5_reference_gci_pct": 2.0 if c1 < 10 else 1.0,
+        }
+        for c1 in (3.0, 19.0)
+        for c5 in (120.0, 540.0)
+    ]
+    left = remaining_bias(_budget_file(tmp_path, rows), FIT_MESH)
+    # at (3, 120): 5 % below the truth is 5.263 % of the fit, plus the level's 2 % GCI
+    assert left["c5_pct"] == pytest.approx(100 * (1 / 0.95 - 1) + 2.0)
+    assert left["c1_pct"] == pytest.approx(1.5)
+    at_corner = budget_at(left, [19.0, 540.0])
+    assert at_corner["source"]["where"] == "interpolated"
+    assert at_corner["c5_pct"] == pytest.approx(4.0)
+    between = budget_at(left, [np.sqrt(3 * 19), np.sqrt(120 * 540)])  # the middle in log space
+    corners = [100 * (1 / 0.95 - 1) + 2, 5.0, 100 * (1 / 0.95 - 1) + 1, 4.0]
+    assert min(corners) < between["c5_pct"] < max(corners)
+    rows[0]["c5_reference_gci_pct"] = float("nan")
+    with pytest.raises(ValueError, match="reference GCI of c5"):
+        remaining_bias(_budget_file(tmp_path, rows), FIT_MESH)
+
+
+@pytest.fixture(scope="module")
+def small_study(tmp_path_factory):
+    """Levels 0 to 2 of the contact family at R = 4.77 mm, 2 steps, two points, the fit's objective."""
+    out = tmp_path_factory.mktemp("study")
+    spec = ModelSpec(
+        protocol=Protocol(step_size=0.5, steps=2), contact=Contact(integration="surface", order=1)
+    )
+    study = run_verification_study(
+        spec, contact_family(4.77), (0, 1, 2), points=((4.0, 300.0), (12.0, 150.0)), radii=(4.77,),
+        substeps=(1,), out_dir=out,
+    )  # fmt: skip
+    return out, study, spec
+
+
+def test_study_budget_is_the_fit_of_the_model_plus_the_levels_gci(small_study):
+    out, study, spec = small_study
+    budget = study_error_budget(out, ("contact-L0",), reference_level=1, fe_steps=2)
+    assert budget.reading == "fit" and budget.reference["gci_carried"] is True
+    assert budget.reference["model"]["mesh"]["preset"] == "contact-L1"
+    assert budget.reference["model"]["contact"] == {
+        "friction": None,
+        "penalty": 1e5,
+        "integration": "surface",
+        "order": 1,
+    }
+    rows = budget.table.to_dict(orient="records")
+    assert [(r["c1_true"], r["c5_true"]) for r in rows] == [(4.0, 300.0), (12.0, 150.0)]
+    for case, row in zip(study.cases, rows, strict=True):
+        sizes = [lv["h_mm"] for lv in case["levels"]]
+        c5 = case["quantities"]["fit c5"]["values"]
+        assert row["c5_reference_gci_pct"] == pytest.approx(reference_uncertainty_pct(c5, sizes, 1))
+        assert row["c5_reference_gci_pct"] > 0
+    # the bias is compute_error_budget's of the contact-L0 preset fitted to level 1's runs
+    results = [
+        SimulationResult.load(out / "R4.77" / f"c1-{c1:g}_c5-{c5:g}" / "L1-s1.npz")
+        for c1, c5 in ((4, 300), (12, 150))
+    ]
+    direct = compute_error_budget(
+        results,
+        {
+            "contact-L0": CachedPredictor(
+                FESolverPredictor(ModelSpec(mesh=MeshChoice("contact-L0"), protocol=spec.protocol))
+            )
+        },
+        fe_steps=2,
+    )
+    np.testing.assert_allclose(budget.table["c5_bias_pct"], direct.table["c5_bias_pct"], rtol=1e-9)
+    for level in (0, 5):  # the coarsest has no coarser level; 5 is not in the study
+        with pytest.raises(ValueError, match=f"level {level} and a coarser one"):
+            study_error_budget(out, ("contact-L0",), reference_level=level)
+    with pytest.raises(ValueError, match="contact-L presets"):
+        study_error_budget(out, ("default",), reference_level=1)
+    with pytest.raises(ValueError, match="--reading paper"):
+        study_error_budget(out, ("contact-L0",), reference_level=1, reading="paper")
+
+
+def test_the_fit_model_and_objective_are_the_studios_decision():
+    assert FIT_MESH == "contact-L1" and HIGH_FIDELITY_MESH == "contact-L3" and FIT_INNER_RADII == 1.5
+    fit = ModelSpec(mesh=MeshChoice(FIT_MESH))
+    assert fit.contact.describe() == "stick by penalty, surface-integrated (1x1 per face)"
