@@ -58,6 +58,19 @@ def _fmt(v, missing: str = "not computed") -> str:
     return str(v)
 
 
+def bounds_sentence(fit: dict) -> str:
+    """What a fit's bounds hold, in one sentence of HTML; a fit the adequacy test flags says what
+    they do not hold instead (the model's own misfit), never "these bounds hold"."""
+    holds = html.escape(fit.get("bounds_include", "the statistical part only"))
+    if (fit.get("adequacy") or {}).get("flagged"):
+        return (
+            "<b>These bounds do not hold the truth's distance from this fit:</b> the model cannot explain "
+            f"these data (adequacy flagged, above), and the bounds were made for {holds}, not for the "
+            "misfit the adequacy test found."
+        )
+    return f"These bounds hold: {holds}."
+
+
 def fit_warnings_html(fit: dict) -> str:
     """The warnings a fit's numbers must be read with, as boxes above them: the model-adequacy
     flag (red: the model cannot explain the data) and a test without an error budget (amber);
@@ -185,7 +198,7 @@ def write_report(out: Path, results: dict, sections: list[tuple[str, str]]) -> P
         f"<p>Fit (surrogate, then FE with exact sensitivities): c1 = {fit['theta'][0]:.3f} kPa +- "
         f"{fit['bounds_pct'][0]:.2f} %, c5 = {fit['theta'][1]:.1f} kPa +- {fit['bounds_pct'][1]:.2f} % (95 %; "
         f"statistical part eq. 6 with s = {fit['s']:.3g} from eq. 8: +- {_fmt(fit.get('statistical_pct', fit['bounds_pct']))} %). "
-        f"These bounds hold: {html.escape(fit.get('bounds_include', 'the statistical part only'))}. "
+        f"{bounds_sentence(fit)} "
         f"F = {fit['F']:.3g}. Synthetic truth: {_fmt(fit['truth'])}. Posterior median "
         f"{_fmt(post['median'])}, 95 % intervals {_fmt(post['ci95'])}, acceptance {post['acceptance_fraction']:.2f}, "
         f"autocorrelation {_fmt(post['autocorrelation_steps'])} steps. FE confirmation: F(theta_hat) = "

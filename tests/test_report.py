@@ -50,3 +50,22 @@ def test_report_tables_fit_the_page_and_say_what_is_missing(tmp_path):
     links = re.findall(r"href='([^']+)'", page)
     assert any(link.endswith("guide/design.md") or link.endswith("guide/design/index.html") for link in links)
     assert any("fit-and-posterior" in link for link in links)
+
+
+def test_a_flagged_fit_never_says_its_bounds_hold(tmp_path):
+    """The report's example section: an adequate fit says what its bounds hold; one the adequacy test
+    flags says what they do not hold, and the words 'These bounds hold' appear nowhere on its page."""
+    results = _results()
+    adequate = {"flagged": False, "statistic": 1210.0, "dof": 1200, "p_value": 0.41, "alpha": 0.01}
+    results["fit"]["adequacy"] = adequate
+    page = write_report(tmp_path / "ok", results, []).read_text()
+    assert "These bounds hold: statistical and the mesh&#x27;s budget." in page and "Model inadequate" not in page
+    results["fit"]["adequacy"] = adequate | {
+        "flagged": True,
+        "statistic": 7212.0,
+        "per_degree": 6.01,
+        "p_value": 0.0,
+    }
+    page = write_report(tmp_path / "flagged", results, []).read_text()
+    assert "Model inadequate" in page and "These bounds hold" not in page
+    assert "These bounds do not hold the truth's distance from this fit" in page
