@@ -59,7 +59,10 @@ def test_a_flagged_fit_never_says_its_bounds_hold(tmp_path):
     adequate = {"flagged": False, "statistic": 1210.0, "dof": 1200, "p_value": 0.41, "alpha": 0.01}
     results["fit"]["adequacy"] = adequate
     page = write_report(tmp_path / "ok", results, []).read_text()
-    assert "These bounds hold: statistical and the mesh&#x27;s budget." in page and "Model inadequate" not in page
+    assert (
+        "These bounds hold: statistical and the mesh&#x27;s budget." in page
+        and "Model inadequate" not in page
+    )
     results["fit"]["adequacy"] = adequate | {
         "flagged": True,
         "statistic": 7212.0,
