@@ -89,6 +89,24 @@ def test_docs_notebooks_and_gallery_are_executed_with_their_figures(site):
         assert images and all((site / "auto_examples" / src).resolve().is_file() for src in images), example
 
 
+@pytest.mark.slow
+def test_docs_validation_pages_show_their_figures(site):
+    """The validation pages show the figures of their measurements, each PNG stored beside the
+    page (docs/validation/figures/) and its caption naming the script in docs/figures/ that made it."""
+    for page, figures in {
+        "verification": 2,
+        "febio-agreement": 1,
+        "solver-and-speed": 1,
+    }.items():
+        html = (site / "validation" / f"{page}.html").read_text()
+        images = re.findall(r'<img [^>]*src="([^"]+\.png)"', html)
+        assert len(images) >= figures, f"{page}: {images}"
+        assert all((site / "validation" / src).resolve().is_file() for src in images), page
+        source = (ROOT / "docs" / "validation" / f"{page}.md").read_text()
+        scripts = re.findall(r"\.venv/bin/python (docs/figures/\w+\.py)", source)
+        assert len(scripts) >= figures and all((ROOT / s).is_file() for s in scripts), page
+
+
 def test_docs_references_resolve_to_public_names_or_stay_broken():
     """docs/references.py finds the object a docstring's reference names (the public page then
     links it), a field or instance attribute as existing, and nothing for a name that does not
