@@ -105,7 +105,9 @@ html_theme_options = {
     "footer_start": ["copyright"],
     "footer_end": ["sphinx-version"],
 }
-html_sidebars = {"index": [], "changelog": []}
+# the validation pages hold wide figures and tables: their article takes the primary sidebar's width
+# (the section is one click away in the header)
+html_sidebars = {"index": [], "changelog": [], "validation/*": []}
 
 
 def setup(app):

@@ -9,6 +9,7 @@ coarse mesh, beside the paper's bounds (:doc:`../guide/design`).
 
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.ticker import NullFormatter
 
 import indentation_studio as ins
 
@@ -36,7 +37,8 @@ for ax, (label, ours, paper) in zip(
     ax.barh(y - 0.2, ours, height=0.4, label="this model (coarse)")
     ax.barh(y + 0.2, paper, height=0.4, label="paper")
     ax.set_xscale("log")
+    ax.xaxis.set_minor_formatter(NullFormatter())
     ax.set_xlabel(f"{label} bound (+- %)")
 axes[0].set_yticks(y, [r.name for r in rows])
 axes[0].invert_yaxis()
-axes[1].legend(loc="lower right")
+legend = axes[1].legend(loc="lower right")

@@ -54,7 +54,7 @@ def cases_of(files: list[str]) -> list[dict]:
 def convergence_figure(title: str, cases: list[dict]):
     radii = sorted({case["radius"] for case in cases})
     fig, axes = plt.subplots(
-        len(radii), len(QUANTITIES), figsize=(3.2 * len(QUANTITIES), 2.9 * len(radii)), squeeze=False
+        len(radii), len(QUANTITIES), figsize=(2.8 * len(QUANTITIES), 2.7 * len(radii)), squeeze=False
     )
     for row, radius in zip(axes, radii, strict=True):
         at_radius = sorted((c for c in cases if c["radius"] == radius), key=lambda c: c["theta"][0])
@@ -75,7 +75,7 @@ def convergence_figure(title: str, cases: list[dict]):
             ax.set_title(f"{name}, R = {radius:g} mm", fontsize=9)
             ax.set_xlabel("h (mm)", fontsize=8)
             ax.tick_params(labelsize=7)
-            ax.legend(fontsize=6.5, title="(c1, c5) kPa", title_fontsize=6.5)
+            ax.legend(fontsize=7, title="(c1, c5) kPa", title_fontsize=7)
         row[0].set_ylabel("|f - f_ext| / |f_ext|", fontsize=8)
     fig.suptitle(title + "\n* not asymptotic: the two triplets' orders differ by more than 0.5", fontsize=9)
     fig.tight_layout()
