@@ -87,6 +87,20 @@ def _package_page(package: str, groups: dict[str, list[str]], submodules: list[s
     return "\n".join(parts)
 
 
+def _top_page() -> str:
+    """The names ``import indentation_studio as ins`` reaches directly, each linked to its page."""
+    _, groups = lazy_exports(ROOT / PACKAGE / "__init__.py")
+    parts = [
+        _title(f"``{PACKAGE}``"),
+        f".. automodule:: {PACKAGE}\n   :no-members:\n",
+        f".. currentmodule:: {PACKAGE}\n",
+    ]
+    for sub, names in groups.items():
+        parts.append(f"From :doc:`{sub}`:\n")
+        parts.append(".. autosummary::\n\n" + "".join(f"   ~{sub}.{name}\n" for name in names))
+    return "\n".join(parts)
+
+
 def _write(path: Path, text: str) -> None:
     """Write only when the text changed, so that Sphinx rebuilds only the pages that did."""
     if not path.is_file() or path.read_text() != text:
@@ -96,7 +110,7 @@ def _write(path: Path, text: str) -> None:
 def write_api_pages(out: Path) -> list[Path]:
     """Write the subpackage and module pages under ``out``; return the pages written."""
     out.mkdir(parents=True, exist_ok=True)
-    wanted: dict[Path, str] = {}
+    wanted: dict[Path, str] = {out / "top.rst": _top_page()}
     for sub in SUBPACKAGES:
         package = f"{PACKAGE}.{sub}"
         submodules, groups = lazy_exports(ROOT / sub / "__init__.py")

@@ -90,6 +90,22 @@ def test_docs_notebooks_and_gallery_are_executed_with_their_figures(site):
 
 
 @pytest.mark.slow
+def test_docs_guide_pages_show_the_figures_of_their_workflow(site):
+    """The guide pages of a simulation, a surrogate, Table 1 and a fit show the figure the gallery's
+    example drew for that workflow when the site was built."""
+    for page, example in {
+        "simulate": "plot_01_simulate",
+        "surrogates": "plot_02_campaign_and_surrogate",
+        "design": "plot_03_table1",
+        "fit-and-posterior": "plot_04_fit_and_corner",
+    }.items():
+        html = (site / "guide" / f"{page}.html").read_text()
+        images = re.findall(r'<img [^>]*src="([^"]+\.png)"', html)
+        assert any(f"sphx_glr_{example}_" in src for src in images), f"{page}: {images}"
+        assert all((site / "guide" / src).resolve().is_file() for src in images), page
+
+
+@pytest.mark.slow
 def test_docs_validation_pages_show_their_figures(site):
     """The validation pages show the figures of their measurements, each PNG stored beside the
     page (docs/validation/figures/) and its caption naming the script in docs/figures/ that made it."""
