@@ -106,17 +106,25 @@ def fit_warnings_html(fit: dict) -> str:
 
 
 def _docs_link(out: Path, title: str) -> str:
-    """A link from the report to the docs page that explains ``title``, when the docs are there
-    (a source checkout: the pages are read as Markdown, or as the built site under site/)."""
+    """A link from the report to the page of the built documentation site (``site/``, built by
+    ``sphinx-build -W --keep-going -b html docs site``) that explains ``title``, in a source
+    checkout; when the site is not built yet, the line says how to build it."""
     page = SECTION_DOCS.get(title)
     root = Path(__file__).resolve().parents[1]
     if page is None or not (root / "docs" / page).is_file():
         return ""
-    built = root / "site" / page.replace(".md", "") / "index.html"
-    target = built if built.is_file() else root / "docs" / page
-    href = Path(os.path.relpath(target, out.resolve())).as_posix()
+    built = root / "site" / page.replace(".md", ".html")
+    href = Path(os.path.relpath(built, out.resolve())).as_posix()
+    name = page.removesuffix(".md")
+    note = (
+        ""
+        if built.is_file()
+        else " (the documentation site is not built yet: <code>.venv/bin/sphinx-build -W --keep-going"
+        " -b html docs site</code>)"
+    )
     return (
-        f"<p class='docs'>What this section means: <a href='{html.escape(href)}'>{html.escape(page)}</a></p>"
+        f"<p class='docs'>What this section means: <a href='{html.escape(href)}'>{html.escape(name)}</a>"
+        f"{note}</p>"
     )
 
 

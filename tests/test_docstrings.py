@@ -2,8 +2,8 @@
 docstring (issue 32): a one-line summary; a ``Parameters`` section naming exactly the parameters of
 the signature (a class: of its constructor, or an ``Attributes`` section); a ``Returns`` (or
 ``Yields``) section when the return annotation is not ``None``; a ``Raises`` section naming each
-error the function raises itself. The API pages (docs/api/*.md, mkdocstrings, numpy style) render
-these sections.
+error the function raises itself. The API pages (Sphinx, numpydoc: docs/api_pages.py) render these
+sections.
 
 numpydoc is not a dependency, so the sections are read here: a title line over a line of dashes."""
 
