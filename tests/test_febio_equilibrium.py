@@ -20,9 +20,11 @@ from conftest import FEBIO_BASELINE
 from typer.testing import CliRunner
 
 from indentation_studio.campaign.designs import Design
+from indentation_studio.campaign.errors import CampaignError
 from indentation_studio.campaign.loader import force_table, load_campaign
 from indentation_studio.campaign.runner import run_campaign
-from indentation_studio.campaign.store import CampaignError, CampaignSpec, CampaignStore
+from indentation_studio.campaign.spec import CampaignSpec
+from indentation_studio.campaign.store import CampaignStore
 from indentation_studio.forward.febio.equilibrium import (
     EquilibriumTolerance,
     check_equilibrium,
