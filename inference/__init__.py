@@ -4,9 +4,7 @@ check, the FE confirmation, the composite phantom as an experiment."""
 
 import lazy_loader as lazy
 
-from ..moved_names import moved_getattr
-
-_lazy_getattr, __dir__, __all__ = lazy.attach(
+__getattr__, __dir__, __all__ = lazy.attach(
     __name__,
     submodules=["lab"],
     submod_attrs={
@@ -63,14 +61,4 @@ _lazy_getattr, __dir__, __all__ = lazy.attach(
             "write_composite_experiment",
         ],
     },
-)
-
-#: Names moved to a lower layer (docs/changelog.md): their old path warns for one version.
-__getattr__ = moved_getattr(
-    __name__,
-    {
-        name: "indentation_studio.design.friction_treatment"
-        for name in ("FixedParameter", "FrictionTreatment", "friction_bounds")
-    },
-    _lazy_getattr,
 )
