@@ -9,7 +9,6 @@ surrogate and FE model, as a measured one would be. Steps FEBio accepted off equ
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
@@ -19,6 +18,7 @@ from ..forward.febio.log import FebioLogError
 from ..forward.febio.readback import logged_block_material, read_febio_run
 from ..forward.predictor import Prediction, as_theta
 from ..forward.spec import Indenter, Material, MeshChoice, ModelSpec, Protocol
+from .experiment_data import load_experiment
 from .synthetic_experiment import LAB_RECORDING, write_synthetic_experiment
 
 __all__ = ["RecordedRun", "experiment_from_febio_run", "febio_contact", "febio_experiment_summary"]
@@ -238,15 +238,13 @@ def febio_experiment_summary(folder: str | Path) -> dict[str, Any]:
         The folder, the run's (c1, c5), the steps left out, the depths FEBio accepted off
         equilibrium and a warning naming those steps (if any).
     """
-    meta = json.loads((Path(folder) / "experiment.json").read_text())
-    src = meta["synthetic"]["source"]
-    excluded = meta.get("excluded_steps", [])
+    exp = load_experiment(folder)
+    src = exp.synthetic["source"]
+    excluded = list(exp.excluded_steps)
     return {
         "experiment": str(folder),
         "theta": [src["c1"], src["c5"]],
         "excluded_steps": excluded,
         "off_equilibrium_depths_mm": src["off_equilibrium_depths_mm"],
-        "warnings": [f"steps FEBio accepted off equilibrium left out: {meta['excluded_steps']}"]
-        if excluded
-        else [],
+        "warnings": [f"steps FEBio accepted off equilibrium left out: {excluded}"] if excluded else [],
     }

@@ -4,8 +4,10 @@ on a finer mesh fitted back on a coarser one."""
 
 from __future__ import annotations
 
+import ast
 import json
 import shutil
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -29,6 +31,7 @@ FINE = ModelSpec(mesh=MeshChoice("fine"), protocol=PROTOCOL)  # makes the data
 FIT = ModelSpec(mesh=MeshChoice("default"), protocol=PROTOCOL)  # fits it (no inverse crime)
 TRUE = np.array([12.0, 250.0])
 ETA = (0.45, 0.35, 0.2, 0.0)
+ROOT = Path(__file__).resolve().parents[1]
 
 
 @pytest.fixture(scope="module")
@@ -52,6 +55,30 @@ def test_relaxation_fit_recovers_f_inf():
 
 
 @pytest.mark.slow
+def test_experiment_json_is_read_only_by_load_experiment(experiment):
+    """The synthetic block comes with the loaded experiment, and no other module of the package
+    parses experiment.json itself (``json.load(s)`` on an expression naming it)."""
+    exp = load_experiment(experiment)
+    np.testing.assert_array_equal(exp.synthetic["theta"], TRUE)
+    assert exp.synthetic["f_noise"] == 0.02
+    reads = []
+    for folder in ("forward", "campaign", "surrogate", "design", "inference", "studio"):
+        for path in sorted((ROOT / folder).rglob("*.py")):
+            for node in ast.walk(ast.parse(path.read_text())):
+                if (
+                    isinstance(node, ast.Call)
+                    and isinstance(node.func, ast.Attribute)
+                    and node.func.attr in ("load", "loads")
+                    and isinstance(node.func.value, ast.Name)
+                    and node.func.value.id == "json"
+                    and any(
+                        isinstance(n, ast.Constant) and n.value == "experiment.json" for n in ast.walk(node)
+                    )
+                ):
+                    reads.append(f"{path.relative_to(ROOT)}:{node.lineno}")
+    assert reads == [], "experiment.json read directly (use load_experiment):\n" + "\n".join(reads)
+
+
 def test_sphere_fit_and_registration(experiment):
     exp = load_experiment(experiment)
     _, r = fit_sphere(exp.indenter_xyz)

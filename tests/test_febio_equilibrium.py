@@ -313,6 +313,7 @@ def test_febio_run_as_a_dic_like_experiment_leaves_out_the_step_off_equilibrium(
     assert src["contact"]["febio"]["fric_coeff"] == 1e8
     assert meta["synthetic"]["model"]["contact"] == src["contact"]
     exp = load_experiment(out)
+    assert exp.synthetic == meta["synthetic"] and exp.excluded_steps == (25,)
     f_inf, _ = static_forces(exp)
     assert np.isnan(f_inf[24])
     spec = ModelSpec(mesh=MeshChoice(feb_file=str(febio_baseline / "baseline.feb")))
