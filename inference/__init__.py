@@ -10,7 +10,12 @@ __getattr__, __dir__, __all__ = lazy.attach(
     submod_attrs={
         "experiment_data": ["ExperimentData", "ExperimentDataError", "load_experiment"],
         "experiment_processing": ["experiment_objective", "static_forces", "to_model_frame"],
-        "synthetic_experiment": ["write_experiment_from_model", "write_synthetic_experiment"],
+        "synthetic_experiment": [
+            "LAB_RECORDING",
+            "Recording",
+            "write_experiment_from_model",
+            "write_synthetic_experiment",
+        ],
         "inverse_fit": ["FitResult", "fit_parameters"],
         "fit_inputs": ["FitInputs", "prepare_fit"],
         "experiment_fit": ["ExperimentFit", "FE_STAGES", "default_friction", "fit_experiment"],

@@ -301,8 +301,14 @@ def test_febio_run_as_a_dic_like_experiment_leaves_out_the_step_off_equilibrium(
     from indentation_studio.inference.experiment_data import load_experiment
     from indentation_studio.inference.experiment_processing import static_forces
     from indentation_studio.inference.febio_experiment import RecordedRun, experiment_from_febio_run
+    from indentation_studio.inference.synthetic_experiment import LAB_RECORDING
 
-    out = experiment_from_febio_run(febio_baseline / "baseline.log", tmp_path / "e", f_noise=0.001, seed=5)
+    out = experiment_from_febio_run(
+        febio_baseline / "baseline.log",
+        tmp_path / "e",
+        recording=replace(LAB_RECORDING, f_noise=0.001),
+        seed=5,
+    )
     meta = json.loads((out / "experiment.json").read_text())
     assert meta["excluded_steps"] == [25]  # 12.5 mm, FEBio's step off equilibrium
     src = meta["synthetic"]["source"]
