@@ -105,7 +105,7 @@ class CampaignStore(StoreLayout):
         self.lock = FileLock(self.lock_path, timeout=LOCK_TIMEOUT_S)
         self._leases = LeaseFiles(self)
 
-    def locked(self):
+    def locked(self) -> StoreLock:
         """The store's lock, as a context (short critical sections only).
 
         A lock not had in ``LOCK_TIMEOUT_S`` is a clear error.
