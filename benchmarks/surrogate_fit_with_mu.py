@@ -117,7 +117,7 @@ def main() -> None:
                 radius=radius,
                 step_size=0.5,
                 seed=300 + i,
-                **LAB_RECORDING,
+                recording=LAB_RECORDING,
             )
         row = {"case": name, "radius": radius, "truth": truth.tolist(), "mu_truth": mu}
         for kind in kinds:

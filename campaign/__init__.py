@@ -8,7 +8,8 @@ __getattr__, __dir__, __all__ = lazy.attach(
     submod_attrs={
         "designs": ["Design", "design_from_option", "paper_grid", "space_filling"],
         "errors": ["CampaignError", "DesignError", "DiskFullError"],
-        "store": ["CampaignSpec", "CampaignStore"],
+        "spec": ["CampaignSpec"],
+        "store": ["CampaignStore"],
         "loader": ["CampaignData", "StoredResponses", "force_table", "load_campaign", "open_campaign"],
         "runner": ["run_campaign", "run_named_campaign"],
     },

@@ -1,5 +1,5 @@
 """The campaign package's errors, in a module of their own so that the command line can name
-them without importing pandas and scipy (the store and the designs re-export them)."""
+them without importing pandas and scipy."""
 
 __all__ = ["CampaignError", "DesignError", "DiskFullError"]
 

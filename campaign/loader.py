@@ -14,7 +14,8 @@ from ..forward.febio.equilibrium import check_equilibrium
 from ..forward.predictor import Prediction
 from ..forward.result import SimulationResult
 from ..forward.spec import ModelSpec
-from .store import CampaignError, CampaignStore
+from .errors import CampaignError
+from .store import CampaignStore
 
 
 @dataclass

@@ -38,15 +38,11 @@ from ..forward.febio.runner import FebioSolver, find_febio
 from ..forward.solver import EmbeddedSolver
 from ..forward.spec import ModelSpec
 from .designs import Design, design_from_option
-from .store import (
-    CAMPAIGN_EQUILIBRIUM_REL,
-    DEFAULT_LEASE_TIMEOUT_S,
-    CampaignError,
-    CampaignSpec,
-    CampaignStore,
-    RunIdentity,
-    _result_row,
-)
+from .errors import CampaignError
+from .index import result_row
+from .leases import DEFAULT_LEASE_TIMEOUT_S, RunIdentity
+from .spec import CAMPAIGN_EQUILIBRIUM_REL, CampaignSpec
+from .store import CampaignStore
 
 
 class PointTimeout(RuntimeError):
@@ -89,7 +85,7 @@ def solve_point(
 
             # one thread: a worker among as many as the cores (forward.threads)
             result = EmbeddedSolver(spec).run(progress=deadline, threads=1)
-        row.update(status="done", result=result, **_result_row(result))
+        row.update(status="done", result=result, **result_row(result))
     except Exception as exc:  # recorded, never propagated: one bad point must not stop a campaign
         partial = getattr(exc, "partial", None)
         if partial is not None and len(partial.depth) > 1:

@@ -3,10 +3,7 @@ bounds (eq. 6 to 8), weight optimisation (Table 1), Fig. 8, which experiment to 
 
 import lazy_loader as lazy
 
-from ..moved_names import moved_getattr
-from .error_budget import MOVED as _BUDGET_MOVED
-
-_lazy_getattr, __dir__, __all__ = lazy.attach(
+__getattr__, __dir__, __all__ = lazy.attach(
     __name__,
     submod_attrs={
         "objective": ["PAPER_WEIGHTS", "Objective", "check_weights"],
@@ -42,6 +39,3 @@ _lazy_getattr, __dir__, __all__ = lazy.attach(
         "composite_homogenisation": ["CompositeHomogenisation", "composite_equibiaxial_fit"],
     },
 )
-
-#: Names moved out of design (docs/changelog.md): their old path warns for one version.
-__getattr__ = moved_getattr(__name__, _BUDGET_MOVED, _lazy_getattr)

@@ -4,15 +4,18 @@ check, the FE confirmation, the composite phantom as an experiment."""
 
 import lazy_loader as lazy
 
-from ..moved_names import moved_getattr
-
-_lazy_getattr, __dir__, __all__ = lazy.attach(
+__getattr__, __dir__, __all__ = lazy.attach(
     __name__,
     submodules=["lab"],
     submod_attrs={
         "experiment_data": ["ExperimentData", "ExperimentDataError", "load_experiment"],
         "experiment_processing": ["experiment_objective", "static_forces", "to_model_frame"],
-        "synthetic_experiment": ["write_experiment_from_model", "write_synthetic_experiment"],
+        "synthetic_experiment": [
+            "LAB_RECORDING",
+            "Recording",
+            "write_experiment_from_model",
+            "write_synthetic_experiment",
+        ],
         "inverse_fit": ["FitResult", "fit_parameters"],
         "fit_inputs": ["FitInputs", "prepare_fit"],
         "experiment_fit": ["ExperimentFit", "FE_STAGES", "default_friction", "fit_experiment"],
@@ -64,14 +67,4 @@ _lazy_getattr, __dir__, __all__ = lazy.attach(
             "write_composite_experiment",
         ],
     },
-)
-
-#: Names moved to a lower layer (docs/changelog.md): their old path warns for one version.
-__getattr__ = moved_getattr(
-    __name__,
-    {
-        name: "indentation_studio.design.friction_treatment"
-        for name in ("FixedParameter", "FrictionTreatment", "friction_bounds")
-    },
-    _lazy_getattr,
 )

@@ -34,7 +34,6 @@ error).
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -205,11 +204,7 @@ class Adequacy:
 # ------------------------------------------------------------------------------------ noise
 def _recorded(exp: ExperimentData) -> dict:
     """The noise experiment.json records (a synthetic experiment's 'synthetic' block), or {}."""
-    try:
-        meta = json.loads((exp.root / "experiment.json").read_text())
-    except (OSError, ValueError, TypeError):
-        return {}
-    return meta.get("synthetic") or {}
+    return exp.synthetic
 
 
 def force_noise_per_step(

@@ -3,7 +3,7 @@ fit says so loudly (the CLI's text output and the report, not only a sentence in
 
 A test is the indenter's radius, the protocol (steps and depth), the contact and the DIC field
 of view. A budget is known when the surrogate carries one (measured for its mesh and this test,
-given at training, or shipped with the studio: :func:`design.error_budget.shipped_budget`), or
+given at training, or shipped with the studio: :func:`surrogate.error_budgets.shipped_budget`), or
 when the fit carries its mesh check (``--check-mesh``: the finer mesh's GCI in its bounds). A
 budget measured over a field of view much wider or narrower than the data's
 (``FOV_TOLERANCE``) is named as not quite this test.

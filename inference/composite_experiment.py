@@ -28,7 +28,7 @@ from ..forward.result import SimulationResult
 from ..forward.simulation_run import run_simulation
 from ..forward.solver import EmbeddedSolver
 from ..forward.spec import Contact, Indenter, Material, MeshChoice, ModelSpec, Protocol
-from .synthetic_experiment import LAB_RECORDING, write_experiment_from_model
+from .synthetic_experiment import LAB_RECORDING, Recording, write_experiment_from_model
 
 __all__ = [
     "CompositeComparison",
@@ -240,9 +240,10 @@ def write_composite_experiment(
 def experiment_from_composite(
     result: SimulationResult | str | Path,
     out_dir: str | Path,
+    *,
+    recording: Recording = LAB_RECORDING,
     seed: int = 0,
     overwrite: bool = False,
-    **recording,
 ) -> Path:
     """Write the experiment folder of a composite indentation: its force and top field as a lab records them.
 
@@ -256,9 +257,8 @@ def experiment_from_composite(
         The noise seed.
     overwrite : bool, default False
         Replace an experiment already there.
-    **recording
-        Options of :func:`inference.synthetic_experiment.write_experiment_from_model`; by
-        default ``inference.synthetic_experiment.LAB_RECORDING``.
+    recording : Recording, default LAB_RECORDING
+        How the run is recorded (:class:`~indentation_studio.inference.synthetic_experiment.Recording`).
 
     Returns
     -------
@@ -297,9 +297,9 @@ def experiment_from_composite(
         step_size=spec.protocol.step_size,
         truth=None,
         model=result.spec,
+        recording=recording,
         seed=seed,
         source=source,
-        **(LAB_RECORDING | recording),
     )
 
 

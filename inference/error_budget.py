@@ -1,5 +1,5 @@
-"""The error budget of a model (moved here from ``design.error_budget``: computing one fits a
-reference campaign, which is inference's; reading a measured one is
+"""The error budget of a model (computing one fits a reference campaign, which is inference's;
+reading a measured one is
 :mod:`indentation_studio.surrogate.error_budgets`'s): the parameter bias it causes in a fit, beside what a typical
 experiment can resolve.
 

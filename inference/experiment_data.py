@@ -33,8 +33,9 @@ from __future__ import annotations
 import json
 import zipfile
 import zlib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -73,6 +74,9 @@ class ExperimentData:
         Steps (1..N) left out of the fit.
     missing_steps : tuple of int
         Of those, the ones left out for lack of data (``exclude_missing``).
+    synthetic : dict
+        experiment.json's ``synthetic`` block (a synthetic or FEBio-made experiment's truth,
+        noise and source); empty for a lab's experiment.
     """
 
     root: Path
@@ -87,6 +91,7 @@ class ExperimentData:
     description: str = ""
     excluded_steps: tuple[int, ...] = ()  # steps (1..N) left out of the fit
     missing_steps: tuple[int, ...] = ()  # of those, the ones left out for lack of data (exclude_missing)
+    synthetic: dict[str, Any] = field(default_factory=dict)  # experiment.json's 'synthetic' block
 
     @property
     def used_steps(self) -> np.ndarray:
@@ -307,4 +312,5 @@ def load_experiment(root: str | Path, exclude_missing: bool = False) -> Experime
         description=str(meta.get("description", "")),
         excluded_steps=tuple(sorted(set(excluded) | set(missing))),
         missing_steps=tuple(missing),
+        synthetic=dict(meta.get("synthetic") or {}),
     )

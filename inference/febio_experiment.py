@@ -9,7 +9,6 @@ surrogate and FE model, as a measured one would be. Steps FEBio accepted off equ
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
@@ -19,7 +18,8 @@ from ..forward.febio.log import FebioLogError
 from ..forward.febio.readback import logged_block_material, read_febio_run
 from ..forward.predictor import Prediction, as_theta
 from ..forward.spec import Indenter, Material, MeshChoice, ModelSpec, Protocol
-from .synthetic_experiment import LAB_RECORDING, write_synthetic_experiment
+from .experiment_data import load_experiment
+from .synthetic_experiment import LAB_RECORDING, Recording, write_synthetic_experiment
 
 __all__ = ["RecordedRun", "experiment_from_febio_run", "febio_contact", "febio_experiment_summary"]
 
@@ -126,12 +126,7 @@ def experiment_from_febio_run(
     radius: float = 4.77,
     steps: int = 28,
     step_size: float = 0.5,
-    u_noise_mm: float = LAB_RECORDING["u_noise_mm"],
-    f_noise: float = LAB_RECORDING["f_noise"],
-    misregistration_mm: float = LAB_RECORDING["misregistration_mm"],
-    fov: float = LAB_RECORDING["fov"],
-    points: int = LAB_RECORDING["points"],
-    fiber_angle_deg: float = LAB_RECORDING["fiber_angle_deg"],
+    recording: Recording = LAB_RECORDING,
     seed: int = 0,
     overwrite: bool = False,
 ) -> Path:
@@ -154,8 +149,8 @@ def experiment_from_febio_run(
         The run's steps.
     step_size : float, default 0.5
         The run's step size, mm.
-    u_noise_mm, f_noise, misregistration_mm, fov, points, fiber_angle_deg
-        The recording (:func:`write_experiment_from_model`; default ``LAB_RECORDING``).
+    recording : Recording, default LAB_RECORDING
+        How the run is recorded (:class:`~indentation_studio.inference.synthetic_experiment.Recording`).
     seed : int, default 0
         The noise seed.
     overwrite : bool, default False
@@ -213,13 +208,8 @@ def experiment_from_febio_run(
         out_dir,
         radius=radius,
         step_size=step_size,
-        u_noise_mm=u_noise_mm,
-        f_noise=f_noise,
-        points=points,
-        fov=fov,
-        fiber_angle_deg=fiber_angle_deg,
+        recording=recording,
         seed=seed,
-        misregistration_mm=misregistration_mm,
         source=source,
     )
 
@@ -238,15 +228,13 @@ def febio_experiment_summary(folder: str | Path) -> dict[str, Any]:
         The folder, the run's (c1, c5), the steps left out, the depths FEBio accepted off
         equilibrium and a warning naming those steps (if any).
     """
-    meta = json.loads((Path(folder) / "experiment.json").read_text())
-    src = meta["synthetic"]["source"]
-    excluded = meta.get("excluded_steps", [])
+    exp = load_experiment(folder)
+    src = exp.synthetic["source"]
+    excluded = list(exp.excluded_steps)
     return {
         "experiment": str(folder),
         "theta": [src["c1"], src["c5"]],
         "excluded_steps": excluded,
         "off_equilibrium_depths_mm": src["off_equilibrium_depths_mm"],
-        "warnings": [f"steps FEBio accepted off equilibrium left out: {meta['excluded_steps']}"]
-        if excluded
-        else [],
+        "warnings": [f"steps FEBio accepted off equilibrium left out: {excluded}"] if excluded else [],
     }

@@ -8,7 +8,7 @@ multi-fidelity surrogate also knows two model errors, which are reported beside 
   the fit: each row l of L moves the residuals by dr_l and the fit, to first order, by
   d log theta_l = -(J^T J)^-1 J^T dr_l; the covariance is sum_l d log theta_l d log theta_l^T;
 * what the error budget leaves: the largest bias of the high-fidelity mesh itself against the
-  reference at the budget's test points (``design.error_budget``), a systematic half-width
+  reference at the budget's test points (``inference.error_budget``), a systematic half-width
   recorded in the surrogate's provenance (``meta['error_budget']``).
 
 A single-level surrogate knows the second part only, when an error budget of its own mesh for the

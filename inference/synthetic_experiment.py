@@ -11,6 +11,7 @@ sphere fit.
 
 from __future__ import annotations
 
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -20,17 +21,52 @@ from ..forward.mesh_study import top_field_interpolator
 from .experiment_folder import write_experiment_folder
 from .experiment_processing import rotation_to_fibers
 
+
+@dataclass(frozen=True)
+class Recording:
+    """How a DIC system and a load cell record a model run (:func:`write_experiment_from_model`).
+
+    Parameters
+    ----------
+    u_noise : float, default 0.02
+        Displacement noise as a fraction of max |u| per direction.
+    u_noise_mm : float, optional
+        Displacement noise in mm instead of ``u_noise``.
+    f_noise : float, default 0.02
+        Relative force noise.
+    points : int, default 6000
+        DIC points.
+    fov : float, default 25.0
+        The DIC field of view's radius, mm.
+    fiber_angle_deg : float or None, default 60.0
+        The fiber direction in the DIC frame, degrees from x.
+    write_fiber_angle : bool, default True
+        State the fiber angle in experiment.json (else it is to be estimated).
+    frame_offset : tuple of float, default (3.0, -2.0, 12.0)
+        The shift of the DIC frame's origin (added to the rotated model coordinates), mm.
+    hold_s : float, default 30.0
+        Length of each hold, s.
+    misregistration_mm : float, default 0.0
+        Moves the indenter's cap by that much in a random in-plane direction, so that the
+        registration (the sphere fit) puts the indentation point that far from the truth.
+    """
+
+    u_noise: float = 0.02
+    u_noise_mm: float | None = None
+    f_noise: float = 0.02
+    points: int = 6000
+    fov: float = 25.0
+    fiber_angle_deg: float | None = 60.0
+    write_fiber_angle: bool = True
+    frame_offset: tuple[float, float, float] = (3.0, -2.0, 12.0)
+    hold_s: float = 30.0
+    misregistration_mm: float = 0.0
+
+
 #: How a lab records a model run by default (the FEBio run's and the composite's experiments): 0.02 mm
 #: DIC noise, 2 % force noise, 0.1 mm misregistration, 6,000 points over a 25 mm field of view,
-#: fibers at 60 deg in the DIC frame (options of :func:`write_experiment_from_model`).
-LAB_RECORDING = {
-    "u_noise_mm": 0.02,
-    "f_noise": 0.02,
-    "misregistration_mm": 0.1,
-    "fov": 25.0,
-    "points": 6000,
-    "fiber_angle_deg": 60.0,
-}
+#: fibers at 60 deg in the DIC frame.
+LAB_RECORDING = Recording(u_noise_mm=0.02, f_noise=0.02, misregistration_mm=0.1, fov=25.0, points=6000)
 
 
 def write_synthetic_experiment(
@@ -39,8 +75,11 @@ def write_synthetic_experiment(
     out_dir: str | Path,
     radius: float,
     step_size: float,
+    *,
+    recording: Recording = Recording(),
+    seed: int = 0,
     source: dict | None = None,
-    **options,
+    **options: object,
 ) -> Path:
     """Simulate ``theta`` with ``predictor`` and write an experiment folder.
 
@@ -59,11 +98,15 @@ def write_synthetic_experiment(
         The indenter's radius, mm.
     step_size : float
         Indentation per step, mm.
+    recording : Recording, optional
+        How it is recorded (noise, field of view, frame, registration error); default
+        ``Recording()``.
+    seed : int, default 0
+        The noise seed.
     source : dict, optional
         Recorded under ``synthetic`` (e.g. the FEBio run it was made from).
     **options
-        Those of :func:`write_experiment_from_model` (noise, field of view, frame, registration
-        error, seed).
+        Fields of :class:`Recording` that replace ``recording``'s (e.g. ``f_noise=0.01``).
 
     Returns
     -------
@@ -82,12 +125,13 @@ def write_synthetic_experiment(
         pred.displacement[0],
         pred.top_xyz,
         out_dir,
-        radius,
-        step_size,
+        radius=radius,
+        step_size=step_size,
         truth=[float(v) for v in np.ravel(theta)],
         model=_model_of(predictor, source),
+        recording=replace(recording, **options),
+        seed=seed,
         source=source,
-        **options,
     )
 
 
@@ -96,21 +140,13 @@ def write_experiment_from_model(
     field: np.ndarray,
     top: np.ndarray,
     out_dir: str | Path,
+    *,
     radius: float,
     step_size: float,
-    truth: list[float] | None,
-    model: dict | None,
-    u_noise: float = 0.02,
-    f_noise: float = 0.02,
-    points: int = 6000,
-    fov: float = 25.0,
-    fiber_angle_deg: float | None = 60.0,
-    write_fiber_angle: bool = True,
-    frame_offset=(3.0, -2.0, 12.0),
-    hold_s: float = 30.0,
+    truth: list[float] | None = None,
+    model: dict | None = None,
+    recording: Recording = Recording(),
     seed: int = 0,
-    u_noise_mm: float | None = None,
-    misregistration_mm: float = 0.0,
     source: dict | None = None,
 ) -> Path:
     """Write the experiment folder of one model run, as a DIC system and a load cell would record it.
@@ -131,34 +167,16 @@ def write_experiment_from_model(
         The indenter's radius, mm.
     step_size : float
         Indentation per step, mm.
-    truth : list of float or None
+    truth : list of float, optional
         The (c1, c5) that made it; None where no homogeneous parameters did (the composite
         phantom).
-    model : dict or None
+    model : dict, optional
         The spec of the model.
-    u_noise : float, default 0.02
-        Displacement noise as a fraction of max |u| per direction.
-    f_noise : float, default 0.02
-        Relative force noise.
-    points : int, default 6000
-        DIC points.
-    fov : float, default 25.0
-        The DIC field of view's radius, mm.
-    fiber_angle_deg : float or None, default 60.0
-        The fiber direction in the DIC frame, degrees from x.
-    write_fiber_angle : bool, default True
-        State the fiber angle in experiment.json (else it is to be estimated).
-    frame_offset : tuple of float, default (3.0, -2.0, 12.0)
-        The shift of the DIC frame's origin (added to the rotated model coordinates), mm.
-    hold_s : float, default 30.0
-        Length of each hold, s.
+    recording : Recording, optional
+        How it is recorded (noise, DIC points, field of view, frame, holds, registration error);
+        default ``Recording()``.
     seed : int, default 0
         The noise seed.
-    u_noise_mm : float, optional
-        Displacement noise in mm instead of ``u_noise``.
-    misregistration_mm : float, default 0.0
-        Moves the indenter's cap by that much in a random in-plane direction, so that the
-        registration (the sphere fit) puts the indentation point that far from the truth.
     source : dict, optional
         Recorded under ``synthetic``.
 
@@ -167,6 +185,9 @@ def write_experiment_from_model(
     pathlib.Path
         The experiment folder.
     """
+    rec = recording
+    u_noise, u_noise_mm, f_noise = rec.u_noise, rec.u_noise_mm, rec.f_noise
+    points, fov, fiber_angle_deg = rec.points, rec.fov, rec.fiber_angle_deg
     rng = np.random.default_rng(seed)
     out = Path(out_dir)
     force, field, top = np.asarray(force, float), np.asarray(field, float), np.asarray(top, float)
@@ -189,7 +210,7 @@ def write_experiment_from_model(
     xyz_model = np.column_stack([xy, np.zeros(len(xy))])
     # the DIC frame: fibers (model +y) at fiber_angle_deg from its x axis, origin shifted
     Q = rotation_to_fibers(fiber_angle_deg if fiber_angle_deg is not None else 90.0).T
-    offset = np.asarray(frame_offset, float)
+    offset = np.asarray(rec.frame_offset, float)
     xyz_dic = xyz_model @ Q.T + offset
     u_dic = u @ Q.T
     # the indenter's upper cap in the reference state (sphere touching the surface at the origin)
@@ -197,11 +218,11 @@ def write_experiment_from_model(
     a, b = 2 * np.pi * rng.random(k), np.arccos(rng.uniform(0.2, 1.0, k))
     cap = radius * np.column_stack([np.sin(b) * np.cos(a), np.sin(b) * np.sin(a), 1.0 + np.cos(b)])
     cap = cap + 0.002 * rng.standard_normal(cap.shape)
-    slip = rng.uniform(0.0, 2 * np.pi) if misregistration_mm else 0.0  # no draw: same noise as before
-    cap_shift = misregistration_mm * np.array([np.cos(slip), np.sin(slip), 0.0])
+    slip = rng.uniform(0.0, 2 * np.pi) if rec.misregistration_mm else 0.0  # no draw: same noise as before
+    cap_shift = rec.misregistration_mm * np.array([np.cos(slip), np.sin(slip), 0.0])
     cap = cap + cap_shift
     # relaxation during each hold (eq. 9): f(t) = f_inf (1 + 0.3 exp(-t / 8 s)), readings every second
-    t = np.arange(0.0, hold_s + 1e-9, 1.0)
+    t = np.arange(0.0, rec.hold_s + 1e-9, 1.0)
     rows = []
     unknown = [s + 1 for s in range(steps) if not np.isfinite(force[s])]
     for s in range(steps):
@@ -214,7 +235,7 @@ def write_experiment_from_model(
         "radius_mm": radius,
         "step_size_mm": step_size,
         "steps": steps,
-        "fiber_angle_deg": fiber_angle_deg if write_fiber_angle else None,
+        "fiber_angle_deg": fiber_angle_deg if rec.write_fiber_angle else None,
         "description": "synthetic",
         **({"excluded_steps": unknown} if unknown else {}),
         "synthetic": {

@@ -9,7 +9,6 @@ posterior and its FE confirmation; the figures and one HTML page in ``runs/<name
 
 from __future__ import annotations
 
-import json
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -27,6 +26,7 @@ from ..design.weights import PAPER_HESSIAN, compare_with_paper
 from ..forward.mesh import build_mesh
 from ..forward.spec import ModelSpec
 from ..inference.confirmation import confirm
+from ..inference.experiment_data import load_experiment
 from ..inference.experiment_fit import fit_experiment
 from ..inference.experiment_posterior import sample_posterior_for
 from ..inference.experiment_processing import static_forces
@@ -202,7 +202,7 @@ def _surrogates(data, test, folder: Path, out: Path, say: Callable[[str], None])
 
 def _example(experiment, mlp, posterior_steps: int, out: Path, spec: ModelSpec, say) -> dict:
     """The shipped example: fit (MLP, then FE), posterior, FE confirmation, their figures."""
-    truth = json.loads((Path(experiment) / "experiment.json").read_text()).get("synthetic", {}).get("theta")
+    truth = load_experiment(experiment).synthetic.get("theta")
     # the paper's contact, as the shipped example was made with it (a fit not told marginalises mu)
     result = fit_experiment(experiment, mlp, weights=ETA, say=say, friction="assumed")
     fit = result.fit

@@ -22,9 +22,11 @@ from indentation_studio.campaign.designs import (
     points_from_csv,
     space_filling,
 )
+from indentation_studio.campaign.errors import CampaignError
 from indentation_studio.campaign.loader import force_table, load_campaign
 from indentation_studio.campaign.runner import run_campaign
-from indentation_studio.campaign.store import CampaignError, CampaignSpec, CampaignStore
+from indentation_studio.campaign.spec import CampaignSpec
+from indentation_studio.campaign.store import CampaignStore
 from indentation_studio.forward.result import SimulationResult
 from indentation_studio.forward.solver import EmbeddedSolver, SimulationError, simulate
 from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
@@ -367,7 +369,7 @@ def test_a_changed_campaign_json_is_named(tmp_path):
 def test_a_full_disk_is_a_clear_error_and_nothing_is_written_half(tmp_path, monkeypatch):
     import errno
 
-    from indentation_studio.campaign.store import DiskFullError
+    from indentation_studio.campaign.errors import DiskFullError
 
     store = CampaignStore.create_or_open(tmp_path, _spec("full", GRID))
     calls = {"n": 0}
@@ -409,7 +411,7 @@ def test_two_runs_started_together_solve_each_point_once(tmp_path):
 
 
 def test_claims_held_by_a_live_run_are_skipped_and_named_and_a_dead_ones_taken_over(tmp_path):
-    from indentation_studio.campaign.store import RunIdentity
+    from indentation_studio.campaign.leases import RunIdentity
 
     store = CampaignStore.create_or_open(tmp_path, _spec("cl", GRID))
     other = RunIdentity("elsewhere01", "node17.cluster", 4242, time.time() - 60)

@@ -3,9 +3,12 @@ bias; the expected noise objective matches Monte Carlo; a coarser mesh's bias is
 
 from __future__ import annotations
 
+import importlib
+
 import numpy as np
 import pytest
 
+import indentation_studio as ins
 from indentation_studio.design.objective import PAPER_WEIGHTS, Objective
 from indentation_studio.forward.predictor import FESolverPredictor
 from indentation_studio.forward.solver import simulate
@@ -15,9 +18,10 @@ from indentation_studio.inference.error_budget import (
     model_top_xyz,
     noise_objective_value,
     reference_prediction,
+    resolve_model,
 )
 from indentation_studio.inference.inverse_fit import fit_parameters
-from indentation_studio.surrogate.error_budgets import remaining_bias
+from indentation_studio.surrogate.error_budgets import remaining_bias, shipped_budget
 
 PROTOCOL = Protocol(step_size=0.5, steps=3)
 COARSE = ModelSpec(mesh=MeshChoice("coarse"), protocol=PROTOCOL)
@@ -341,15 +345,21 @@ def test_contact_model_bias_of_a_stick_fit_to_frictional_data():
     np.testing.assert_allclose(budget_row, lm_bias, atol=0.05)
 
 
-def test_moved_names_keep_their_old_path_for_one_version_with_a_warning():
-    import indentation_studio as ins
-    from indentation_studio.inference.error_budget import compute_error_budget as new
-    from indentation_studio.surrogate.error_budgets import shipped_budget as new_reader
-
-    with pytest.warns(DeprecationWarning, match="moved to indentation_studio.inference.error_budget"):
-        from indentation_studio.design.error_budget import compute_error_budget as old
-    assert old is new
-    with pytest.warns(DeprecationWarning, match="surrogate.error_budgets"):
-        assert ins.design.shipped_budget is new_reader
-    with pytest.warns(DeprecationWarning, match="design.friction_treatment"):
-        assert ins.inference.FrictionTreatment is ins.design.FrictionTreatment
+def test_moved_names_have_only_their_new_path():
+    """0.2.0 removed the old paths of the names that moved (docs/changelog.md): a design module
+    forwarding to inference by strings, and the modules that only forwarded a moved one."""
+    for old in (
+        "indentation_studio.design.error_budget",
+        "indentation_studio.inference.friction_treatment",
+        "indentation_studio.inference.units",
+        "indentation_studio.forward.feb_writer",
+    ):
+        with pytest.raises(ModuleNotFoundError):
+            importlib.import_module(old)
+    for package, name in (
+        ("design", "shipped_budget"),
+        ("design", "resolve_model"),
+        ("inference", "FrictionTreatment"),
+    ):
+        assert not hasattr(importlib.import_module(f"indentation_studio.{package}"), name)
+    assert ins.surrogate.shipped_budget is shipped_budget and ins.inference.resolve_model is resolve_model

@@ -4,8 +4,11 @@ on a finer mesh fitted back on a coarser one."""
 
 from __future__ import annotations
 
+import ast
+import dataclasses
 import json
 import shutil
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -22,13 +25,19 @@ from indentation_studio.inference.experiment_processing import (
     to_model_frame,
 )
 from indentation_studio.inference.inverse_fit import fit_parameters
-from indentation_studio.inference.synthetic_experiment import write_synthetic_experiment
+from indentation_studio.inference.synthetic_experiment import (
+    LAB_RECORDING,
+    Recording,
+    write_experiment_from_model,
+    write_synthetic_experiment,
+)
 
 PROTOCOL = Protocol(step_size=0.5, steps=4)
 FINE = ModelSpec(mesh=MeshChoice("fine"), protocol=PROTOCOL)  # makes the data
 FIT = ModelSpec(mesh=MeshChoice("default"), protocol=PROTOCOL)  # fits it (no inverse crime)
 TRUE = np.array([12.0, 250.0])
 ETA = (0.45, 0.35, 0.2, 0.0)
+ROOT = Path(__file__).resolve().parents[1]
 
 
 @pytest.fixture(scope="module")
@@ -52,6 +61,30 @@ def test_relaxation_fit_recovers_f_inf():
 
 
 @pytest.mark.slow
+def test_experiment_json_is_read_only_by_load_experiment(experiment):
+    """The synthetic block comes with the loaded experiment, and no other module of the package
+    parses experiment.json itself (``json.load(s)`` on an expression naming it)."""
+    exp = load_experiment(experiment)
+    np.testing.assert_array_equal(exp.synthetic["theta"], TRUE)
+    assert exp.synthetic["f_noise"] == 0.02
+    reads = []
+    for folder in ("forward", "campaign", "surrogate", "design", "inference", "studio"):
+        for path in sorted((ROOT / folder).rglob("*.py")):
+            for node in ast.walk(ast.parse(path.read_text())):
+                if (
+                    isinstance(node, ast.Call)
+                    and isinstance(node.func, ast.Attribute)
+                    and node.func.attr in ("load", "loads")
+                    and isinstance(node.func.value, ast.Name)
+                    and node.func.value.id == "json"
+                    and any(
+                        isinstance(n, ast.Constant) and n.value == "experiment.json" for n in ast.walk(node)
+                    )
+                ):
+                    reads.append(f"{path.relative_to(ROOT)}:{node.lineno}")
+    assert reads == [], "experiment.json read directly (use load_experiment):\n" + "\n".join(reads)
+
+
 def test_sphere_fit_and_registration(experiment):
     exp = load_experiment(experiment)
     _, r = fit_sphere(exp.indenter_xyz)
@@ -193,3 +226,21 @@ def test_misregistration_and_absolute_dic_noise(tmp_path):
     assert np.linalg.norm(off) == pytest.approx(0.3, abs=0.01) and abs(off[2]) < 0.01
     assert meta["u_noise_mm"] == 0.05 and np.linalg.norm(meta["misregistration_mm"]) == pytest.approx(0.3)
     assert np.std(data.dic_u) == pytest.approx(0.05, rel=0.02)  # the field is zero: what is left is noise
+    # the same recording as an object: the same files, byte for byte in the DIC array
+    again = write_synthetic_experiment(
+        Flat(),
+        TRUE,
+        tmp_path / "m2",
+        radius=4.77,
+        step_size=0.5,
+        seed=1,
+        recording=Recording(u_noise_mm=0.05, misregistration_mm=0.3),
+    )
+    np.testing.assert_array_equal(load_experiment(again).dic_u, data.dic_u)
+    with pytest.raises(TypeError):  # the recording is keyword-only
+        write_experiment_from_model(
+            np.ones(2), np.zeros((2, 121, 3)), np.zeros((121, 3)), tmp_path / "x", 4.77, 0.5
+        )
+    assert LAB_RECORDING.u_noise_mm == 0.02 and LAB_RECORDING.misregistration_mm == 0.1
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        LAB_RECORDING.f_noise = 0.5  # type: ignore[misc]

@@ -20,9 +20,11 @@ from conftest import FEBIO_BASELINE
 from typer.testing import CliRunner
 
 from indentation_studio.campaign.designs import Design
+from indentation_studio.campaign.errors import CampaignError
 from indentation_studio.campaign.loader import force_table, load_campaign
 from indentation_studio.campaign.runner import run_campaign
-from indentation_studio.campaign.store import CampaignError, CampaignSpec, CampaignStore
+from indentation_studio.campaign.spec import CampaignSpec
+from indentation_studio.campaign.store import CampaignStore
 from indentation_studio.forward.febio.equilibrium import (
     EquilibriumTolerance,
     check_equilibrium,
@@ -299,8 +301,14 @@ def test_febio_run_as_a_dic_like_experiment_leaves_out_the_step_off_equilibrium(
     from indentation_studio.inference.experiment_data import load_experiment
     from indentation_studio.inference.experiment_processing import static_forces
     from indentation_studio.inference.febio_experiment import RecordedRun, experiment_from_febio_run
+    from indentation_studio.inference.synthetic_experiment import LAB_RECORDING
 
-    out = experiment_from_febio_run(febio_baseline / "baseline.log", tmp_path / "e", f_noise=0.001, seed=5)
+    out = experiment_from_febio_run(
+        febio_baseline / "baseline.log",
+        tmp_path / "e",
+        recording=replace(LAB_RECORDING, f_noise=0.001),
+        seed=5,
+    )
     meta = json.loads((out / "experiment.json").read_text())
     assert meta["excluded_steps"] == [25]  # 12.5 mm, FEBio's step off equilibrium
     src = meta["synthetic"]["source"]
@@ -311,6 +319,7 @@ def test_febio_run_as_a_dic_like_experiment_leaves_out_the_step_off_equilibrium(
     assert src["contact"]["febio"]["fric_coeff"] == 1e8
     assert meta["synthetic"]["model"]["contact"] == src["contact"]
     exp = load_experiment(out)
+    assert exp.synthetic == meta["synthetic"] and exp.excluded_steps == (25,)
     f_inf, _ = static_forces(exp)
     assert np.isnan(f_inf[24])
     spec = ModelSpec(mesh=MeshChoice(feb_file=str(febio_baseline / "baseline.feb")))

@@ -7,12 +7,13 @@ fall (their place is at the top of the module; lazy_loader makes the packages' n
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 import networkx as nx
 
 ROOT = Path(__file__).resolve().parents[1]
-#: Bottom to top. ``indentation_studio`` is the root package's own modules (atomic writes, moved names).
+#: Bottom to top. ``indentation_studio`` is the root package's own modules (atomic writes).
 LAYERS = ("indentation_studio", "forward", "campaign", "surrogate", "design", "inference", "studio")
 #: Own-module imports inside functions: 119 before the layers were checked, 76 since, 25 once the
 #: commands reached the library through the lazy packages, 11 once forward, campaign and inference
@@ -65,6 +66,31 @@ def _imports(name: str, path: Path) -> list[tuple[str, bool]]:
     return found
 
 
+#: A module path written as a string (what ``importlib.import_module`` or a lazy registry takes).
+_MODULE_PATH = re.compile(r"indentation_studio\.(\w+)(\.\w+)*")
+
+
+def _module_strings(path: Path) -> list[str]:
+    """Every string constant of a module that is a module path of the package, docstrings left out."""
+    tree = ast.parse(path.read_text())
+    docstrings = {
+        id(node.body[0].value)
+        for node in ast.walk(tree)
+        if isinstance(node, ast.Module | ast.ClassDef | ast.FunctionDef | ast.AsyncFunctionDef)
+        and node.body
+        and isinstance(node.body[0], ast.Expr)
+        and isinstance(node.body[0].value, ast.Constant)
+    }
+    return [
+        node.value
+        for node in ast.walk(tree)
+        if isinstance(node, ast.Constant)
+        and isinstance(node.value, str)
+        and id(node) not in docstrings
+        and _MODULE_PATH.fullmatch(node.value)
+    ]
+
+
 def _graph():
     modules = _modules()
     edges = []
@@ -83,6 +109,20 @@ def test_each_package_imports_only_the_layers_below_it():
         if dst.split(".")[0] in rank and rank[dst.split(".")[0]] > rank[src.split(".")[0]]
     )
     assert not upward, "imports against the layers:\n" + "\n".join(upward)
+
+
+def test_no_module_forwards_to_a_layer_above_it_by_strings():
+    """A module path in a string (``importlib.import_module("indentation_studio.inference.x")``,
+    a ``__getattr__`` that fetches names from there) is an import the check above cannot see:
+    none may name a module of a layer above the module's own."""
+    rank = {pkg: k for k, pkg in enumerate(LAYERS)}
+    upward = sorted(
+        f"{name} names {text!r}"
+        for name, path in _modules().items()
+        for text in _module_strings(path)
+        if rank.get(text.split(".")[1], -1) > rank[name.split(".")[0]]
+    )
+    assert not upward, "module paths against the layers, written as strings:\n" + "\n".join(upward)
 
 
 def test_no_module_cycle_even_through_imports_inside_functions():

@@ -11,7 +11,8 @@ import pytest
 from indentation_studio.campaign.designs import design_from_option
 from indentation_studio.campaign.loader import CampaignData
 from indentation_studio.campaign.runner import run_campaign
-from indentation_studio.campaign.store import CampaignSpec, CampaignStore
+from indentation_studio.campaign.spec import CampaignSpec
+from indentation_studio.campaign.store import CampaignStore
 from indentation_studio.design.objective import Objective
 from indentation_studio.design.reduced_objective import FieldObjective, ReducedObjective, objective_function
 from indentation_studio.forward.mesh_study import top_field_interpolator

@@ -41,7 +41,7 @@ def test_model_error_is_reachable_from_a_notebook():
     """The error budget, what it leaves for a mesh, and the words a bound says it holds."""
     left = ins.shipped_budget(ins.ModelSpec())  # the paper's test on 'default'
     assert left["source"]["model"] == "default" and left["c5_pct"] > 20
-    assert callable(ins.design.remaining_bias) and callable(ins.design.surrogate_error_budget)
+    assert callable(ins.surrogate.remaining_bias) and callable(ins.surrogate.surrogate_error_budget)
     assert "hold no model error" in ins.inference.model_error_scope(None)
     assert callable(ins.inference.combined_pct) and callable(ins.forward.thread_limits)
     at = ins.surrogate.budget_at(left, [11.0, 330.0])  # a budget against one finer mesh: its largest value
@@ -57,7 +57,7 @@ def test_friction_is_reachable_from_a_notebook():
     spec = ins.ModelSpec().with_friction(0.3)
     assert spec.contact == ins.forward.Contact(friction=0.3)
     assert spec.with_parameters(mu=1.0).contact.friction == 1.0
-    stick, _ = ins.design.resolve_model("coarse@stick", spec)
+    stick, _ = ins.inference.resolve_model("coarse@stick", spec)
     assert stick.predictor.spec.contact.friction is None
     assert "Coulomb friction mu = 0.3 assumed" in ins.inference.model_error_scope(
         None, contact=spec.contact.describe()

@@ -19,7 +19,8 @@ from typer.testing import CliRunner
 from indentation_studio.campaign.designs import design_from_option
 from indentation_studio.campaign.loader import load_campaign
 from indentation_studio.campaign.runner import run_campaign
-from indentation_studio.campaign.store import CampaignSpec, CampaignStore
+from indentation_studio.campaign.spec import CampaignSpec
+from indentation_studio.campaign.store import CampaignStore
 from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
 from indentation_studio.studio.cli import app
 from indentation_studio.surrogate.base import TrainingData

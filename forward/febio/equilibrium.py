@@ -32,7 +32,7 @@ The balance alone suffices for the failure seen (the indenter's reaction jumps w
 stays consistent); a jump test against neighbouring steps was not added: it would misfire where
 the force rises steeply at contact onset, and an equilibrium state cannot carry a force that the
 bottom does not carry too. A result without bottom reactions (a log not written by
-:func:`forward.feb_writer.write_feb`) is marked unchecked instead.
+:func:`forward.febio.writer.write_feb`) is marked unchecked instead.
 """
 
 from __future__ import annotations

@@ -1,12 +1,12 @@
 """Read a FEBio 4 logfile into the studio's result schema.
 
 FEBio writes a ``Data Record`` block per logfile request after every converged increment; the
-writer (:mod:`forward.feb_writer`) asks for the top-surface displacements ``ux;uy;uz``, the
+writer (:mod:`forward.febio.writer`) asks for the top-surface displacements ``ux;uy;uz``, the
 rigid indenter's ``z;Fx;Fy;Fz`` and the bottom reactions ``Rz``. Only the must points are kept:
 the whole times 0, 1, ..., steps (one time unit per indentation step). The quarter model's
 indentation force is ``-Fz`` (FEBio's rigid-body reaction is negative while the sphere pushes
 down); the whole specimen's is 4 times that. Every step is checked for equilibrium against the
-bottom reactions (:mod:`forward.febio_equilibrium`): a step FEBio accepted off equilibrium is
+bottom reactions (:mod:`forward.febio.equilibrium`): a step FEBio accepted off equilibrium is
 flagged and its force is NaN.
 """
 
@@ -149,7 +149,7 @@ def febio_result(
 ) -> SimulationResult:
     """The must-point records of ``log`` as a :class:`SimulationResult` (depth 0 first).
 
-    Steps off equilibrium by ``tolerance`` (:func:`forward.febio_equilibrium.check_equilibrium`)
+    Steps off equilibrium by ``tolerance`` (:func:`forward.febio.equilibrium.check_equilibrium`)
     are flagged in ``off_equilibrium`` and their forces are NaN. Raises :class:`FebioLogError`
     when the log lacks the writer's data requests.
     """

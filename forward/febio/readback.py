@@ -1,7 +1,7 @@
 """Read back a FEBio run made elsewhere (its ``.log`` and the ``.feb`` it ran) as a result.
 
-The result is the one :class:`forward.febio_runner.FebioSolver` would have returned for the same
-model spec, equilibrium check included (:mod:`forward.febio_equilibrium`), without running
+The result is the one :class:`forward.febio.runner.FebioSolver` would have returned for the same
+model spec, equilibrium check included (:mod:`forward.febio.equilibrium`), without running
 FEBio. The log must be of that spec: the block material's c1, c5 and k that FEBio echoes, the
 indenter's starting height (block height + radius), the number of steps, the depth of every
 step and the top-surface node ids are checked, and the first mismatch is named.

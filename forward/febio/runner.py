@@ -7,7 +7,7 @@ folder holding the ``.feb``, FEBio's log and plot file; FEBio is started with an
 a failure raises :class:`FebioError`, which names the depth reached, quotes the log's last
 lines and carries the steps that did converge.
 
-Every must point is checked for equilibrium (:mod:`forward.febio_equilibrium`). When FEBio
+Every must point is checked for equilibrium (:mod:`forward.febio.equilibrium`). When FEBio
 accepted steps off equilibrium, the model is run once more with
 :meth:`FebSettings.tightened` (smaller increments, tighter convergence norms) in ``rerun/`` of
 the work folder, and the run with fewer flagged steps is kept (the first on a tie, or when the

@@ -15,7 +15,7 @@ FEBio 4 needed (README, "FEBio backend") are the defaults of :class:`FebSettings
   (``late_max_increment``) from ``late_from_depth`` on.
 
 :meth:`FebSettings.tightened` gives the settings of the one rerun the runner makes when FEBio
-accepted steps off equilibrium (:mod:`forward.febio_equilibrium`).
+accepted steps off equilibrium (:mod:`forward.febio.equilibrium`).
 
 Time is measured in steps (one time unit per indentation step), so the must points, where the
 log records the results that the parser keeps, fall on the whole times 1, 2, ..., steps.
