@@ -17,8 +17,10 @@ from indentation_studio.studio.demo import run_demo
 def test_demo_small_end_to_end(tmp_path):
     protocol = Protocol(step_size=0.5, steps=4)
     spec = ModelSpec(mesh=MeshChoice("coarse"), protocol=protocol)
+    # made on the demo's own model: the fit's only error is the 2 % noise, so its 95 % bounds
+    # must hold the truth
     exp = write_synthetic_experiment(
-        FESolverPredictor(ModelSpec(mesh=MeshChoice("default"), protocol=protocol)),
+        FESolverPredictor(spec),
         np.array([12.0, 250.0]),
         tmp_path / "exp",
         radius=4.77,
@@ -53,4 +55,10 @@ def test_demo_small_end_to_end(tmp_path):
     results = json.loads((report.parent / "results.json").read_text())
     assert results["campaign"]["points"] == 16 and results["campaign"]["failed"] == 0
     assert len(results["table1"]) == 5 and results["fit"]["truth"] == [12.0, 250.0]
-    assert 8.0 < results["fit"]["theta"][0] < 16.0  # coarse model, shallow test: a loose check
+    fit = results["fit"]
+    theta, bounds = np.asarray(fit["theta"]), np.asarray(fit["bounds_pct"])
+    off_pct = 100.0 * np.abs(theta / np.array([12.0, 250.0]) - 1.0)
+    assert np.all(off_pct <= bounds), (theta, bounds)  # the truth inside both 95 % bounds
+    assert off_pct[1] < 10.0 and bounds[1] < 25.0  # c5 found, and its bound says something
+    assert fit["adequacy"]["flagged"] is False  # the model explains its own data
+    assert "These bounds hold" in page and "Model inadequate" not in page
