@@ -733,17 +733,21 @@ def _fe_start(objective, fe, eta, theta: np.ndarray, mu_range: tuple[float, floa
     smooth where nodes switch between stick and slip, so a single start in the middle of the range
     can hold the fit in a valley far above the data's minimum (FEBio's baseline: from mu = 0.55 the
     fit stopped at F = 0.043 near mu = 0.5, where mu = 3 gives 0.030)."""
-    best, best_F = None, np.inf
+    best, best_F, skipped = None, np.inf, []
     for mu in np.geomspace(mu_range[0], mu_range[1], FE_MU_STARTS):
         point = np.append(theta, mu)
         try:
             F = float(objective.value(fe.predict(point[None, :]), eta)[0])
-        except SimulationError as exc:
-            say(f"  start at mu = {mu:.3g}: the simulation failed ({exc}); not a start")
+        except SimulationError as exc:  # a start, not the fit: skipped and counted, no alarm
+            skipped.append(f"mu = {mu:.3g} (stops at {exc.depth_reached:g} mm)")
             continue
         say(f"  start at mu = {mu:.3g}: F = {F:.4g}")
         if F < best_F:
             best, best_F = point, F
+    if skipped:
+        say(
+            f"  {len(skipped)} of {FE_MU_STARTS} starts skipped, not simulable at this (c1, c5): {', '.join(skipped)}"
+        )
     if best is None:
         raise SimulationError(f"no start of the FE stage in mu's range {mu_range} could be simulated", 0.0)
     return best
