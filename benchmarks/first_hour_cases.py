@@ -20,7 +20,7 @@ import numpy as np
 import pandas as pd
 
 sys.path.insert(0, str(Path(__file__).parent))
-from contact_detection_table import synthetic_record  # noqa: E402
+from contact_detection_table import synthetic_record
 
 LAB = Path("examples/lab-matchid")
 

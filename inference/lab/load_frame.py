@@ -105,7 +105,7 @@ def _guess(table: pd.DataFrame, given: str | None, names: tuple[str, ...], path:
         if any(w in names for w in words[c][1:]):
             return c
     raise ExperimentDataError(
-        f"{path}: no {role} column found by name (has {', '.join(table.columns)}); name it explicitly"
+        f"{path}: no {role} column found by name (has {', '.join(table.columns)}); name it (--{role}-col)"
     )
 
 
