@@ -9,8 +9,9 @@ relaxes by eq. 9 to Hertz's F = 16/3 mu sqrt(R) d^1.5, mu = 4 kPa, R = 4.77 mm, 
 4 s time constant), 0.5 % force noise (of step 1's force), a load cell drifting 0.005 mN/s, and
 the withdrawal to 1 mm above the contact. The lead-ins:
 
-* ``preload``: the record starts at the contact with a 12 mN preload (the lab's zero: the steps
-  are counted from there, as a test machine does after its preload);
+* ``preload``: the record starts with the indenter pressed in to a 12 mN preload (0.40 mm past the
+  first touch, by Hertz), the lab's zero: the steps are counted from there, as a test machine
+  does after its preload; the true contact of the protocol is that first position;
 * ``contact``: the record starts at the contact, unloaded, 10 s before step 1;
 * ``air-10s``, ``air-300s``: the stage approaches the specimen through air for 10 s (from 2 mm
   above) or 300 s (from 3 mm above), and goes on into step 1 without stopping at the contact.
@@ -58,12 +59,15 @@ def synthetic_record(
     ``lead_in`` (module docstring), and the position of its true contact (mm)."""
     rng = np.random.default_rng(seed)
     pieces: list[tuple[float, object, object]] = []  # (duration, depth(s), force(s)); depth from contact
-    offset = 0.0  # force on the specimen at depth 0 (the preload)
+    pressed = 0.0  # depth past the first touch at the protocol's zero (the preload's)
     if lead_in == "preload":
-        offset = preload_mN
-        pieces.append((10.0, lambda s: 0.0 * s, lambda s: 0.0 * s))
-    elif lead_in == "contact":
-        pieces.append((10.0, lambda s: 0.0 * s, lambda s: 0.0 * s))
+        pressed = (preload_mN / float(hertz(np.array(1.0)))) ** (2.0 / 3.0)
+
+    def touch(d):  # the force at depth d from the protocol's zero
+        return hertz(np.asarray(d) + pressed)
+
+    if lead_in in ("preload", "contact"):
+        pieces.append((10.0, lambda s: 0.0 * s, lambda s: touch(0.0 * s)))
     elif lead_in.startswith("air-"):
         approach_s = float(lead_in[4:-1])
         height = 2.0 if approach_s <= 10 else 3.0
@@ -71,7 +75,7 @@ def synthetic_record(
         pieces.append((approach_s, lambda s, h=height, a=approach_s: -h + h * s / a, lambda s: 0.0 * s))
     else:
         raise ValueError(f"lead-in {lead_in!r}: one of {', '.join(LEAD_INS)}")
-    g_prev, d_prev = 1.0 + relax, 0.0
+    g_prev, d_prev = 1.0 + relax, 0.0  # the first ramp loads the specimen at its instantaneous modulus
     for k in range(1, steps + 1):
         d_k = STEP_SIZE * k
         pieces.append(
@@ -79,7 +83,7 @@ def synthetic_record(
                 ramp_s,
                 lambda s, a=d_prev, b=d_k: a + (b - a) * s / ramp_s,
                 lambda s, a=d_prev, b=d_k, g=g_prev: (
-                    hertz(a + (b - a) * s / ramp_s) * (g + (1.0 + relax - g) * s / ramp_s)
+                    touch(a + (b - a) * s / ramp_s) * (g + (1.0 + relax - g) * s / ramp_s)
                 ),
             )
         )
@@ -87,12 +91,12 @@ def synthetic_record(
             (
                 hold_s,
                 lambda s, d=d_k: d + 0.0 * s,
-                lambda s, d=d_k: hertz(np.full_like(s, d)) * (1.0 + relax * np.exp(-s / tau_s)),
+                lambda s, d=d_k: touch(np.full_like(s, d)) * (1.0 + relax * np.exp(-s / tau_s)),
             )
         )
         g_prev, d_prev = 1.0 + relax * np.exp(-hold_s / tau_s), d_k
     pieces.append(
-        (2.0, lambda s, a=d_prev: a - (a + 1.0) * s / 2.0, lambda s, a=d_prev: hertz(a - (a + 1.0) * s / 2.0))
+        (2.0, lambda s, a=d_prev: a - (a + 1.0) * s / 2.0, lambda s, a=d_prev: touch(a - (a + 1.0) * s / 2.0))
     )
     pieces.append((10.0, lambda s: -1.0 + 0.0 * s, lambda s: 0.0 * s))
     dt = 1.0 / rate_hz
@@ -104,8 +108,6 @@ def synthetic_record(
         sel = (t >= start - 1e-9 * dt) & (t < start + duration - 1e-9 * dt)
         depth[sel], force[sel] = d_of(t[sel] - start), f_of(t[sel] - start)
         start += duration
-    loaded = depth >= 0.0
-    force = np.where(loaded & (t < start - 12.0), force + offset, force)  # the preload until withdrawn
     f1 = float(hertz(np.array(STEP_SIZE)))
     force = force + drift_mN_per_s * t + noise * f1 * rng.standard_normal(len(t))
     record = pd.DataFrame({"Time [s]": t, "Position [mm]": POSITION0 - depth, "Force [N]": -force * 1e-3})

@@ -97,7 +97,7 @@ def _first_indentation_window(ft, sig, t, d, first_hold_end_s) -> tuple[float, f
     if base <= 0 or not indented.size or indented[0] == 0:
         return None
     f = int(indented[0])
-    moved = np.flatnonzero(d > 0)
+    moved = np.flatnonzero(d > 1e-3 * float(d.max()))  # beyond the contact found (to its precision)
     if not moved.size:
         return None
     leave = float(t[moved[0] - 1] if moved[0] > 0 else t[0])
