@@ -75,6 +75,16 @@ ENCODING = Annotated[
     str | None,
     typer.Option(help="text encoding of the CSV files, e.g. cp1252 (default: UTF-8, else detected)"),
 ]
+DELIMITER = Annotated[
+    str | None,
+    typer.Option(help="the CSV files' field delimiter: ',', ';' or 'tab' (default: detected)"),
+]
+DECIMAL = Annotated[
+    str | None,
+    typer.Option(
+        help="the CSV files' decimal separator: '.' or ',' (default: detected; ',' with ';' or tab)"
+    ),
+]
 
 
 def _offset(text: str) -> float | None:
@@ -122,10 +132,13 @@ class LabOptions:
     description: str = ""
     overwrite: bool = False
     encoding: str | None = None
+    delimiter: str | None = None
+    decimal: str | None = None
 
-    def csv_encoding(self):
-        """The block in which CSV files are read as ``encoding`` (:func:`inference.lab.csv_text.csv_encoding`)."""
-        return inference.lab.csv_encoding(self.encoding)
+    def csv_reading(self):
+        """The block in which CSV files are read with ``encoding``, ``delimiter`` and ``decimal``
+        (:func:`inference.lab.csv_text.csv_reading`)."""
+        return inference.lab.csv_reading(self.encoding, delimiter=self.delimiter, decimal=self.decimal)
 
     def protocol(self) -> inference.lab.ProtocolInfo:
         """The protocol: radius, step size, steps, fiber angle, description and steps left out."""
@@ -204,6 +217,8 @@ LAB_FLAGS = {
     "description": DESCRIPTION,
     "overwrite": OVERWRITE,
     "encoding": ENCODING,
+    "delimiter": DELIMITER,
+    "decimal": DECIMAL,
 }
 #: The flags of the load-frame record alone (``import load-frame``).
 RECORD_FLAGS = (
@@ -220,6 +235,8 @@ RECORD_FLAGS = (
     "contact_position",
     "min_hold",
     "encoding",
+    "delimiter",
+    "decimal",
 )
 
 
@@ -280,7 +297,7 @@ def import_matchid_command(
 ) -> None:
     """A MatchID export folder (+ load-frame record, indenter points) into an experiment folder."""
     try:
-        with lab.csv_encoding():
+        with lab.csv_reading():
             result = inference.lab.import_matchid(
                 dic, out, **lab.sources(), length_unit=length_unit, max_sigma=max_sigma
             )
@@ -304,7 +321,7 @@ def import_duodic_command(
 ) -> None:
     """DuoDIC results (+ load-frame record, indenter points) into an experiment folder."""
     try:
-        with lab.csv_encoding():
+        with lab.csv_reading():
             result = inference.lab.import_duodic(
                 mat,
                 out,
@@ -335,7 +352,7 @@ def import_csv_command(
 ) -> None:
     """Any DIC CSV export (VIC-3D, GOM, Ncorr) with a column mapping into an experiment folder."""
     try:
-        with lab.csv_encoding():
+        with lab.csv_reading():
             mapping = inference.lab.CSVMapping.parse(columns, positions=positions, length_unit=length_unit)
             result = inference.lab.import_dic_csv(
                 dic, mapping, out, **lab.sources(), pattern=pattern, max_sigma=max_sigma
@@ -356,7 +373,7 @@ def import_load_frame_command(
 ) -> None:
     """Cut a load-frame record into the protocol's holds (one per step, eq. 9 fit each) as force.csv."""
     try:
-        with lab.csv_encoding():
+        with lab.csv_reading():
             result = inference.lab.import_load_frame(record, out, lab.protocol(), lab.force())
     except (ValueError, OSError) as exc:
         fail(str(exc), as_json)
@@ -431,6 +448,8 @@ def register(app: typer.Typer) -> None:
         mesh: Annotated[
             str, typer.Option(help="mesh preset whose top nodes are matched to the DIC data")
         ] = "default",
+        delimiter: DELIMITER = None,
+        decimal: DECIMAL = None,
         as_json: JSON = False,
     ) -> None:
         """The data check before any fit: holds and their eq. 9 fits, DIC coverage, sphere fit,
@@ -438,7 +457,8 @@ def register(app: typer.Typer) -> None:
         from .check_report import write_check_report
 
         try:
-            result = write_check_report(experiment, out, mesh)
+            with inference.lab.csv_reading(delimiter=delimiter, decimal=decimal):
+                result = write_check_report(experiment, out, mesh)
         except (ValueError, OSError) as exc:
             fail(str(exc), as_json)
         _report(result, as_json)

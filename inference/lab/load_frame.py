@@ -27,7 +27,7 @@ from ..hold_checks import check_hold_forces
 from ..relaxation import RelaxationFit, relaxation_fit
 from .contact_onset import ContactOnset, power_law_onset
 from .hold_detection import OFF, describe_stretches, still_stretches
-from .table_columns import bare_name, find_column, first_row, numeric_column, read_table
+from .table_columns import bare_name, find_column, first_row, numeric_column, read_table, read_with
 from .units import resolve_unit
 
 _TIME_NAMES = ("time", "t", "elapsed")
@@ -107,6 +107,7 @@ def _guess(table: pd.DataFrame, given: str | None, names: tuple[str, ...], path:
             return c
     raise ExperimentDataError(
         f"{path}: no {role} column found by name (has {', '.join(table.columns)}); name it (--{role}-col)"
+        f"{read_with(table)}"
     )
 
 
