@@ -14,6 +14,7 @@ import typer
 
 from .. import forward, inference  # lazy: a command imports what it runs
 from ..atomic_write import strict_json
+from .help_text import first_sentence
 from .options import JSON, REQUIRED, err, fail, option_group
 
 import_app = typer.Typer(help="Import a lab's files (DIC export, load-frame record) as an experiment folder.")
@@ -260,14 +261,26 @@ def lab_options(*flags: str, **values: Any) -> Callable[[Callable[..., Any]], Ca
 
 
 def _report(result: dict, as_json: bool) -> None:
+    """What a command wrote and what it noted (what it dropped, found or refused to guess), or the
+    check's report, its fiber direction and clock, and a line for each warning."""
     if as_json:
         print(strict_json(result))
-    else:
-        err.print(
-            f"[green]wrote[/] {result.get('experiment') or result.get('force_csv') or result.get('report')}"
-        )
-        for line in result.get("warnings", []):
-            err.print(f"[yellow]warning:[/] {line}")
+        return
+    if "report" in result:
+        err.print(f"[green]wrote[/] {result['report']} (and check.json, figures beside it)", highlight=False)
+        for line in (result.get("fiber_text"), result.get("clock_offset")):
+            if line:
+                err.print(line, highlight=False, soft_wrap=True)
+        warnings = result.get("warnings", [])
+        err.print(f"{len(warnings)} warning(s)" + (":" if warnings else ""), highlight=False)
+        for line in warnings:
+            err.print(f"[yellow]warning:[/] {first_sentence(line, 160)}", highlight=False, soft_wrap=True)
+        return
+    err.print(f"[green]wrote[/] {result.get('experiment') or result.get('force_csv')}", highlight=False)
+    for line in result.get("notes", []):
+        err.print(f"note: {line}", highlight=False, soft_wrap=True)
+    for line in result.get("warnings", []):
+        err.print(f"[yellow]warning:[/] {line}", highlight=False, soft_wrap=True)
 
 
 MAX_SIGMA = Annotated[float | None, typer.Option(help="drop points whose stats.Sigma exceeds this, mm")]
