@@ -1,7 +1,10 @@
 """The cases of issue 47 ("a lab user's first hour"), run as a user would, with their exit codes
 and messages: run it on a checkout before and after a change to compare.
 
-    .venv/bin/python benchmarks/first_hour_cases.py --work runs/first-hour [--studio .venv/bin/indent-studio]
+    .venv/bin/python benchmarks/first_hour_cases.py --work runs/first-hour [--studio ".venv/bin/indent-studio"]
+
+``--studio`` is the command that runs the command line (split as a shell would); for a commit's,
+a script that puts that commit's tree in front of the installed one.
 
 It writes its inputs under ``--work`` (from ``examples/`` and the synthetic records of
 ``benchmarks/contact_detection_table.py``) and prints, for each case, the command, its exit code
@@ -11,6 +14,9 @@ and the last lines it printed.
 from __future__ import annotations
 
 import argparse
+import json
+import os
+import shlex
 import shutil
 import subprocess
 import sys
@@ -172,6 +178,8 @@ def cases(files: dict[str, Path], work: Path) -> list[tuple[str, list[str]]]:
                 *lab,
                 "--fiber-angle",
                 "120.48",
+                "--time-offset",
+                "-23.6",
                 "--out",
                 str(work / "exp-lab"),
             ],
@@ -189,17 +197,25 @@ def main() -> None:
     files = inputs(args.work)
     for title, argv in cases(files, args.work):
         run = subprocess.run(
-            [args.studio, *argv],
+            [*shlex.split(args.studio), *argv],
             capture_output=True,
             text=True,
-            env={"COLUMNS": "120", **__import__("os").environ},
+            env={**os.environ, "COLUMNS": "120"},
         )
         out = (run.stdout + run.stderr).strip().splitlines()
         print(f"## {title}\n$ indent-studio {' '.join(argv)}\nexit {run.returncode}")
         for line in out[-args.lines :]:
             print(f"  {line[:400]}")
+        meta = Path(argv[argv.index("--out") + 1]) / "experiment.json" if "--out" in argv else None
+        if meta is not None and meta.is_file():
+            clock = json.loads(meta.read_text())["imported"].get("clock_offset") or {}
+            print(
+                f"  experiment.json clock_offset: { ({k: clock.get(k) for k in ('offset_s', 'low_s', 'high_s', 'source')}) }"
+            )
         print()
-    help_text = subprocess.run([args.studio, "fit", "--help"], capture_output=True, text=True).stdout
+    help_text = subprocess.run(
+        [*shlex.split(args.studio), "fit", "--help"], capture_output=True, text=True
+    ).stdout
     print(
         f"## fit --help: {help_text.count('``')} double backticks, README pointers: {help_text.count('README')}"
     )
