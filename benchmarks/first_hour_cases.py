@@ -47,6 +47,9 @@ def inputs(work: Path) -> dict[str, Path]:
     files["preload"] = work / "preload-1hz-40steps.csv"
     record.to_csv(files["preload"], index=False)
     files["euro_units"] = _european(record, work / "euro-units.csv")
+    at_contact, _ = synthetic_record("contact", 1.0, 40)
+    files["contact"] = work / "contact-1hz-40steps.csv"
+    at_contact.to_csv(files["contact"], index=False)
     plain = record.rename(columns={"Time [s]": "Time", "Position [mm]": "Position", "Force [N]": "Force"})
     files["euro_plain"] = _european(plain, work / "euro-plain.csv")
     # frames on the load frame's clock, each taken 0.5 s before its hold began (during the ramp)
@@ -100,6 +103,18 @@ def cases(files: dict[str, Path], work: Path) -> list[tuple[str, list[str]]]:
                 *record,
                 "--out",
                 str(work / "f1.csv"),
+            ],
+        ),
+        (
+            "record at contact without a preload, 1 Hz, 40 steps",
+            [
+                "import",
+                "load-frame",
+                "--record",
+                str(files["contact"]),
+                *record,
+                "--out",
+                str(work / "f0.csv"),
             ],
         ),
         (

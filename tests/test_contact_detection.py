@@ -56,16 +56,17 @@ def test_onset_below_the_noise():
     assert "power law" in onset.notes[0]
 
 
-def test_preload_tared_and_not_taken_for_drift():
-    frame, _ = synthetic_record("preload", 10, 10, drift_mN_per_s=0.0)
-    search = find_holds(as_record(frame), STEP_SIZE, 10, 4.77)
+@pytest.mark.parametrize(("rate", "steps"), [(10, 10), (1, 40)])
+def test_preload_tared_and_not_taken_for_drift(rate, steps):
+    frame, _ = synthetic_record("preload", rate, steps, drift_mN_per_s=0.0)
+    search = find_holds(as_record(frame), STEP_SIZE, steps, 4.77)
     notes = " ".join(search.notes)
     assert "starts loaded" in notes and "12 mN above" in notes.replace("12.0", "12")
     assert search.tare_mN == pytest.approx(-12.0, abs=0.2)  # N negative in compression, read as mN
     assert abs(search.drift_mN_per_s) < 1e-3  # not the preload over the record's length
     f_inf = np.array([h.f_inf_mN for h in search.holds])
     pressed = (12.0 / float(hertz(np.array(1.0)))) ** (2 / 3)
-    expected = hertz(pressed + STEP_SIZE * np.arange(1, 11)) - 12.0
+    expected = hertz(pressed + STEP_SIZE * np.arange(1, steps + 1)) - 12.0
     np.testing.assert_allclose(f_inf, expected, rtol=0.01)
 
 

@@ -58,21 +58,27 @@ class ContactOnset:
     time_s: float
     power: float
     notes: list[str] = field(default_factory=list)
-    start_load_mN: float = 0.0  # the force above the baseline where the record starts (a preload)
+    #: the force above the baseline where the record starts (a preload; 0 within the noise)
+    start_load_mN: float = 0.0
 
 
-def _plateaus(t: np.ndarray, depth: np.ndarray, f: np.ndarray, step_size: float) -> list[Stretch]:
+def _plateaus(t: np.ndarray, depth: np.ndarray, step_size: float) -> list[Stretch]:
     """The stretches where the stage stood still (:func:`.hold_detection.still_stretches` on
     levels a half step wide, centred on where the stage stood: two passes), lasting 1 s and
-    4 readings."""
-    found = still_stretches(t, depth, step_size, 0.5)
-    long = [s for _, s in found if s.duration_s >= 1.0 and s.readings >= 4]
-    if long:
-        phase = np.angle(np.mean(np.exp(2j * np.pi * np.array([s.depth_mm for s in long]) / step_size)))
-        shift = phase / (2 * np.pi) * step_size
+    4 readings, with their depths."""
+    shift, long = 0.0, []
+    for _ in range(2):
         found = still_stretches(t, depth - shift, step_size, 0.5)
-        long = [s for _, s in found if s.duration_s >= 1.0 and s.readings >= 4]
-    return [Stretch(s.first, s.last, s.depth_mm + (shift if long else 0.0), s.start_s, s.end_s) for s in long]
+        long = [
+            Stretch(s.first, s.last, s.depth_mm + shift, s.start_s, s.end_s)
+            for _, s in found
+            if s.duration_s >= 1.0 and s.readings >= 4
+        ]
+        if not long:
+            return []
+        phase = np.angle(np.mean(np.exp(2j * np.pi * np.array([s.depth_mm for s in long]) / step_size)))
+        shift = float(phase) / (2 * np.pi) * step_size
+    return long
 
 
 def _tail(s: Stretch) -> slice:
@@ -115,12 +121,30 @@ def _fit(x, y, t_ref, drifts, c0, span, d0_range, guesses, powers=(1.0, 3.0)) ->
 def power_law_onset(
     t: np.ndarray, position: np.ndarray, force: np.ndarray, step_size: float, sign: float
 ) -> ContactOnset | None:
-    """The contact of a record (module docstring): ``position`` (mm) grows into the specimen
-    when ``sign`` is +1, falls when -1; ``force`` in mN, either sign. None when the record holds
-    too little to fit (fewer than 3 stretches where the stage stood still, or no force)."""
+    """The contact of a load-frame record (module docstring).
+
+    Parameters
+    ----------
+    t : numpy.ndarray
+        The readings' times, s.
+    position : numpy.ndarray
+        The stage's position, mm.
+    force : numpy.ndarray
+        The force, mN, either sign.
+    step_size : float
+        The protocol's depth per step, mm.
+    sign : float
+        +1 when the position grows into the specimen, -1 when it falls.
+
+    Returns
+    -------
+    ContactOnset or None
+        The contact and the law fitted; None when the record holds too little to fit (fewer
+        than 3 stretches where the stage stood still, no ladder of holds one step apart).
+    """
     t, position, force = (np.asarray(v, float) for v in (t, position, force))
     depth = sign * (position - position[0])  # from the first reading, growing into the specimen
-    plateaus = _plateaus(t, depth, force, step_size)
+    plateaus = _plateaus(t, depth, step_size)
     if len(plateaus) < 3:
         return None
     deepest = max(range(len(plateaus)), key=lambda i: plateaus[i].depth_mm)
@@ -215,6 +239,7 @@ def power_law_onset(
     band = hold_band(depth, step_size)
     if d0 < -band:  # before the first reading: the record starts at the contact (the lab's zero)
         loaded = fsign * float(np.median(force[_tail(loading[0])])) - c
+        loaded = loaded if abs(loaded) > 5.0 * robust_noise(force) else 0.0  # a preload, or the noise
         notes.append(
             f"the power law's onset lies {-d0:.3g} mm before the record's first reading (which is "
             f"{loaded:.3g} mN above the fitted baseline): the record starts at the contact; depths from its first reading"

@@ -275,7 +275,7 @@ def find_holds(
         search.notes += onset.notes
     first_hold, last_hold = min(a for _, a, _ in level_runs), max(b for _, _, b in level_runs)
     before = [s for k, s in stretches if k == 0 and s.last < first_hold and s.readings >= 3]
-    preload = onset is not None and abs(onset.start_load_mN) > 0.01 * abs(float(np.ptp(record.force_mN)))
+    preload = onset is not None and onset.start_load_mN != 0.0
     if tare and before:
         s = before[-1]
         search.tare_mN = float(np.median(record.force_mN[s.first : s.last + 1]))
