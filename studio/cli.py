@@ -6,6 +6,7 @@ on stdout; progress and logs go to stderr.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import sys
 import time
@@ -61,6 +62,10 @@ class StudioGroup(TyperGroup):
             return super().invoke(ctx)
         except CLICK_EXITS:
             raise
+        except BrokenPipeError:  # the reader of stdout stopped (| head): not an error of the studio's
+            with contextlib.suppress(OSError, ValueError):  # nothing more to write there, even at exit
+                os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+            raise typer.Exit(0) from None
         except Exception as exc:
             if os.environ.get("INDENT_STUDIO_TRACEBACK"):
                 raise

@@ -65,3 +65,16 @@ def test_mistyped_command_is_a_usage_error():
     assert res.exit_code == 2
     assert "No such command 'fitt'" in res.output and "Did you mean 'fit'?" in res.output
     assert "unexpected" not in res.output
+
+
+def test_help_into_a_closed_pipe_is_quiet(monkeypatch):
+    """``indent-studio import --help | head -20``: the reader stops before the help is written
+    (a BrokenPipeError, as rich writes the rest); no 'unexpected' error, exit 0."""
+    import typer.rich_utils
+
+    def closed(*args, **kwargs):
+        raise BrokenPipeError(32, "Broken pipe")
+
+    monkeypatch.setattr(typer.rich_utils, "rich_format_help", closed)
+    res = runner.invoke(app, ["import", "--help"])
+    assert res.exit_code == 0 and "unexpected" not in res.output and "BrokenPipe" not in res.output
