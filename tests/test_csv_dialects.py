@@ -124,3 +124,28 @@ def test_cli_options(record, tmp_path):
         app, [*args, "--steps", "10", "--out", str(tmp_path / "g.csv"), "--decimal", "x"]
     )
     assert res.exit_code == 1 and "decimal separator 'x'" in res.output
+
+
+def test_indenter_points_and_dic_csv_european_equal_english(tmp_path):
+    from indentation_studio.inference.lab.experiment_import import IndenterSource, read_indenter_points
+    from indentation_studio.inference.lab.import_csv import CSVMapping, read_dic_csv
+
+    points = pd.read_csv(ROOT / "examples" / "lab-matchid" / "indenter.csv")
+    points.to_csv(tmp_path / "english.csv", index=False)
+    points.to_csv(tmp_path / "european.csv", sep=";", decimal=",", index=False)
+    want = read_indenter_points(IndenterSource(tmp_path / "english.csv", "mm"))
+    got = read_indenter_points(IndenterSource(tmp_path / "european.csv", "mm"))
+    np.testing.assert_array_equal(got, want)
+    assert want.shape == (len(points), 3)
+    rng = np.random.default_rng(0)
+    frame = pd.DataFrame(
+        rng.normal(size=(50, 6)), columns=["X [mm]", "Y [mm]", "Z [mm]", "U [mm]", "V [mm]", "W [mm]"]
+    )
+    for name, kwargs in (("en", {}), ("eu", {"sep": ";", "decimal": ","})):
+        (tmp_path / name).mkdir()
+        for k in range(3):
+            (frame * k).to_csv(tmp_path / name / f"B{k:05d}.csv", index=False, **kwargs)
+    mapping = CSVMapping.parse("x=X,y=Y,z=Z,ux=U,uy=V,uz=W")
+    en, eu = read_dic_csv(tmp_path / "en", mapping), read_dic_csv(tmp_path / "eu", mapping)
+    np.testing.assert_array_equal(eu.u, en.u)
+    np.testing.assert_array_equal(eu.xyz, en.xyz)
