@@ -42,6 +42,7 @@ import pandas as pd
 
 from .experiment_errors import ExperimentDataError
 from .hold_checks import check_hold_forces
+from .lab.table_columns import read_table
 
 
 @dataclass
@@ -107,8 +108,9 @@ class ExperimentData:
 def _require_columns(table: pd.DataFrame, columns: tuple[str, ...], path: Path) -> None:
     missing = [c for c in columns if c not in table.columns]
     if missing:
+        read = f"; read with {table.attrs['dialect']}" if "dialect" in table.attrs else ""
         raise ExperimentDataError(
-            f"{path}: missing column(s) {', '.join(missing)} (has {', '.join(table.columns)})"
+            f"{path}: missing column(s) {', '.join(missing)} (has {', '.join(table.columns)}{read})"
         )
 
 
@@ -122,13 +124,8 @@ def _require_finite(table: pd.DataFrame, columns: tuple[str, ...], path: Path) -
 
 
 def _read_csv(path: Path, columns: tuple[str, ...]) -> pd.DataFrame:
-    if not path.is_file():
-        raise ExperimentDataError(f"{path}: missing file")
-    try:
-        table = pd.read_csv(path)
-    except Exception as exc:  # pandas raises several types for unreadable text
-        raise ExperimentDataError(f"{path}: not a readable CSV ({exc})") from exc
-    table.columns = [str(c).strip() for c in table.columns]
+
+    table = read_table(path)
     _require_columns(table, columns, path)
     for c in columns:
         converted = pd.to_numeric(table[c], errors="coerce")

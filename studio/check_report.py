@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import html
 import io
+import json
 from pathlib import Path
 
 from ..atomic_write import atomic_write, atomic_write_json
@@ -64,6 +65,33 @@ def _face(reg: dict, signature: float | None) -> str:
     )
 
 
+def fiber_text(exp, check) -> str:
+    """The fiber direction in the frame it was typed in (the DIC frame, ``--fiber-angle``) and in
+    the leveled frame the model works in, each named; and the strain field's."""
+    strain = check.fiber_angle_from_strain_deg
+    said = "" if strain is None else f"; the strain field says {strain:.2f} deg in the leveled frame"
+    if check.fiber_angle_estimated:
+        return f"Fiber direction estimated from the strain field: {check.fiber_angle_deg:.2f} deg in the leveled frame{said}."
+    return (
+        f"Fiber direction {exp.fiber_angle_deg:.2f} deg in the DIC frame (declared: experiment.json, --fiber-angle), "
+        f"{check.fiber_angle_deg:.2f} deg in the leveled frame (the DIC frame turned so that its z is the top "
+        f"face's normal; the model's){said}."
+    )
+
+
+def clock_text(meta: dict) -> str:
+    """The DIC clock's offset an import chose and the range that fit as well, or '' (none)."""
+    clock = (meta.get("imported") or {}).get("clock_offset")
+    if not clock:
+        return ""
+    if clock.get("source") == "given":
+        return f"DIC clock offset {clock['offset_s']:g} s (given: --time-offset)."
+    return (
+        f"DIC clock offset {clock['offset_s']:.4g} s found from the data (offsets {clock['low_s']:.4g} .. "
+        f"{clock['high_s']:.4g} s fit as well)."
+    )
+
+
 def write_check_report(
     experiment: str | Path, out_dir: str | Path | None = None, mesh: str = "default"
 ) -> dict:
@@ -82,6 +110,9 @@ def write_check_report(
     for name, fig in figures.items():
         atomic_write(out / name, _png(fig))
     result = check.to_dict()
+    meta = json.loads((exp.root / "experiment.json").read_text())
+    clock = clock_text(meta)
+    result.update(fiber_text=fiber_text(exp, check), clock_offset=clock or None)
     noise = ", ".join(f"{v:.3g}" for v in check.dic_noise_mm)
     parts = [
         f"<h1>Data check: {html.escape(str(exp.root))}</h1>",
@@ -94,13 +125,12 @@ def write_check_report(
         "<h2>Registration and noise</h2>",
         f"<p>Sphere fit: centre {_fmt(check.sphere_centre_mm)} mm, R = {check.sphere_radius_mm:.4g} mm, residual "
         f"{check.sphere_residual_rms_mm:.3g} mm RMS. Indentation point (DIC frame) "
-        f"{_fmt([round(v, 4) for v in check.indentation_point_mm])} mm. Fiber direction "
-        f"{check.fiber_angle_deg:.2f} deg ({'estimated' if check.fiber_angle_estimated else 'declared'}); the strain "
-        f"field says {check.fiber_angle_from_strain_deg if check.fiber_angle_from_strain_deg is None else round(check.fiber_angle_from_strain_deg, 2)} deg. "
+        f"{_fmt([round(v, 4) for v in check.indentation_point_mm])} mm. {html.escape(fiber_text(exp, check))} "
         f"DIC noise (ux, uy, uz): {noise} mm. Field of view {check.field_of_view_mm:.3g} mm from the axis. "
         f"'{check.mesh}' mesh: {check.nodes_with_data} of {check.nodes} top nodes with DIC data, "
         f"{check.nodes_obscured} obscured.</p>",
         _face(check.registration, check.indentation_signature_mm),
+        f"<p>{html.escape(clock)}</p>" if clock else "",
         "<h2>Holds (eq. 9)</h2>",
         _rows(
             result["holds"],

@@ -6,6 +6,7 @@ on stdout; progress and logs go to stderr.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import sys
 import time
@@ -24,12 +25,29 @@ from ..forward.spec import SpecError
 from .campaign_cli import campaign_app
 from .composite_cli import composite_app
 from .design_cli import design_app
+from .help_text import tidy_help
 from .import_cli import register as register_import
 from .inference_cli import register as register_inference
 from .options import JSON, MODEL_FLAGS, ModelOptions, SolverName, err, fail, model_options, say
 from .progress import step_progress
 from .surrogate_cli import surrogate_app
 from .verification_cli import register as register_verification
+
+#: What click (and the copy of click typer 0.2x carries, ``typer._click``, whose exceptions are not
+#: click's) raises for a usage error or an exit: left to typer, which prints the command's usage
+#: line, the error ("Missing option '--experiment'", "No such command 'fitt'. Did you mean 'fit'?")
+#: and exits with code 2 (usage) as click does. The copy's base class is found through a public
+#: name, ``typer.BadParameter``.
+CLICK_EXITS = tuple(
+    {
+        typer.Exit,
+        typer.Abort,
+        click.exceptions.Exit,
+        click.ClickException,
+        click.exceptions.Abort,
+        *(c for c in typer.BadParameter.__mro__ if c.__name__ in ("ClickException", "Exit", "Abort")),
+    }
+)
 
 
 class StudioGroup(TyperGroup):
@@ -42,8 +60,12 @@ class StudioGroup(TyperGroup):
         raw = [*getattr(ctx, "_protected_args", []), *ctx.args, *sys.argv[1:]]
         try:
             return super().invoke(ctx)
-        except (typer.Exit, typer.Abort, click.exceptions.Exit, click.ClickException, click.exceptions.Abort):
+        except CLICK_EXITS:
             raise
+        except BrokenPipeError:  # the reader of stdout stopped (| head): not an error of the studio's
+            with contextlib.suppress(OSError, ValueError):  # nothing more to write there, even at exit
+                os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+            raise typer.Exit(0) from None
         except Exception as exc:
             if os.environ.get("INDENT_STUDIO_TRACEBACK"):
                 raise
@@ -286,6 +308,9 @@ def demo(
         print(strict_json({"report": str(report), "wall_s": time.perf_counter() - t0}))
         return
     Console().print(f"report: {report} ({time.perf_counter() - t0:.0f} s)")
+
+
+tidy_help(app)  # every command above is registered: plain help texts with their guide page
 
 
 def main() -> None:  # pragma: no cover

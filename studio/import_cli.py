@@ -14,6 +14,7 @@ import typer
 
 from .. import forward, inference  # lazy: a command imports what it runs
 from ..atomic_write import strict_json
+from .help_text import first_sentence
 from .options import JSON, REQUIRED, err, fail, option_group
 
 import_app = typer.Typer(help="Import a lab's files (DIC export, load-frame record) as an experiment folder.")
@@ -75,6 +76,16 @@ ENCODING = Annotated[
     str | None,
     typer.Option(help="text encoding of the CSV files, e.g. cp1252 (default: UTF-8, else detected)"),
 ]
+DELIMITER = Annotated[
+    str | None,
+    typer.Option(help="the CSV files' field delimiter: ',', ';' or 'tab' (default: detected)"),
+]
+DECIMAL = Annotated[
+    str | None,
+    typer.Option(
+        help="the CSV files' decimal separator: '.' or ',' (default: detected; ',' with ';' or tab)"
+    ),
+]
 
 
 def _offset(text: str) -> float | None:
@@ -122,10 +133,13 @@ class LabOptions:
     description: str = ""
     overwrite: bool = False
     encoding: str | None = None
+    delimiter: str | None = None
+    decimal: str | None = None
 
-    def csv_encoding(self):
-        """The block in which CSV files are read as ``encoding`` (:func:`inference.lab.csv_text.csv_encoding`)."""
-        return inference.lab.csv_encoding(self.encoding)
+    def csv_reading(self):
+        """The block in which CSV files are read with ``encoding``, ``delimiter`` and ``decimal``
+        (:func:`inference.lab.csv_text.csv_reading`)."""
+        return inference.lab.csv_reading(self.encoding, delimiter=self.delimiter, decimal=self.decimal)
 
     def protocol(self) -> inference.lab.ProtocolInfo:
         """The protocol: radius, step size, steps, fiber angle, description and steps left out."""
@@ -204,6 +218,8 @@ LAB_FLAGS = {
     "description": DESCRIPTION,
     "overwrite": OVERWRITE,
     "encoding": ENCODING,
+    "delimiter": DELIMITER,
+    "decimal": DECIMAL,
 }
 #: The flags of the load-frame record alone (``import load-frame``).
 RECORD_FLAGS = (
@@ -220,6 +236,8 @@ RECORD_FLAGS = (
     "contact_position",
     "min_hold",
     "encoding",
+    "delimiter",
+    "decimal",
 )
 
 
@@ -243,14 +261,26 @@ def lab_options(*flags: str, **values: Any) -> Callable[[Callable[..., Any]], Ca
 
 
 def _report(result: dict, as_json: bool) -> None:
+    """What a command wrote and what it noted (what it dropped, found or refused to guess), or the
+    check's report, its fiber direction and clock, and a line for each warning."""
     if as_json:
         print(strict_json(result))
-    else:
-        err.print(
-            f"[green]wrote[/] {result.get('experiment') or result.get('force_csv') or result.get('report')}"
-        )
-        for line in result.get("warnings", []):
-            err.print(f"[yellow]warning:[/] {line}")
+        return
+    if "report" in result:
+        err.print(f"[green]wrote[/] {result['report']} (and check.json, figures beside it)", highlight=False)
+        for line in (result.get("fiber_text"), result.get("clock_offset")):
+            if line:
+                err.print(line, highlight=False, soft_wrap=True)
+        warnings = result.get("warnings", [])
+        err.print(f"{len(warnings)} warning(s)" + (":" if warnings else ""), highlight=False)
+        for line in warnings:
+            err.print(f"[yellow]warning:[/] {first_sentence(line, 160)}", highlight=False, soft_wrap=True)
+        return
+    err.print(f"[green]wrote[/] {result.get('experiment') or result.get('force_csv')}", highlight=False)
+    for line in result.get("notes", []):
+        err.print(f"note: {line}", highlight=False, soft_wrap=True)
+    for line in result.get("warnings", []):
+        err.print(f"[yellow]warning:[/] {line}", highlight=False, soft_wrap=True)
 
 
 MAX_SIGMA = Annotated[float | None, typer.Option(help="drop points whose stats.Sigma exceeds this, mm")]
@@ -280,7 +310,7 @@ def import_matchid_command(
 ) -> None:
     """A MatchID export folder (+ load-frame record, indenter points) into an experiment folder."""
     try:
-        with lab.csv_encoding():
+        with lab.csv_reading():
             result = inference.lab.import_matchid(
                 dic, out, **lab.sources(), length_unit=length_unit, max_sigma=max_sigma
             )
@@ -304,7 +334,7 @@ def import_duodic_command(
 ) -> None:
     """DuoDIC results (+ load-frame record, indenter points) into an experiment folder."""
     try:
-        with lab.csv_encoding():
+        with lab.csv_reading():
             result = inference.lab.import_duodic(
                 mat,
                 out,
@@ -335,7 +365,7 @@ def import_csv_command(
 ) -> None:
     """Any DIC CSV export (VIC-3D, GOM, Ncorr) with a column mapping into an experiment folder."""
     try:
-        with lab.csv_encoding():
+        with lab.csv_reading():
             mapping = inference.lab.CSVMapping.parse(columns, positions=positions, length_unit=length_unit)
             result = inference.lab.import_dic_csv(
                 dic, mapping, out, **lab.sources(), pattern=pattern, max_sigma=max_sigma
@@ -356,7 +386,7 @@ def import_load_frame_command(
 ) -> None:
     """Cut a load-frame record into the protocol's holds (one per step, eq. 9 fit each) as force.csv."""
     try:
-        with lab.csv_encoding():
+        with lab.csv_reading():
             result = inference.lab.import_load_frame(record, out, lab.protocol(), lab.force())
     except (ValueError, OSError) as exc:
         fail(str(exc), as_json)
@@ -433,6 +463,8 @@ def register(app: typer.Typer) -> None:
         mesh: Annotated[
             str, typer.Option(help="mesh preset whose top nodes are matched to the DIC data")
         ] = "default",
+        delimiter: DELIMITER = None,
+        decimal: DECIMAL = None,
         as_json: JSON = False,
     ) -> None:
         """The data check before any fit: holds and their eq. 9 fits, DIC coverage, sphere fit,
@@ -440,7 +472,8 @@ def register(app: typer.Typer) -> None:
         from .check_report import write_check_report
 
         try:
-            result = write_check_report(experiment, out, mesh)
+            with inference.lab.csv_reading(delimiter=delimiter, decimal=decimal):
+                result = write_check_report(experiment, out, mesh)
         except (ValueError, OSError) as exc:
             fail(str(exc), as_json)
         _report(result, as_json)

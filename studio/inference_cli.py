@@ -15,7 +15,9 @@ from .. import inference, studio  # lazy: a command imports what it runs
 from ..atomic_write import strict_json
 from .options import JSON, err, fail, say
 
-EXPERIMENT = Annotated[Path, typer.Option(help="experiment folder (README: experiment data format)")]
+EXPERIMENT = Annotated[
+    Path, typer.Option(help="experiment folder (its format: docs/guide/import-and-check.md)")
+]
 SURROGATE = Annotated[Path, typer.Option(help="a trained surrogate file (indent-studio surrogate train)")]
 WEIGHTS = Annotated[str, typer.Option(help="eta = force,ux,uy,uz on the simplex")]
 OUT = Annotated[Path | None, typer.Option(help="folder for the result files (default: <experiment>/results)")]
@@ -120,7 +122,7 @@ def fit(
     chooses); bounds from eq. 6 to 8 with s from the data. With
     --check-mesh, the fit carried to the finer mesh (``posterior --mesh-check`` reads fit.json then).
     ``--friction`` holds the indenter's friction coefficient mu at a value, or identifies or
-    marginalises it with (c1, c5) (README, "Friction"). Every fit is tested for model adequacy
+    marginalises it with (c1, c5) (docs/guide/fit-and-posterior.md, friction). Every fit is tested for model adequacy
     (its residuals against the data's noise: chi-square, flagged beyond the 0.1 % tail) and says
     when no error budget is known for its test."""
     try:

@@ -37,9 +37,9 @@ def test_lab_example_is_small_and_says_how_it_was_made():
     assert len(list((EXAMPLE / "matchid").glob("Image_*_0.tiff.csv"))) == 29
 
 
-def _import(out: Path) -> dict:
+def _import(out: Path, offset: bool = True) -> dict:
     about = json.loads((EXAMPLE / "lab.json").read_text())
-    return _run(
+    return (_run if offset else _refused)(
         *(
             "import",
             "matchid",
@@ -51,7 +51,22 @@ def _import(out: Path) -> dict:
         *("--frame-times", str(EXAMPLE / "frame_times.csv"), "--indenter", str(EXAMPLE / "indenter.csv")),
         *("--radius", "4.77", "--step-size", "0.5", "--steps", "28"),
         *("--fiber-angle", str(about["fiber_angle_deg_as_the_camera_sees_it"]), "--out", str(out)),
+        *(("--time-offset", str(about["camera"]["clock_offset_s"])) if offset else ()),
     )
+
+
+def _refused(*args):
+    res = CliRunner().invoke(app, [*args, "--json"])
+    assert res.exit_code == 1, res.output
+    return json.loads(res.stdout)
+
+
+def test_lab_example_clock_offset_not_guessed(tmp_path):
+    """The images were taken late in each hold: the offsets that keep every image in its hold fit
+    as well (10 s of the 11 s between images); the import refuses to pick one and names the option."""
+    error = _import(tmp_path / "lab", offset=False)["error"]
+    assert "not decided by the data: offsets -32.09 .. -22.11 s" in error and "--time-offset" in error
+    assert not (tmp_path / "lab").exists()
 
 
 def test_lab_example_import_and_check(tmp_path):
@@ -62,13 +77,18 @@ def test_lab_example_import_and_check(tmp_path):
     f = np.array([h["f_inf_mN"] for h in imported["holds"]])
     np.testing.assert_allclose(f, about["static_force_mN"], rtol=3e-3)  # drift taken off, spike ignored
     notes = " ".join(imported["notes"])
-    assert "6 lines of header block skipped" in notes and "drift" in notes and "found from the data" in notes
+    assert (
+        "6 lines of header block skipped" in notes and "drift" in notes and "offset -23.6 s (given)" in notes
+    )
     meta = json.loads((tmp_path / "lab" / "experiment.json").read_text())["imported"]
     assert meta["load_frame"]["contact_from"] == "force onset"
     assert abs(meta["load_frame"]["contact_position_mm"] - 37.5) < 0.02
     clock = meta["clock_offset"]
-    assert clock["low_s"] <= about["camera"]["clock_offset_s"] <= clock["high_s"]
+    assert clock["source"] == "given" and clock["offset_s"] == about["camera"]["clock_offset_s"]
     check = _run("check", "--experiment", str(tmp_path / "lab"))
+    assert check["clock_offset"] == "DIC clock offset -23.6 s (given: --time-offset)."
+    assert check["fiber_text"].startswith("Fiber direction 120.48 deg in the DIC frame (declared")
+    assert f"{check['fiber_angle_deg']:.2f} deg in the leveled frame" in check["fiber_text"]
     assert check["warnings"] == []
     reg = check["registration"]
     assert reg["tilt_deg"] == pytest.approx(12.0, abs=0.05)

@@ -24,7 +24,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
         "dic_series": ["DICSeries"],
         "load_frame": ["LoadFrameColumns", "find_holds", "read_load_frame"],
         "import_csv": ["CSVMapping"],
-        "csv_text": ["csv_encoding"],
+        "csv_text": ["csv_encoding", "csv_reading"],
         "clock_offset": ["find_clock_offset"],
     },
 )

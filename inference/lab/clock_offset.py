@@ -9,8 +9,11 @@ offset (added to the frame times)
 minimises the misfit of ``signal = a * depth(t + offset)^p`` (``a``, ``p`` fitted) over a
 grid of offsets, among those that put as many frames as can be inside the holds (a DIC frame
 of a stepwise test is taken while the stage stands). Frames taken during holds fit equally well
-over a range of offsets (the holds' flat depth); the range is reported, and the offset chosen is 0 when the range holds
-it (the clocks agree as far as the data can tell), else its middle.
+over a range of offsets (the holds' flat depth); the range is reported. The offset is never
+guessed: it is 0 when the range holds 0 (the clocks agree as far as the data can tell); else,
+when the range spans more than ``MAX_RANGE_FRACTION`` of the time between frames, the data do
+not decide it and the offset must be given (an error with the range and ``--time-offset``);
+else it is the range's middle.
 """
 
 from __future__ import annotations
@@ -43,8 +46,9 @@ class ClockOffset:
     def describe(self) -> str:
         if self.source == "given":
             return f"DIC clock offset {self.offset_s:g} s (given)"
+        why = " (0: the clocks agree as far as the data tell)" if self.offset_s == 0 else ""
         return (
-            f"DIC clock offset {self.offset_s:.4g} s found from the data (offsets {self.low_s:.4g} .. "
+            f"DIC clock offset {self.offset_s:.4g} s found from the data{why} (offsets {self.low_s:.4g} .. "
             f"{self.high_s:.4g} s fit as well; misfit {self.misfit_mm:.3g} mm RMS of the frames' indentation)"
         )
 
@@ -66,6 +70,10 @@ def indentation_signal(dic: DICSeries, fraction: float = 0.02) -> np.ndarray:
         out[i] = max(abs(float(w[:k].mean())), abs(float(w[-k:].mean())))
     return out
 
+
+#: the widest range of offsets that fit as well, as a fraction of the median time between frames,
+#: within which the data decide the offset (wider: the offset must be given, unless 0 is in it)
+MAX_RANGE_FRACTION = 0.1
 
 #: exponents tried in signal = a depth^p (the surface beside the indenter moves less than the
 #: indenter at first: its shadow, the contact circle, grows with the depth)
@@ -97,7 +105,7 @@ def _first_indentation_window(ft, sig, t, d, first_hold_end_s) -> tuple[float, f
     if base <= 0 or not indented.size or indented[0] == 0:
         return None
     f = int(indented[0])
-    moved = np.flatnonzero(d > 0)
+    moved = np.flatnonzero(d > 1e-3 * float(d.max()))  # beyond the contact found (to its precision)
     if not moved.size:
         return None
     leave = float(t[moved[0] - 1] if moved[0] > 0 else t[0])
@@ -112,9 +120,37 @@ def find_clock_offset(
     record_t: np.ndarray,
     record_depth: np.ndarray,
     hold_windows: np.ndarray | None = None,
+    max_range_fraction: float | None = MAX_RANGE_FRACTION,
 ) -> ClockOffset:
     """The offset (module docstring) from the frames' times and indentation signals, the
-    record's depth track and its holds' (start, end) times."""
+    record's depth track and its holds' (start, end) times.
+
+    Parameters
+    ----------
+    frame_times : numpy.ndarray
+        The DIC frames' times on their own clock, s.
+    signal : numpy.ndarray
+        Each frame's indentation signal (:func:`indentation_signal`), mm.
+    record_t, record_depth : numpy.ndarray
+        The load frame's times (s) and the stage's depth from the contact (mm).
+    hold_windows : numpy.ndarray, optional
+        (steps, 2) start and end of each hold on the record's clock, s.
+    max_range_fraction : float or None, default MAX_RANGE_FRACTION
+        The widest range of offsets that fit as well, as a fraction of the time between frames,
+        taken as decided by the data (None: any, its middle taken).
+
+    Returns
+    -------
+    ClockOffset
+        The offset, the range that fits as well, the misfit and the fitted law.
+
+    Raises
+    ------
+    ExperimentDataError
+        Too few frames show the indentation, or the range is wider than ``max_range_fraction``
+        of the time between frames and does not hold 0 (the message gives the range and the
+        option, ``--time-offset``).
+    """
     ok = np.isfinite(signal) & np.isfinite(frame_times)
     ft, sig = np.asarray(frame_times, float)[ok], np.asarray(signal, float)[ok]
     if len(ft) < 3 or np.ptp(sig) == 0:
@@ -155,6 +191,18 @@ def find_clock_offset(
     while b < len(grid) - 1 and tie[b + 1] and grid[b + 1] - grid[b] <= 1.5 * step:
         b += 1
     low, high = float(grid[a]), float(grid[b])
-    offset = 0.0 if low <= 0.0 <= high else 0.5 * (low + high)
+    interval = float(np.median(np.diff(np.sort(ft))))
+    if low <= 0.0 <= high:
+        offset = 0.0
+    elif max_range_fraction is not None and high - low > max_range_fraction * interval:
+        raise ExperimentDataError(
+            f"the clocks' offset is not decided by the data: offsets {low:.4g} .. {high:.4g} s (added to the DIC "
+            f"frame times) fit as well, {high - low:.3g} s of the {interval:.3g} s between frames (more than "
+            f"{max_range_fraction:.0%}; the frames were taken while the stage stood, where any of them fits); "
+            "give it: --time-offset SECONDS (from the lab's notes: the time on the load frame's clock when the "
+            "cameras' clock read 0)"
+        )
+    else:
+        offset = 0.5 * (low + high)
     misfit, scale, power = (float(v[0]) for v in _misfit(sig, np.interp(ft + offset, t, d)))
     return ClockOffset(offset, low, high, misfit, scale, power)

@@ -89,7 +89,7 @@ def require_consecutive_frames(source: str, frame_ids: np.ndarray, names: Sequen
         i = int(gaps[0])
         raise ExperimentDataError(
             f"{source}: frame {ids[i] + stride} is missing (between {names[i]} and {names[i + 1]}); "
-            f"frames found: {_ranges(ids)}. Restore the file, or name the frame of every step explicitly"
+            f"frames found: {_ranges(ids)}. Restore the file, or name the frame of every step (--frames, e.g. 1:28)"
         )
 
 

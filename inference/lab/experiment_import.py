@@ -256,7 +256,7 @@ def import_experiment(
         times = _frame_times(dic, frames)
         if times is None:
             raise ExperimentDataError(
-                f"{dic.source}: the export has no frame times; give them, or name the frame of every step"
+                f"{dic.source}: the export has no frame times; give them (--frame-times), or name the frame of every step (--frames)"
             )
         if frames.time_offset_s is None:
             clock = find_clock_offset(times, indentation_signal(dic), *track, windows)

@@ -1,18 +1,15 @@
-"""Where the stage stood still in a load-frame record, at any sampling rate (1 Hz .. 1 kHz), and
-where the indenter met the specimen.
+"""Where the stage stood still in a load-frame record, at any sampling rate (1 Hz .. 1 kHz).
 
 A load frame records at 1 to 1,000 Hz; a step's ramp lasts 0.5 to 2 s. A reading belongs to a
 hold only when the stage stands still: the hold of a run of readings is its longest stretch whose
 depth stays within a *band* of the run's median depth, the band being a few times the position's
-own noise (robust spread of the reading-to-reading differences) and at least
+own noise (robust spread of the second differences, which a hold and a ramp at constant speed,
+however slow, leave at zero) and at least
 ``MIN_BAND_STEPS`` of a step. A ramp's readings move through the band in a fraction of the band
 over the stage's speed, so at most the last one or two readings of a ramp (a few milliseconds
 before the stage stops) can fall into it, never a ramp's worth of them, whatever the rate.
 
-The contact point (zero depth) is where the force leaves its unloaded baseline: the first
-reading from which the force stays beyond ``ONSET_SIGMAS`` times its noise (and 0.1 % of its
-largest excursion: a quantised reading) for ``ONSET_PERSIST_S`` (a single spike does not
-count), walked back to where it first left ``ONSET_BACK_SIGMAS`` times the noise.
+Where the indenter met the specimen is :mod:`.contact_onset`'s.
 """
 
 from __future__ import annotations
@@ -25,11 +22,6 @@ import numpy as np
 BAND_SIGMAS = 6.0
 #: ... and at least this fraction of the step size (an encoder without noise)
 MIN_BAND_STEPS = 2e-3
-#: the force's onset: beyond this many noise standard deviations of the baseline ...
-ONSET_SIGMAS = 8.0
-#: ... for this long (s; and at least 3 readings), walked back to this many
-ONSET_PERSIST_S = 0.2
-ONSET_BACK_SIGMAS = 2.0
 
 
 @dataclass(frozen=True)
@@ -52,12 +44,13 @@ class Stretch:
 
 
 def robust_noise(x: np.ndarray) -> float:
-    """The standard deviation of the noise of a signal that mostly stays put: 1.4826 MAD of the
-    reading-to-reading differences over sqrt(2)."""
-    d = np.diff(np.asarray(x, float))
+    """The standard deviation of the noise of a signal made of stretches that stand still or move
+    at a constant speed (holds, ramps, a slow approach): 1.4826 MAD of its second differences
+    over sqrt(6), which only the corners between stretches leave off zero."""
+    d = np.diff(np.asarray(x, float), 2)
     if not d.size:
         return 0.0
-    return float(1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(2.0))
+    return float(1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(6.0))
 
 
 def hold_band(depth: np.ndarray, step_size: float) -> float:
@@ -142,35 +135,6 @@ def _trim_ramps(t, depth, a0: int, a: int, b: int, b0: int, level: float) -> tup
     return a, b
 
 
-def force_onset(f: np.ndarray, t: np.ndarray) -> int | None:
-    """The index of the last unloaded reading before the force leaves its baseline (module
-    docstring), or None when it never does. The baseline is a straight line through the first
-    readings (the first 2 % of the record, at least 5): a drifting load cell's zero."""
-    f, t = np.asarray(f, float), np.asarray(t, float)
-    n = len(f)
-    head = slice(0, max(5, n // 50))
-    slope, offset = np.polyfit(t[head] - t[0], f[head], 1) if n >= 5 else (0.0, float(np.median(f)))
-    dev = np.abs(f - (offset + slope * (t - t[0])))  # from the baseline (and its drift) of the start
-    scale = float(dev.max()) if n else 0.0
-    if scale == 0.0:
-        return None
-    sigma = robust_noise(f - slope * t)
-    threshold = max(ONSET_SIGMAS * sigma, 1e-3 * scale)  # 0.1 % of the largest: a quantised reading
-    above = dev > threshold
-    dt = float(np.median(np.diff(t))) if n > 1 else 1.0
-    persist = max(3, int(np.ceil(ONSET_PERSIST_S / dt)))
-    # the first reading from which `persist` readings in a row are above
-    count = np.convolve(above.astype(np.int64), np.ones(persist, np.int64), "valid")
-    hits = np.flatnonzero(count == persist)
-    if not hits.size:
-        return None
-    i = int(hits[0])
-    back = max(ONSET_BACK_SIGMAS * sigma, 1e-9 * scale)
-    while i > 0 and dev[i - 1] > back:
-        i -= 1
-    return max(i - 1, 0)
-
-
 def describe_stretches(stretches: list[tuple[int, Stretch]], limit: int = 12) -> str:
     """'0.5 mm for 30 s, 1 mm for 30 s, ...' of the stretches (longest first when cut)."""
     items = [s for _, s in stretches]
@@ -181,4 +145,4 @@ def describe_stretches(stretches: list[tuple[int, Stretch]], limit: int = 12) ->
         more = f" and {len(items) - limit} more"
     else:
         keep, more = items, ""
-    return ", ".join(f"{s.depth_mm:.4g} mm for {s.duration_s:.3g} s" for s in keep) + more
+    return ", ".join(f"{round(s.depth_mm, 6) + 0.0:.4g} mm for {s.duration_s:.3g} s" for s in keep) + more

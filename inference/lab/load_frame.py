@@ -3,7 +3,7 @@ protocol, each assigned its step and fitted with eq. 9 (paper 2.7).
 
 The stage moves by one step, stops, and holds while the force relaxes; the balance or load cell
 reads all along, at any rate (1 Hz .. 1 kHz). The depth is the position from the contact point
-(given, or where the force leaves its unloaded baseline), signed so that it grows into the
+(given, or the onset of a power law fitted to the loading, :mod:`.contact_onset`), signed so that it grows into the
 specimen. A run of readings whose depth sits within ``level_tol`` step sizes of a whole number k
 of steps is trimmed to the stretch where the stage stood still (:mod:`.hold_detection`: within a
 band of a few times the position's noise, so a ramp's readings never count in a hold); lasting at
@@ -25,8 +25,9 @@ import pandas as pd
 from ..experiment_data import ExperimentDataError
 from ..hold_checks import check_hold_forces
 from ..relaxation import RelaxationFit, relaxation_fit
-from .hold_detection import OFF, describe_stretches, force_onset, still_stretches
-from .table_columns import bare_name, find_column, first_row, numeric_column, read_table
+from .contact_onset import ContactOnset, power_law_onset
+from .hold_detection import OFF, describe_stretches, still_stretches
+from .table_columns import bare_name, find_column, first_row, numeric_column, read_table, read_with
 from .units import resolve_unit
 
 _TIME_NAMES = ("time", "t", "elapsed")
@@ -105,7 +106,8 @@ def _guess(table: pd.DataFrame, given: str | None, names: tuple[str, ...], path:
         if any(w in names for w in words[c][1:]):
             return c
     raise ExperimentDataError(
-        f"{path}: no {role} column found by name (has {', '.join(table.columns)}); name it explicitly"
+        f"{path}: no {role} column found by name (has {', '.join(table.columns)}); name it (--{role}-col)"
+        f"{read_with(table)}"
     )
 
 
@@ -157,13 +159,39 @@ class HoldSearch:
         return self.tare_mN + self.drift_mN_per_s * (np.asarray(t, float) - self.tare_time_s)
 
 
-def _contact(record: LoadFrameRecord, given: float | None) -> tuple[float, str]:
+def _contact(
+    record: LoadFrameRecord, given: float | None, step_size: float
+) -> tuple[float, str, ContactOnset | None]:
+    """The position at zero depth: ``given``, else the onset of a power law fitted to the loading
+    (:func:`.contact_onset.power_law_onset`), else the first reading."""
     if given is not None:
-        return float(given), "given"
-    i = force_onset(record.force_mN, record.time_s)
-    if i is None:
-        return float(record.position_mm[0]), "first reading"
-    return float(record.position_mm[i]), "force onset"
+        return float(given), "given", None
+    p = record.position_mm
+    excursion = p - p[0]
+    sign = float(np.sign(excursion[np.argmax(np.abs(excursion))])) or 1.0
+    onset = power_law_onset(record.time_s, p, record.force_mN, step_size, sign)
+    if onset is None:
+        return float(p[0]), "first reading", None
+    return onset.position_mm, onset.source, onset
+
+
+def _elsewhere(
+    held, p0: float, sign: float, step_size: float, level_tol: float, how: str, min_hold_s: float
+) -> str:
+    """The way out when the holds do not fit the protocol from the contact used: where the holds
+    that stood still for ``min_hold_s`` sit from their steps, and the option that sets the contact."""
+    deep = np.array([s.depth_mm for _, s in held if s.depth_mm > 0.5 * step_size])
+    hint = ""
+    if deep.size:
+        off = deep - np.rint(deep / step_size) * step_size
+        shift = float(np.median(off))
+        if abs(shift) > level_tol * step_size and float(np.ptp(off)) <= level_tol * step_size:
+            hint = (
+                f" The {deep.size} holds sit {shift:+.3g} mm from whole steps from this contact: a contact at "
+                f"{p0 + sign * shift:g} mm fits them."
+            )
+    where = "the contact given" if how == "given" else f"the contact found ({how})"
+    return f".{hint} If {where} is not where the steps are counted from, give it: --contact-position MM"
 
 
 def find_holds(
@@ -182,9 +210,10 @@ def find_holds(
 ) -> HoldSearch:
     """The protocol's holds in ``record`` (module docstring), each fitted with eq. 9.
 
-    ``contact_position_mm`` is the position at zero depth (default: where the force leaves its
-    unloaded baseline, :func:`.hold_detection.force_onset`; the first reading when it never
-    does); ``position_sign`` +1 when the position grows into the specimen, -1 when it falls
+    ``contact_position_mm`` is the position at zero depth (default: the onset of a power law
+    fitted to the loading, :func:`.contact_onset.power_law_onset`, or the first reading of a
+    record that starts at the contact; the first reading when nothing can be fitted: the message
+    of holds that do not fit the protocol names the option); ``position_sign`` +1 when the position grows into the specimen, -1 when it falls
     (default: the sign of the largest excursion); ``force_sign`` makes compression positive
     (default: the sign of the force at the deepest hold). A step of ``excluded_steps`` may have no
     hold and its readings are not checked. With ``drift``, unloaded readings after the last hold
@@ -192,7 +221,7 @@ def find_holds(
     tare, which is taken off every reading (linear in time)."""
     where = str(record.path)
     r0 = record.first_line
-    p0, contact_from = _contact(record, contact_position_mm)
+    p0, contact_from, onset = _contact(record, contact_position_mm, step_size)
     excursion = record.position_mm - p0
     sign = float(
         position_sign if position_sign is not None else np.sign(excursion[np.argmax(np.abs(excursion))])
@@ -215,14 +244,14 @@ def find_holds(
             raise ExperimentDataError(
                 f"{where}: rows {s.first + r0}..{s.last + r0} (t = {s.start_s:g} .. {s.end_s:g} s) hold at depth "
                 f"{d:.4g} mm, between steps {int(d // step_size)} and {int(d // step_size) + 1} of {step_size:g} mm: "
-                "a slipped step?"
+                f"a slipped step?{_elsewhere(held, p0, sign, step_size, level_tol, contact_from, min_hold_s)}"
             )
     level_runs = [(k, s.first, s.last) for k, s in held if k >= 1]
     if not level_runs:
         raise ExperimentDataError(
             f"{where}: no hold found: the position never stays within {level_tol * step_size:g} mm of a multiple of "
-            f"the {step_size:g} mm step for {min_hold_s:g} s; {saw} (step size, units, contact or --min-hold "
-            "wrong?)"
+            f"the {step_size:g} mm step for {min_hold_s:g} s; {saw} (step size, units, --contact-position or "
+            "--min-hold wrong?)"
         )
     levels = [k for k, _, _ in level_runs]
     for i, k in enumerate(levels):
@@ -230,7 +259,7 @@ def find_holds(
             _, a, b = level_runs[i]
             raise ExperimentDataError(
                 f"{where}: found {len(set(levels))} holds but the protocol has {steps} steps: rows {a + r0}..{b + r0} "
-                f"hold at step {k} ({k * step_size:g} mm); {saw}"
+                f"hold at step {k} ({k * step_size:g} mm); {saw}{_elsewhere(held, p0, sign, step_size, level_tol, contact_from, min_hold_s)}"
             )
         if levels.count(k) > 1:
             rows = [f"{a + r0}..{b + r0}" for kk, a, b in level_runs if kk == k]
@@ -239,11 +268,14 @@ def find_holds(
     if missing:
         raise ExperimentDataError(
             f"{where}: found {len(levels)} holds but the protocol has {steps} steps (no hold at step(s) "
-            f"{', '.join(map(str, missing[:10]))}); {saw}"
+            f"{', '.join(map(str, missing[:10]))}); {saw}{_elsewhere(held, p0, sign, step_size, level_tol, contact_from, min_hold_s)}"
         )
     search = HoldSearch([], 0.0, sign, 1.0, p0, contact_from)
+    if onset is not None:
+        search.notes += onset.notes
     first_hold, last_hold = min(a for _, a, _ in level_runs), max(b for _, _, b in level_runs)
     before = [s for k, s in stretches if k == 0 and s.last < first_hold and s.readings >= 3]
+    preload = onset is not None and onset.start_load_mN != 0.0
     if tare and before:
         s = before[-1]
         search.tare_mN = float(np.median(record.force_mN[s.first : s.last + 1]))
@@ -253,7 +285,16 @@ def find_holds(
             for k, s in stretches
             if s.first > last_hold and s.depth_mm <= level_tol * step_size and s.readings >= 3
         ]
-        if drift and after:
+        if drift and preload:
+            # a preload tared: the unloaded readings after the withdrawal sit below it by the preload,
+            # not by a drift; the drift is the fitted baseline's
+            search.drift_mN_per_s = onset.drift_mN_per_s
+            search.notes.append(
+                f"the record starts loaded ({onset.start_load_mN:.3g} mN above the unloaded baseline): the force "
+                f"is tared at {search.tare_mN:.4g} mN, the readings before step 1; load-cell drift "
+                f"{search.drift_mN_per_s:.3g} mN/s (the fitted baseline's) taken off"
+            )
+        elif drift and after:
             e = after[-1]
             end_f = float(np.median(record.force_mN[e.first : e.last + 1]))
             end_t = 0.5 * (e.start_s + e.end_s)
@@ -262,6 +303,17 @@ def find_holds(
                 f"load-cell drift {search.drift_mN_per_s:.3g} mN/s taken off (unloaded {search.tare_mN:.4g} mN at "
                 f"t = {search.tare_time_s:g} s, {end_f:.4g} mN at t = {end_t:g} s)"
             )
+    elif tare and onset is not None:  # no wait at the contact (an approach into step 1): the fitted baseline
+        search.tare_mN, search.tare_time_s = onset.baseline_mN, onset.time_s
+        search.drift_mN_per_s = onset.drift_mN_per_s if drift else 0.0
+        search.notes.append(
+            f"force tared by the baseline fitted with the contact: {search.tare_mN:.4g} mN at t = {search.tare_time_s:g} s"
+            + (
+                f", load-cell drift {search.drift_mN_per_s:.3g} mN/s taken off"
+                if search.drift_mN_per_s
+                else ""
+            )
+        )
     f_all = record.force_mN - search.baseline(t)
     _, a, b = max(level_runs)
     search.force_sign = float(

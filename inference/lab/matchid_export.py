@@ -61,9 +61,12 @@ def _read_frame(path: Path, cols: MatchIDColumns, length_unit: str | None, max_s
         )
     coor, disp = np.column_stack(values[:3]), np.column_stack(values[3:])
     ok = np.isfinite(coor).all(axis=1) & np.isfinite(disp).all(axis=1)
+    nan_rows = (np.flatnonzero(~ok) + first_row(table)).tolist()
+    sigma_dropped = 0
     if max_sigma is not None:
         header = find_column(table, cols.sigma, path, "correlation uncertainty")
         sigma = numeric_column(table, header, path) * resolve_unit(header, length_unit, "length", str(path))
+        sigma_dropped = int(np.count_nonzero(ok & ~(sigma <= max_sigma)))
         ok &= sigma <= max_sigma
     frame = frame_number(path)
     if any(c.startswith(cols.frame) for c in table.columns):
@@ -77,7 +80,30 @@ def _read_frame(path: Path, cols: MatchIDColumns, length_unit: str | None, max_s
         raise ExperimentDataError(
             f"{path}: row {row + first_row(table)}: point at image position ({ids[row, 0]:g}, {ids[row, 1]:g}) listed twice"
         )
-    return frame, ids[ok], coor[ok] - disp[ok], disp[ok], list(table.columns)
+    dropped = {"nan_rows": nan_rows, "sigma": sigma_dropped, "rows": len(table)}
+    return frame, ids[ok], coor[ok] - disp[ok], disp[ok], list(table.columns), dropped
+
+
+def _dropped_notes(files: list[Path], dropped: list[dict], max_sigma: float | None) -> list[str]:
+    """What the import left out of each image: rows without coordinates or displacements (NaN
+    or empty: not correlated there), and points beyond ``max_sigma``."""
+    notes = []
+    nan = [(p.name, d["nan_rows"], d["rows"]) for p, d in zip(files, dropped, strict=True) if d["nan_rows"]]
+    if nan:
+        each = "; ".join(
+            f"{name}: {len(rows)} of {n} (row{'s' if len(rows) > 1 else ''} "
+            f"{', '.join(map(str, rows[:5]))}{' ...' if len(rows) > 5 else ''})"
+            for name, rows, n in nan[:8]
+        )
+        more = f"; and {len(nan) - 8} more images" if len(nan) > 8 else ""
+        notes.append(
+            f"rows without coordinates or displacements (NaN: not correlated there) dropped in "
+            f"{len(nan)} image(s): {each}{more}"
+        )
+    beyond = sum(d["sigma"] for d in dropped)
+    if beyond:
+        notes.append(f"{beyond} points beyond --max-sigma {max_sigma:g} mm dropped over {len(files)} images")
+    return notes
 
 
 def read_matchid(
@@ -126,7 +152,7 @@ def read_matchid(
     u = np.full((len(frames), n, 3), np.nan)
     spread = 0.0
     for k in reversed(range(len(frames))):  # the earliest image that has a point sets its reference
-        _, fid, ref, disp, _ = frames[k]
+        _, fid, ref, disp, *_ = frames[k]
         where = all_keys.get_indexer(pd.MultiIndex.from_arrays(fid.T))
         u[k, where] = disp
         seen = np.isfinite(xyz[where]).all(axis=1)
@@ -134,4 +160,5 @@ def read_matchid(
             spread = max(spread, float(np.abs(xyz[where][seen] - ref[seen]).max()))
         xyz[where] = ref
     notes = [f"reference positions agree across images to {spread:.2g} mm (coor - disp)"]
+    notes += _dropped_notes(files, [f[5] for f in frames], max_sigma)
     return DICSeries(str(folder), xyz, u, ids, [p.name for p in files], None, notes)

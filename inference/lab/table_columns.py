@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..experiment_data import ExperimentDataError
+from ..experiment_errors import ExperimentDataError
 from .csv_text import parse_csv_text
 
 _UNIT_SUFFIX = re.compile(r"\s*[\[(][^\])]*[\])]\s*$")
@@ -23,11 +23,13 @@ def bare_name(header: str) -> str:
 
 
 def read_table(path: Path, encoding: str | None = None) -> pd.DataFrame:
-    """A CSV (comma, semicolon or tab separated; quoted headers as VIC-3D writes them; brackets
+    """A CSV (comma, semicolon or tab separated, decimal points or commas: the dialect detected
+    or stated, :mod:`.csv_text`; quoted headers as VIC-3D writes them; brackets
     that hold the separator, as MatchID's ``F[0,0]``; a vendor's header block and unit row
     before the data, :mod:`.csv_text`) with its headers stripped; an error naming the file when
-    it cannot be read. ``table.attrs``: ``first_data_line`` (the file line of the first row, so
-    that errors name rows as an editor counts them), ``encoding``, ``notes``."""
+    it cannot be read, naming the dialect tried. ``table.attrs``: ``first_data_line`` (the file
+    line of the first row, so that errors name rows as an editor counts them), ``encoding``,
+    ``dialect``, ``notes``."""
     if not path.is_file():
         raise ExperimentDataError(f"{path}: missing file")
     text = parse_csv_text(path, encoding)
@@ -36,7 +38,12 @@ def read_table(path: Path, encoding: str | None = None) -> pd.DataFrame:
     names = list(range(len(text.columns)))
     try:
         table = pd.read_csv(
-            io.StringIO("\n".join(text.data)), sep=text.sep, header=None, names=names, skipinitialspace=True
+            io.StringIO("\n".join(text.data)),
+            sep=text.sep,
+            decimal=text.decimal,
+            header=None,
+            names=names,
+            skipinitialspace=True,
         )
     except Exception as exc:  # pandas raises several types for unreadable text
         msg = str(exc)
@@ -44,12 +51,25 @@ def read_table(path: Path, encoding: str | None = None) -> pd.DataFrame:
         if m:
             line = int(m.group(2)) + text.first_data_line - 1
             msg = f"line {line} has {m.group(3)} fields, the header {len(text.columns)}"
-        raise ExperimentDataError(f"{path}: not a readable CSV ({msg})") from exc
+        raise ExperimentDataError(
+            f"{path}: not a readable CSV ({msg}; read with {text.dialect}: give --delimiter, --decimal if the "
+            "file has others)"
+        ) from exc
     table.columns = [str(c).strip().strip('"').strip() for c in text.columns]
     if table.empty:
         raise ExperimentDataError(f"{path}: no rows")
-    table.attrs.update(first_data_line=text.first_data_line, encoding=text.encoding, notes=text.notes)
+    table.attrs.update(
+        first_data_line=text.first_data_line, encoding=text.encoding, dialect=text.dialect, notes=text.notes
+    )
     return table
+
+
+def read_with(table: pd.DataFrame) -> str:
+    """``; read with ';' between fields, ',' for decimals (...)``: the dialect a table was read
+    with, for an error about its columns or cells (empty for a table not read by :func:`read_table`)."""
+    if "dialect" not in table.attrs:
+        return ""
+    return f"; read with {table.attrs['dialect']}: give --delimiter, --decimal if the file has others"
 
 
 def first_row(table: pd.DataFrame) -> int:
@@ -74,7 +94,7 @@ def find_column(table: pd.DataFrame, name: str, path: Path, role: str = "") -> s
     close = difflib.get_close_matches(name, list(table.columns), n=3, cutoff=0.5)
     what = f" ({role})" if role else ""
     hint = f"; closest: {', '.join(repr(c) for c in close)}" if close else ""
-    raise ExperimentDataError(f"{path}: no column '{name}'{what}{hint}")
+    raise ExperimentDataError(f"{path}: no column '{name}'{what}{hint}{read_with(table)}")
 
 
 def numeric_column(table: pd.DataFrame, column: str, path: Path, allow_missing: bool = True) -> np.ndarray:
@@ -88,7 +108,7 @@ def numeric_column(table: pd.DataFrame, column: str, path: Path, allow_missing: 
     if bad.any():
         row = int(np.flatnonzero(bad.to_numpy())[0])
         raise ExperimentDataError(
-            f"{path}: row {row + line0}, column '{column}': {raw.iloc[row]!r} is not a number"
+            f"{path}: row {row + line0}, column '{column}': {raw.iloc[row]!r} is not a number{read_with(table)}"
         )
     if not allow_missing and blank.any():
         row = int(np.flatnonzero(blank.to_numpy())[0])
