@@ -111,6 +111,7 @@ def confirm(
     exclude_steps=(),
     say: Callable[[str], None] | None = None,
     friction: float | None = None,
+    reading: str = "fit",
 ) -> Confirmation:
     """Run the surrogate's FE model at ``theta`` and compare it with the surrogate (FE confirmation).
 
@@ -136,6 +137,8 @@ def confirm(
     friction : float, optional
         Run with this Coulomb friction coefficient (the mu of a fit that marginalised or
         identified it; fit.json's ``friction.mu``) instead of the surrogate's contact.
+    reading : str, default "fit"
+        The objective (eq. 4's reading): the fit's (DIC from 1.5 R) or ``paper``; as the fit's.
 
     Returns
     -------
@@ -148,7 +151,7 @@ def confirm(
         If theta is not (c1, c5), mu is negative, friction is combined with a mesh check, or a
         mesh check is asked of FEBio.
     """
-    inputs = prepare_fit(experiment, surrogate, weights, exclude_steps)
+    inputs = prepare_fit(experiment, surrogate, weights, exclude_steps, reading=reading)
     theta = np.asarray(theta, float).reshape(-1)
     if theta.size != 2:
         raise ValueError(f"confirm takes theta = (c1, c5); give mu as friction, got {theta.tolist()}")

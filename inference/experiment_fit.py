@@ -278,6 +278,7 @@ class ExperimentFit:
             "fiber_angle_estimated": inputs.dic.fiber_angle_estimated,
             "registration": inputs.dic.to_dict(),
             "excluded_steps": list(inputs.objective.excluded_steps),
+            "reading": inputs.objective.reading,
             "measured_nodes": int(inputs.objective.measured.sum()),
             "weights": inputs.eta.tolist(),
             "mesh_check": None if self.mesh_check is None else self.mesh_check.to_dict(self.check_mesh),
@@ -347,6 +348,7 @@ def fit_experiment(
     force_noise: float | None = None,
     dic_noise: float | None = None,
     fe_stage: str = "auto",
+    reading: str = "fit",
 ) -> ExperimentFit:
     """Fit (c1, c5) to a measured experiment: on the surrogate, then on its FE model (paper 2.8.2).
 
@@ -388,6 +390,9 @@ def fit_experiment(
         Declared DIC noise (mm) for the adequacy test; default measured.
     fe_stage : {"auto", "confirm", "fit", "none"}, default "auto"
         What follows the surrogate's fit (:data:`FE_STAGES`).
+    reading : str, default "fit"
+        The objective (eq. 4's reading): the fit's, without the DIC rings from R to 1.5 R
+        (docs/explanation/model-error.md), or ``paper``.
 
     Returns
     -------
@@ -407,7 +412,7 @@ def fit_experiment(
     >>> fit.fit.theta, fit.fit.bounds_pct  # doctest: +SKIP
     """
     say = say or (lambda message: None)
-    inputs = prepare_fit(experiment, surrogate, weights, exclude_steps)
+    inputs = prepare_fit(experiment, surrogate, weights, exclude_steps, reading=reading)
     stage = resolved_fe_stage(fe_stage, inputs.surrogate, refine=refine)
     treatment = (
         default_friction(inputs.surrogate, stage == "fit" and check_mesh is None)

@@ -157,6 +157,7 @@ def sample_posterior_for(
     exclude_steps=(),
     say: Callable[[str], None] | None = None,
     friction: FrictionTreatment | str | float | None = None,
+    reading: str = "fit",
 ) -> ExperimentPosterior:
     """Sample the posterior of (c1, c5) of an experiment on the surrogate with emcee.
 
@@ -192,6 +193,8 @@ def sample_posterior_for(
         On a surrogate trained with mu as a parameter: a known mu (held), ``marginalise[:LO:HI]``
         (mu sampled with a log-uniform prior and marginalised: the intervals of (c1, c5) hold its
         uncertainty) or ``identify`` (the same with a uniform prior).
+    reading : str, default "fit"
+        The objective (eq. 4's reading): the fit's (DIC from 1.5 R) or ``paper``; as the fit's.
 
     Returns
     -------
@@ -205,7 +208,7 @@ def sample_posterior_for(
         or friction is combined with a mesh check (made with the perfect stick).
     """
     say = say or (lambda message: None)
-    inputs = prepare_fit(experiment, surrogate, weights, exclude_steps)
+    inputs = prepare_fit(experiment, surrogate, weights, exclude_steps, reading=reading)
     model = inputs.surrogate
     # by default mu is marginalised where the surrogate has it (as fit_experiment does)
     treatment = (

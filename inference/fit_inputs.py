@@ -54,6 +54,8 @@ def prepare_fit(
     surrogate: str | Path | FieldSurrogate,
     weights=PAPER_WEIGHTS,
     exclude_steps=(),
+    *,
+    reading: str = "fit",
 ) -> FitInputs:
     """Load the experiment and the surrogate, check they describe the same test, build the objective.
 
@@ -70,6 +72,9 @@ def prepare_fit(
         eta = (force, ux, uy, uz) on the simplex (eq. 5).
     exclude_steps : sequence of int, default ()
         Steps (1..N) left out of the fit beside those experiment.json excludes.
+    reading : str, default "fit"
+        How eq. 4 is read (:class:`~indentation_studio.design.objective.Objective`): the fit's
+        objective, DIC from 1.5 R; ``paper`` for the paper's, from 1 R.
 
     Returns
     -------
@@ -100,6 +105,6 @@ def prepare_fit(
             f"the experiment (R = {exp.radius:g} mm, {exp.steps} x {exp.step_size:g} mm) does not match the "
             f"surrogate's model (R = {spec.indenter.radius:g} mm, {len(model.depth)} steps to {model.depth[-1]:g} mm)"
         )
-    objective, dic = experiment_objective(exp, model.top_xyz, excluded_steps=exclude_steps)
+    objective, dic = experiment_objective(exp, model.top_xyz, reading=reading, excluded_steps=exclude_steps)
     sources = {"experiment": str(exp.root), "surrogate": label}
     return FitInputs(exp, model, spec, objective, dic, eta, sources)

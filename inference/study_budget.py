@@ -68,6 +68,7 @@ def reference_uncertainty_pct(values: Sequence[float], sizes: Sequence[float], l
 
     Examples
     --------
+    >>> from indentation_studio.inference import reference_uncertainty_pct
     >>> # c5 on levels 3, 2, 1, 0 at {11, 330} kPa, R = 4.77 mm: monotone, orders 2.02 and 1.60
     >>> round(reference_uncertainty_pct([330.0, 336.1, 350.1, 376.8], [1.0, 1.5, 2.25, 3.375], 0), 2)
     1.85

@@ -184,7 +184,8 @@ def _result(tmp_path, model, model_error, mesh_check=None):
 def test_a_test_without_an_error_budget_says_so(model, tmp_path):
     status = budget_status(_result(tmp_path, model, None))
     assert not status["known"] and "no error budget is known for this test" in status["warning"]
-    assert "R = 4.77 mm, 4 x 0.5 mm" in status["test"] and "design error-budget" in status["warning"]
+    assert "R = 4.77 mm, 4 x 0.5 mm" in status["test"] and "design study-budget" in status["warning"]
+    assert "verification-study --family 8x8:1.2:1.5:core8 " in status["warning"]
     source = {"file": "x.json", "model": "coarse", "points": 9, "field_of_view_mm": 25.0}
     known = ModelError(np.zeros(2), np.array([3.0, 24.0]), np.zeros((2, 2)), source, False)
     assert budget_status(_result(tmp_path, model, known))["known"]  # the data cover 25 mm too

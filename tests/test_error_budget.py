@@ -69,8 +69,8 @@ def _budget_and_lm_bias(reference, model) -> tuple[list[float], np.ndarray]:
     top) and that of a full Levenberg-Marquardt fit of the model to the same target, in %."""
     row = compute_error_budget([reference], {"model": model}, fe_steps=4, fov_mm=None).table.iloc[0]
     objective = Objective.from_prediction(
-        reference_prediction(reference, model_top_xyz(model)), radius=COARSE.indenter.radius
-    )
+        reference_prediction(reference, model_top_xyz(model)), radius=COARSE.indenter.radius, reading="fit"
+    )  # the budget reads eq. 4 as the fits do
     lm = fit_parameters(objective, model, PAPER_WEIGHTS, theta0=THETA)
     return [row.c1_bias_pct, row.c5_bias_pct], 100 * (lm.theta / np.array(THETA) - 1)
 

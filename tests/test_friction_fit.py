@@ -87,6 +87,13 @@ def test_bounds_with_mu_are_the_schur_complement_and_the_prior_sits_between():
     assert flat["mu_share_pct"] == [0.0, 0.0]
 
 
+#: The tests of mu's treatment keep the paper's objective: the coarse campaign's mesh has only 21 top
+#: nodes beyond 1.5 R in the field of view (23 beyond R), where the DIC-to-node reading of its 5 mm
+#: cells outweighs the 0.002 mm noise these tests use (measured: c5 3.5 % off with the fit's
+#: objective against a 3.2 % bound, 1.4 % against 3.1 % with the paper's).
+READING = "paper"
+
+
 def test_a_surrogate_with_mu_is_a_three_parameter_predictor(mu_surrogate):
     model = mu_surrogate
     assert model.parameters == ("c1", "c5", "mu")
@@ -117,11 +124,13 @@ def test_fit_identifies_mu_with_c1_c5_on_a_surrogate_with_mu(mu_surrogate, tmp_p
     exp = write_synthetic_experiment(
         model, truth, tmp_path / "e", radius=4.77, step_size=0.5, u_noise_mm=0.002, f_noise=0.002, seed=1
     )
-    default = fit_experiment(exp, model, refine=False)  # not told: mu marginalised on a surrogate with mu
+    default = fit_experiment(
+        exp, model, refine=False, reading=READING
+    )  # not told: mu marginalised on a surrogate with mu
     assert default.friction.mode == "marginalise" and default.to_dict()["warnings"] == []
     with pytest.raises(ValueError, match="outside the range the surrogate was trained"):
-        fit_experiment(exp, model, refine=False, friction=5.0)
-    ident = fit_experiment(exp, model, refine=False, friction="identify")
+        fit_experiment(exp, model, refine=False, reading=READING, friction=5.0)
+    ident = fit_experiment(exp, model, refine=False, reading=READING, friction="identify")
     d = ident.to_dict()
     np.testing.assert_allclose(ident.fit.theta[:2], truth[:2], rtol=0.03)
     fr = d["friction"]
@@ -167,13 +176,15 @@ def test_fit_identifies_mu_with_c1_c5_on_a_surrogate_with_mu(mu_surrogate, tmp_p
     assert reach == {"lower": False, "upper": True} and "Newton did not converge" in notes["upper"]
     assert fr["mu_reach_notes"] == {} and fr["restarts"] == []
     # mu known at the fit: a fit with it held gives the conditional bounds (p = 2's s, not p = 3's)
-    at_fit = fit_experiment(exp, model, refine=False, friction=float(ident.fit.theta[2]))
+    at_fit = fit_experiment(exp, model, refine=False, reading=READING, friction=float(ident.fit.theta[2]))
     np.testing.assert_allclose(at_fit.statistical_pct, fr["conditional_pct"], rtol=0.05)
     assert "mu identified with (c1, c5) within [0.2, 2]" in d["bounds_include"]
-    narrow = fit_experiment(exp, model, refine=False, friction="identify:0.3:1").to_dict()["friction"]
+    narrow = fit_experiment(exp, model, refine=False, reading=READING, friction="identify:0.3:1").to_dict()[
+        "friction"
+    ]
     assert narrow["mu_range"] == [0.3, 1.0] and 0.3 <= narrow["mu"] <= 1.0
     np.testing.assert_allclose([model.scaler.lo[2], model.scaler.hi[2]], [0.2, 2.0])  # the model untouched
-    known = fit_experiment(exp, model, refine=False, friction=0.35).to_dict()
+    known = fit_experiment(exp, model, refine=False, reading=READING, friction=0.35).to_dict()
     assert known["friction"] == {
         "treatment": "known",
         "contact": "Coulomb friction mu = 0.35 (known)",
@@ -192,7 +203,9 @@ def test_posterior_marginalises_mu_with_its_log_uniform_prior(mu_surrogate, tmp_
     exp = write_synthetic_experiment(
         model, truth, tmp_path / "e", radius=4.77, step_size=0.5, u_noise_mm=0.002, f_noise=0.002, seed=1
     )
-    marg = sample_posterior_for(exp, model, walkers=16, steps=1500, seed=2)  # not told: marginalised
+    marg = sample_posterior_for(
+        exp, model, walkers=16, steps=1500, seed=2, reading=READING
+    )  # not told: marginalised
     d = marg.to_dict()
     assert d["friction"]["treatment"] == "marginalise"
     assert marg.posterior.parameters == ("c1", "c5", "mu")
@@ -202,7 +215,7 @@ def test_posterior_marginalises_mu_with_its_log_uniform_prior(mu_surrogate, tmp_
     fr = d["friction"]
     assert fr["prior"] == "log-uniform" and fr["mu_range"] == [0.2, 2.0]
     assert "marginalised over a log-uniform prior on [0.2, 2]" in d["intervals_include"]
-    known = sample_posterior_for(exp, model, walkers=16, steps=1500, seed=2, friction=0.35)
+    known = sample_posterior_for(exp, model, walkers=16, steps=1500, seed=2, reading=READING, friction=0.35)
     assert known.posterior.parameters == ("c1", "c5")
     width = lambda p: np.diff(p.posterior.interval(0.95)[1])[0]  # noqa: E731
     assert width(known) < width(marg)  # c5's interval without mu's uncertainty is narrower
@@ -247,7 +260,7 @@ def test_a_fit_with_mu_keeps_the_stick_measured_mesh_budget_and_says_so(mu_surro
     exp = write_synthetic_experiment(
         model, [9.0, 330.0, 0.5], tmp_path / "e", radius=4.77, step_size=0.5, seed=2
     )
-    d = fit_experiment(exp, model, refine=False, friction="marginalise").to_dict()
+    d = fit_experiment(exp, model, refine=False, reading=READING, friction="marginalise").to_dict()
     stat = np.array(d["statistical_pct"])
     np.testing.assert_allclose([d["c1_pct"], d["c5_pct"]], np.hypot(stat, [3.0, 30.0]))
     assert (

@@ -55,7 +55,8 @@ def test_model_error_is_reachable_from_a_notebook():
 def test_friction_is_reachable_from_a_notebook():
     """The contact in a spec, as a parameter, in the error budget and in the words of a bound."""
     spec = ins.ModelSpec().with_friction(0.3)
-    assert spec.contact == ins.forward.Contact(friction=0.3)
+    assert spec.contact == ins.forward.Contact(friction=0.3).on_mesh(spec.mesh)  # node by node on default
+    assert spec.contact.integration == "node"
     assert spec.with_parameters(mu=1.0).contact.friction == 1.0
     stick, _ = ins.inference.resolve_model("coarse@stick", spec)
     assert stick.predictor.spec.contact.friction is None

@@ -102,7 +102,14 @@ def small_study(tmp_path_factory):
     out = tmp_path_factory.mktemp("verification")
     spec = ModelSpec(protocol=Protocol(steps=4))
     study = run_verification_study(
-        spec, family, [0, 1, 2], points=[(10.0, 350.0)], radii=[4.77], substeps=(1,), out_dir=out
+        spec,
+        family,
+        [0, 1, 2],
+        points=[(10.0, 350.0)],
+        radii=[4.77],
+        substeps=(1,),
+        out_dir=out,
+        reading="paper",
     )
     return study, out, spec, family
 
@@ -112,7 +119,8 @@ def test_observed_orders_of_the_fe_model_on_a_small_family(small_study):
     case = study.cases[0]
     assert [lv["nodes"] for lv in case["levels"]] == [6859, 2197, 729]
     q = case["quantities"]
-    # measured on this family (R = 4.77, 2 mm): uz at 2R converges at p = 2.6, the fit's c5 at 1.7
+    # measured on this family (R = 4.77, 2 mm): uz at 2R converges at p = 2.6, the fit's c5 (the
+    # paper's objective) at 1.7
     assert 2.0 < q["uz(2R)"]["orders"][0] < 3.2
     assert 1.2 < q["fit c5"]["orders"][0] < 2.2
     # the finest level fits its own response exactly; the coarser ones are biased, most the coarsest
@@ -139,6 +147,7 @@ def test_the_study_resumes_from_its_runs(small_study):
         substeps=(1,),
         out_dir=out,
         say=said.append,
+        reading="paper",
     )
     assert len(said) == 3 and all("read back" in s for s in said)
     assert (
@@ -146,6 +155,24 @@ def test_the_study_resumes_from_its_runs(small_study):
     )
     stored = load_verification_study(out / "study.json")
     assert stored["family"]["ratio"] == 1.5 and stored["inputs"]["radii"] == [4.77]
+    assert stored["inputs"]["reading"] == "paper"
+    # another objective only refits: the runs are read back, the forces the same, the fits not
+    said.clear()
+    fit = run_verification_study(
+        spec,
+        family,
+        [0, 1, 2],
+        points=[(10.0, 350.0)],
+        radii=[4.77],
+        substeps=(1,),
+        out_dir=out,
+        say=said.append,
+    )
+    assert len(said) == 3 and load_verification_study(out / "study.json")["inputs"]["reading"] == "fit"
+    q_fit, q_paper = fit.cases[0]["quantities"], study.cases[0]["quantities"]
+    assert q_fit["force(2mm)"]["values"] == q_paper["force(2mm)"]["values"]
+    assert q_fit["fit c5"]["values"][0] == pytest.approx(350.0, rel=1e-9)  # the finest fits itself
+    assert q_fit["fit c5"]["values"][2] != pytest.approx(q_paper["fit c5"]["values"][2], rel=1e-3)
 
 
 def test_the_command_runs_the_study_and_prints_one_json_object(small_study):
@@ -157,7 +184,19 @@ def test_the_command_runs_the_study_and_prints_one_json_object(small_study):
 
     study, out, *_ = small_study
     args = ["verification-study", "--family", "8x8:1.6:1.5", "--levels", "0,1,2", "--points", "10:350"]
-    args += ["--radii", "4.77", "--steps", "4", "--substeps", "1", "--out-dir", str(out), "--json"]
+    args += [
+        "--radii",
+        "4.77",
+        "--steps",
+        "4",
+        "--substeps",
+        "1",
+        "--out-dir",
+        str(out),
+        "--reading",
+        "paper",
+        "--json",
+    ]
     result = CliRunner().invoke(app, args)
     assert result.exit_code == 0, result.output
     payload = json.loads(result.stdout)
