@@ -14,7 +14,7 @@ from indentation_studio.forward.mesh_family import contact_family
 from indentation_studio.forward.mesh_presets import FIT_MESH, HIGH_FIDELITY_MESH
 from indentation_studio.forward.predictor import CachedPredictor, FESolverPredictor
 from indentation_studio.forward.result import SimulationResult
-from indentation_studio.forward.spec import Contact, MeshChoice, ModelSpec, Protocol
+from indentation_studio.forward.spec import Contact, Indenter, MeshChoice, ModelSpec, Protocol
 from indentation_studio.inference.error_budget import compute_error_budget
 from indentation_studio.inference.study_budget import (
     FS_ASYMPTOTIC,
@@ -23,7 +23,12 @@ from indentation_studio.inference.study_budget import (
     study_error_budget,
 )
 from indentation_studio.inference.verification_study import run_verification_study
-from indentation_studio.surrogate.error_budgets import budget_at, remaining_bias
+from indentation_studio.surrogate.error_budgets import (
+    budget_at,
+    remaining_bias,
+    shipped_budget,
+    shipped_budgets_folder,
+)
 
 
 def test_reference_uncertainty_is_roaches_gci_with_the_order_limited():
@@ -150,3 +155,39 @@ def test_the_fit_model_and_objective_are_the_studios_decision():
     assert FIT_MESH == "contact-L1" and HIGH_FIDELITY_MESH == "contact-L3" and FIT_INNER_RADII == 1.5
     fit = ModelSpec(mesh=MeshChoice(FIT_MESH))
     assert fit.contact.describe() == "stick by penalty, surface-integrated (1x1 per face)"
+
+
+@pytest.mark.parametrize("radius", [4.77, 8.0])
+def test_a_fit_at_each_paper_radius_finds_its_budget_and_its_model(radius):
+    """The shipped budgets of the fit's model (contact-L1 against contact-L3 with its GCI, the fit's
+    objective) at both paper radii: found for the fit's model at that test, interpolated at a fit's
+    theta, and not for another contact, another level or a frictional model."""
+    spec = ModelSpec(mesh=MeshChoice(FIT_MESH), indenter=Indenter(radius))
+    left = shipped_budget(spec)
+    assert left is not None and left["source"]["model"] == FIT_MESH
+    assert left["source"]["reference_mesh"] == HIGH_FIDELITY_MESH and left["source"]["reference_gci_carried"]
+    assert left["source"]["file"] == f"indentation_studio/error_budgets/fit-model-R{radius:g}.json"
+    payload = json.loads((shipped_budgets_folder() / f"fit-model-R{radius:g}.json").read_text())
+    assert payload["reading"] == "fit" and len(payload["rows"]) == 9
+    at = budget_at(left, [12.0, 250.0])
+    values = np.array([[p["c1_pct"], p["c5_pct"]] for p in left["points"]])
+    assert at["source"]["where"] == "interpolated"
+    assert np.all(values.min(axis=0) <= [at["c1_pct"], at["c5_pct"]]) and np.all(
+        [at["c1_pct"], at["c5_pct"]] <= values.max(axis=0)
+    )
+    # every point carries at least level 3's own uncertainty
+    for row, point in zip(payload["rows"], left["points"], strict=True):
+        assert (
+            point["c5_pct"] >= row["c5_reference_gci_pct"] > 0
+            and point["c1_pct"] >= row["c1_reference_gci_pct"] > 0
+        )
+    assert shipped_budget(ModelSpec(mesh=MeshChoice("contact-L2"), indenter=Indenter(radius))) is None
+    assert (
+        shipped_budget(
+            ModelSpec(
+                mesh=MeshChoice(FIT_MESH), indenter=Indenter(radius), contact=Contact(integration="node")
+            )
+        )
+        is None
+    )
+    assert shipped_budget(spec.with_friction(0.3)) is None
