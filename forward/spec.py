@@ -381,7 +381,7 @@ class Contact:
         stick imposed exactly, :mod:`forward.stick_contact`, friction by a penalty), or at
         ``order`` x ``order`` Gauss points of every top face (stick and friction by a penalty,
         :mod:`forward.coulomb_contact`). None (the default): the mesh's own, which a
-        :class:`ModelSpec` fills in (:func:`mesh_contact`): the surface contact with one point
+        :class:`ModelSpec` fills in (:meth:`Contact.on_mesh`): the surface contact with one point
         per face on the meshes that follow the contact (``contact-L0`` to ``contact-L4``, the
         fit's model, docs/validation/verification.md), node by node on every other mesh (the
         paper's reproduction, FEBio's mesh node for node).
@@ -457,9 +457,7 @@ class Contact:
         -------
         str
         """
-        if self.integration is None:
-            where = ", the mesh's contact"
-        elif self.integration == "node":
+        if self.integration in (None, "node"):  # None: the mesh's own, told once in a spec
             where = ""
         else:
             order = self.order or 2

@@ -78,6 +78,9 @@ class ExperimentData:
     synthetic : dict
         experiment.json's ``synthetic`` block (a synthetic or FEBio-made experiment's truth,
         noise and source); empty for a lab's experiment.
+    imported : dict
+        experiment.json's ``imported`` block (what an importer recorded: its sources, the
+        contact, the clock offset and its range); empty for one written otherwise.
     """
 
     root: Path
@@ -93,6 +96,7 @@ class ExperimentData:
     excluded_steps: tuple[int, ...] = ()  # steps (1..N) left out of the fit
     missing_steps: tuple[int, ...] = ()  # of those, the ones left out for lack of data (exclude_missing)
     synthetic: dict[str, Any] = field(default_factory=dict)  # experiment.json's 'synthetic' block
+    imported: dict[str, Any] = field(default_factory=dict)  # experiment.json's 'imported' block
 
     @property
     def used_steps(self) -> np.ndarray:
@@ -310,4 +314,5 @@ def load_experiment(root: str | Path, exclude_missing: bool = False) -> Experime
         excluded_steps=tuple(sorted(set(excluded) | set(missing))),
         missing_steps=tuple(missing),
         synthetic=dict(meta.get("synthetic") or {}),
+        imported=dict(meta.get("imported") or {}),
     )

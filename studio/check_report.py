@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import html
 import io
-import json
 from pathlib import Path
 
 from ..atomic_write import atomic_write, atomic_write_json
@@ -79,9 +78,10 @@ def fiber_text(exp, check) -> str:
     )
 
 
-def clock_text(meta: dict) -> str:
-    """The DIC clock's offset an import chose and the range that fit as well, or '' (none)."""
-    clock = (meta.get("imported") or {}).get("clock_offset")
+def clock_text(imported: dict) -> str:
+    """The DIC clock's offset an import chose and the range that fit as well, or '' (none), from
+    experiment.json's ``imported`` block (``ExperimentData.imported``)."""
+    clock = (imported or {}).get("clock_offset")
     if not clock:
         return ""
     if clock.get("source") == "given":
@@ -110,8 +110,7 @@ def write_check_report(
     for name, fig in figures.items():
         atomic_write(out / name, _png(fig))
     result = check.to_dict()
-    meta = json.loads((exp.root / "experiment.json").read_text())
-    clock = clock_text(meta)
+    clock = clock_text(exp.imported)
     result.update(fiber_text=fiber_text(exp, check), clock_offset=clock or None)
     noise = ", ".join(f"{v:.3g}" for v in check.dic_noise_mm)
     parts = [

@@ -72,7 +72,7 @@ def test_each_mesh_has_its_own_default_contact():
     assert node.contact.integration == "node" and ModelSpec.from_dict(node.to_dict()) == node
     surface2 = ModelSpec(contact=Contact(integration="surface"))  # the order of a preset mesh: 2
     assert surface2.contact.order == 2 and ModelSpec.from_dict(surface2.to_dict()) == surface2
-    assert Contact().describe() == "perfect stick, the mesh's contact"
+    assert Contact().describe() == "perfect stick"
     assert (
         ModelSpec(mesh=MeshChoice("contact-L1")).contact.describe()
         == "stick by penalty, surface-integrated (1x1 per face)"
