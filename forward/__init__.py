@@ -56,6 +56,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
         "newton": ["Equilibrium", "IncrementFailed", "NewtonSystem"],
         "threads": ["busy_cores", "solver_threads", "thread_limits"],
         "mesh_family": ["MeshFamily", "contact_family", "contact_mesh"],
+        "mesh_presets": ["FIT_MESH", "HIGH_FIDELITY_MESH"],
         "grid_convergence": ["ConvergenceOfQuantity", "GridTriplet", "observed_order", "study_quantity"],
         "material": ["InvertedElementError"],
         "result": ["SimulationResult"],
