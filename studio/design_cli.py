@@ -414,10 +414,13 @@ def error_budget_cmd(
         )
     except (SpecError, ValueError, OSError) as exc:
         fail(str(exc), as_json)
-    payload = budget.to_dict()
-    payload["json_file"] = str(path)
+    _report_budget(budget, path, reference, as_json)
+
+
+def _report_budget(budget: inference.ErrorBudget, path: Path, reference: str, as_json: bool) -> None:
+    """A budget command's output: its JSON with the file's path, or the table and the path."""
     if as_json:
-        print(strict_json(payload))
+        print(strict_json(budget.to_dict() | {"json_file": str(path)}))
         return
     _print_budget(budget, reference)
     Console().print(f"wrote {path}")
@@ -461,11 +464,7 @@ def study_budget_cmd(
         atomic_write_json(out, budget.to_dict())
     except (SpecError, ValueError, OSError) as exc:
         fail(str(exc), as_json)
-    if as_json:
-        print(strict_json(budget.to_dict() | {"json_file": str(out)}))
-        return
-    _print_budget(budget, f"level {reference_level} of {study}")
-    Console().print(f"wrote {out}")
+    _report_budget(budget, out, f"level {reference_level} of {study}", as_json)
 
 
 def _print_budget(budget: inference.ErrorBudget, reference: str) -> None:
