@@ -36,7 +36,16 @@ from .inverse_fit import (
     residuals_at,
 )
 from .mesh_check import MeshCheck, check_mesh_at
-from .model_error import ModelError, combined_pct, has_high_fidelity_level, model_error_at, model_error_scope
+from .model_error import (
+    ModelError,
+    combined_pct,
+    has_high_fidelity_level,
+    model_error_at,
+    model_error_scope,
+    with_emulation_error,
+    with_processing_error,
+)
+from .processing_error import REGISTRATION_MM, processing_error_at
 
 __all__ = [
     "FE_STAGES",
@@ -349,6 +358,7 @@ def fit_experiment(
     dic_noise: float | None = None,
     fe_stage: str = "auto",
     reading: str = "fit",
+    registration_mm: float = REGISTRATION_MM,
 ) -> ExperimentFit:
     """Fit (c1, c5) to a measured experiment: on the surrogate, then on its FE model (paper 2.8.2).
 
@@ -393,6 +403,10 @@ def fit_experiment(
     reading : str, default "fit"
         The objective (eq. 4's reading): the fit's, without the DIC rings from R to 1.5 R
         (docs/explanation/model-error.md), or ``paper``.
+    registration_mm : float, default REGISTRATION_MM
+        How far the indentation point found from the indenter's tracked points may lie from the
+        true one, mm: the bounds carry its effect and that of the DIC-points-to-nodes planes,
+        measured at the fit (``inference.processing_error``).
 
     Returns
     -------
@@ -421,7 +435,7 @@ def fit_experiment(
     )
     f_stop = PAPER_F_STOP if paper_stop else None
     if treatment.mode != "assumed" or "mu" in inputs.surrogate.parameters:
-        result = _fit_with_friction(inputs, treatment, stage, f_stop, check_mesh, say)
+        result = _fit_with_friction(inputs, treatment, stage, f_stop, check_mesh, say, registration_mm)
         result.adequacy, result.adequacy_note = fit_adequacy(
             result, force_noise=force_noise, dic_noise=dic_noise
         )
@@ -449,7 +463,12 @@ def fit_experiment(
         check, _ = check_mesh_at(inputs.spec, inputs.objective, inputs.eta, final.theta, check_mesh, say)
     if two_level:
         say("the model error at the fit (discrepancy and error budget) ...")
-    model_error = model_error_at(inputs.objective, inputs.eta, inputs.surrogate, final.theta)
+    model_error = model_error_at(
+        inputs.objective, inputs.eta, inputs.surrogate, final.theta, on_surrogate=stage != "fit"
+    )
+    model_error = _with_processing(
+        model_error, inputs, final.theta, inputs.spec.contact.describe(), registration_mm, say
+    )
     result = ExperimentFit(inputs, first, final, stage == "fit", check, check_mesh, model_error)
     if stage == "confirm":
         say(f"confirming on the FE solver at {first.theta.round(3).tolist()} kPa ...")
@@ -622,6 +641,7 @@ def _fit_with_friction(
     f_stop: float | None,
     check_mesh: str | None,
     say: Callable[[str], None],
+    registration_mm: float = REGISTRATION_MM,
 ) -> ExperimentFit:
     """fit_experiment with mu known, identified or marginalised (or a surrogate with mu)."""
     model, spec = inputs.surrogate, inputs.spec
@@ -710,12 +730,24 @@ def _fit_with_friction(
         friction=treatment,
         mu_range=mu_range,
     )
+    at = _with_held_mu(final.theta, model, treatment) if with_mu else final.theta
     if with_mu and has_high_fidelity_level(model):  # its discrepancy (learned at the stick or over mu)
         say("the model error at the fit (discrepancy and error budget, mu held) ...")
-        error = model_error_at(obj, eta, model, final.theta, free=2)
+        error = model_error_at(obj, eta, model, at, free=2, on_surrogate=not refine)
         fit.model_error = None if error is None else replace(error, contact=fit.contact)
     else:
         fit.model_error = _stick_mesh_budget(model, fit.contact, spec.contact.describe(), theta=final.theta)
+        if with_mu and not refine:  # the final stage on the surrogate: its own error too
+            error = with_emulation_error(fit.model_error, obj, eta, model, at, free=2)
+            fit.model_error = None if error is None else replace(error, contact=fit.contact)
+    if with_mu:
+        fit.model_error = _with_processing(
+            fit.model_error, inputs, at, fit.contact, registration_mm, say, free=2
+        )
+    else:  # the stick surrogate's field at (c1, c5) stands for the model's
+        fit.model_error = _with_processing(
+            fit.model_error, inputs, final.theta[:2], fit.contact, registration_mm, say
+        )
     fit.mu_reach, fit.mu_reach_notes, fit.restarts = reach, notes, restarts
     if stage == "confirm":
         say(f"confirming on the FE solver at {np.round(final.theta, 3).tolist()} ...")
@@ -830,6 +862,43 @@ def _profile_at(
     start = c1_c5 if two is None else np.clip(c1_c5, two[0], two[1])
     profile = fit_parameters(objective, held, eta, theta0=start, box=two)
     return profile.F, np.append(profile.theta, mu), profile.F
+
+
+def _with_processing(
+    model_error: ModelError | None,
+    inputs: FitInputs,
+    theta: np.ndarray,
+    contact: str,
+    registration_mm: float,
+    say: Callable[[str], None],
+    *,
+    free: int | None = None,
+) -> ModelError:
+    """The fit's model error with the experiment's processing part measured at ``theta`` on the
+    fit's surrogate (``inference.processing_error``)."""
+    say(
+        f"the processing's part at the fit (DIC points to nodes, registration within {registration_mm:g} mm) ..."
+    )
+    processing = processing_error_at(
+        inputs.objective,
+        inputs.dic,
+        inputs.surrogate,
+        theta,
+        inputs.eta,
+        used_steps=inputs.experiment.used_steps,
+        registration_mm=registration_mm,
+        free=free,
+    )
+    return with_processing_error(model_error, processing, contact)
+
+
+def _with_held_mu(theta: np.ndarray, model, treatment: FrictionTreatment) -> np.ndarray:
+    """(c1, c5, mu) of a fit on a surrogate with mu: mu as fitted, or the value held (at the
+    training range's nearest end, as :func:`surrogate_with_mu` holds it)."""
+    theta = np.asarray(theta, float)
+    if theta.size == len(model.parameters):
+        return theta
+    return np.append(theta, np.clip(treatment.value, model.scaler.lo[2], model.scaler.hi[2]))
 
 
 def _stick_mesh_budget(surrogate, contact: str, measured_with: str, *, theta) -> ModelError | None:

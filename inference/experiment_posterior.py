@@ -16,11 +16,17 @@ from ..design.friction_treatment import FrictionTreatment, friction_bounds
 from ..design.objective import PAPER_WEIGHTS
 from ..surrogate.base import FieldSurrogate
 from .experiment_data import ExperimentData
-from .experiment_fit import _mu_range, _stick_mesh_budget, fit_on_surrogate_with_mu, surrogate_with_mu
+from .experiment_fit import (
+    _mu_range,
+    _stick_mesh_budget,
+    _with_held_mu,
+    fit_on_surrogate_with_mu,
+    surrogate_with_mu,
+)
 from .fit_inputs import FitInputs, prepare_fit
 from .inverse_fit import FitResult, fit_parameters
 from .mesh_check import load_mesh_check
-from .model_error import ModelError, model_error_at, model_error_scope, with_model_error
+from .model_error import ModelError, model_error_at, model_error_scope, with_emulation_error, with_model_error
 from .posterior import Posterior, carried_to_finer_mesh, sample_posterior
 
 __all__ = ["ExperimentPosterior", "sample_posterior_for"]
@@ -258,12 +264,19 @@ def sample_posterior_for(
     ):  # the stick-measured mesh budget of (c1, c5) (experiment_fit._stick_mesh_budget)
         contact = treatment.describe(inputs.spec.contact.describe(), mu_range)
         model_error = _stick_mesh_budget(model, contact, inputs.spec.contact.describe(), theta=fit.theta)
+        at = _with_held_mu(fit.theta, model, treatment)
+        model_error = with_emulation_error(model_error, inputs.objective, inputs.eta, model, at, free=2)
+        if model_error is not None:
+            model_error = replace(model_error, contact=contact)
         if model_error is not None and fit.theta.size == 3:  # mu sampled: no budget of its own
             model_error = replace(
                 model_error,
                 discrepancy_pct=np.zeros(3),
                 budget_pct=np.append(model_error.budget_pct, 0.0),
                 covariance_log=np.zeros((3, 3)),
+                surrogate_pct=None
+                if model_error.surrogate_pct is None
+                else np.append(model_error.surrogate_pct, 0.0),
             )
     else:
         model_error = model_error_at(inputs.objective, inputs.eta, model, fit.theta)

@@ -9,7 +9,12 @@ multi-fidelity surrogate also knows two model errors, which are reported beside 
   d log theta_l = -(J^T J)^-1 J^T dr_l; the covariance is sum_l d log theta_l d log theta_l^T;
 * what the error budget leaves: the largest bias of the high-fidelity mesh itself against the
   reference at the budget's test points (``inference.error_budget``), a systematic half-width
-  recorded in the surrogate's provenance (``meta['error_budget']``).
+  recorded in the surrogate's provenance (``meta['error_budget']``);
+* the surrogate's own error (issue 46), for a fit whose final stage is on the surrogate: its error
+  vectors at held-out points (``surrogate.emulation_error``), each moving the fit to first order
+  as above, d log theta_k = -(J^T J)^-1 J^T dr_k; the part is the 95th percentile of |d log theta_k|
+  over the held-out points (the largest of them when there are fewer than 20), a systematic
+  half-width, not a standard deviation.
 
 A single-level surrogate knows the second part only, when an error budget of its own mesh for the
 same test is known (given at training, or shipped with the studio:
@@ -29,8 +34,19 @@ from ..design.objective import Objective, check_weights
 from ..forward.predictor import Prediction
 from ..forward.spec import ModelSpec
 from ..surrogate.error_budgets import budget_at, surrogate_error_budget
+from .processing_error import ProcessingError
 
-__all__ = ["Z95", "ModelError", "combined_pct", "model_error_at", "model_error_scope", "with_model_error"]
+__all__ = [
+    "Z95",
+    "ModelError",
+    "combined_pct",
+    "emulation_error_pct",
+    "model_error_at",
+    "model_error_scope",
+    "with_emulation_error",
+    "with_model_error",
+    "with_processing_error",
+]
 
 Z95 = 1.959963984540054
 
@@ -53,6 +69,14 @@ class ModelError:
         False: a single-level surrogate, the mesh's error budget only.
     contact : str
         The contact the surrogate's model assumes (``Contact.describe()``).
+    surrogate_pct : numpy.ndarray or None
+        (p,) the surrogate's own error (its held-out errors pushed through the fit); None: not
+        carried (a fit whose final stage is on the FE model, or a surrogate without held-out errors).
+    surrogate_source : str or None
+        Where the surrogate's held-out errors came from, in words.
+    processing : ProcessingError or None
+        The experiment's processing (DIC points to nodes, registration) measured at the fit
+        (``inference.processing_error``); None: not carried.
     """
 
     discrepancy_pct: np.ndarray  # from the discrepancy's predictive uncertainty
@@ -61,15 +85,28 @@ class ModelError:
     budget_source: dict | None = None  # what the budget part was read from
     has_discrepancy: bool = True  # False: a single-level surrogate, the mesh's error budget only
     contact: str = "perfect stick"  # the contact the surrogate's model assumes (Contact.describe())
+    surrogate_pct: np.ndarray | None = None  # the surrogate's own error, pushed through the fit
+    surrogate_source: str | None = None  # where its held-out errors came from
+    processing: ProcessingError | None = None  # the experiment's processing, measured at the fit
+
+    def _systematic_pct(self) -> np.ndarray:
+        """(p,) the systematic parts (budget, surrogate, processing), root sum of squares."""
+        parts = [self.budget_pct]
+        if self.surrogate_pct is not None:
+            parts.append(self.surrogate_pct)
+        if self.processing is not None:
+            parts.append(self.processing.half_width_pct)
+        return np.sqrt(np.sum(np.square(parts), axis=0))
 
     @property
     def half_width_pct(self) -> np.ndarray:
-        """(p,) the model error's 95 % half-width: both parts' root sum of squares, percent."""
-        return np.hypot(self.discrepancy_pct, self.budget_pct)
+        """(p,) the model error's 95 % half-width: the parts' root sum of squares, percent."""
+        return np.hypot(self.discrepancy_pct, self._systematic_pct())
 
     def covariance_with_budget(self) -> np.ndarray:
-        """Covariance of log theta of both parts, the budget read as a normal with that 95 % width."""
-        return self.covariance_log + np.diag((self.budget_pct / 100.0 / Z95) ** 2)
+        """Covariance of log theta of all parts, each systematic one (budget, surrogate, processing)
+        read as a normal with its 95 % width."""
+        return self.covariance_log + np.diag((self._systematic_pct() / (100.0 * Z95)) ** 2)
 
     def to_dict(self) -> dict:
         """The parts as fit.json records them, with what they include in words.
@@ -85,6 +122,9 @@ class ModelError:
             "error_budget_pct": self.budget_pct.tolist(),
             "model_pct": self.half_width_pct.tolist(),
             "error_budget_source": self.budget_source,
+            "surrogate_pct": None if self.surrogate_pct is None else self.surrogate_pct.tolist(),
+            "surrogate_source": self.surrogate_source,
+            "processing": None if self.processing is None else self.processing.to_dict(),
             "includes": model_error_scope(self),
         }
 
@@ -132,11 +172,24 @@ def model_error_scope(
     if isinstance(src, dict) and src.get("model"):
         measured = f", measured with the {src['measured_with']}" if src.get("measured_with") else ""
         budget = f" ({_budget_words(src)}{measured})"
-    if not model.has_discrepancy:
-        return f"{noise} and the mesh's error budget{budget}; not the surrogate's own error nor {assumed}"
-    return (
-        f"{noise} and model error (the discrepancy's uncertainty and the error budget{budget}); not {assumed}"
-    )
+    held = []  # the systematic parts beside the budget, in words
+    if model.surrogate_pct is not None:
+        held.append(f"the surrogate's own error ({model.surrogate_source}, pushed through this fit)")
+    if model.processing is not None:
+        held.append(model.processing.describe())
+    extra = "".join(f", {part}" for part in held)
+    own = "" if model.surrogate_pct is not None else "not the surrogate's own error; "
+    if model.has_discrepancy:
+        return (
+            f"{noise} and model error (the discrepancy's uncertainty, the error budget{budget}{extra}); "
+            f"not {assumed}"
+        )
+    if model.budget_source is None and not np.any(model.budget_pct):
+        return (
+            f"{noise}{extra}; no error budget is known for this mesh and test, so they hold no mesh "
+            f"error; {own}not {assumed}"
+        )
+    return f"{noise}, the mesh's error budget{budget}{extra}; {own}not {assumed}"
 
 
 def _budget_words(src: dict) -> str:
@@ -207,14 +260,146 @@ def _contact_of(surrogate) -> str:
     return ModelSpec.from_dict(model).contact.describe() if model else "perfect stick"
 
 
-def model_error_at(
+def _fit_moves(
+    objective: Objective, e, surrogate, theta: np.ndarray, free: int, outputs: np.ndarray
+) -> np.ndarray:
+    """How far each output-space change moves the fit, to first order: (k, free) in log theta.
+
+    ``outputs`` (k, steps + steps * nodes * 3): log force per step, then the field (mm). Each row
+    moves the residuals by dr_k, and the fit by -(J^T J)^-1 J^T dr_k over the first ``free``
+    parameters, the rest held at ``theta``."""
+    pred = surrogate.predict(theta[None, :], jacobian=True)
+    r0 = objective.residuals(pred, e)[0]
+    J = (objective.jacobian(pred, e)[0] * theta)[:, :free]  # d r / d log theta (the free ones)
+    steps = pred.force.shape[1]
+    dr = np.stack(
+        [objective.residuals(_perturbed(pred, row[:steps], row[steps:]), e)[0] - r0 for row in outputs]
+    )  # (k, m)
+    A = np.linalg.solve(J.T @ J, J.T)  # (free, m)
+    return -dr @ A.T
+
+
+#: Below this many held-out points the surrogate's part is the largest move, not a percentile.
+FEW_HELD_OUT = 20
+
+
+def emulation_error_pct(
     objective: Objective, eta, surrogate, theta: np.ndarray, *, free: int | None = None
+) -> np.ndarray | None:
+    """The surrogate's own error as a 95 % half-width of the fit at ``theta`` (issue 46).
+
+    Each of the surrogate's held-out error vectors (``surrogate.emulation_error``) moves the fit,
+    to first order, by d log theta_k = -(J^T J)^-1 J^T dr_k; the half-width is the 95th percentile
+    of |d log theta_k| over the held-out points (their largest when there are fewer than
+    :data:`FEW_HELD_OUT`), in percent.
+
+    Parameters
+    ----------
+    objective : Objective
+        The fit's objective.
+    eta : array_like
+        The weights of eq. 5.
+    surrogate : FieldSurrogate
+        The surrogate fitted.
+    theta : numpy.ndarray
+        (p,) the fit.
+    free : int, optional
+        The first ``free`` parameters move, the rest are held (as :func:`model_error_at`).
+
+    Returns
+    -------
+    numpy.ndarray or None
+        (free,) percent; None when the surrogate kept no held-out errors.
+    """
+    emulation = getattr(surrogate, "emulation_error", None)
+    if emulation is None:
+        return None
+    theta = np.asarray(theta, float)
+    free = len(theta) if free is None else free
+    moves = np.abs(_fit_moves(objective, check_weights(eta), surrogate, theta, free, emulation.errors()))
+    q = 1.0 if len(moves) < FEW_HELD_OUT else 0.95
+    return 100.0 * np.expm1(np.quantile(moves, q, axis=0, method="higher"))
+
+
+def with_emulation_error(
+    model: ModelError | None,
+    objective: Objective,
+    eta,
+    surrogate,
+    theta: np.ndarray,
+    *,
+    free: int | None = None,
+) -> ModelError | None:
+    """``model`` with the surrogate's own error added (:func:`emulation_error_pct`).
+
+    For a fit whose final stage is on ``surrogate``; a fit refined on the FE model does not carry it.
+
+    Parameters
+    ----------
+    model : ModelError or None
+        The other parts (None: none known).
+    objective, eta, surrogate, theta, free
+        As :func:`emulation_error_pct`.
+
+    Returns
+    -------
+    ModelError or None
+        The parts with ``surrogate_pct`` set; ``model`` unchanged when the surrogate kept no
+        held-out errors.
+    """
+    pct = emulation_error_pct(objective, eta, surrogate, theta, free=free)
+    if pct is None:
+        return model
+    source = surrogate.emulation_error.source
+    if model is None:
+        p = len(pct)
+        return ModelError(
+            np.zeros(p), np.zeros(p), np.zeros((p, p)), None, False, _contact_of(surrogate), pct, source
+        )
+    return replace(model, surrogate_pct=pct, surrogate_source=source)
+
+
+def with_processing_error(model: ModelError | None, processing: ProcessingError, contact: str) -> ModelError:
+    """``model`` with the experiment's processing part (``inference.processing_error``) added.
+
+    Parameters
+    ----------
+    model : ModelError or None
+        The other parts (None: none known).
+    processing : ProcessingError
+        The processing's parts at the fit.
+    contact : str
+        The contact the model assumes, for a ``model`` of None.
+
+    Returns
+    -------
+    ModelError
+        The parts with ``processing`` set.
+    """
+    if model is None:
+        p = len(processing.interpolation_pct)
+        return ModelError(
+            np.zeros(p), np.zeros(p), np.zeros((p, p)), None, False, contact, processing=processing
+        )
+    return replace(model, processing=processing)
+
+
+def model_error_at(
+    objective: Objective,
+    eta,
+    surrogate,
+    theta: np.ndarray,
+    *,
+    free: int | None = None,
+    on_surrogate: bool = True,
 ) -> ModelError | None:
     """The model-error parts at the fit ``theta`` on ``surrogate``.
 
     A multi-fidelity surrogate gives the discrepancy's part (its predictive covariance carried to
     theta by the linearised fit) and its error budget's. A single-level surrogate with an error
-    budget of its mesh (``meta['error_budget']``) carries that budget alone.
+    budget of its mesh (``meta['error_budget']``) carries that budget alone. A fit whose final
+    stage is on the surrogate (``on_surrogate``) also carries the surrogate's own error when it
+    kept held-out errors (:func:`with_emulation_error`).
 
     Parameters
     ----------
@@ -231,52 +416,49 @@ def model_error_at(
         (mu of a fit with friction, whose own bound is its profile's; at mu's range ends, where
         nothing slips, d/dmu vanishes and a fit over all three would not be determined). The parts
         are then over those ``free`` parameters. Default all.
+    on_surrogate : bool, default True
+        The fit's final stage is on the surrogate (False: refined on the FE model, whose fit the
+        surrogate's own error does not move).
 
     Returns
     -------
     ModelError or None
-        The parts; None for a single-level surrogate without a budget (its bounds then hold no
-        model error, and say so).
+        The parts; None for a single-level surrogate without a budget or held-out errors (its
+        bounds then hold no model error, and say so).
     """
     budget = budget_at(surrogate_error_budget(surrogate), theta) or {}
     contact = _contact_of(surrogate)
+    theta = np.asarray(theta, float)
     names = surrogate.parameters[:free]
     budget_pct = np.array([float(budget.get(f"{name}_pct", 0.0)) for name in names])
+    p = len(names)
     if not has_high_fidelity_level(surrogate):
-        if not budget:
-            return None
-        p = len(names)
-        return ModelError(np.zeros(p), budget_pct, np.zeros((p, p)), budget.get("source"), False, contact)
-    e = check_weights(eta)
-    theta = np.asarray(theta, float)
-    pred = surrogate.predict(theta[None, :], jacobian=True)
-    r0 = objective.residuals(pred, e)[0]
-    J = (objective.jacobian(pred, e)[0] * theta)[:, : len(names)]  # d r / d log theta (the free ones)
-    L = surrogate.discrepancy_covariance_factor(theta)  # (k, steps + steps * nodes * 3)
-    steps = pred.force.shape[1]
-    L_force, L_field = L[:, :steps], L[:, steps:]
-    dr = np.stack(
-        [
-            objective.residuals(_perturbed(pred, f, u), e)[0] - r0
-            for f, u in zip(L_force, L_field, strict=True)
-        ]
-    )  # (k, m)
-    A = np.linalg.solve(J.T @ J, J.T)  # (p, m)
-    moves = -dr @ A.T  # (k, p) in log theta
-    cov = moves.T @ moves
-    return ModelError(
-        discrepancy_pct=100.0 * Z95 * np.sqrt(np.diag(cov)),
-        budget_pct=budget_pct,
-        covariance_log=cov,
-        budget_source=budget.get("source") if budget else None,
-        contact=contact,
-    )
+        known = (
+            ModelError(np.zeros(p), budget_pct, np.zeros((p, p)), budget.get("source"), False, contact)
+            if budget
+            else None
+        )
+    else:
+        L = surrogate.discrepancy_covariance_factor(theta)  # (k, steps + steps * nodes * 3)
+        moves = _fit_moves(objective, check_weights(eta), surrogate, theta, p, L)  # (k, p) in log theta
+        cov = moves.T @ moves
+        known = ModelError(
+            discrepancy_pct=100.0 * Z95 * np.sqrt(np.diag(cov)),
+            budget_pct=budget_pct,
+            covariance_log=cov,
+            budget_source=budget.get("source") if budget else None,
+            contact=contact,
+        )
+    if not on_surrogate:
+        return known
+    return with_emulation_error(known, objective, eta, surrogate, theta, free=free)
 
 
 def with_model_error(samples: np.ndarray, model: ModelError, seed: int = 0) -> np.ndarray:
     """Posterior samples spread by the model error: each multiplied by exp(e).
 
-    e is normal with the model error's covariance of log theta (discrepancy and error budget).
+    e is normal with the model error's covariance of log theta (discrepancy, error budget and
+    the surrogate's own error).
 
     Parameters
     ----------

@@ -150,6 +150,16 @@ def fit(
     _print_fit(result, payload, check_mesh)
 
 
+def _surrogate_part(model_error: dict) -> str:
+    """The surrogate's own error and the processing's among a fit's printed parts ('' when not carried)."""
+    own, processing = model_error.get("surrogate_pct"), model_error.get("processing")
+    text = "" if own is None else f", surrogate {own[0]:.2f} / {own[1]:.2f}"
+    if processing is not None:
+        pct = processing["processing_pct"]
+        text += f", processing {pct[0]:.2f} / {pct[1]:.2f}"
+    return text
+
+
 def _print_fit(result: inference.ExperimentFit, payload: dict, check_mesh: str | None) -> None:
     """A fit's (c1, c5) and bounds, its model error, adequacy and warnings, mu and the mesh check."""
     if payload["excluded_steps"]:
@@ -165,7 +175,9 @@ def _print_fit(result: inference.ExperimentFit, payload: dict, check_mesh: str |
         Console().print(
             f"  statistical +- {stat[0]:.2f} % / {stat[1]:.2f} %; model error +- {m['model_pct'][0]:.2f} % / "
             f"{m['model_pct'][1]:.2f} % (discrepancy {m['discrepancy_pct'][0]:.2f} / {m['discrepancy_pct'][1]:.2f}, "
-            f"error budget {m['error_budget_pct'][0]:.2f} / {m['error_budget_pct'][1]:.2f})"
+            f"error budget {m['error_budget_pct'][0]:.2f} / {m['error_budget_pct'][1]:.2f}"
+            + _surrogate_part(m)
+            + ")"
         )
     _loud_warnings(payload)
     for warning in payload["warnings"]:

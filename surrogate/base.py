@@ -200,6 +200,9 @@ class FieldSurrogate(ABC):
     """
 
     kind = "abstract"
+    #: Its errors at held-out points (``surrogate.emulation_error.EmulationError``), set by training
+    #: with a test campaign or a k-fold; fits carry them in their bounds. None: not measured.
+    emulation_error = None
 
     def __init__(self, input_scale: str = "log", pca_tol: float = 1e-3, max_components: int = 40) -> None:
         self.input_scale = input_scale

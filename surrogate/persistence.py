@@ -26,6 +26,7 @@ import numpy as np
 
 from .. import __version__
 from .base import FieldSurrogate
+from .emulation_error import EmulationError
 from .registry import surrogate_class
 from .safe_file import FORMAT, SurrogateFileError, json_header_field, read_container, write_container
 
@@ -113,6 +114,10 @@ def save_surrogate(surrogate: FieldSurrogate, path: str | Path) -> Path:
     """
     surrogate.meta["versions"] = versions()
     config, arrays = surrogate.to_state()
+    emulation = surrogate.emulation_error
+    if emulation is not None:
+        surrogate.meta["emulation_error"] = emulation.describe()
+        arrays = {**arrays, **emulation.to_arrays()}
     check = _self_check_arrays(surrogate, _self_check_points(surrogate))
     header = {
         "format": FORMAT,
@@ -188,4 +193,6 @@ def load_surrogate(path: str | Path) -> FieldSurrogate:
         raise SurrogateFileError(f"{path}: inconsistent surrogate file ({reason})") from exc
     model.meta = meta
     _verify(path, model, arrays, check)
+    kept = meta.get("emulation_error") if isinstance(meta, dict) else None
+    model.emulation_error = EmulationError.from_arrays(arrays, (kept or {}).get("source", "held-out points"))
     return model

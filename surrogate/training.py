@@ -5,8 +5,11 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+import numpy as np
+
 from ..campaign.loader import CampaignData, load_campaign
 from .base import FieldSurrogate, TrainingData
+from .emulation_error import EmulationError, held_out_errors
 from .error_budgets import surrogate_error_budget
 from .persistence import load_surrogate
 from .registry import surrogate_class
@@ -146,14 +149,31 @@ def train_surrogate(
     model = make_surrogate(kind, input_scale, pca_tol, **extra).fit(data, seed=seed)
     validation = {"training": prediction_errors(model, data)}
     if kfold:
+        steps, nodes = data.displacement.shape[1:3]
+        errors = np.zeros((data.n, steps * (1 + 3 * nodes)))
         validation["kfold"] = k_fold_errors(
-            lambda: make_surrogate(kind, input_scale, pca_tol, **extra), data, kfold, seed
+            lambda: make_surrogate(kind, input_scale, pca_tol, **extra), data, kfold, seed, held_out=errors
         )
+        source = f"{kfold}-fold cross-validation of its {data.n} training points"
+        model.emulation_error = EmulationError.from_errors(data.theta, errors, steps=steps, source=source)
     if test_campaign is not None:
-        validation["test"] = prediction_errors(model, training_data(test_campaign, runs_dir))
+        test = training_data(test_campaign, runs_dir)
+        validation["test"] = prediction_errors(model, test)
+        model.emulation_error = _test_errors(model, test)
     model.meta["validation"] = validation
     _record_error_budget(model, error_budget)
     return model
+
+
+def _test_errors(model: FieldSurrogate, test: TrainingData) -> EmulationError:
+    """The model's errors at a test campaign's points (what fits carry as its own error)."""
+    where = test.source.get("name") or test.source.get("campaign") or "a test campaign"
+    return EmulationError.from_errors(
+        test.theta,
+        held_out_errors(model, test),
+        steps=test.displacement.shape[1],
+        source=f"{test.n} points of the test campaign {where}",
+    )
 
 
 def _record_error_budget(model: FieldSurrogate, error_budget: dict | None) -> None:
@@ -229,5 +249,7 @@ def train_multi_fidelity(
         test = training_data(test_campaign, runs_dir)
         validation["test"] = prediction_errors(_scored_on(model, test), test)
     model.meta["validation"] = validation
+    if low_model.emulation_error is not None:  # the low level's own error, at the high top nodes
+        model.emulation_error = low_model.emulation_error.carried(model._carried)
     _record_error_budget(model, error_budget)
     return model

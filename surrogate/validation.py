@@ -8,6 +8,7 @@ import numpy as np
 from sklearn.model_selection import KFold
 
 from .base import FieldSurrogate, TrainingData
+from .emulation_error import held_out_errors
 
 
 def prediction_errors(surrogate: FieldSurrogate, data: TrainingData) -> dict[str, float]:
@@ -46,7 +47,9 @@ def prediction_errors(surrogate: FieldSurrogate, data: TrainingData) -> dict[str
     }
 
 
-def k_fold_errors(make, data: TrainingData, folds: int = 5, seed: int = 0) -> dict[str, float]:
+def k_fold_errors(
+    make, data: TrainingData, folds: int = 5, seed: int = 0, *, held_out: np.ndarray | None = None
+) -> dict[str, float]:
     """k-fold cross-validation of a surrogate: the held-out errors of all folds pooled.
 
     Parameters
@@ -59,6 +62,9 @@ def k_fold_errors(make, data: TrainingData, folds: int = 5, seed: int = 0) -> di
         Number of folds, 2 <= folds <= points.
     seed : int, default 0
         Seed of the shuffle and of the training.
+    held_out : numpy.ndarray, optional
+        (points, steps + steps * nodes * 3), filled with each point's error vector from the model
+        that did not see it (:func:`surrogate.emulation_error.held_out_errors`).
 
     Returns
     -------
@@ -77,6 +83,8 @@ def k_fold_errors(make, data: TrainingData, folds: int = 5, seed: int = 0) -> di
     for train, test in KFold(folds, shuffle=True, random_state=seed).split(data.theta):
         s = make().fit(data.subset(train), seed=seed)
         parts.append((prediction_errors(s, data.subset(test)), len(test)))
+        if held_out is not None:
+            held_out[test] = held_out_errors(s, data.subset(test))
     n = sum(k for _, k in parts)
     out = {"folds": folds, "points": n}
     for key in parts[0][0]:

@@ -262,7 +262,12 @@ def test_a_fit_with_mu_keeps_the_stick_measured_mesh_budget_and_says_so(mu_surro
     )
     d = fit_experiment(exp, model, refine=False, reading=READING, friction="marginalise").to_dict()
     stat = np.array(d["statistical_pct"])
-    np.testing.assert_allclose([d["c1_pct"], d["c5_pct"]], np.hypot(stat, [3.0, 30.0]))
+    me = d["model_error"]
+    np.testing.assert_allclose(me["error_budget_pct"], [3.0, 30.0])
+    processing = np.array(me["processing"]["processing_pct"])  # the experiment's processing, at the fit
+    assert np.all(processing > 0)
+    np.testing.assert_allclose(me["model_pct"], np.hypot([3.0, 30.0], processing))
+    np.testing.assert_allclose([d["c1_pct"], d["c5_pct"]], np.hypot(stat, me["model_pct"]))
     assert (
         "error budget (coarse's largest bias at 9 test points of b.json, measured with the perfect stick)"
         in (d["bounds_include"])

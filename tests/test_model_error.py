@@ -4,6 +4,7 @@ through the fit equals the spread of refits of targets drawn from it; the error 
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from sensitivity_check import assert_jacobian_matches_central_differences
 
 from indentation_studio.design.objective import PAPER_WEIGHTS, Objective
@@ -105,3 +106,95 @@ def test_without_a_high_fidelity_level_there_is_no_model_error():
         np.testing.assert_allclose(alone.half_width_pct, [budget["c1_pct"], budget["c5_pct"]])
         assert not alone.has_discrepancy
     np.testing.assert_allclose(combined_pct([1.0, 3.0], None), [1.0, 3.0])
+
+
+class Plain(PowerLawModel):
+    """A single-level surrogate (no discrepancy) without an error budget."""
+
+    discrepancy_covariance_factor = None
+
+    def __init__(self):
+        super().__init__()
+        self.meta = {}
+
+
+class SkewedTruth(PowerLawModel):
+    """The "FE model" a Plain surrogate emulates with a known error: force (1 + 0.02 d / d_max)
+    times the surrogate's, and a field 0.01 mm off along x at every node."""
+
+    def predict(self, theta, jacobian=False):
+        p = super().predict(theta, jacobian)
+        force = p.force * (1.0 + 0.02 * self.depth / self.depth[-1])
+        field = p.displacement + np.array([0.01, 0.0, 0.0])
+        return Prediction(force, field, p.depth, TOP, self.parameters)
+
+
+def _held_out(surrogate, truth, theta):
+    """TrainingData of ``truth`` at ``theta`` (the surrogate's held-out points)."""
+    from indentation_studio.surrogate.base import TrainingData
+
+    p = truth.predict(theta)
+    return TrainingData(theta, p.force, p.displacement, surrogate.depth, TOP)
+
+
+def test_the_surrogates_own_error_is_how_far_it_moves_a_fit_of_the_model_it_emulates():
+    """Issue 46: a surrogate with a known error (SkewedTruth) fits noise-free data of the model it
+    emulates off the truth; the part its held-out errors give is that shift, to first order, and
+    the truth lies inside the bounds that carry it."""
+    from indentation_studio.inference.model_error import emulation_error_pct
+    from indentation_studio.surrogate.emulation_error import EmulationError, held_out_errors
+
+    surrogate, truth = Plain(), SkewedTruth()
+    data = truth.predict(TRUTH[None])
+    objective = Objective(data.force[0], data.displacement[0], TOP, radius=4.77)
+    fit = fit_parameters(objective, surrogate, PAPER_WEIGHTS, theta0=TRUTH * 1.1)
+    shift_pct = 100.0 * np.abs(fit.theta / TRUTH - 1.0)
+    assert np.all(shift_pct > 0.2), shift_pct  # the surrogate's error moves the fit
+
+    assert model_error_at(objective, PAPER_WEIGHTS, surrogate, fit.theta) is None  # not measured: none
+    points = np.array([[4.0, 150.0], [12.0, 450.0], [8.0, 300.0]])
+    errors = held_out_errors(surrogate, _held_out(surrogate, truth, points))
+    np.testing.assert_allclose(
+        errors[:, :STEPS], np.log1p(0.02 * surrogate.depth / surrogate.depth[-1])[None].repeat(3, 0)
+    )
+    surrogate.emulation_error = EmulationError.from_errors(
+        points, errors, steps=STEPS, source="3 test points"
+    )
+    assert surrogate.emulation_error.directions.shape[0] == 1  # one error, the same at every point
+    np.testing.assert_allclose(surrogate.emulation_error.errors(), errors, atol=1e-6)
+
+    own = emulation_error_pct(objective, PAPER_WEIGHTS, surrogate, fit.theta)
+    np.testing.assert_allclose(own, shift_pct, rtol=0.05)  # first order: within 5 % of the real shift
+    me = model_error_at(objective, PAPER_WEIGHTS, surrogate, fit.theta)
+    np.testing.assert_allclose(me.surrogate_pct, own)
+    assert me.budget_source is None and "the surrogate's own error (3 test points" in me.to_dict()["includes"]
+    assert np.all(combined_pct(fit.bounds_pct, me) >= shift_pct)  # the truth inside
+    assert fit.bounds_pct[0] < shift_pct[0]  # c1 not inside the statistical bound alone
+    # a fit refined on the FE model does not carry the surrogate's error
+    assert model_error_at(objective, PAPER_WEIGHTS, surrogate, fit.theta, on_surrogate=False) is None
+
+    # fewer than 20 held-out points: the largest move; the error twice as large at one point
+    surrogate.emulation_error = EmulationError.from_errors(
+        np.vstack([points, [[6.0, 200.0]]]), np.vstack([errors, 2.0 * errors[:1]]), steps=STEPS, source="4"
+    )
+    np.testing.assert_allclose(
+        emulation_error_pct(objective, PAPER_WEIGHTS, surrogate, fit.theta), 2 * own, rtol=0.02
+    )
+
+
+def test_held_out_errors_kept_in_a_surrogate_file_and_by_training(mu_campaign, mu_surrogate, tmp_path):
+    """A surrogate trained with a k-fold keeps each point's held-out error; its file keeps them."""
+    from indentation_studio.surrogate.persistence import load_surrogate, save_surrogate
+    from indentation_studio.surrogate.training import train_surrogate
+
+    assert mu_surrogate.emulation_error is None  # trained without held-out points: not measured
+    model = train_surrogate("mu", "gp", runs_dir=mu_campaign, kfold=3)
+    own = model.emulation_error
+    assert own is not None and own.points == 12 and own.steps == 3
+    # the force part of the held-out errors: the k-fold's own force error (its RMS, percent)
+    force_rms = 100.0 * np.sqrt(np.mean(np.expm1(-own.errors()[:, :3]) ** 2))  # pred / fe - 1
+    assert force_rms == pytest.approx(model.meta["validation"]["kfold"]["force_rms_pct"], rel=1e-4)
+    again = load_surrogate(save_surrogate(model, tmp_path / "s.safetensors"))
+    np.testing.assert_array_equal(again.emulation_error.scores, own.scores)
+    np.testing.assert_array_equal(again.emulation_error.directions, own.directions)
+    assert again.meta["emulation_error"]["points"] == own.points and "fold" in again.emulation_error.source
