@@ -73,6 +73,15 @@ FE_STAGE = Annotated[
         "or auto (confirm on a surrogate trained with mu, fit on one without)"
     ),
 ]
+REGISTRATION = Annotated[
+    float,
+    typer.Option(
+        "--registration-mm",
+        help="how far the indentation point found from the indenter's tracked points may lie from the true "
+        "one, mm: the bounds carry its effect and that of taking the DIC points to the nodes, measured at "
+        "the fit",
+    ),
+]
 PAPER_STOP = Annotated[bool, typer.Option(help="stop as soon as F < 3e-2 (the paper's rule)")]
 WALKERS = Annotated[int, typer.Option(help="emcee walkers")]
 CHAIN_STEPS = Annotated[int, typer.Option(help="emcee steps per walker")]
@@ -113,6 +122,7 @@ def fit(
     friction: FIT_FRICTION = None,
     force_noise: FORCE_NOISE = None,
     dic_noise: DIC_NOISE = None,
+    registration_mm: REGISTRATION = inference.REGISTRATION_MM,
     out: OUT = None,
     as_json: JSON = False,
 ) -> None:
@@ -139,6 +149,7 @@ def fit(
             force_noise=force_noise,
             dic_noise=dic_noise,
             fe_stage=fe_stage,
+            registration_mm=registration_mm,
         )
         path = result.save(out or Path(experiment) / "results")
     except (ValueError, OSError, RuntimeError) as exc:

@@ -29,6 +29,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
         ],
         "pickle_conversion": ["convert_pickled_surrogate"],
         "validation": ["k_fold_errors", "prediction_errors"],
+        "emulation_error": ["EMULATION_ENERGY", "EmulationError", "held_out_errors"],
         "error_budgets": [
             "budget_at",
             "remaining_bias",
