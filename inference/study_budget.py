@@ -97,6 +97,18 @@ def _case_folder(study_dir: Path, radius: float, theta: Sequence[float]) -> Path
     return study_dir / f"R{radius:g}" / f"c1-{theta[0]:g}_c5-{theta[1]:g}"
 
 
+def _reference_row(row: dict, own: str, fitted: str) -> dict:
+    """The reference level's row at a fitted model's point: no bias (the study's data are its own
+    noise-free responses, a fit from the truth stays there), its GCI carried as that row's; the
+    half-widths (the typical experiment's noise, which the budget reports beside the biases and
+    no fit carries) are the fitted model's at that point, and the row says so."""
+    out = dict(row) | {"model": own, "half_width_of": fitted}
+    for p in ("c1", "c5"):
+        out[f"{p}_fit"] = row[f"{p}_true"]
+        out[f"{p}_bias_pct"] = 0.0
+    return out
+
+
 def study_error_budget(
     study_dir: str | Path,
     models: Sequence[str] = ("contact-L1",),
@@ -119,7 +131,9 @@ def study_error_budget(
         ``contact-L`` family at that radius, made with the same ``reading`` (the carried
         uncertainty is that of these fits).
     models : sequence of str, default ("contact-L1",)
-        ``contact-L`` presets fitted, each with the study's contact.
+        ``contact-L`` presets fitted, each with the study's contact. The reference level itself
+        (``contact-L<reference_level>``, beside a fitted one) gets rows without a fit: no bias, its
+        GCI carried, so a multi-fidelity surrogate whose high level it is carries that GCI.
     reference_level : int, default 3
         The high-fidelity level; it and a coarser level must be in the study.
     weights : array_like, default PAPER_WEIGHTS
@@ -172,8 +186,15 @@ def study_error_budget(
         SimulationResult.load(_case_folder(root, radii[0], c["theta"]) / f"L{reference_level}-s1.npz")
         for c in study["cases"]
     ]
+    own = f"contact-L{reference_level}"
+    fitted = [name for name in models if name != own]
+    if not fitted:
+        raise ValueError(
+            f"models {list(models)}: the reference level {own} needs a fitted model beside it (e.g. "
+            f"contact-L1,{own}), whose half-widths its rows share"
+        )
     predictors = {
-        name: CachedPredictor(FESolverPredictor(replace(spec, mesh=MeshChoice(name)))) for name in models
+        name: CachedPredictor(FESolverPredictor(replace(spec, mesh=MeshChoice(name)))) for name in fitted
     }
     budget = compute_error_budget(
         results,
@@ -198,6 +219,9 @@ def study_error_budget(
     for row in budget.table.to_dict(orient="records"):
         u = carried[(row["c1_true"], row["c5_true"])]
         rows.append(row | {names[0]: u[0], names[1]: u[1]})
+    if own in models:  # the reference level's own rows: its data are its own, its GCI all it leaves
+        first = [row for row in rows if row["model"] == fitted[0]]
+        rows += [_reference_row(row, own, fitted[0]) for row in first]
     reference = {
         "study": str(root),
         "family": study["family"]["name"],

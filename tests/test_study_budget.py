@@ -109,7 +109,7 @@ def small_study(tmp_path_factory):
     return out, study, spec
 
 
-def test_study_budget_is_the_fit_of_the_model_plus_the_levels_gci(small_study):
+def test_study_budget_is_the_fit_of_the_model_plus_the_levels_gci(small_study, tmp_path):
     out, study, spec = small_study
     budget = study_error_budget(out, ("contact-L0",), reference_level=1, fe_steps=2)
     assert budget.reading == "fit" and budget.reference["gci_carried"] is True
@@ -142,6 +142,22 @@ def test_study_budget_is_the_fit_of_the_model_plus_the_levels_gci(small_study):
         fe_steps=2,
     )
     np.testing.assert_allclose(budget.table["c5_bias_pct"], direct.table["c5_bias_pct"], rtol=1e-9)
+    # the reference level beside it: no bias, its GCI all it leaves (what a multi-fidelity
+    # surrogate on it carries), the half-widths the fitted model's
+    both = study_error_budget(out, ("contact-L0", "contact-L1"), reference_level=1, fe_steps=2)
+    own = both.table[both.table["model"] == "contact-L1"].to_dict(orient="records")
+    assert len(own) == 2 and all(r["c1_bias_pct"] == 0.0 and r["c5_bias_pct"] == 0.0 for r in own)
+    for r, fitted in zip(own, rows, strict=True):
+        assert (
+            r["c5_reference_gci_pct"] == fitted["c5_reference_gci_pct"] and r["half_width_of"] == "contact-L0"
+        )
+        assert (r["c1_fit"], r["c5_fit"]) == (r["c1_true"], r["c5_true"])
+    budget_file = tmp_path / "b.json"
+    budget_file.write_text(json.dumps(both.to_dict()))
+    left = remaining_bias(budget_file, "contact-L1")
+    assert left["c5_pct"] == pytest.approx(max(r["c5_reference_gci_pct"] for r in own))
+    with pytest.raises(ValueError, match="needs a fitted model beside it"):
+        study_error_budget(out, ("contact-L1",), reference_level=1)
     for level in (0, 5):  # the coarsest has no coarser level; 5 is not in the study
         with pytest.raises(ValueError, match=f"level {level} and a coarser one"):
             study_error_budget(out, ("contact-L0",), reference_level=level)
