@@ -33,7 +33,9 @@ POINT = re.compile(r"c1-([0-9.]+)_c5-([0-9.]+)$")
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--study", type=Path, required=True)
     parser.add_argument("--radius", type=float, required=True)
     parser.add_argument("--level", type=int, required=True)
@@ -42,7 +44,9 @@ def main() -> None:
     args = parser.parse_args()
 
     folder = args.study / f"R{args.radius:g}"
-    runs = sorted(p for p in folder.iterdir() if POINT.match(p.name) and (p / f"L{args.level}-s1.npz").is_file())
+    runs = sorted(
+        p for p in folder.iterdir() if POINT.match(p.name) and (p / f"L{args.level}-s1.npz").is_file()
+    )
     if not runs:
         raise SystemExit(f"no level-{args.level} runs under {folder}")
     results = [SimulationResult.load(p / f"L{args.level}-s1.npz") for p in runs]
@@ -59,9 +63,13 @@ def main() -> None:
     for path, result, point in zip(runs, results, theta, strict=True):
         for key in ("geometry", "indenter", "protocol", "contact"):
             if result.spec[key] != expected[key]:
-                raise SystemExit(f"{path}: its {key} {result.spec[key]} is not the campaign's {expected[key]}")
+                raise SystemExit(
+                    f"{path}: its {key} {result.spec[key]} is not the campaign's {expected[key]}"
+                )
         if not np.allclose([result.spec["material"]["c1"], result.spec["material"]["c5"]], point):
-            raise SystemExit(f"{path}: its material {result.spec['material']} is not its folder's point {point}")
+            raise SystemExit(
+                f"{path}: its material {result.spec['material']} is not its folder's point {point}"
+            )
         if result.top_xyz.shape != top.shape or not np.allclose(result.top_xyz, top, atol=1e-9, rtol=0):
             raise SystemExit(f"{path}: its top nodes are not those contact-L{args.level} builds")
     design = Design(theta, ("c1", "c5"), f"the {len(runs)} points of {args.study}")

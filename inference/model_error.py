@@ -104,8 +104,16 @@ class ModelError:
         return np.hypot(self.discrepancy_pct, self._systematic_pct())
 
     def covariance_with_budget(self) -> np.ndarray:
-        """Covariance of log theta of all parts, each systematic one (budget, surrogate, processing)
-        read as a normal with its 95 % width."""
+        """Covariance of log theta of all parts, each systematic one read as a normal.
+
+        The budget, the surrogate's own error and the processing are each read as a normal with
+        their 95 % half-width.
+
+        Returns
+        -------
+        numpy.ndarray
+            (p, p) the covariance of log theta.
+        """
         return self.covariance_log + np.diag((self._systematic_pct() / (100.0 * Z95)) ** 2)
 
     def to_dict(self) -> dict:

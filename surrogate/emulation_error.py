@@ -186,7 +186,20 @@ class EmulationError:
 
     @classmethod
     def from_arrays(cls, arrays: dict[str, np.ndarray], source: str) -> EmulationError | None:
-        """The errors a file kept, or None when it kept none."""
+        """The errors a file kept, or None when it kept none.
+
+        Parameters
+        ----------
+        arrays : dict of str to numpy.ndarray
+            The file's named arrays (:meth:`to_arrays`'s among them).
+        source : str
+            Where the held-out points came from (the file's ``meta['emulation_error']``).
+
+        Returns
+        -------
+        EmulationError or None
+            The errors, or None.
+        """
         if f"{_PREFIX}scores" not in arrays:
             return None
         return cls(
