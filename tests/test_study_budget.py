@@ -184,7 +184,8 @@ def test_a_fit_at_each_paper_radius_finds_its_budget_and_its_model(radius):
     assert left["source"]["reference_mesh"] == HIGH_FIDELITY_MESH and left["source"]["reference_gci_carried"]
     assert left["source"]["file"] == f"indentation_studio/error_budgets/fit-model-R{radius:g}.json"
     payload = json.loads((shipped_budgets_folder() / f"fit-model-R{radius:g}.json").read_text())
-    assert payload["reading"] == "fit" and len(payload["rows"]) == 9
+    assert payload["reading"] == "fit" and len(payload["rows"]) == 18  # contact-L1's 9, contact-L3's 9
+    l1_rows = [row for row in payload["rows"] if row["model"] == FIT_MESH]
     at = budget_at(left, [12.0, 250.0])
     values = np.array([[p["c1_pct"], p["c5_pct"]] for p in left["points"]])
     assert at["source"]["where"] == "interpolated"
@@ -192,11 +193,17 @@ def test_a_fit_at_each_paper_radius_finds_its_budget_and_its_model(radius):
         [at["c1_pct"], at["c5_pct"]] <= values.max(axis=0)
     )
     # every point carries at least level 3's own uncertainty
-    for row, point in zip(payload["rows"], left["points"], strict=True):
+    for row, point in zip(l1_rows, left["points"], strict=True):
         assert (
             point["c5_pct"] >= row["c5_reference_gci_pct"] > 0
             and point["c1_pct"] >= row["c1_reference_gci_pct"] > 0
         )
+    # the high fidelity (what a multi-fidelity surrogate on it carries): level 3's GCI alone
+    high = shipped_budget(ModelSpec(mesh=MeshChoice(HIGH_FIDELITY_MESH), indenter=Indenter(radius)))
+    assert high is not None and high["source"]["model"] == HIGH_FIDELITY_MESH
+    for row, point in zip(l1_rows, high["points"], strict=True):
+        assert point["c1_pct"] == pytest.approx(row["c1_reference_gci_pct"])
+        assert point["c5_pct"] == pytest.approx(row["c5_reference_gci_pct"])
     assert shipped_budget(ModelSpec(mesh=MeshChoice("contact-L2"), indenter=Indenter(radius))) is None
     assert (
         shipped_budget(
