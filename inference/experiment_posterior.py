@@ -26,8 +26,16 @@ from .experiment_fit import (
 from .fit_inputs import FitInputs, prepare_fit
 from .inverse_fit import FitResult, fit_parameters
 from .mesh_check import load_mesh_check
-from .model_error import ModelError, model_error_at, model_error_scope, with_emulation_error, with_model_error
+from .model_error import (
+    ModelError,
+    model_error_at,
+    model_error_scope,
+    with_emulation_error,
+    with_model_error,
+    with_processing_error,
+)
 from .posterior import Posterior, carried_to_finer_mesh, sample_posterior
+from .processing_error import REGISTRATION_MM, ProcessingError, processing_error_at
 
 __all__ = ["ExperimentPosterior", "sample_posterior_for"]
 
@@ -150,6 +158,22 @@ class ExperimentPosterior:
         return atomic_write_json(Path(folder) / "posterior.json", {**self.to_dict(), **extra})
 
 
+def _processing(
+    inputs, theta: np.ndarray, registration_mm: float, free: int | None = None
+) -> ProcessingError:
+    """The experiment's processing part at ``theta`` on the surrogate (as the fit measures it)."""
+    return processing_error_at(
+        inputs.objective,
+        inputs.dic,
+        inputs.surrogate,
+        theta,
+        inputs.eta,
+        used_steps=inputs.experiment.used_steps,
+        registration_mm=registration_mm,
+        free=free,
+    )
+
+
 def sample_posterior_for(
     experiment: str | Path | ExperimentData,
     surrogate: str | Path | FieldSurrogate,
@@ -164,6 +188,7 @@ def sample_posterior_for(
     say: Callable[[str], None] | None = None,
     friction: FrictionTreatment | str | float | None = None,
     reading: str = "fit",
+    registration_mm: float = REGISTRATION_MM,
 ) -> ExperimentPosterior:
     """Sample the posterior of (c1, c5) of an experiment on the surrogate with emcee.
 
@@ -201,6 +226,9 @@ def sample_posterior_for(
         uncertainty) or ``identify`` (the same with a uniform prior).
     reading : str, default "fit"
         The objective (eq. 4's reading): the fit's (DIC from 1.5 R) or ``paper``; as the fit's.
+    registration_mm : float, default REGISTRATION_MM
+        The indentation point's uncertainty, mm: the samples are spread by the processing's part
+        as the fit's bounds carry it (``inference.processing_error``).
 
     Returns
     -------
@@ -266,9 +294,11 @@ def sample_posterior_for(
         model_error = _stick_mesh_budget(model, contact, inputs.spec.contact.describe(), theta=fit.theta)
         at = _with_held_mu(fit.theta, model, treatment)
         model_error = with_emulation_error(model_error, inputs.objective, inputs.eta, model, at, free=2)
-        if model_error is not None:
-            model_error = replace(model_error, contact=contact)
-        if model_error is not None and fit.theta.size == 3:  # mu sampled: no budget of its own
+        model_error = replace(
+            with_processing_error(model_error, _processing(inputs, at, registration_mm, 2), contact),
+            contact=contact,
+        )
+        if fit.theta.size == 3:  # mu sampled: no budget, surrogate or processing part of its own
             model_error = replace(
                 model_error,
                 discrepancy_pct=np.zeros(3),
@@ -277,9 +307,13 @@ def sample_posterior_for(
                 surrogate_pct=None
                 if model_error.surrogate_pct is None
                 else np.append(model_error.surrogate_pct, 0.0),
+                processing=model_error.processing.padded(3),
             )
     else:
         model_error = model_error_at(inputs.objective, inputs.eta, model, fit.theta)
+        model_error = with_processing_error(
+            model_error, _processing(inputs, fit.theta, registration_mm), inputs.spec.contact.describe()
+        )
     if model_error is not None:
         post = replace(post, samples=with_model_error(post.samples, model_error, seed))
     carried = None

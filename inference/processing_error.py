@@ -65,6 +65,30 @@ class ProcessingError:
         """(p,) both parts' root sum of squares, percent."""
         return np.hypot(self.interpolation_pct, self.registration_pct)
 
+    def padded(self, p: int) -> ProcessingError:
+        """The parts over ``p`` parameters, those beyond its own at 0 (mu sampled beside them).
+
+        Parameters
+        ----------
+        p : int
+            The number of parameters.
+
+        Returns
+        -------
+        ProcessingError
+            The padded parts.
+        """
+
+        def pad(a: np.ndarray | None) -> np.ndarray | None:
+            return None if a is None else np.append(a, np.zeros(p - len(a)))
+
+        return replace(
+            self,
+            interpolation_pct=pad(self.interpolation_pct),
+            registration_pct=pad(self.registration_pct),
+            interpolation_shift_pct=pad(self.interpolation_shift_pct),
+        )
+
     def describe(self) -> str:
         """What the part holds, in words."""
         return f"the processing's (DIC points to nodes, and the indentation point within {self.registration_mm:g} mm)"

@@ -287,6 +287,7 @@ def posterior(
     mesh_check: MESH_CHECK = None,
     exclude_steps: EXCLUDE = "",
     friction: POSTERIOR_FRICTION = None,
+    registration_mm: REGISTRATION = inference.REGISTRATION_MM,
     out: OUT = None,
     as_json: JSON = False,
 ) -> None:
@@ -308,6 +309,7 @@ def posterior(
             exclude_steps=_steps(exclude_steps),
             say=say,
             friction=friction,
+            registration_mm=registration_mm,
         )
         fit_ = result.fit
         corner = studio.corner_figure(result.posterior, result.marker, fit_.hessian, fit_.s)
