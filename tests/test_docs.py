@@ -138,6 +138,25 @@ def test_docs_guide_pages_show_the_figures_of_their_workflow(site):
 
 
 @pytest.mark.slow
+def test_docs_campaign_and_febio_guides_show_the_figures_their_commands_write(site):
+    """The campaign and FEBio guide pages show a figure stored in the docs, with the command that
+    wrote it beside it: a script of benchmarks/ or docs/figures/ that exists and names that file."""
+    for page, stored in {
+        "campaign": "guide/figures/campaign.png",
+        "febio": "validation/figures/febio-agreement.png",
+    }.items():
+        assert (ROOT / "docs" / stored).is_file(), stored
+        html = (site / "guide" / f"{page}.html").read_text()
+        images = re.findall(r'<img [^>]*src="([^"]+\.png)"', html)
+        assert [src for src in images if Path(src).name == Path(stored).name], f"{page}: {images}"
+        assert all((site / "guide" / src).resolve().is_file() for src in images), page
+        source = (ROOT / "docs" / "guide" / f"{page}.md").read_text()
+        scripts = re.findall(r"\.venv/bin/python ((?:benchmarks|docs/figures)/\w+\.py)", source)
+        assert scripts and all((ROOT / s).is_file() for s in scripts), page
+        assert any(f"docs/{stored}" in (ROOT / s).read_text() for s in scripts), (page, scripts)
+
+
+@pytest.mark.slow
 def test_docs_validation_pages_show_their_figures(site):
     """The validation pages show the figures of their measurements, each PNG stored beside the
     page (docs/validation/figures/) and its caption naming the script in docs/figures/ that made it."""
