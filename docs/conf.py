@@ -32,7 +32,8 @@ import indentation_studio  # noqa: E402
 
 write_api_pages(DOCS / "api" / "generated")
 
-# The notebooks stay in notebooks/ (where tests/test_notebooks.py runs them); the site reads copies.
+# The notebooks stay in notebooks/ (stored without outputs); the site reads copies, executed in their
+# folder here (tests/test_docs.py checks what this build's executions printed and showed).
 for _notebook in sorted((ROOT / "notebooks").glob("*.ipynb")):
     _copy = DOCS / "notebooks" / _notebook.name
     if not _copy.is_file() or _copy.read_bytes() != _notebook.read_bytes():

@@ -8,6 +8,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
     submodules=["figures"],
     submod_attrs={
         "figures": [
+            "campaign_figure",
             "corner_figure",
             "design_comparison_figure",
             "displacement_maps_figure",

@@ -10,6 +10,7 @@ import sys
 import time
 from dataclasses import replace
 
+import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 import pytest
@@ -30,6 +31,7 @@ from indentation_studio.campaign.store import CampaignStore
 from indentation_studio.forward.result import SimulationResult
 from indentation_studio.forward.solver import EmbeddedSolver, SimulationError, simulate
 from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
+from indentation_studio.studio.figures import campaign_figure
 
 SMALL = ModelSpec(protocol=Protocol(step_size=0.5, steps=2), mesh=MeshChoice("coarse"))
 CLI = [sys.executable, "-m", "indentation_studio.studio.cli"]
@@ -155,11 +157,29 @@ def test_failed_points_are_recorded_and_the_rest_finish(tmp_path, monkeypatch):
     assert SimulationResult.load(store.partial_path(3)).depth[-1] == 0.5  # what was solved is kept
     index = pd.read_parquet(tmp_path / "f" / "index.parquet")
     assert list(index["status"].astype(str)) == ["done", "failed", "done", "failed"]
+    _check_campaign_figure(index, load_campaign("f", runs_dir=tmp_path))
     monkeypatch.setattr(EmbeddedSolver, "run", original)
     again = run_campaign(CampaignStore.open(tmp_path / "f"), jobs=1)
     assert again["solved_now"] == 0  # failed points wait for --retry-failed
     again = run_campaign(CampaignStore.open(tmp_path / "f"), jobs=1, retry_failed=True)
     assert (again["done"], again["failed"], again["solved_now"]) == (3, 1, 2)
+
+
+def _check_campaign_figure(index: pd.DataFrame, data) -> None:
+    """The campaign figure draws the done points where they are, coloured by their wall time, the
+    failed ones as crosses, and the force of each done point (both are corners of their box)."""
+    fig = campaign_figure(index, data)
+    design, curves = fig.axes[0], fig.axes[1]
+    done = index["status"].astype(str) == "done"
+    dots, crosses = design.collections[:2]
+    np.testing.assert_array_equal(dots.get_offsets(), index.loc[done, ["c1", "c5"]].to_numpy())
+    np.testing.assert_array_equal(dots.get_array(), index.loc[done, "wall_s"].to_numpy())
+    np.testing.assert_array_equal(crosses.get_offsets(), index.loc[~done, ["c1", "c5"]].to_numpy())
+    assert design.get_title() == "design: 2 of 4 points done"
+    assert [line.get_label().split(":")[0] for line in curves.lines] == ["point 0", "point 2"]
+    for line, k in zip(curves.lines, (0, 1), strict=True):
+        np.testing.assert_array_equal(line.get_xydata(), np.column_stack([data.depth, data.force[k]]))
+    plt.close(fig)
 
 
 def test_timeout_fails_points_and_retry_recovers(tmp_path):

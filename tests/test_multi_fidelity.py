@@ -8,27 +8,20 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from indentation_studio.campaign.designs import design_from_option
 from indentation_studio.campaign.loader import CampaignData
-from indentation_studio.campaign.runner import run_campaign
-from indentation_studio.campaign.spec import CampaignSpec
-from indentation_studio.campaign.store import CampaignStore
 from indentation_studio.design.objective import Objective
 from indentation_studio.design.reduced_objective import FieldObjective, ReducedObjective, objective_function
 from indentation_studio.forward.mesh_study import top_field_interpolator
 from indentation_studio.forward.predictor import Prediction
-from indentation_studio.forward.solver import simulate
-from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
 from indentation_studio.inference.experiment_fit import fit_experiment
 from indentation_studio.inference.inverse_fit import fit_parameters
-from indentation_studio.inference.mesh_check import prediction_at_nodes
 from indentation_studio.inference.synthetic_experiment import write_synthetic_experiment
 from indentation_studio.surrogate.base import FieldSurrogate, TrainingData
 from indentation_studio.surrogate.gaussian_process import GaussianProcessSurrogate
 from indentation_studio.surrogate.multi_fidelity import MultiFidelitySurrogate, interpolation_matrix
 from indentation_studio.surrogate.persistence import load_surrogate, save_surrogate
 from indentation_studio.surrogate.slip_surrogate import SlipSurrogate
-from indentation_studio.surrogate.training import make_surrogate, train_multi_fidelity, train_surrogate
+from indentation_studio.surrogate.training import make_surrogate, train_multi_fidelity
 
 LO, HI = np.array([2.0, 100.0]), np.array([20.0, 500.0])
 DEPTH = np.array([0.5, 1.0, 1.5, 2.0])
@@ -274,36 +267,6 @@ def test_training_function_and_refusals(low, high_data, tmp_path):
         MultiFidelitySurrogate(low).fit(changed(depth=2 * DEPTH))
     with pytest.raises(ValueError, match="outside the low-fidelity surrogate's training box"):
         MultiFidelitySurrogate(low).fit(changed(theta=high_data.theta * [1.0, 1.3]))
-
-
-def test_fit_on_two_fe_campaigns(tmp_path):
-    """Two small real campaigns (about 10 s), 16 points on `coarse` and 9 on `default` (3 steps):
-    the fit to the `default` mesh's response at a truth lands on it with the multi-fidelity
-    surrogate, whose FE model is the `default` mesh's; the coarse surrogate alone is biased."""
-    protocol = Protocol(step_size=0.5, steps=3)
-    for spec in (
-        CampaignSpec(
-            "coarse16",
-            design_from_option("c1=4:16:4,c5=150:500:4"),
-            ModelSpec(protocol=protocol, mesh=MeshChoice("coarse")),
-        ),
-        CampaignSpec("default9", design_from_option("c1=5:14:3,c5=180:450:3"), ModelSpec(protocol=protocol)),
-    ):
-        assert run_campaign(CampaignStore.create_or_open(tmp_path, spec), jobs=1)["failed"] == 0
-    low = train_surrogate("coarse16", "gp", runs_dir=tmp_path)
-    mf = train_multi_fidelity(low, "default9", folds=3, runs_dir=tmp_path)
-    fe_model = ModelSpec.from_dict(mf.meta["campaign"]["model"])
-    assert fe_model.mesh.preset == "default" and mf.meta["low_fidelity"]["campaign"]["name"] == "coarse16"
-    truth = np.array([9.0, 300.0])
-    result = simulate(fe_model.with_material(c1=truth[0], c5=truth[1]))
-    fit = fit_parameters(
-        Objective.from_prediction(prediction_at_nodes(result, mf.top_xyz), radius=4.77), mf, ETA
-    )
-    data_at_coarse_nodes = Objective.from_prediction(prediction_at_nodes(result, low.top_xyz), radius=4.77)
-    fit_low = fit_parameters(data_at_coarse_nodes, low, ETA)
-    assert np.abs(fit.theta / truth - 1).max() < 5e-3  # measured c1 -0.02 %, c5 -0.08 %
-    assert np.abs(fit_low.theta / truth - 1).max() > 0.1  # measured c1 +1.5 %, c5 -29 %
-    assert 0 < mf.meta["discrepancy_kfold"]["force_max_pct"] < 2.0  # measured 0.66 % (3 folds of 9)
 
 
 MU_LO, MU_HI = 0.2, 3.0
