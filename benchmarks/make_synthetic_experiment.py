@@ -15,8 +15,13 @@ import time
 import numpy as np
 
 from indentation_studio.forward.predictor import FESolverPredictor
+from indentation_studio.forward.result import SimulationResult
 from indentation_studio.forward.spec import Indenter, MeshChoice, ModelSpec
-from indentation_studio.inference.synthetic_experiment import write_synthetic_experiment
+from indentation_studio.inference.synthetic_experiment import (
+    Recording,
+    write_experiment_from_model,
+    write_synthetic_experiment,
+)
 
 
 def main() -> None:
@@ -31,9 +36,18 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=7)
     ap.add_argument("--points", type=int, default=6000, help="DIC points over the field of view")
     ap.add_argument("--out", default="runs/exp-12-250")
+    ap.add_argument(
+        "--from-run",
+        help="a stored simulation (.npz of indent-studio simulate) at --c1, --c5, --radius to record instead "
+        "of solving (e.g. a contact-L4 run of 20 to 45 minutes)",
+    )
     args = ap.parse_args()
     spec = ModelSpec(indenter=Indenter(args.radius), mesh=MeshChoice(args.mesh))
     t0 = time.perf_counter()
+    if args.from_run:
+        path = _from_run(args)
+        print(f"wrote {path} (recorded from {args.from_run})")
+        return
     path = write_synthetic_experiment(
         FESolverPredictor(spec),
         np.array([args.c1, args.c5]),
@@ -48,6 +62,37 @@ def main() -> None:
         points=args.points,
     )
     print(f"wrote {path} ({args.mesh} mesh, {time.perf_counter() - t0:.0f} s)")
+
+
+def _from_run(args) -> object:
+    """The experiment recorded from a stored run, after checking it is the run asked for."""
+    run = SimulationResult.load(args.from_run)
+    material, radius = run.spec["material"], run.spec["indenter"]["radius"]
+    if not np.allclose([material["c1"], material["c5"], radius], [args.c1, args.c5, args.radius]):
+        raise SystemExit(
+            f"{args.from_run}: c1 {material['c1']}, c5 {material['c5']}, R {radius}, not the asked "
+            f"{args.c1}, {args.c5}, {args.radius}"
+        )
+    recording = Recording(
+        u_noise=args.noise,
+        f_noise=args.noise,
+        points=args.points,
+        fiber_angle_deg=args.fiber_angle,
+        write_fiber_angle=not args.unknown_fibers,
+    )
+    steps = np.asarray(run.depth) > 0  # a run's first row is depth 0
+    return write_experiment_from_model(
+        run.force[steps],
+        run.displacement[steps],
+        run.top_xyz,
+        args.out,
+        radius=args.radius,
+        step_size=run.spec["protocol"]["step_size"],
+        truth=[args.c1, args.c5],
+        model=run.spec,
+        recording=recording,
+        seed=args.seed,
+    )
 
 
 if __name__ == "__main__":
