@@ -152,9 +152,18 @@ def test_confirm_with_mesh_check_cli(campaigns, tmp_path):
     registration = fitted["registration"]  # what the fit used, reported (issue: a lab's files in)
     assert registration["sphere_radius_mm"] == pytest.approx(4.77, abs=0.02)
     assert registration["sphere_fit_rms_mm"] < 0.01 and fitted["excluded_steps"] == []
-    # a single-fidelity surrogate: the bounds are the statistical ones, and say they hold no model error
-    assert fitted["model_error"] is None and "hold no model error" in fitted["bounds_include"]
-    assert fitted["statistical_pct"] == [fitted["c1_pct"], fitted["c5_pct"]]
+    # a single-fidelity surrogate without a budget: the statistical bounds and the processing's part
+    # measured at the fit; they say they hold no mesh error
+    me = fitted["model_error"]
+    assert me["error_budget_pct"] == [0.0, 0.0] and me["surrogate_pct"] is None
+    assert (
+        "no error budget is known" in fitted["bounds_include"]
+        and "DIC points to nodes" in fitted["bounds_include"]
+    )
+    np.testing.assert_allclose(me["model_pct"], me["processing"]["processing_pct"])
+    np.testing.assert_allclose(
+        [fitted["c1_pct"], fitted["c5_pct"]], np.hypot(fitted["statistical_pct"], me["model_pct"])
+    )
     res = CliRunner().invoke(
         app, [*fit_args, "--exclude-steps", "2", "--out", str(tmp_path / "fewer"), "--json"]
     )
@@ -186,7 +195,11 @@ def test_confirm_with_mesh_check_cli(campaigns, tmp_path):
     # the posterior carried there: moved by the shift, spread by the GCI read as a 95 % half-width
     post_args = ["posterior", "--experiment", str(exp), "--surrogate", str(model_file), "--steps", "600"]
     plain = json.loads(CliRunner().invoke(app, [*post_args, "--json"]).stdout)
-    assert plain["intervals_include"].startswith("measurement noise only")  # says what it leaves out
+    words = plain["intervals_include"]  # says what it holds and what it leaves out
+    assert (
+        words.startswith("measurement noise, the processing's (DIC points to nodes")
+        and "no mesh error" in words
+    )
     res = CliRunner().invoke(app, [*post_args, "--mesh-check", str(confirm_file), "--json"])
     assert res.exit_code == 0, res.output
     moved = json.loads(res.stdout)
