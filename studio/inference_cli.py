@@ -73,6 +73,9 @@ FE_STAGE = Annotated[
         "or auto (confirm on a surrogate trained with mu, fit on one without)"
     ),
 ]
+#: ``inference.REGISTRATION_MM`` (written out: the command line imports no numerics until a command
+#: runs; tests/test_cli.py checks they agree)
+REGISTRATION_DEFAULT_MM = 0.1
 REGISTRATION = Annotated[
     float,
     typer.Option(
@@ -122,7 +125,7 @@ def fit(
     friction: FIT_FRICTION = None,
     force_noise: FORCE_NOISE = None,
     dic_noise: DIC_NOISE = None,
-    registration_mm: REGISTRATION = inference.REGISTRATION_MM,
+    registration_mm: REGISTRATION = REGISTRATION_DEFAULT_MM,
     out: OUT = None,
     as_json: JSON = False,
 ) -> None:
@@ -287,7 +290,7 @@ def posterior(
     mesh_check: MESH_CHECK = None,
     exclude_steps: EXCLUDE = "",
     friction: POSTERIOR_FRICTION = None,
-    registration_mm: REGISTRATION = inference.REGISTRATION_MM,
+    registration_mm: REGISTRATION = REGISTRATION_DEFAULT_MM,
     out: OUT = None,
     as_json: JSON = False,
 ) -> None:
