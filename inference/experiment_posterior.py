@@ -20,6 +20,7 @@ from .experiment_fit import (
     _mu_range,
     _stick_mesh_budget,
     _with_held_mu,
+    _with_processing,
     fit_on_surrogate_with_mu,
     surrogate_with_mu,
 )
@@ -32,10 +33,9 @@ from .model_error import (
     model_error_scope,
     with_emulation_error,
     with_model_error,
-    with_processing_error,
 )
 from .posterior import Posterior, carried_to_finer_mesh, sample_posterior
-from .processing_error import REGISTRATION_MM, ProcessingError, processing_error_at
+from .processing_error import REGISTRATION_MM
 
 __all__ = ["ExperimentPosterior", "sample_posterior_for"]
 
@@ -156,22 +156,6 @@ class ExperimentPosterior:
             The file written.
         """
         return atomic_write_json(Path(folder) / "posterior.json", {**self.to_dict(), **extra})
-
-
-def _processing(
-    inputs, theta: np.ndarray, registration_mm: float, free: int | None = None
-) -> ProcessingError:
-    """The experiment's processing part at ``theta`` on the surrogate (as the fit measures it)."""
-    return processing_error_at(
-        inputs.objective,
-        inputs.dic,
-        inputs.surrogate,
-        theta,
-        inputs.eta,
-        used_steps=inputs.experiment.used_steps,
-        registration_mm=registration_mm,
-        free=free,
-    )
 
 
 def sample_posterior_for(
@@ -295,7 +279,7 @@ def sample_posterior_for(
         at = _with_held_mu(fit.theta, model, treatment)
         model_error = with_emulation_error(model_error, inputs.objective, inputs.eta, model, at, free=2)
         model_error = replace(
-            with_processing_error(model_error, _processing(inputs, at, registration_mm, 2), contact),
+            _with_processing(model_error, inputs, at, contact, registration_mm, say, free=2),
             contact=contact,
         )
         if fit.theta.size == 3:  # mu sampled: no budget, surrogate or processing part of its own
@@ -311,8 +295,8 @@ def sample_posterior_for(
             )
     else:
         model_error = model_error_at(inputs.objective, inputs.eta, model, fit.theta)
-        model_error = with_processing_error(
-            model_error, _processing(inputs, fit.theta, registration_mm), inputs.spec.contact.describe()
+        model_error = _with_processing(
+            model_error, inputs, fit.theta, inputs.spec.contact.describe(), registration_mm, say
         )
     if model_error is not None:
         post = replace(post, samples=with_model_error(post.samples, model_error, seed))
