@@ -102,7 +102,7 @@ class Confirmation:
 
 def confirm(
     experiment: str | Path | ExperimentData,
-    surrogate: str | Path | FieldSurrogate,
+    surrogate: str | Path | FieldSurrogate | None,
     theta,
     *,
     weights=PAPER_WEIGHTS,
@@ -119,8 +119,9 @@ def confirm(
     ----------
     experiment : str, pathlib.Path or ExperimentData
         The experiment (folder or loaded).
-    surrogate : str, pathlib.Path or FieldSurrogate
-        The surrogate (file or loaded); its FE model is run.
+    surrogate : str, pathlib.Path, FieldSurrogate or None
+        The surrogate (file or loaded); its FE model is run. None: the one shipped for the
+        experiment's test (:func:`~indentation_studio.inference.fit_inputs.prepare_fit`).
     theta : array_like
         (c1, c5), kPa.
     weights : array_like, default PAPER_WEIGHTS
@@ -152,6 +153,8 @@ def confirm(
         mesh check is asked of FEBio.
     """
     inputs = prepare_fit(experiment, surrogate, weights, exclude_steps, reading=reading)
+    if surrogate is None and say is not None:
+        say(f"surrogate: {inputs.sources['surrogate']}")
     theta = np.asarray(theta, float).reshape(-1)
     if theta.size != 2:
         raise ValueError(f"confirm takes theta = (c1, c5); give mu as friction, got {theta.tolist()}")

@@ -345,7 +345,7 @@ class ExperimentFit:
 
 def fit_experiment(
     experiment: str | Path | ExperimentData,
-    surrogate: str | Path | FieldSurrogate,
+    surrogate: str | Path | FieldSurrogate | None = None,
     *,
     weights=PAPER_WEIGHTS,
     refine: bool = True,
@@ -375,8 +375,9 @@ def fit_experiment(
     ----------
     experiment : str, pathlib.Path or ExperimentData
         The experiment (folder or loaded).
-    surrogate : str, pathlib.Path or FieldSurrogate
-        The surrogate (file or loaded).
+    surrogate : str, pathlib.Path, FieldSurrogate or None
+        The surrogate (file or loaded); None (default): the one shipped for the experiment's test
+        (:func:`~indentation_studio.inference.fit_inputs.prepare_fit`), said in ``say``.
     weights : array_like, default PAPER_WEIGHTS
         The weights of eq. 5.
     refine : bool, default True
@@ -427,6 +428,8 @@ def fit_experiment(
     """
     say = say or (lambda message: None)
     inputs = prepare_fit(experiment, surrogate, weights, exclude_steps, reading=reading)
+    if surrogate is None:
+        say(f"surrogate: {inputs.sources['surrogate']}")
     stage = resolved_fe_stage(fe_stage, inputs.surrogate, refine=refine)
     treatment = (
         default_friction(inputs.surrogate, stage == "fit" and check_mesh is None)

@@ -160,7 +160,7 @@ class ExperimentPosterior:
 
 def sample_posterior_for(
     experiment: str | Path | ExperimentData,
-    surrogate: str | Path | FieldSurrogate,
+    surrogate: str | Path | FieldSurrogate | None = None,
     *,
     weights=PAPER_WEIGHTS,
     walkers: int = 32,
@@ -185,8 +185,9 @@ def sample_posterior_for(
     ----------
     experiment : str, pathlib.Path or ExperimentData
         The experiment (folder or loaded).
-    surrogate : str, pathlib.Path or FieldSurrogate
-        The surrogate (file or loaded).
+    surrogate : str, pathlib.Path, FieldSurrogate or None
+        The surrogate (file or loaded); None (default): the one shipped for the experiment's test
+        (:func:`~indentation_studio.inference.fit_inputs.prepare_fit`), said in ``say``.
     weights : array_like, default PAPER_WEIGHTS
         The weights of eq. 5.
     walkers : int, default 32
@@ -227,6 +228,8 @@ def sample_posterior_for(
     """
     say = say or (lambda message: None)
     inputs = prepare_fit(experiment, surrogate, weights, exclude_steps, reading=reading)
+    if surrogate is None:
+        say(f"surrogate: {inputs.sources['surrogate']}")
     model = inputs.surrogate
     # by default mu is marginalised where the surrogate has it (as fit_experiment does)
     treatment = (

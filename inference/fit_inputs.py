@@ -12,6 +12,7 @@ from ..design.objective import PAPER_WEIGHTS, Objective, check_weights
 from ..forward.spec import ModelSpec
 from ..surrogate.base import FieldSurrogate
 from ..surrogate.persistence import load_surrogate
+from ..surrogate.shipped import load_shipped, recipe_for_test, shipped_for_test
 from .experiment_data import ExperimentData, load_experiment
 from .experiment_processing import RegisteredDIC, experiment_objective
 
@@ -51,7 +52,7 @@ class FitInputs:
 
 def prepare_fit(
     experiment: str | Path | ExperimentData,
-    surrogate: str | Path | FieldSurrogate,
+    surrogate: str | Path | FieldSurrogate | None = None,
     weights=PAPER_WEIGHTS,
     exclude_steps=(),
     *,
@@ -66,8 +67,9 @@ def prepare_fit(
     ----------
     experiment : str, pathlib.Path or ExperimentData
         The experiment (folder or loaded).
-    surrogate : str, pathlib.Path or FieldSurrogate
-        The surrogate (file or loaded).
+    surrogate : str, pathlib.Path, FieldSurrogate or None
+        The surrogate (file or loaded); None: the one shipped for the experiment's test
+        (:func:`~indentation_studio.surrogate.shipped.shipped_for_test`, checked against its sha256).
     weights : array_like, default PAPER_WEIGHTS
         eta = (force, ux, uy, uz) on the simplex (eq. 5).
     exclude_steps : sequence of int, default ()
@@ -84,14 +86,12 @@ def prepare_fit(
     Raises
     ------
     ValueError
-        If the surrogate does not record its model, or the two describe different tests.
+        If the surrogate does not record its model, or the two describe different tests, or
+        none is given and none is shipped for the experiment's test (the message says what to run).
     """
     eta = check_weights(weights)
     exp = experiment if isinstance(experiment, ExperimentData) else load_experiment(experiment)
-    model = surrogate if isinstance(surrogate, FieldSurrogate) else load_surrogate(surrogate)
-    label = (
-        str(surrogate) if not isinstance(surrogate, FieldSurrogate) else f"{model.kind} surrogate (in memory)"
-    )
+    model, label = _surrogate_for(exp, surrogate)
     campaign = model.meta.get("campaign") or {}
     if "model" not in campaign:
         raise ValueError(f"{label}: the surrogate does not record the model it was trained on")
@@ -107,4 +107,20 @@ def prepare_fit(
         )
     objective, dic = experiment_objective(exp, model.top_xyz, reading=reading, excluded_steps=exclude_steps)
     sources = {"experiment": str(exp.root), "surrogate": label}
+    if "shipped" in model.meta:
+        sources["surrogate_sha256"] = model.meta["shipped"]["sha256"]
     return FitInputs(exp, model, spec, objective, dic, eta, sources)
+
+
+def _surrogate_for(
+    exp: ExperimentData, surrogate: str | Path | FieldSurrogate | None
+) -> tuple[FieldSurrogate, str]:
+    """The surrogate a fit of ``exp`` runs on and how it is named in its provenance."""
+    if isinstance(surrogate, FieldSurrogate):
+        return surrogate, f"{surrogate.kind} surrogate (in memory)"
+    if surrogate is not None:
+        return load_surrogate(surrogate), str(surrogate)
+    entry = shipped_for_test(exp.radius, exp.depths)
+    if entry is None:
+        raise ValueError(f"{exp.root}: {recipe_for_test(exp.radius, exp.depths)}")
+    return load_shipped(entry), entry.describe()

@@ -38,5 +38,13 @@ __getattr__, __dir__, __all__ = lazy.attach(
             "surrogate_error_budget",
         ],
         "registry": ["SAVED_KINDS", "surrogate_class"],
+        "shipped": [
+            "ShippedSurrogate",
+            "load_shipped",
+            "recipe_for_test",
+            "shipped_for_test",
+            "shipped_surrogates",
+            "shipped_surrogates_folder",
+        ],
     },
 )
