@@ -19,8 +19,12 @@ The noise model:
   that interpolate the DIC points there (:func:`inference.experiment_processing.node_interpolation`),
   so nodes sharing points are correlated as they are;
 * the registration: the indentation point's in-plane standard error from the sphere fit's
-  residual, moving every node's value by the field's gradient there (a rank-two term, solved
-  by Woodbury's identity).
+  residual, plus the registration uncertainty the fit declares (``registration_mm``, the same
+  0.1 mm by default that the processing's part of the bounds moves the point by: read as two
+  standard deviations per in-plane axis), moving every node's value by the field's gradient there
+  (a rank-two term, solved by Woodbury's identity). The sphere fit's own error is small (its
+  residual over hundreds of cap points); what a lab's registration gets wrong is where the
+  tracked cap lies against the DIC surface, which no residual shows.
 
 The model is compared as the data are seen: its own field sampled at the DIC points and put
 through the same planes (what a plane makes of a curved field is no noise). Whitening
@@ -299,6 +303,7 @@ def noise_model(
     *,
     force_noise: float | None = None,
     dic_noise: float | None = None,
+    registration_mm: float = 0.0,
 ) -> tuple[NoiseModel, np.ndarray]:
     """The noise of an experiment's data at ``steps`` (module docstring) and f_inf there.
 
@@ -314,6 +319,9 @@ def noise_model(
         Declared force noise (relative, one reading), replacing the one measured from the data.
     dic_noise : float, optional
         Declared DIC noise (mm, every direction), replacing the one measured from the data.
+    registration_mm : float, default 0.0
+        The declared registration uncertainty, mm (two standard deviations per in-plane axis),
+        added to the sphere fit's standard error.
 
     Returns
     -------
@@ -329,11 +337,15 @@ def noise_model(
         deepest = int(np.max(steps)) - 1
         dic_sd = dic_noise_mm(dic.xyz[:, :2], dic.u[deepest])
         dic_source = f"measured from the DIC data at step {deepest + 1} (local quadratics, robust spread)"
-    cov = _origin_covariance(exp, dic)
+    if not (np.isfinite(registration_mm) and registration_mm >= 0):
+        raise ValueError(f"registration_mm must be a number >= 0, got {registration_mm!r}")
+    cov = _origin_covariance(exp, dic) + (registration_mm / 2.0) ** 2 * np.eye(2)
     reg_source = (
         f"the sphere fit of {len(exp.indenter_xyz)} indenter points "
         f"(residual {dic.sphere_rms:.3g} mm RMS): the indentation point's standard error"
     )
+    if registration_mm > 0:
+        reg_source += f", and the declared registration uncertainty {registration_mm:g} mm (2 sd per axis)"
     return NoiseModel(sd, force_source, dic_sd, dic_source, cov, reg_source), f_inf
 
 
@@ -523,6 +535,7 @@ def model_adequacy(
     dic_noise: float | None = None,
     at_ends: list[dict] | None = None,
     friction: dict | None = None,
+    registration_mm: float = 0.0,
 ) -> Adequacy:
     """The adequacy test of ``fit`` (a :class:`inference.inverse_fit.FitResult` carrying its
     residuals) on ``inputs`` (:class:`inference.fit_inputs.FitInputs`): the chi-square statistic
@@ -530,12 +543,15 @@ def model_adequacy(
     p-value; flagged beyond the upper ``ALPHA`` tail. ``force_noise`` (relative, one reading) and
     ``dic_noise`` (mm) are declared levels; ``at_ends`` are parameters the caller found at a range
     end ({"parameter", "reason"}), named; ``friction`` (fit.json's 'friction') names mu when it
-    was identified narrowly while the fit is flagged."""
+    was identified narrowly while the fit is flagged; ``registration_mm`` the declared registration
+    uncertainty (:func:`noise_model`)."""
     if fit.residuals is None:
         raise ValueError("the fit records no residuals: the adequacy test needs them")
     objective, exp, dic = inputs.objective, inputs.experiment, inputs.dic
     steps = np.asarray(objective.steps, int) + 1
-    noise, f_inf = noise_model(exp, dic, steps, force_noise=force_noise, dic_noise=dic_noise)
+    noise, f_inf = noise_model(
+        exp, dic, steps, force_noise=force_noise, dic_noise=dic_noise, registration_mm=registration_mm
+    )
     plan = node_interpolation(dic, np.asarray(objective.top_xyz)[:, :2], used_steps=exp.used_steps)
     grads = _gradients(plan, dic, steps, objective.measured)
     bias = None
@@ -621,7 +637,11 @@ def parameters_at_ends(result) -> list[dict]:
 
 
 def fit_adequacy(
-    result, *, force_noise: float | None = None, dic_noise: float | None = None
+    result,
+    *,
+    force_noise: float | None = None,
+    dic_noise: float | None = None,
+    registration_mm: float = 0.0,
 ) -> tuple[Adequacy | None, str | None]:
     """The adequacy test of an :class:`inference.experiment_fit.ExperimentFit`'s final fit (its
     ``tested_fit``: the FE model's residuals at the fit when an FE confirmation ran), with
@@ -637,6 +657,7 @@ def fit_adequacy(
                 dic_noise=dic_noise,
                 at_ends=parameters_at_ends(result),
                 friction=fr,
+                registration_mm=registration_mm,
             ),
             None,
         )

@@ -11,7 +11,7 @@ import numpy as np
 
 from ..atomic_write import atomic_write_json
 from ..design.objective import PAPER_WEIGHTS
-from ..forward.predictor import FESolverPredictor, Prediction
+from ..forward.predictor import Prediction
 from ..surrogate.base import FieldSurrogate
 from .experiment_data import ExperimentData
 from .fit_inputs import FitInputs, prepare_fit
@@ -75,13 +75,15 @@ class Confirmation:
             "theta": self.theta.tolist(),
             "weights": eta.tolist(),
             "model": self.fe_spec.to_dict(),
+            "fe_stage_model": self.inputs.fe_stage_words() if self.solver == "embedded" else self.solver,
         }
         return payload
 
     @property
     def fe_spec(self):
-        """The model the FE run solved: the surrogate's, with the friction coefficient if given."""
-        spec = self.inputs.spec
+        """The model the FE run solved: the surrogate's (a multi-fidelity one's low level, corrected
+        by its discrepancy: ``FitInputs.fe_model``), with the friction coefficient if given."""
+        spec = self.inputs.fe_stage_spec if self.solver == "embedded" else self.inputs.spec
         return spec if self.friction is None else spec.with_friction(self.friction)
 
     def save(self, folder: str | Path) -> Path:
@@ -162,10 +164,9 @@ def confirm(
         raise ValueError(f"friction: mu must be a number >= 0, got {friction!r}")
     if friction is not None and check_mesh is not None:
         raise ValueError("friction: the mesh check is made with the perfect stick; confirm without it")
-    spec = inputs.spec if friction is None else inputs.spec.with_friction(friction)
     check = None
     if check_mesh is None:
-        fe = FESolverPredictor(spec, solver=solver).predict(theta[None, :])
+        fe = inputs.fe_model(friction=friction, solver=solver).predict(theta[None, :])
     else:
         if solver != "embedded":
             raise ValueError("the mesh check needs the embedded solver (exact sensitivities)")

@@ -291,7 +291,11 @@ class ExperimentFit:
             "measured_nodes": int(inputs.objective.measured.sum()),
             "weights": inputs.eta.tolist(),
             "mesh_check": None if self.mesh_check is None else self.mesh_check.to_dict(self.check_mesh),
-            "inputs": {**inputs.sources, "model": inputs.spec.to_dict()},
+            "inputs": {
+                **inputs.sources,
+                "model": inputs.spec.to_dict(),
+                "fe_stage_model": inputs.fe_stage_words(),
+            },
         }
 
     def _friction_dict(self) -> dict:
@@ -440,7 +444,7 @@ def fit_experiment(
     if treatment.mode != "assumed" or "mu" in inputs.surrogate.parameters:
         result = _fit_with_friction(inputs, treatment, stage, f_stop, check_mesh, say, registration_mm)
         result.adequacy, result.adequacy_note = fit_adequacy(
-            result, force_noise=force_noise, dic_noise=dic_noise
+            result, force_noise=force_noise, dic_noise=dic_noise, registration_mm=registration_mm
         )
         return result
     say(f"fitting on the {inputs.surrogate.kind} surrogate ...")
@@ -448,12 +452,12 @@ def fit_experiment(
     final = first
     two_level = has_high_fidelity_level(inputs.surrogate)
     if stage == "fit":
-        fe = FESolverPredictor(inputs.spec)
+        fe = inputs.fe_model()
         if (
             two_level and not paper_stop
         ):  # the surrogate already emulates this FE model: confirm by Gauss-Newton
             say(
-                f"refining by Gauss-Newton on the high-fidelity FE model from {first.theta.round(3).tolist()} kPa ..."
+                f"refining by Gauss-Newton on {inputs.fe_stage_words()} from {first.theta.round(3).tolist()} kPa ..."
             )
             final = gauss_newton_refine(inputs.objective, fe, inputs.eta, first.theta)
         else:
@@ -475,8 +479,10 @@ def fit_experiment(
     result = ExperimentFit(inputs, first, final, stage == "fit", check, check_mesh, model_error)
     if stage == "confirm":
         say(f"confirming on the FE solver at {first.theta.round(3).tolist()} kPa ...")
-        result.confirmation = _confirm(result, FESolverPredictor(inputs.spec), None)
-    result.adequacy, result.adequacy_note = fit_adequacy(result, force_noise=force_noise, dic_noise=dic_noise)
+        result.confirmation = _confirm(result, inputs.fe_model(), None)
+    result.adequacy, result.adequacy_note = fit_adequacy(
+        result, force_noise=force_noise, dic_noise=dic_noise, registration_mm=registration_mm
+    )
     return result
 
 
@@ -685,10 +691,10 @@ def _fit_with_friction(
     if refine:
         box = None
         if treatment.mode == "known":
-            fe = FESolverPredictor(spec.with_friction(treatment.value))
+            fe = inputs.fe_model(friction=treatment.value)
             start = first.theta
         else:
-            fe = FESolverPredictor(spec, parameters=("c1", "c5", "mu"))
+            fe = inputs.fe_model(with_mu=True)
             box = (np.array([0.0, 0.0, mu_range[0]]), np.array([np.inf, np.inf, mu_range[1]]))
             start = first.theta if with_mu else _fe_start(obj, fe, eta, first.theta, mu_range, say)
         say(f"refining on the FE solver from {np.round(start, 3).tolist()} ...")
@@ -755,9 +761,9 @@ def _fit_with_friction(
     if stage == "confirm":
         say(f"confirming on the FE solver at {np.round(final.theta, 3).tolist()} ...")
         if treatment.mode == "known":
-            fe = FESolverPredictor(spec.with_friction(treatment.value))
+            fe = inputs.fe_model(friction=treatment.value)
         else:
-            fe = FESolverPredictor(spec, parameters=("c1", "c5", "mu"))
+            fe = inputs.fe_model(with_mu=True)
         fit.confirmation = _confirm(fit, fe, inside if treatment.fits_mu else None)
     return fit
 
@@ -847,7 +853,9 @@ def _profile_at(
     the FE model one Gauss-Newton step's linearised value from ``c1_c5``. Returns that value, the
     point (c1, c5, mu) it is at, and F there as evaluated (on the FE model only when the
     linearised value is ``below``, one run more; else None)."""
-    if isinstance(predictor, FESolverPredictor):
+    if isinstance(predictor, FESolverPredictor) or isinstance(
+        getattr(predictor, "low", None), FESolverPredictor
+    ):
         theta = np.array([c1_c5[0], c1_c5[1], mu])
         r, J = residuals_at(objective, predictor, eta, theta)
         step, *_ = np.linalg.lstsq(J[:, :2], -r, rcond=None)

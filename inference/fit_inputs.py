@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from ..design.objective import PAPER_WEIGHTS, Objective, check_weights
+from ..forward.predictor import FESolverPredictor
 from ..forward.spec import ModelSpec
 from ..surrogate.base import FieldSurrogate
 from ..surrogate.persistence import load_surrogate
@@ -48,6 +49,57 @@ class FitInputs:
     dic: RegisteredDIC  # the DIC data registered to the model frame
     eta: np.ndarray
     sources: dict[str, str]  # where the experiment and the surrogate came from (provenance)
+
+    @property
+    def corrects_a_low_level(self) -> bool:
+        """Whether the surrogate is a low level corrected toward a high fidelity (multi-fidelity)."""
+        return callable(getattr(self.surrogate, "corrected", None))
+
+    @property
+    def fe_stage_spec(self) -> ModelSpec:
+        """The FE model a fit's FE stage solves: the surrogate's own, or for a multi-fidelity
+        surrogate its low level's (corrected by the discrepancy, :meth:`fe_model`)."""
+        if not self.corrects_a_low_level:
+            return self.spec
+        return ModelSpec.from_dict(self.surrogate.low.meta["campaign"]["model"])
+
+    def fe_model(self, *, friction: float | None = None, with_mu: bool = False, solver: str = "embedded"):
+        """The model a fit's FE stage runs (paper 2.8.2): the FE model the surrogate emulates.
+
+        For a multi-fidelity surrogate, its low level's FE model corrected by its discrepancy
+        (:meth:`~indentation_studio.surrogate.multi_fidelity.MultiFidelitySurrogate.corrected`):
+        one run of the low level (seconds) in place of one of the high fidelity (minutes to an
+        hour), so that the FE stage checks the low surrogate's own error and the discrepancy's
+        uncertainty stays in the bounds (docs/explanation/model-error.md).
+
+        Parameters
+        ----------
+        friction : float, optional
+            Hold mu at this value (the model over (c1, c5)).
+        with_mu : bool, default False
+            The model over (c1, c5, mu).
+        solver : str, default "embedded"
+            The FE solver (``febio``: the surrogate's own FE model, never corrected).
+
+        Returns
+        -------
+        Predictor
+            An FE predictor, or the low level's corrected by the discrepancy.
+        """
+        corrected = self.corrects_a_low_level and solver == "embedded"
+        spec = self.fe_stage_spec if corrected else self.spec
+        if friction is not None:
+            spec = spec.with_friction(friction)
+        parameters = ("c1", "c5", "mu") if with_mu else ("c1", "c5")
+        fe = FESolverPredictor(spec, parameters=parameters, solver=solver)
+        return self.surrogate.corrected(fe) if corrected else fe
+
+    def fe_stage_words(self) -> str:
+        """The FE stage's model in words (``contact-L1 corrected toward contact-L3``)."""
+        high = self.spec.mesh.preset or "its FE model"
+        if not self.corrects_a_low_level:
+            return high
+        return f"{self.fe_stage_spec.mesh.preset} corrected by the learned discrepancy toward {high}"
 
 
 def prepare_fit(

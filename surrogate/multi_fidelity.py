@@ -290,6 +290,47 @@ class MultiFidelitySurrogate(TwoLevelSurrogate):
         model._set_box()
         return model
 
+    def corrected(self, low_model) -> MultiFidelitySurrogate:
+        """The high fidelity as ``low_model`` plus this surrogate's discrepancy (eq. 1a, 1b with the
+        low level's model in place of its surrogate).
+
+        With ``low_model`` the low level's FE model, this is what a fit's FE stage runs: one run of
+        the low level (seconds) corrected toward the high fidelity by the learned discrepancy,
+        instead of a run of the high fidelity (minutes to an hour); the difference from this
+        surrogate is then the low surrogate's own error alone.
+
+        Parameters
+        ----------
+        low_model : Predictor
+            A model of the low level on its top nodes, over (c1, c5) or (c1, c5, mu)
+            (e.g. :class:`~indentation_studio.forward.predictor.FESolverPredictor`).
+
+        Returns
+        -------
+        MultiFidelitySurrogate
+            Sharing this one's discrepancy and interpolation, over ``low_model``'s parameters.
+
+        Raises
+        ------
+        ValueError
+            If ``low_model`` is over other parameters, or the discrepancy needs mu it does not have.
+        """
+        params = tuple(low_model.parameters)
+        if params[:2] != ("c1", "c5") or len(params) < len(self.discrepancy.parameters):
+            raise ValueError(
+                f"the low model is over {params}; the discrepancy needs {tuple(self.discrepancy.parameters)}"
+            )
+        model = type(self)(low_model, **self.hyperparameters())
+        model.discrepancy, model.interpolation = self.discrepancy, self.interpolation
+        model.parameters = params
+        model.depth, model.top_xyz = self.depth, self.top_xyz
+        model.n_steps, model.n_nodes = self.n_steps, self.n_nodes
+        model.scaler = InputScaler(
+            self.scaler.lo[: len(params)], self.scaler.hi[: len(params)], self.scaler.scale
+        )
+        model._meta = self.meta
+        return model
+
     def _truncation_errors(self, D: TrainingData) -> dict[str, float]:
         """What the discrepancy's PCA leaves of its training data (largest force % and field mm)."""
         d = self.discrepancy

@@ -17,6 +17,7 @@ from typer.testing import CliRunner
 from indentation_studio.campaign.loader import StoredResponses, load_campaign
 from indentation_studio.campaign.runner import run_named_campaign
 from indentation_studio.design.objective import Objective
+from indentation_studio.forward.predictor import FESolverPredictor
 from indentation_studio.forward.solver import simulate
 from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
 from indentation_studio.inference.inverse_fit import fit_parameters
@@ -71,6 +72,21 @@ def test_fit_on_two_fe_campaigns(two_levels, tmp_path):
     assert np.abs(fit.theta / truth - 1).max() < 5e-3  # measured c1 -0.02 %, c5 -0.08 %
     assert np.abs(fit_low.theta / truth - 1).max() > 0.1  # measured c1 +1.5 %, c5 -29 %
     assert 0 < mf.meta["discrepancy_kfold"]["force_max_pct"] < 2.0  # measured 0.66 % (3 folds of 9)
+    # the FE stage's model: the low level's FE model corrected by the same discrepancy, so that it
+    # differs from the surrogate by the low surrogate's own error alone (eq. 1a, 1b)
+    low_fe = FESolverPredictor(ModelSpec.from_dict(low.meta["campaign"]["model"]))
+    corrected = mf.corrected(low_fe)
+    theta = truth[None, :]
+    on_fe, on_sur, fe_low, sur_low = (m.predict(theta) for m in (corrected, mf, low_fe, low))
+    np.testing.assert_allclose(on_fe.force / on_sur.force, fe_low.force / sur_low.force, rtol=1e-12)
+    np.testing.assert_allclose(
+        on_fe.displacement - on_sur.displacement,
+        mf._carried(fe_low.displacement - sur_low.displacement),
+        atol=1e-12,
+    )
+    assert np.abs(fe_low.force / sur_low.force - 1).max() > 1e-6  # not the same model by accident
+    with pytest.raises(ValueError, match="the low model is over"):
+        mf.corrected(type("P", (), {"parameters": ("c5",)})())
 
 
 def test_fit_and_posterior_carry_model_error(two_levels, tmp_path):
@@ -98,7 +114,9 @@ def test_fit_and_posterior_carry_model_error(two_levels, tmp_path):
         u_noise_mm=0.02,
     )
     fitted = _run("fit", "--experiment", str(exp), "--surrogate", mf["model_file"])
-    assert fitted["inputs"]["model"]["mesh"]["preset"] == "default"  # the FE stage ran on the high level
+    assert fitted["inputs"]["model"]["mesh"]["preset"] == "default"  # the surrogate's model: the high level
+    # its FE stage: one run of the low level corrected by the discrepancy, not one of the high level
+    assert fitted["inputs"]["fe_stage_model"] == "coarse corrected by the learned discrepancy toward default"
     model = fitted["model_error"]
     assert "model error" in fitted["bounds_include"] and model["error_budget_pct"] == [
         left["c1_pct"],
