@@ -8,6 +8,7 @@ import os
 from pathlib import Path
 
 import pytest
+from threadpoolctl import threadpool_limits
 
 from indentation_studio.forward.threads import THREADS_ENV
 
@@ -15,6 +16,16 @@ from indentation_studio.forward.threads import THREADS_ENV
 # thread: two runs a test compares then use the same thread count whatever the machine's load
 # (the thread policy, which reads the load, is tested with the variable removed: test_threads.py).
 os.environ.setdefault(THREADS_ENV, "1")
+
+#: The BLAS/OpenMP libraries (OpenBLAS under numpy and scipy, MKL, torch's OpenMP) take one thread too,
+#: in this process (those loaded already) and in what it starts (the docs build, its notebook
+#: kernels, the CLI, campaign workers: those read the variables when they load the libraries). With
+#: two test processes on two cores, a second BLAS thread only waits for a busy core: the GP fits of
+#: tests/test_multi_fidelity.py took 63 s with it and 13 s without, on a loaded machine.
+BLAS_THREADS = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+for _name, _value in BLAS_THREADS.items():
+    os.environ.setdefault(_name, _value)
+_BLAS_LIMITS = threadpool_limits(1)
 
 SHARED = Path(__file__).resolve().parents[2] / "shared"
 #: The real FEBio 4 run of the paper's baseline (tests that need it skip, naming it, when absent).

@@ -29,7 +29,7 @@ def test_demo_small_end_to_end(tmp_path):
     )
     report = run_demo(
         "t",
-        jobs=2,
+        jobs=1,  # one process: the suite's two workers already take the two cores
         runs_dir=tmp_path / "runs",
         posterior_steps=300,
         say=lambda m: None,
