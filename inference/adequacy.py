@@ -25,6 +25,10 @@ The noise model:
   (a rank-two term, solved by Woodbury's identity). The sphere fit's own error is small (its
   residual over hundreds of cap points); what a lab's registration gets wrong is where the
   tracked cap lies against the DIC surface, which no residual shows.
+* the model's own stated uncertainty: for a multi-fidelity surrogate, its discrepancy's predictive
+  covariance at the fit (the same that the bounds' discrepancy part carries), moved through eq. 5
+  into the residuals (a low-rank term beside the registration's). The test then asks whether the
+  model explains the data within the noise and within what the model says it does not know.
 
 The model is compared as the data are seen: its own field sampled at the DIC points and put
 through the same planes (what a plane makes of a curved field is no noise). Whitening
@@ -54,6 +58,7 @@ from .experiment_processing import (
     fit_sphere,
     node_interpolation,
 )
+from .model_error import has_high_fidelity_level, residual_changes
 from .relaxation import relaxation_fit
 
 __all__ = [
@@ -361,6 +366,7 @@ def chi_square_test(
     p: int,
     operator_bias: np.ndarray | None = None,
     jacobian: np.ndarray | None = None,
+    model_directions: np.ndarray | None = None,
 ) -> tuple[float, int, dict[str, dict]]:
     """The chi-square statistic of a fit: the whitened sum of squares of its residuals.
 
@@ -399,6 +405,11 @@ def chi_square_test(
         (steps used, measured nodes, 3) the interpolation of the model's field less that field.
     jacobian : numpy.ndarray, optional
         The fit's d residuals / d log theta.
+    model_directions : numpy.ndarray, optional
+        (k, residuals) the model's own stated uncertainty in residual space, one standard
+        deviation per row (a multi-fidelity surrogate's discrepancy: its predictive covariance
+        factor moved through eq. 5, :func:`inference.model_error.residual_changes`); a low-rank
+        term of the covariance beside the registration's, by the same Woodbury identity.
 
     Returns
     -------
@@ -422,7 +433,11 @@ def chi_square_test(
     if r.size != s + 3 * s * m:
         raise ValueError(f"the residual vector has {r.size} entries; the objective makes {s + 3 * s * m}")
     J = np.zeros((r.size, 0)) if jacobian is None else np.asarray(jacobian, float).reshape(r.size, -1)
-    R = np.column_stack([r, J])  # the residuals and their derivatives, transformed alike
+    G = np.zeros((r.size, 0)) if model_directions is None else np.asarray(model_directions, float).T
+    if G.shape[0] != r.size:
+        raise ValueError(f"model_directions have {G.shape[0]} entries; the residual vector {r.size}")
+    q0 = 1 + J.shape[1]  # the residuals and their derivatives; then the model's directions
+    R = np.column_stack([r, J, G])  # all transformed alike
     scale = objective.displacement_residual_scale()[measured]  # (m, 3)
     L_origin = np.linalg.cholesky(noise.origin_cov_mm2 + 1e-30 * np.eye(2))
     q = R.shape[1]
@@ -456,15 +471,21 @@ def chi_square_test(
             BtDR += B[k].T @ Dinv_R
             BtDB += B[k].T @ cho_solve(factor, B[k])
         terms[name] = {"statistic": statistic, "n": int(du.shape[0] * du.shape[1])}
-    # (D + B B^T)^-1 by Woodbury: the registration's rank-two term
-    Q = gram - BtDR.T @ np.linalg.solve(np.eye(2) + BtDB, BtDR)
+    # (D + U U^T)^-1 by Woodbury, U = [B, G]: the registration's rank-two term and the model's own
+    RDR = gram[:q0, :q0]
+    Q_reg = RDR - BtDR[:, :q0].T @ np.linalg.solve(np.eye(2) + BtDB, BtDR[:, :q0])
+    UtDR = np.vstack([BtDR[:, :q0], gram[q0:, :q0]])
+    UtDU = np.block([[BtDB, BtDR[:, q0:]], [BtDR[:, q0:].T, gram[q0:, q0:]]])
+    Q = RDR - UtDR.T @ np.linalg.solve(np.eye(len(UtDU)) + UtDU, UtDR)
     at_fit = float(Q[0, 0])
     statistic = at_fit
-    if q > 1:  # the minimum over theta of the linearised whitened sum
+    if q0 > 1:  # the minimum over theta of the linearised whitened sum
         QJ = Q[1:, 1:]
         statistic = at_fit - float(Q[0, 1:] @ np.linalg.lstsq(QJ, Q[1:, 0], rcond=None)[0])
-    terms["registration"] = {"statistic": float(Q[0, 0] - gram[0, 0]), "n": 0}
-    if q > 1:
+    terms["registration"] = {"statistic": float(Q_reg[0, 0] - gram[0, 0]), "n": 0}
+    if G.shape[1]:
+        terms["model_uncertainty"] = {"statistic": float(Q[0, 0] - Q_reg[0, 0]), "n": 0}
+    if q0 > 1:
         terms["refit"] = {"statistic": statistic - at_fit, "n": 0}
     n = int(sum(t["n"] for t in terms.values()))
     return max(statistic, 0.0), n - p, terms
@@ -536,6 +557,7 @@ def model_adequacy(
     at_ends: list[dict] | None = None,
     friction: dict | None = None,
     registration_mm: float = 0.0,
+    model_directions: np.ndarray | None = None,
 ) -> Adequacy:
     """The adequacy test of ``fit`` (a :class:`inference.inverse_fit.FitResult` carrying its
     residuals) on ``inputs`` (:class:`inference.fit_inputs.FitInputs`): the chi-square statistic
@@ -544,7 +566,8 @@ def model_adequacy(
     ``dic_noise`` (mm) are declared levels; ``at_ends`` are parameters the caller found at a range
     end ({"parameter", "reason"}), named; ``friction`` (fit.json's 'friction') names mu when it
     was identified narrowly while the fit is flagged; ``registration_mm`` the declared registration
-    uncertainty (:func:`noise_model`)."""
+    uncertainty (:func:`noise_model`); ``model_directions`` the model's own stated uncertainty
+    in residual space (:func:`chi_square_test`)."""
     if fit.residuals is None:
         raise ValueError("the fit records no residuals: the adequacy test needs them")
     objective, exp, dic = inputs.objective, inputs.experiment, inputs.dic
@@ -567,6 +590,7 @@ def model_adequacy(
         p=fit.theta.size,
         operator_bias=bias,
         jacobian=fit.jacobian,
+        model_directions=model_directions,
     )
     p_value = float(stats.chi2.sf(statistic, dof)) if dof > 0 else float("nan")
     force_pct = float(np.median(100.0 * noise.force_sd_mN / np.abs(f_inf)))
@@ -636,6 +660,17 @@ def parameters_at_ends(result) -> list[dict]:
     return out
 
 
+def _model_directions(result) -> np.ndarray | None:
+    """A multi-fidelity fit's discrepancy uncertainty at its fit, in residual space (one standard
+    deviation a row): what the model states it does not know, which the test allows beside the
+    noise. None for a surrogate without a high-fidelity level."""
+    model, tested = result.inputs.surrogate, result.tested_fit
+    if not has_high_fidelity_level(model) or tested.prediction is None:
+        return None
+    factor = model.discrepancy_covariance_factor(result._theta_in_surrogate())
+    return residual_changes(result.inputs.objective, result.inputs.eta, tested.prediction, factor)
+
+
 def fit_adequacy(
     result,
     *,
@@ -645,7 +680,8 @@ def fit_adequacy(
 ) -> tuple[Adequacy | None, str | None]:
     """The adequacy test of an :class:`inference.experiment_fit.ExperimentFit`'s final fit (its
     ``tested_fit``: the FE model's residuals at the fit when an FE confirmation ran), with
-    the parameters it names; or None and why the test could not be made (the fit's residuals
+    the parameters it names, the declared registration uncertainty and, for a multi-fidelity
+    surrogate, its discrepancy's uncertainty at the fit in the covariance; or None and why the test could not be made (the fit's residuals
     missing, a hold without a standard error and no noise declared, too few DIC points)."""
     try:
         fr = result._friction_dict() if result.friction.fits_mu else {}
@@ -658,6 +694,7 @@ def fit_adequacy(
                 at_ends=parameters_at_ends(result),
                 friction=fr,
                 registration_mm=registration_mm,
+                model_directions=_model_directions(result),
             ),
             None,
         )

@@ -43,6 +43,7 @@ __all__ = [
     "emulation_error_pct",
     "model_error_at",
     "model_error_scope",
+    "residual_changes",
     "with_emulation_error",
     "with_model_error",
     "with_processing_error",
@@ -277,14 +278,37 @@ def _fit_moves(
     moves the residuals by dr_k, and the fit by -(J^T J)^-1 J^T dr_k over the first ``free``
     parameters, the rest held at ``theta``."""
     pred = surrogate.predict(theta[None, :], jacobian=True)
-    r0 = objective.residuals(pred, e)[0]
     J = (objective.jacobian(pred, e)[0] * theta)[:, :free]  # d r / d log theta (the free ones)
-    steps = pred.force.shape[1]
-    dr = np.stack(
-        [objective.residuals(_perturbed(pred, row[:steps], row[steps:]), e)[0] - r0 for row in outputs]
-    )  # (k, m)
+    dr = residual_changes(objective, e, pred, outputs)  # (k, m)
     A = np.linalg.solve(J.T @ J, J.T)  # (free, m)
     return -dr @ A.T
+
+
+def residual_changes(objective: Objective, eta, prediction: Prediction, outputs: np.ndarray) -> np.ndarray:
+    """How each output-space change moves eq. 5's residual vector at a prediction.
+
+    Parameters
+    ----------
+    objective : Objective
+        The fit's objective.
+    eta : array_like
+        The weights of eq. 5.
+    prediction : Prediction
+        One point's prediction (the residuals' base).
+    outputs : numpy.ndarray
+        (k, steps + steps * nodes * 3): log force per step, then the field (mm).
+
+    Returns
+    -------
+    numpy.ndarray
+        (k, residuals) r(prediction moved by row k) - r(prediction).
+    """
+    e = check_weights(eta)
+    r0 = objective.residuals(prediction, e)[0]
+    steps = prediction.force.shape[1]
+    return np.stack(
+        [objective.residuals(_perturbed(prediction, row[:steps], row[steps:]), e)[0] - r0 for row in outputs]
+    )
 
 
 #: Below this many held-out points the surrogate's part is the largest move, not a percentile.

@@ -125,6 +125,28 @@ def test_the_declared_registration_uncertainty_joins_the_sphere_fits_and_only_lo
         _fit_and_test(model, root, registration_mm=float("nan"))
 
 
+def test_the_models_stated_uncertainty_is_a_low_rank_term_of_the_covariance(model, tmp_path):
+    # along the residual itself, g = a r, Sherman-Morrison gives r^T (C + g g^T)^-1 r = P / (1 + a^2 P)
+    # with P = r^T C^-1 r the statistic without it (at the fit: no refit, no operator bias)
+    root = _experiment(model, tmp_path / "e", 4)
+    exp = load_experiment(root)
+    objective, dic = experiment_objective(exp, model.at.top_xyz)
+    fit = replace(fit_parameters(objective, model, ETA), jacobian=None, prediction=None)
+    inputs = SimpleNamespace(objective=objective, experiment=exp, dic=dic, eta=ETA)
+    plain = model_adequacy(inputs, fit)
+    P, a = plain.statistic, 0.05
+    held = model_adequacy(inputs, fit, model_directions=a * fit.residuals[None, :])
+    assert held.statistic == pytest.approx(P / (1 + a**2 * P), rel=1e-9) and held.dof == plain.dof
+    assert held.terms["model_uncertainty"]["statistic"] == pytest.approx(held.statistic - P, rel=1e-9)
+    # a direction the residuals do not have (the force scale) changes the statistic far less
+    other = np.zeros_like(fit.residuals)
+    other[: len(objective.steps)] = 1.0
+    moved = model_adequacy(inputs, fit, model_directions=a * other[None, :])
+    assert 0 <= P - moved.statistic < 0.1 * (P - held.statistic)
+    with pytest.raises(ValueError, match="model_directions have 3 entries"):
+        model_adequacy(inputs, fit, model_directions=np.ones((1, 3)))
+
+
 def test_a_wrong_force_scale_is_flagged(model, tmp_path):
     root = _experiment(model, tmp_path / "scaled", 1)
     force = pd.read_csv(root / "force.csv")
