@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import time
+from dataclasses import replace
 
 import numpy as np
 
@@ -18,6 +19,7 @@ from indentation_studio.forward.predictor import FESolverPredictor
 from indentation_studio.forward.result import SimulationResult
 from indentation_studio.forward.spec import Indenter, MeshChoice, ModelSpec
 from indentation_studio.inference.synthetic_experiment import (
+    LAB_RECORDING,
     Recording,
     write_experiment_from_model,
     write_synthetic_experiment,
@@ -36,6 +38,13 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=7)
     ap.add_argument("--points", type=int, default=6000, help="DIC points over the field of view")
     ap.add_argument("--out", default="runs/exp-12-250")
+    ap.add_argument(
+        "--lab",
+        action="store_true",
+        help="--from-run: record as a lab would (LAB_RECORDING: 0.02 mm DIC noise, 2 %% force noise, the "
+        "indentation point 0.1 mm off, 6000 points), --noise and --points ignored",
+    )
+    ap.add_argument("--misregistration", type=float, help="--lab: the indentation point this far off, mm")
     ap.add_argument(
         "--from-run",
         help="a stored simulation (.npz of indent-studio simulate) at --c1, --c5, --radius to record instead "
@@ -80,6 +89,13 @@ def _from_run(args) -> object:
         fiber_angle_deg=args.fiber_angle,
         write_fiber_angle=not args.unknown_fibers,
     )
+    if args.lab:
+        recording = replace(
+            LAB_RECORDING, fiber_angle_deg=args.fiber_angle, write_fiber_angle=not args.unknown_fibers
+        )
+        if args.misregistration is not None:
+            recording = replace(recording, misregistration_mm=args.misregistration)
+    friction = (run.spec.get("contact") or {}).get("friction")
     steps = np.asarray(run.depth) > 0  # a run's first row is depth 0
     return write_experiment_from_model(
         run.force[steps],
@@ -88,7 +104,7 @@ def _from_run(args) -> object:
         args.out,
         radius=args.radius,
         step_size=run.spec["protocol"]["step_size"],
-        truth=[args.c1, args.c5],
+        truth=[args.c1, args.c5] if friction is None else [args.c1, args.c5, friction],
         model=run.spec,
         recording=recording,
         seed=args.seed,
