@@ -19,12 +19,15 @@ The noise model:
   that interpolate the DIC points there (:func:`inference.experiment_processing.node_interpolation`),
   so nodes sharing points are correlated as they are;
 * the registration: the indentation point's in-plane standard error from the sphere fit's
-  residual, plus the registration uncertainty the fit declares (``registration_mm``, the same
-  0.1 mm by default that the processing's part of the bounds moves the point by: read as two
-  standard deviations per in-plane axis), moving every node's value by the field's gradient there
-  (a rank-two term, solved by Woodbury's identity). The sphere fit's own error is small (its
-  residual over hundreds of cap points); what a lab's registration gets wrong is where the
-  tracked cap lies against the DIC surface, which no residual shows.
+  residual, moving every node's value by the field's gradient there (a rank-two term, solved
+  by Woodbury's identity); and the registration uncertainty the fit declares
+  (``registration_mm``, the same 0.1 mm by default that the processing's part of the bounds
+  moves the point by), profiled: the data are processed again about indentation points on rings
+  within it (:func:`registration_alternatives`: the folding, the nearest points and the planes
+  run again, which no gradient at the nodes holds next to the symmetry planes), and the
+  statistic is the least over these readings, with two degrees of freedom given to the choice.
+  The sphere fit's own error is small; what a lab's registration gets wrong is where the tracked
+  cap lies against the DIC surface, which no residual shows.
 * the model's own stated uncertainty: for a multi-fidelity surrogate, its discrepancy's predictive
   covariance at the fit (the same that the bounds' discrepancy part carries), moved through eq. 5
   into the residuals (a low-rank term beside the registration's). The test then asks whether the
@@ -42,7 +45,7 @@ error).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy import stats
@@ -308,7 +311,6 @@ def noise_model(
     *,
     force_noise: float | None = None,
     dic_noise: float | None = None,
-    registration_mm: float = 0.0,
 ) -> tuple[NoiseModel, np.ndarray]:
     """The noise of an experiment's data at ``steps`` (module docstring) and f_inf there.
 
@@ -324,9 +326,6 @@ def noise_model(
         Declared force noise (relative, one reading), replacing the one measured from the data.
     dic_noise : float, optional
         Declared DIC noise (mm, every direction), replacing the one measured from the data.
-    registration_mm : float, default 0.0
-        The declared registration uncertainty, mm (two standard deviations per in-plane axis),
-        added to the sphere fit's standard error.
 
     Returns
     -------
@@ -342,15 +341,11 @@ def noise_model(
         deepest = int(np.max(steps)) - 1
         dic_sd = dic_noise_mm(dic.xyz[:, :2], dic.u[deepest])
         dic_source = f"measured from the DIC data at step {deepest + 1} (local quadratics, robust spread)"
-    if not (np.isfinite(registration_mm) and registration_mm >= 0):
-        raise ValueError(f"registration_mm must be a number >= 0, got {registration_mm!r}")
-    cov = _origin_covariance(exp, dic) + (registration_mm / 2.0) ** 2 * np.eye(2)
+    cov = _origin_covariance(exp, dic)
     reg_source = (
         f"the sphere fit of {len(exp.indenter_xyz)} indenter points "
         f"(residual {dic.sphere_rms:.3g} mm RMS): the indentation point's standard error"
     )
-    if registration_mm > 0:
-        reg_source += f", and the declared registration uncertainty {registration_mm:g} mm (2 sd per axis)"
     return NoiseModel(sd, force_source, dic_sd, dic_source, cov, reg_source), f_inf
 
 
@@ -367,6 +362,7 @@ def chi_square_test(
     operator_bias: np.ndarray | None = None,
     jacobian: np.ndarray | None = None,
     model_directions: np.ndarray | None = None,
+    alternatives: np.ndarray | None = None,
 ) -> tuple[float, int, dict[str, dict]]:
     """The chi-square statistic of a fit: the whitened sum of squares of its residuals.
 
@@ -410,6 +406,11 @@ def chi_square_test(
         deviation per row (a multi-fidelity surrogate's discrepancy: its predictive covariance
         factor moved through eq. 5, :func:`inference.model_error.residual_changes`); a low-rank
         term of the covariance beside the registration's, by the same Woodbury identity.
+    alternatives : numpy.ndarray, optional
+        (a, residuals) the residual vector as other readings of the same data would make it
+        (the DIC points registered about other indentation points within the declared
+        registration uncertainty, :func:`registration_alternatives`): the statistic is the least
+        over the residuals and these, and two degrees of freedom go to that choice.
 
     Returns
     -------
@@ -436,8 +437,13 @@ def chi_square_test(
     G = np.zeros((r.size, 0)) if model_directions is None else np.asarray(model_directions, float).T
     if G.shape[0] != r.size:
         raise ValueError(f"model_directions have {G.shape[0]} entries; the residual vector {r.size}")
-    q0 = 1 + J.shape[1]  # the residuals and their derivatives; then the model's directions
-    R = np.column_stack([r, J, G])  # all transformed alike
+    A = np.zeros((r.size, 0)) if alternatives is None else np.asarray(alternatives, float).T
+    if A.shape[0] != r.size:
+        raise ValueError(f"alternatives have {A.shape[0]} entries; the residual vector {r.size}")
+    nJ = J.shape[1]
+    q0 = 1 + nJ + A.shape[1]  # the residuals, their derivatives, other readings; then the model's directions
+    candidates = [0, *range(1 + nJ, q0)]  # the residual vectors the statistic is the least of
+    R = np.column_stack([r, J, A, G])  # all transformed alike
     scale = objective.displacement_residual_scale()[measured]  # (m, 3)
     L_origin = np.linalg.cholesky(noise.origin_cov_mm2 + 1e-30 * np.eye(2))
     q = R.shape[1]
@@ -455,7 +461,7 @@ def chi_square_test(
         with np.errstate(divide="ignore", invalid="ignore"):
             du = part / (np.sqrt(e[j + 1]) * scale[:, j])[None, :, None]  # (s, m, q): model - data, mm
         if operator_bias is not None:
-            du[..., 0] += operator_bias[:, :, j]
+            du[..., candidates] += operator_bias[:, :, j][..., None]
         W = plan.matrix(j)[measured]  # (m, points), sparse
         norm = np.sqrt(np.asarray(W.multiply(W).sum(axis=1)).ravel())
         keep = (norm > 1e-8 * norm.max()) & np.isfinite(scale[:, j]) & (scale[:, j] > 0)
@@ -477,18 +483,93 @@ def chi_square_test(
     UtDR = np.vstack([BtDR[:, :q0], gram[q0:, :q0]])
     UtDU = np.block([[BtDB, BtDR[:, q0:]], [BtDR[:, q0:].T, gram[q0:, q0:]]])
     Q = RDR - UtDR.T @ np.linalg.solve(np.eye(len(UtDU)) + UtDU, UtDR)
+    jcols = list(range(1, 1 + nJ))
+    QJ = Q[np.ix_(jcols, jcols)]
+
+    def refitted(c: int) -> float:  # the minimum over theta of the linearised whitened sum
+        if not jcols:
+            return float(Q[c, c])
+        return float(Q[c, c] - Q[c, jcols] @ np.linalg.lstsq(QJ, Q[jcols, c], rcond=None)[0])
+
+    values = [refitted(c) for c in candidates]
+    best = int(np.argmin(values))
     at_fit = float(Q[0, 0])
-    statistic = at_fit
-    if q0 > 1:  # the minimum over theta of the linearised whitened sum
-        QJ = Q[1:, 1:]
-        statistic = at_fit - float(Q[0, 1:] @ np.linalg.lstsq(QJ, Q[1:, 0], rcond=None)[0])
+    statistic = values[best]
     terms["registration"] = {"statistic": float(Q_reg[0, 0] - gram[0, 0]), "n": 0}
     if G.shape[1]:
         terms["model_uncertainty"] = {"statistic": float(Q[0, 0] - Q_reg[0, 0]), "n": 0}
-    if q0 > 1:
-        terms["refit"] = {"statistic": statistic - at_fit, "n": 0}
+    if jcols:
+        terms["refit"] = {"statistic": values[0] - at_fit, "n": 0}
+    if A.shape[1]:
+        terms["registration_profile"] = {"statistic": statistic - values[0], "n": 0, "reading": best}
     n = int(sum(t["n"] for t in terms.values()))
-    return max(statistic, 0.0), n - p, terms
+    return max(statistic, 0.0), n - p - (2 if A.shape[1] else 0), terms
+
+
+#: The indentation points the registration profile tries: rings at these fractions of the declared
+#: registration uncertainty, in this many directions.
+PROFILE_RINGS = (0.25, 0.5, 0.75, 1.0)
+PROFILE_DIRECTIONS = 12
+
+
+def registration_alternatives(
+    objective, dic: RegisteredDIC, used_steps: np.ndarray, eta, registration_mm: float
+) -> np.ndarray:
+    """(a, residuals): how eq. 5's residual vector changes when the DIC points are registered about
+    another indentation point within ``registration_mm`` (rings at :data:`PROFILE_RINGS` of it, in
+    :data:`PROFILE_DIRECTIONS` directions).
+
+    The data stay what they are; the whole processing runs again (the quarter's folding about the
+    point, the nearest points, the planes), so what a misregistration does next to the symmetry
+    planes and to which points a node sees is in it, which no gradient at the nodes holds. A node
+    that has no plane about one of the points keeps its value.
+
+    Parameters
+    ----------
+    objective : Objective
+        The fit's objective (its data came from ``dic`` by the same processing).
+    dic : RegisteredDIC
+        The DIC data in the model frame.
+    used_steps : numpy.ndarray
+        The experiment's steps used (1..N).
+    eta : array_like
+        The weights of eq. 5.
+    registration_mm : float
+        The declared registration uncertainty, mm.
+
+    Returns
+    -------
+    numpy.ndarray
+        (rings x directions, residuals) the change of the residual vector for each point.
+    """
+    e = np.asarray(eta, float)
+    s, measured = len(objective.steps), objective.measured
+    node_xy = np.asarray(objective.top_xyz)[:, :2]
+    steps = np.asarray(objective.steps, int)  # 0-based
+    scale = objective.displacement_residual_scale()[measured]  # (m, 3)
+
+    def nodes_of(shift: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        plan = node_interpolation(replace(dic, xyz=dic.xyz - shift), node_xy, used_steps=used_steps)
+        u = np.nan_to_num(dic.u[steps][:, plan.points])
+        values = np.stack([(plan.matrix(j) @ u[..., j].T).T for j in range(3)], axis=-1)
+        return values[:, measured], plan.measured[measured]
+
+    base, seen0 = nodes_of(np.zeros(3))
+    out = []
+    for ring in PROFILE_RINGS:
+        for angle in np.arange(PROFILE_DIRECTIONS) * 2.0 * np.pi / PROFILE_DIRECTIONS:
+            shift = ring * registration_mm * np.array([np.cos(angle), np.sin(angle), 0.0])
+            moved, seen = nodes_of(shift)
+            D = np.where((seen & seen0)[None, :, None], moved - base, 0.0)  # (s, m, 3), mm
+            dr = np.zeros(s + 3 * s * int(measured.sum()))
+            for j in range(3):
+                if e[j + 1] > 0:
+                    part = -D[..., j] * np.sqrt(e[j + 1]) * scale[:, j][None, :]
+                    dr[s + j * s * part.shape[1] : s + (j + 1) * s * part.shape[1]] = np.nan_to_num(
+                        part
+                    ).ravel()
+            out.append(dr)
+    return np.array(out)
 
 
 def operator_bias(
@@ -566,15 +647,20 @@ def model_adequacy(
     ``dic_noise`` (mm) are declared levels; ``at_ends`` are parameters the caller found at a range
     end ({"parameter", "reason"}), named; ``friction`` (fit.json's 'friction') names mu when it
     was identified narrowly while the fit is flagged; ``registration_mm`` the declared registration
-    uncertainty (:func:`noise_model`); ``model_directions`` the model's own stated uncertainty
+    uncertainty, profiled (:func:`registration_alternatives`); ``model_directions`` the model's own stated uncertainty
     in residual space (:func:`chi_square_test`)."""
     if fit.residuals is None:
         raise ValueError("the fit records no residuals: the adequacy test needs them")
     objective, exp, dic = inputs.objective, inputs.experiment, inputs.dic
     steps = np.asarray(objective.steps, int) + 1
-    noise, f_inf = noise_model(
-        exp, dic, steps, force_noise=force_noise, dic_noise=dic_noise, registration_mm=registration_mm
-    )
+    # the declared registration uncertainty: profiled over (the processing run again about other
+    # indentation points) where the residual vector is known to it, else in the covariance
+    alternatives = None
+    if registration_mm > 0:
+        alternatives = fit.residuals[None, :] + registration_alternatives(
+            objective, dic, exp.used_steps, inputs.eta, registration_mm
+        )
+    noise, f_inf = noise_model(exp, dic, steps, force_noise=force_noise, dic_noise=dic_noise)
     plan = node_interpolation(dic, np.asarray(objective.top_xyz)[:, :2], used_steps=exp.used_steps)
     grads = _gradients(plan, dic, steps, objective.measured)
     bias = None
@@ -591,6 +677,7 @@ def model_adequacy(
         operator_bias=bias,
         jacobian=fit.jacobian,
         model_directions=model_directions,
+        alternatives=alternatives,
     )
     p_value = float(stats.chi2.sf(statistic, dof)) if dof > 0 else float("nan")
     force_pct = float(np.median(100.0 * noise.force_sd_mN / np.abs(f_inf)))

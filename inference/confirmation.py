@@ -81,8 +81,11 @@ class Confirmation:
 
     @property
     def fe_spec(self):
-        """The model the FE run solved: the surrogate's (a multi-fidelity one's low level, corrected
-        by its discrepancy: ``FitInputs.fe_model``), with the friction coefficient if given."""
+        """The model the FE run solved, with the friction coefficient if given.
+
+        The surrogate's FE model; a multi-fidelity one's low level (corrected by its discrepancy:
+        ``FitInputs.fe_model``) when the embedded solver ran.
+        """
         spec = self.inputs.fe_stage_spec if self.solver == "embedded" else self.inputs.spec
         return spec if self.friction is None else spec.with_friction(self.friction)
 

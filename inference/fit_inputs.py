@@ -57,8 +57,11 @@ class FitInputs:
 
     @property
     def fe_stage_spec(self) -> ModelSpec:
-        """The FE model a fit's FE stage solves: the surrogate's own, or for a multi-fidelity
-        surrogate its low level's (corrected by the discrepancy, :meth:`fe_model`)."""
+        """The FE model a fit's FE stage solves.
+
+        The surrogate's own; for a multi-fidelity surrogate its low level's (corrected by the
+        discrepancy, :meth:`fe_model`).
+        """
         if not self.corrects_a_low_level:
             return self.spec
         return ModelSpec.from_dict(self.surrogate.low.meta["campaign"]["model"])

@@ -291,8 +291,9 @@ class MultiFidelitySurrogate(TwoLevelSurrogate):
         return model
 
     def corrected(self, low_model) -> MultiFidelitySurrogate:
-        """The high fidelity as ``low_model`` plus this surrogate's discrepancy (eq. 1a, 1b with the
-        low level's model in place of its surrogate).
+        """The high fidelity as ``low_model`` plus this surrogate's discrepancy.
+
+        Eq. 1a, 1b with the low level's model in place of its surrogate.
 
         With ``low_model`` the low level's FE model, this is what a fit's FE stage runs: one run of
         the low level (seconds) corrected toward the high fidelity by the learned discrepancy,

@@ -114,7 +114,20 @@ class ShippedSurrogate:
         return _test_words(self.radius, self.depths)
 
     def matches(self, radius: float, depths) -> bool:
-        """Whether an experiment with this indenter radius (mm) and step depths (mm) is its test."""
+        """Whether an experiment with this indenter radius and these step depths is its test.
+
+        Parameters
+        ----------
+        radius : float
+            The indenter radius, mm.
+        depths : array_like
+            (steps,) the depth of each step, mm.
+
+        Returns
+        -------
+        bool
+            Radius and every depth within 1e-6 mm.
+        """
         depths = np.asarray(depths, float)
         return (
             abs(self.radius - float(radius)) <= _TOLERANCE_MM
@@ -188,7 +201,7 @@ def shipped_surrogates(folder: str | Path | None = None) -> list[ShippedSurrogat
     Raises
     ------
     SurrogateFileError
-        If the manifest is not JSON or lacks a field.
+        If the manifest is not JSON or lacks a field (its KeyError, TypeError or ValueError).
     """
     folder = Path(folder or shipped_surrogates_folder())
     manifest = folder / MANIFEST_NAME
@@ -227,8 +240,9 @@ def shipped_for_test(radius: float, depths, *, folder: str | Path | None = None)
 
 
 def recipe_for_test(radius: float, depths, *, folder: str | Path | None = None) -> str:
-    """What to do for a test no shipped surrogate matches: the shipped ones, and the command
-    that builds a surrogate for this test.
+    """What to do for a test no shipped surrogate matches: the command that builds one.
+
+    The paragraph names the test, the shipped tests and the recipe's command for this test.
 
     Parameters
     ----------
