@@ -554,13 +554,13 @@ def registration_alternatives(
         values = np.stack([(plan.matrix(j) @ u[..., j].T).T for j in range(3)], axis=-1)
         return values[:, measured], plan.measured[measured]
 
-    base, seen0 = nodes_of(np.zeros(3))
+    base = np.asarray(objective.displacement, float)[steps][:, measured]  # the same processing, unmoved
     out = []
     for ring in PROFILE_RINGS:
         for angle in np.arange(PROFILE_DIRECTIONS) * 2.0 * np.pi / PROFILE_DIRECTIONS:
             shift = ring * registration_mm * np.array([np.cos(angle), np.sin(angle), 0.0])
             moved, seen = nodes_of(shift)
-            D = np.where((seen & seen0)[None, :, None], moved - base, 0.0)  # (s, m, 3), mm
+            D = np.where(seen[None, :, None], moved - base, 0.0)  # (s, m, 3), mm
             dr = np.zeros(s + 3 * s * int(measured.sum()))
             for j in range(3):
                 if e[j + 1] > 0:

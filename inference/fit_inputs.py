@@ -16,6 +16,7 @@ from ..surrogate.persistence import load_surrogate
 from ..surrogate.shipped import load_shipped, recipe_for_test, shipped_for_test
 from .experiment_data import ExperimentData, load_experiment
 from .experiment_processing import RegisteredDIC, experiment_objective
+from .model_error import has_high_fidelity_level
 
 __all__ = ["FitInputs", "prepare_fit"]
 
@@ -53,7 +54,7 @@ class FitInputs:
     @property
     def corrects_a_low_level(self) -> bool:
         """Whether the surrogate is a low level corrected toward a high fidelity (multi-fidelity)."""
-        return callable(getattr(self.surrogate, "corrected", None))
+        return has_high_fidelity_level(self.surrogate)
 
     @property
     def fe_stage_spec(self) -> ModelSpec:
