@@ -233,7 +233,7 @@ def main() -> None:
         },
         "recipe": (
             f"python benchmarks/ship_surrogates.py --radius {args.radius:g} --steps {args.steps} "
-            f"--step {args.step:g} --out {args.out}"
+            f"--step {args.step:g}"
         ),
     }
     path = add_to_manifest(args.out, entry)
