@@ -91,6 +91,21 @@ def campaign(runs_dir: Path, name: str, grid: str, args: argparse.Namespace, mes
     )
 
 
+def up_to_date(model: Path, *inputs: Path) -> bool:
+    """Whether a trained file exists and is newer than everything it was trained from."""
+    return model.is_file() and all(model.stat().st_mtime > path.stat().st_mtime for path in inputs)
+
+
+#: The bands of mu the held-out errors are given in (and the stick, mu's prior's upper end).
+MU_BANDS = (0.1, 0.5, 1.0, 3.0 + 1e-9)
+
+
+def slip_errors_by_mu(model) -> list[dict] | None:
+    """The slip surrogate's held-out errors (its k-fold) within bands of mu."""
+    error = model.emulation_error
+    return None if error is None else error.describe_bands(model.parameters.index("mu"), MU_BANDS)
+
+
 def campaign_record(runs_dir: Path, name: str) -> dict:
     """What the manifest says of a campaign: its grid, mesh, points, failures and solver time."""
     spec = json.loads((runs_dir / name / "campaign.json").read_text())
@@ -152,36 +167,43 @@ def main() -> None:
     slip = runs_dir / names["mu"] / "surrogate-slip.safetensors"
     shipped = runs_dir / names["high"] / "surrogate-mf-slip.safetensors"
     common = ["--runs-dir", str(runs_dir), "--seed", "0"]
-    run(
-        [
-            CLI,
-            "surrogate",
-            "train",
-            "--campaign",
-            names["stick"],
-            "--kind",
-            "gp",
-            "--test-campaign",
-            names["test"],
-            *common,
-        ]
-    )
-    run(
-        [
-            CLI,
-            "surrogate",
-            "train",
-            "--campaign",
-            names["mu"],
-            "--kind",
-            "slip",
-            "--stick",
-            str(stick),
-            "--kfold",
-            "5",
-            *common,
-        ]
-    )
+    index = {key: runs_dir / name / "index.parquet" for key, name in names.items()}
+    if up_to_date(stick, index["stick"], index["test"]):  # a stopped recipe resumes, as campaigns do
+        print(f"{stick}: trained after its campaigns, used as it is", flush=True)
+    else:
+        run(
+            [
+                CLI,
+                "surrogate",
+                "train",
+                "--campaign",
+                names["stick"],
+                "--kind",
+                "gp",
+                "--test-campaign",
+                names["test"],
+                *common,
+            ]
+        )
+    if up_to_date(slip, index["mu"], stick):
+        print(f"{slip}: trained after its campaign and stick surrogate, used as it is", flush=True)
+    else:
+        run(
+            [
+                CLI,
+                "surrogate",
+                "train",
+                "--campaign",
+                names["mu"],
+                "--kind",
+                "slip",
+                "--stick",
+                str(stick),
+                "--kfold",
+                "5",
+                *common,
+            ]
+        )
     run(
         [
             CLI,
@@ -222,6 +244,7 @@ def main() -> None:
         "held_out": {
             "stick": load_surrogate(stick).meta.get("emulation_error"),
             "slip": load_surrogate(slip).meta.get("emulation_error"),
+            "slip_by_mu": slip_errors_by_mu(load_surrogate(slip)),
             "discrepancy_kfold": meta.get("discrepancy_kfold"),
         },
         "error_budget": meta.get("error_budget"),

@@ -204,6 +204,26 @@ class FieldSurrogate(ABC):
     #: with a test campaign or a k-fold; fits carry them in their bounds. None: not measured.
     emulation_error = None
 
+    def kept_emulation_error(self):
+        """The held-out errors its file keeps (:func:`surrogate.persistence.save_surrogate`).
+
+        Returns
+        -------
+        EmulationError or None
+            Here :attr:`emulation_error` itself; a multi-fidelity surrogate keeps its low level's.
+        """
+        return self.emulation_error
+
+    def restore_emulation_error(self, kept) -> None:
+        """Set :attr:`emulation_error` from what its file kept (:meth:`kept_emulation_error`).
+
+        Parameters
+        ----------
+        kept : EmulationError or None
+            The errors read from the file.
+        """
+        self.emulation_error = kept
+
     def __init__(self, input_scale: str = "log", pca_tol: float = 1e-3, max_components: int = 40) -> None:
         self.input_scale = input_scale
         self.training_theta: np.ndarray | None = None  # the campaign's points, kept for training_gap

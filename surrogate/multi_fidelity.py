@@ -366,6 +366,41 @@ class MultiFidelitySurrogate(TwoLevelSurrogate):
             **{f"u{'xyz'[j]}_rms_mm": float(np.sqrt(np.mean(err_u[..., j] ** 2))) for j in range(3)},
         }
 
+    #: The low level's held-out errors on its own top nodes: what the file keeps (a few times fewer
+    #: numbers than on the high nodes), moved to the high nodes when it is read.
+    low_emulation_error = None
+
+    def kept_emulation_error(self):
+        """The held-out errors its file keeps: the low level's, on the low top nodes.
+
+        Returns
+        -------
+        EmulationError or None
+            The low level's errors when it had them, else :attr:`emulation_error`.
+        """
+        return self.low_emulation_error if self.low_emulation_error is not None else self.emulation_error
+
+    def restore_emulation_error(self, kept) -> None:
+        """Set :attr:`emulation_error`: errors on the low top nodes are moved to the high ones.
+
+        The low surrogate's own error is this one's (the discrepancy is learned on top of it), and
+        the interpolation W carries it to the high nodes as it carries the low prediction (eq. 1b).
+
+        Parameters
+        ----------
+        kept : EmulationError or None
+            The low level's errors (on its top nodes) or errors already on the high nodes.
+        """
+        low_nodes = len(self.low.top_xyz)
+        if (
+            kept is not None
+            and low_nodes != self.n_nodes
+            and kept.directions.shape[1] == kept.width(low_nodes)
+        ):
+            self.low_emulation_error, self.emulation_error = kept, kept.carried(self._carried)
+        else:
+            self.emulation_error = kept
+
     # ------------------------------------------------------------------ prediction
     def _carried(self, u: np.ndarray) -> np.ndarray:
         """A low-fidelity array with the top nodes on axis 2, (n, steps, nodes, ...), at the high

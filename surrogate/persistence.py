@@ -117,7 +117,7 @@ def save_surrogate(surrogate: FieldSurrogate, path: str | Path) -> Path:
     emulation = surrogate.emulation_error
     if emulation is not None:
         surrogate.meta["emulation_error"] = emulation.describe()
-        arrays = {**arrays, **emulation.to_arrays()}
+        arrays = {**arrays, **surrogate.kept_emulation_error().to_arrays()}
     check = _self_check_arrays(surrogate, _self_check_points(surrogate))
     header = {
         "format": FORMAT,
@@ -194,5 +194,7 @@ def load_surrogate(path: str | Path) -> FieldSurrogate:
     model.meta = meta
     _verify(path, model, arrays, check)
     kept = meta.get("emulation_error") if isinstance(meta, dict) else None
-    model.emulation_error = EmulationError.from_arrays(arrays, (kept or {}).get("source", "held-out points"))
+    model.restore_emulation_error(
+        EmulationError.from_arrays(arrays, (kept or {}).get("source", "held-out points"))
+    )
     return model

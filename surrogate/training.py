@@ -249,7 +249,6 @@ def train_multi_fidelity(
         test = training_data(test_campaign, runs_dir)
         validation["test"] = prediction_errors(_scored_on(model, test), test)
     model.meta["validation"] = validation
-    if low_model.emulation_error is not None:  # the low level's own error, at the high top nodes
-        model.emulation_error = low_model.emulation_error.carried(model._carried)
+    model.restore_emulation_error(low_model.emulation_error)  # the low level's own, at the high nodes
     _record_error_budget(model, error_budget)
     return model

@@ -194,7 +194,15 @@ def test_held_out_errors_kept_in_a_surrogate_file_and_by_training(mu_campaign, m
     # the force part of the held-out errors: the k-fold's own force error (its RMS, percent)
     force_rms = 100.0 * np.sqrt(np.mean(np.expm1(-own.errors()[:, :3]) ** 2))  # pred / fe - 1
     assert force_rms == pytest.approx(model.meta["validation"]["kfold"]["force_rms_pct"], rel=1e-4)
+    # by bands of mu: every point in one band, the bands' errors pooled are the whole's
+    middle = float(np.median(own.theta[:, 2]))
+    bands = own.describe_bands(2, (0.0, middle, np.inf))
+    below = int((own.theta[:, 2] < middle).sum())
+    assert [b["points"] for b in bands] == [below, own.points - below] and 0 < below < own.points
+    pooled = np.sqrt(sum(b["force_rms_pct"] ** 2 * b["points"] for b in bands) / own.points)
+    assert pooled == pytest.approx(own.describe()["force_rms_pct"], rel=1e-9)
     again = load_surrogate(save_surrogate(model, tmp_path / "s.safetensors"))
     np.testing.assert_array_equal(again.emulation_error.scores, own.scores)
-    np.testing.assert_array_equal(again.emulation_error.directions, own.directions)
+    # the directions in half precision (1 part in 2,000 of each entry), the rest as computed
+    np.testing.assert_allclose(again.emulation_error.directions, own.directions, rtol=1e-3, atol=1e-7)
     assert again.meta["emulation_error"]["points"] == own.points and "fold" in again.emulation_error.source

@@ -17,6 +17,7 @@ from indentation_studio.inference.experiment_fit import fit_experiment
 from indentation_studio.inference.inverse_fit import fit_parameters
 from indentation_studio.inference.synthetic_experiment import write_synthetic_experiment
 from indentation_studio.surrogate.base import FieldSurrogate, TrainingData
+from indentation_studio.surrogate.emulation_error import EmulationError
 from indentation_studio.surrogate.gaussian_process import GaussianProcessSurrogate
 from indentation_studio.surrogate.multi_fidelity import MultiFidelitySurrogate, interpolation_matrix
 from indentation_studio.surrogate.persistence import load_surrogate, save_surrogate
@@ -231,6 +232,32 @@ def test_fit_recovers_what_the_low_level_misses(mf, low):
     fit_low = fit_parameters(Objective.from_prediction(data, radius=RADIUS), low, ETA, theta0=(6.0, 300.0))
     assert np.abs(fit.theta / truth - 1).max() < 1e-3  # measured 2e-5
     assert np.abs(fit_low.theta / truth - 1).max() > 0.05  # measured c1 +11.5 %, c5 -4.6 %
+
+
+def test_a_file_keeps_the_low_levels_errors_and_moves_them_to_the_high_nodes(mf, tmp_path):
+    """The low surrogate's held-out errors are the multi-fidelity surrogate's own, carried by W
+    (eq. 1b) to the high nodes; the file keeps them on the low nodes, in half precision."""
+    steps, nodes = len(DEPTH), len(LOW_XYZ)
+    errors = 1e-3 * np.random.default_rng(3).standard_normal((6, steps + steps * nodes * 3))
+    low_error = EmulationError.from_errors(box_points(6, seed=5), errors, steps=steps, source="test")
+    model = load_surrogate(save_surrogate(mf, tmp_path / "copy.safetensors"))
+    model.restore_emulation_error(low_error)
+    moved = model.emulation_error.errors()
+    field = errors[:, steps:].reshape(6, steps, nodes, 3)
+    expected = np.hstack(
+        [
+            errors[:, :steps],
+            (model.interpolation @ field.transpose(2, 0, 1, 3).reshape(nodes, -1))
+            .reshape(len(HIGH_XYZ), 6, steps, 3)
+            .transpose(1, 2, 0, 3)
+            .reshape(6, -1),
+        ]
+    )
+    np.testing.assert_allclose(moved, expected, atol=1e-8)
+    again = load_surrogate(save_surrogate(model, tmp_path / "with-errors.safetensors"))
+    assert again.low_emulation_error.directions.shape[1] == steps + steps * nodes * 3 < moved.shape[1]
+    np.testing.assert_allclose(again.emulation_error.errors(), moved, atol=2e-3 * np.abs(moved).max())
+    assert not np.array_equal(again.emulation_error.errors(), moved)  # half precision in the file
 
 
 def test_training_function_and_refusals(low, high_data, tmp_path):
