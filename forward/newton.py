@@ -94,6 +94,36 @@ class TangentContact(Protocol):
     def correction(self, cmask: np.ndarray) -> LowRankUpdate | None: ...
 
 
+def unsymmetric_factorisation(K: sp.csr_matrix, cmask: np.ndarray) -> spla.SuperLU:
+    """An LU factorisation (SuperLU) of K with the dofs in ``cmask`` eliminated.
+
+    The tangent with friction is not symmetric; the Newton solve factorises its symmetric part and
+    lets GMRES bridge the rest. Where it cannot, this is K's own factorisation.
+
+    Parameters
+    ----------
+    K : scipy.sparse.csr_matrix
+        The tangent.
+    cmask : ndarray of bool, shape (3n,)
+        The dofs held (their solution 0).
+
+    Returns
+    -------
+    scipy.sparse.linalg.SuperLU
+        Its ``solve`` takes and returns vectors over the free dofs.
+
+    Raises
+    ------
+    LinearSolveError
+        If K is singular on the free dofs.
+    """
+    free = np.flatnonzero(~cmask)
+    try:
+        return spla.splu(K[free][:, free].tocsc())
+    except RuntimeError as exc:  # SuperLU: "Factor is exactly singular"
+        raise LinearSolveError(f"the tangent is singular ({exc})") from exc
+
+
 class NewtonSystem:
     """The linear steps and the constrained Newton solve of the embedded solver.
 
@@ -365,7 +395,7 @@ class NewtonSystem:
         LinearSolveError
             A solve that does not converge even with a fresh factorisation.
         """
-        x = np.zeros_like(b)
+        x, lu = np.zeros_like(b), None
         for k in range(b.shape[1]):
             col = (
                 self.krylov(K, cmask, b[:, k], SENSITIVITY_RTOL, self.krylov_maxiter())
@@ -375,8 +405,14 @@ class NewtonSystem:
             if col is None:  # that factorisation is too far from this tangent: factorise it
                 self.factorize(K, cmask)
                 col = self.krylov(K, cmask, b[:, k], SENSITIVITY_RTOL, 100)
-                if col is None:
-                    raise LinearSolveError("the sensitivity solve did not converge")
+            if col is None and not self.contact.symmetric:
+                # with friction the factorisation is of K's symmetric part; where slip makes the
+                # rest too large for GMRES to bridge, K itself is factorised (once for all columns)
+                lu = lu or unsymmetric_factorisation(K, cmask)
+                col = np.zeros(len(cmask))
+                col[~cmask] = lu.solve(b[~cmask, k])
+            if col is None:
+                raise LinearSolveError("the sensitivity solve did not converge")
             x[:, k] = col
         return x
 
