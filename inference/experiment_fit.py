@@ -39,6 +39,7 @@ from .mesh_check import MeshCheck, check_mesh_at
 from .model_error import (
     ModelError,
     combined_pct,
+    emulation_error_pct,
     has_high_fidelity_level,
     model_error_at,
     model_error_scope,
@@ -116,6 +117,9 @@ class ExperimentFit:
     mu_reach: dict[str, bool] | None = None  # does mu's certainty region reach the range's ends
     mu_reach_notes: dict[str, str] = field(default_factory=dict)  # an end not checked, and why
     restarts: list[dict] = field(default_factory=list)  # fits again from a better point found at an end
+    # the surrogate's own error as a part of mu's 95 % half-width, percent (a fit with mu that ends
+    # on a surrogate with held-out errors): its error can move mu far more than (c1, c5)
+    mu_surrogate_pct: float | None = None
     adequacy: object | None = None  # inference.adequacy.Adequacy: can the model explain the data
     adequacy_note: str | None = None  # why the adequacy test was not made
     confirmation: FitConfirmation | None = None  # fe_stage "confirm": one FE run at the surrogate's fit
@@ -310,20 +314,21 @@ class ExperimentFit:
         fb = self.friction_bounds
         if fb is not None:
             mu, (lo, hi) = float(self.fit.theta[2]), self.mu_range
-            half = mu * fb["mu_pct"] / 100.0
+            mu_pct = float(np.hypot(fb["mu_pct"], self.mu_surrogate_pct or 0.0))
+            half = mu * mu_pct / 100.0
             laplace = [max(mu - half, lo), min(mu + half, hi)]  # nothing is known outside the range
             reach = self.mu_reach or {}
             interval = [lo if reach.get("lower") else laplace[0], hi if reach.get("upper") else laplace[1]]
             out |= {
                 "mu": mu,
-                "mu_pct": fb["mu_pct"],
+                "mu_pct": mu_pct,
+                "mu_statistical_pct": fb["mu_pct"],
+                "mu_surrogate_pct": self.mu_surrogate_pct,
                 "mu_interval": interval,
                 "mu_reaches_range_end": reach,
                 "mu_reach_notes": self.mu_reach_notes,
                 "restarts": self.restarts,
-                "mu_identified": bool(
-                    not (reach.get("lower") or reach.get("upper")) and np.isfinite(fb["mu_pct"])
-                ),
+                "mu_identified": bool(not (reach.get("lower") or reach.get("upper")) and np.isfinite(mu_pct)),
                 "mu_range": [lo, hi],
                 "mu_at_limit": "lower" if mu <= lo * 1.001 else "upper" if mu >= hi * 0.999 else None,
                 "conditional_pct": fb["conditional_pct"],
@@ -758,6 +763,9 @@ def _fit_with_friction(
             fit.model_error, inputs, final.theta[:2], fit.contact, registration_mm, say
         )
     fit.mu_reach, fit.mu_reach_notes, fit.restarts = reach, notes, restarts
+    if with_mu and treatment.fits_mu and not refine:
+        moved = emulation_error_pct(obj, eta, model, final.theta)  # every parameter free
+        fit.mu_surrogate_pct = None if moved is None else float(moved[2])
     if stage == "confirm":
         say(f"confirming on the FE solver at {np.round(final.theta, 3).tolist()} ...")
         if treatment.mode == "known":

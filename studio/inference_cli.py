@@ -209,8 +209,14 @@ def _print_fit(result: inference.ExperimentFit, payload: dict, check_mesh: str |
         lo, hi = fr["mu_interval"]
         ends = [side for side, reached in fr["mu_reaches_range_end"].items() if reached]
         open_ = f"; the data do not bound it at the range's {' and '.join(ends)} end" if ends else ""
+        sur = fr.get("mu_surrogate_pct")
+        parts = (
+            f" (statistical +- {fr['mu_statistical_pct']:.3g} %, surrogate +- {sur:.3g} %)"
+            if sur is not None
+            else ""
+        )
         Console().print(
-            f"  mu = {fr['mu']:.3g}{limit}, 95 % within [{lo:.3g}, {hi:.3g}]{open_}; mu's share of the bounds "
+            f"  mu = {fr['mu']:.3g}{limit}, 95 % within [{lo:.3g}, {hi:.3g}]{parts}{open_}; mu's share of the bounds "
             f"+- {share[0]:.2f} % / {share[1]:.2f} % (with mu known: +- {fr['conditional_pct'][0]:.2f} % / "
             f"{fr['conditional_pct'][1]:.2f} %)"
         )
