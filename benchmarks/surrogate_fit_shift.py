@@ -35,8 +35,8 @@ from indentation_studio.atomic_write import atomic_write_json
 from indentation_studio.forward.predictor import FESolverPredictor
 from indentation_studio.forward.spec import ModelSpec
 from indentation_studio.inference.experiment_fit import fit_experiment
+from indentation_studio.inference.model_error import has_high_fidelity_level
 from indentation_studio.inference.synthetic_experiment import LAB_RECORDING, write_synthetic_experiment
-from indentation_studio.surrogate.multi_fidelity import has_high_fidelity_level
 from indentation_studio.surrogate.persistence import load_surrogate
 from indentation_studio.surrogate.shipped import shipped_for_test
 
