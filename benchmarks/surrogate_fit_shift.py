@@ -83,7 +83,7 @@ def _fit_row(fit) -> dict:
         "half_pct": [d["c1_pct"], d["c5_pct"]],
         "statistical_pct": d["statistical_pct"][:2],
         "surrogate_pct": (model.get("surrogate_pct") or [0.0, 0.0])[:2],
-        "confirmation_shift_pct": (confirmation.get("shift_pct") or [None, None])[:2],
+        "confirmation_shift_pct": (confirmation.get("gauss_newton_shift_pct") or [None, None])[:2],
         "surrogate_fit": d["surrogate_fit"]["theta"],
         "adequacy_per_degree": (d.get("adequacy") or {}).get("per_degree"),
     }
