@@ -115,7 +115,8 @@ def corner_figure(posterior, fit_theta=None, fit_hessian=None, s: float | None =
     s : float, optional
         Eq. 6's s of the ellipse.
     truth : array_like, optional
-        The truth of a synthetic experiment, when known (green).
+        The truth of a synthetic experiment, when known (green); the parameters it lacks (mu of
+        a perfect-stick experiment) are left unmarked.
 
     Returns
     -------
@@ -126,8 +127,11 @@ def corner_figure(posterior, fit_theta=None, fit_hessian=None, s: float | None =
 
     labels = [name if name == "mu" else f"{name} (kPa)" for name in posterior.parameters]  # mu: no unit
     span = np.percentile(posterior.samples, [0.5, 99.5], axis=0).T  # corner's own default range
-    if truth is not None:  # widened so that a truth far from the samples is seen, not clipped
-        span = np.column_stack([np.minimum(span[:, 0], truth), np.maximum(span[:, 1], truth)])
+    if truth is not None:  # (c1, c5) of a stick experiment beside a posterior with mu: mu's unknown
+        truth = [float(v) for v in truth] + [None] * (len(labels) - len(truth))
+        known = np.array([np.nan if v is None else v for v in truth])
+        # widened so that a truth far from the samples is seen, not clipped
+        span = np.column_stack([np.fmin(span[:, 0], known), np.fmax(span[:, 1], known)])
     pad = 0.05 * (span[:, 1] - span[:, 0])
     fig = corner.corner(
         posterior.samples,
@@ -140,8 +144,9 @@ def corner_figure(posterior, fit_theta=None, fit_hessian=None, s: float | None =
         truth_color="tab:red",
     )
     if truth is not None:
-        corner.overplot_lines(fig, list(truth), color="tab:green", lw=1.5)
-        corner.overplot_points(fig, [list(truth)], marker="s", color="tab:green")
+        corner.overplot_lines(fig, truth, color="tab:green", lw=1.5)
+        if None not in truth:
+            corner.overplot_points(fig, [truth], marker="s", color="tab:green")
         fig.axes[0].plot([], [], color="tab:green", label="truth")
         fig.axes[0].legend(fontsize=7, loc="upper left")
     if fit_theta is not None and fit_hessian is not None and s is not None and len(labels) == 2:
