@@ -348,7 +348,21 @@ def emulation_error_pct(
         return None
     theta = np.asarray(theta, float)
     free = len(theta) if free is None else free
-    moves = np.abs(_fit_moves(objective, check_weights(eta), surrogate, theta, free, emulation.errors()))
+    # to first order a held-out error moves the fit by its scores times the moves along the kept
+    # directions: one residual evaluation per direction (each scaled to a typical error), not one
+    # per held-out point on the whole (points x outputs) error matrix
+    scores = emulation.scores.astype(float)
+    scale = np.sqrt(np.mean(scores**2, axis=0))
+    scale = np.where(scale > 0, scale, 1.0)
+    along = _fit_moves(
+        objective,
+        check_weights(eta),
+        surrogate,
+        theta,
+        free,
+        emulation.directions.astype(float) * scale[:, None],
+    )
+    moves = np.abs((scores / scale) @ along)
     q = 1.0 if len(moves) < FEW_HELD_OUT else 0.95
     return 100.0 * np.expm1(np.quantile(moves, q, axis=0, method="higher"))
 
