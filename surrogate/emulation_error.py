@@ -167,7 +167,18 @@ class EmulationError:
         return replace(self, directions=np.hstack([d[:, : self.steps], moved]).astype(np.float32))
 
     def width(self, nodes: int) -> int:
-        """The length of an error vector over ``nodes`` top nodes (log force, then the field)."""
+        """The length of an error vector over ``nodes`` top nodes (log force, then the field).
+
+        Parameters
+        ----------
+        nodes : int
+            Top nodes.
+
+        Returns
+        -------
+        int
+            ``steps + steps * nodes * 3``.
+        """
         return self.steps + self.steps * nodes * 3
 
     def describe(self) -> dict:
