@@ -154,8 +154,8 @@ def confirm(
     Raises
     ------
     ValueError
-        If theta is not (c1, c5), mu is negative, friction is combined with a mesh check, or a
-        mesh check is asked of FEBio.
+        If theta is not (c1, c5), mu is negative or missing for a surrogate over mu, friction is
+        combined with a mesh check, or a mesh check is asked of FEBio.
     """
     inputs = prepare_fit(experiment, surrogate, weights, exclude_steps, reading=reading)
     if surrogate is None and say is not None:
@@ -167,6 +167,13 @@ def confirm(
         raise ValueError(f"friction: mu must be a number >= 0, got {friction!r}")
     if friction is not None and check_mesh is not None:
         raise ValueError("friction: the mesh check is made with the perfect stick; confirm without it")
+    with_mu = "mu" in inputs.surrogate.parameters
+    if with_mu and friction is None:
+        raise ValueError(
+            f"friction: this surrogate is over {tuple(inputs.surrogate.parameters)}; give mu (--friction), "
+            "e.g. the fit's"
+        )
+    at = np.append(theta, friction) if with_mu else theta  # where the surrogate is compared
     check = None
     if check_mesh is None:
         fe = inputs.fe_model(friction=friction, solver=solver).predict(theta[None, :])
@@ -179,7 +186,7 @@ def confirm(
         theta,
         solver=solver,
         fe=fe,
-        surrogate=inputs.surrogate.predict(theta[None, :]),
+        surrogate=inputs.surrogate.predict(at[None, :]),
         mesh_check=check,
         check_mesh=check_mesh,
         friction=friction,

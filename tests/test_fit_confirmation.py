@@ -47,6 +47,21 @@ def test_the_fe_stage_is_confirm_on_a_surrogate_with_mu_and_fit_on_one_without(m
         resolved_fe_stage("lm", mu_surrogate)
 
 
+def test_confirm_on_a_surrogate_with_mu_compares_it_at_the_given_mu_and_asks_for_one(
+    mu_surrogate, fe_experiment
+):
+    """``confirm`` runs the FE model with friction mu and compares the surrogate at (c1, c5, mu);
+    without mu a surrogate over mu has nothing to compare at, and says so."""
+    from indentation_studio.inference.confirmation import confirm
+
+    exp, fe = fe_experiment
+    check = confirm(exp, mu_surrogate, TRUTH[:2], friction=float(TRUTH[2]))
+    np.testing.assert_allclose(check.fe.force, fe.predict(TRUTH[None, :]).force, rtol=1e-10)
+    np.testing.assert_array_equal(check.surrogate.force, mu_surrogate.predict(TRUTH[None, :]).force)
+    with pytest.raises(ValueError, match=r"friction: this surrogate is over \('c1', 'c5', 'mu'\); give mu"):
+        confirm(exp, mu_surrogate, TRUTH[:2])
+
+
 def test_the_default_fit_is_confirmed_by_one_fe_run_recorded_in_fit_json(
     mu_surrogate, fe_experiment, tmp_path
 ):
@@ -69,7 +84,9 @@ def test_the_default_fit_is_confirmed_by_one_fe_run_recorded_in_fit_json(
     assert c["F_fe"] == pytest.approx(float(obj.value(pred, eta)[0]), rel=1e-10)
     assert c["F_surrogate"] == pytest.approx(fit.fit.F, rel=1e-12)
     np.testing.assert_allclose(c["statistical_pct"][:2], d["statistical_pct"], rtol=1e-12)
-    mu_half = d["friction"]["mu_pct"]  # mu's own bound beside them (None where the data do not bound it)
+    mu_half = d["friction"][
+        "mu_statistical_pct"
+    ]  # mu's own bound beside them (None where the data do not bound it)
     assert c["statistical_pct"][2] == (mu_half if mu_half is not None and np.isfinite(mu_half) else None)
     # the step: least squares of the linearised residuals, mu kept in its range (optimality by hand:
     # the gradient J^T (r + J delta) vanishes in a free parameter and points out of the range in one
