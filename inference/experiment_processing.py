@@ -284,10 +284,14 @@ def node_interpolation(
     k = int(min(neighbours, 4 * int(ok.sum())))
     if k < 3:
         raise ExperimentDataError(f"a plane through the DIC points needs 3 of them, got {int(ok.sum())}")
+    n_ok = int(ok.sum())
     pts = np.concatenate([np.abs(xy[ok]) * m for m in _MIRRORS])
     tree = cKDTree(pts)
     if max_distance is None:  # twice the typical reach of k neighbours among the DIC points
-        d, _ = tree.query(pts, k=k + 1)
+        # The unfolded set is its own mirror image, so each mirrored copy of a point has the same
+        # distances to its neighbours (bit for bit: the coordinate differences only change sign):
+        # the median over the first copy is the median over all four, at a quarter of the queries.
+        d, _ = tree.query(pts[:n_ok], k=k + 1)
         max_distance = 2.0 * float(np.median(d[:, -1]))
     node_xy = np.asarray(node_xy, float)
     dist, idx = tree.query(node_xy, k=k)  # (nodes, k)
@@ -303,7 +307,6 @@ def node_interpolation(
     well_posed = np.linalg.cond(M) < 1e8
     measured = (dist[:, -1] <= max_distance) & well_posed & surrounded
     planes = np.linalg.solve(np.where(well_posed[:, None, None], M, np.eye(3)), AtW)  # (nodes, 3, k)
-    n_ok = int(ok.sum())
     fold = np.where(xy[ok] < 0, -1.0, 1.0)  # (n_ok, 2): the point's quadrant
     mirror = np.array(_MIRRORS)[idx // n_ok]  # (nodes, k, 2)
     signs = np.ones((*idx.shape, 3))

@@ -94,7 +94,12 @@ def test_a_read_only_install_gets_a_cache_folder(monkeypatch, tmp_path):
     under the temporary folder; numba's configuration follows if numba is imported."""
     import numba
 
-    monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
+    # set, then deleted: monkeypatch records the variable as the process had it (a delenv of an
+    # absent variable records nothing), so that the folder the function sets below does not stay in
+    # the environment of the later tests' subprocesses (campaign workers, the docs build), each of
+    # which would then compile the kernels again into it (about 15 s each)
+    monkeypatch.setenv("NUMBA_CACHE_DIR", "")
+    monkeypatch.delenv("NUMBA_CACHE_DIR")
     monkeypatch.setattr(numba.config, "CACHE_DIR", numba.config.CACHE_DIR)
     monkeypatch.setattr(numba_cache, "_writable", lambda folder: False)
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))

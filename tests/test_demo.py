@@ -34,8 +34,10 @@ def test_demo_small_end_to_end(tmp_path):
         posterior_steps=300,
         say=lambda m: None,
         spec=spec,
-        grid="c1=4:20:4,c5=120:560:4",
-        test_grid="lhs:4:3",
+        # 3 x 3 and 3 held out (each point a contact-L1 run): the surrogates start the fit, the FE
+        # stage lands it where the 4 x 4 grid's did (measured: the same theta to 1e-6)
+        grid="c1=4:20:3,c5=120:560:3",
+        test_grid="lhs:3:3",
         experiment=exp,
         design_depths=(1.0, 2.0),
     )
@@ -53,7 +55,7 @@ def test_demo_small_end_to_end(tmp_path):
         assert (report.parent / f"{png}.png").stat().st_size > 10_000
         assert f"{png}.png" in page
     results = json.loads((report.parent / "results.json").read_text())
-    assert results["campaign"]["points"] == 16 and results["campaign"]["failed"] == 0
+    assert results["campaign"]["points"] == 9 and results["campaign"]["failed"] == 0
     assert len(results["table1"]) == 5 and results["fit"]["truth"] == [12.0, 250.0]
     fit = results["fit"]
     theta, bounds = np.asarray(fit["theta"]), np.asarray(fit["bounds_pct"])
