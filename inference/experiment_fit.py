@@ -693,6 +693,15 @@ def _fit_with_friction(
         inside = None
     final = first
     fitted_on, fit_box = model, inside
+    edge = [model.parameters[j] for j, _ in training_box_ends(model, first.theta) if j < 2]
+    if stage == "confirm" and with_mu and edge:
+        # the surrogate cannot give a value outside its box, and a Gauss-Newton step from its edge
+        # is held there: the FE model, which can, fits instead
+        say(
+            f"the surrogate's fit sits at the edge of its training box in {', '.join(edge)}: the data may "
+            "want a value outside it; fitting on the FE model instead (LM with exact sensitivities) ..."
+        )
+        stage, refine = "fit", True
     if refine:
         box = None
         if treatment.mode == "known":
