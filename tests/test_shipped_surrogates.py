@@ -130,3 +130,26 @@ def test_the_fit_command_says_it_uses_the_shipped_surrogate_and_records_it(
     )
     res = CliRunner().invoke(app, ["fit", "--experiment", str(experiments["radius"]), "--json"])
     assert res.exit_code != 0 and "no shipped surrogate matches this test (R = 8 mm" in res.output
+
+
+def test_the_package_ships_a_surrogate_with_mu_for_each_paper_test_and_each_matches_its_sha256():
+    """The files in the package (issue 46): one per paper radius, 28 x 0.5 mm, over (c1, c5, mu),
+    each hashing to its manifest's sha256, loading (its self check passed) and predicting the
+    stick's force inside the box; its held-out errors carried from its low level."""
+    from indentation_studio.surrogate.persistence import load_surrogate
+
+    entries = shipped.shipped_surrogates()
+    paper_depths = 0.5 * np.arange(1, 29)
+    assert sorted(e.radius for e in entries) == [4.77, 8.0]
+    for entry in entries:
+        assert entry.matches(entry.radius, paper_depths) and entry.recipe.startswith("python benchmarks/")
+        path = entry.verified_path()  # size and sha256 against the manifest
+        assert shipped.file_sha256(path) == entry.sha256 and path.stat().st_size == entry.bytes
+        model = load_surrogate(path)
+        assert tuple(model.parameters) == ("c1", "c5", "mu")
+        assert model.meta["campaign"]["model"]["mesh"]["preset"] == "contact-L3"
+        assert model.low.meta["campaign"]["model"]["mesh"]["preset"] == "contact-L1"
+        errors = model.emulation_error
+        assert errors.points == 512 and errors.directions.shape[1] == errors.width(model.n_nodes)
+        force = model.predict(np.array([[10.0, 350.0, 1.0]])).force[0]
+        assert np.all(np.diff(force) > 0) and 1e3 < force[-1] < 1e5  # mN at 14 mm
