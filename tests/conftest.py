@@ -31,15 +31,15 @@ for _name, _value in BLAS_THREADS.items():
 _BLAS_LIMITS = threadpool_limits(1)
 
 #: The longest test files, longest first (each measured alone: the docs build about 145 s of CPU,
-#: the campaign tests 70, the demo 55, then 40 down to 15). The collection puts them first and
+#: the demo 55, the campaign tests 50, then 40 down to 15). The collection puts them first and
 #: pyproject's ``--no-loadscope-reorder`` keeps pytest-xdist from ordering the files by their number
 #: of tests, so that each of the two workers starts on a long file, the docs build at once, and the
 #: short files fill in at the end: a long file handed out last makes one worker finish minutes after
 #: the other (the last run before this order: 1045 s of tests on one worker, 969 s on the other).
 LONGEST_FIRST = (
     "test_docs.py",
-    "test_campaign.py",
     "test_demo.py",
+    "test_campaign.py",
     "test_surrogate.py",
     "test_multi_fidelity_fit.py",
     "test_lab_example.py",
