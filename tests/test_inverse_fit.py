@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from indentation_studio.design.objective import Objective
-from indentation_studio.forward.predictor import FESolverPredictor
+from indentation_studio.forward.predictor import CachedPredictor, FESolverPredictor
 from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol, SolverOptions
 from indentation_studio.inference.inverse_fit import PAPER_F_STOP, fit_parameters
 
@@ -22,29 +22,37 @@ TRUE = np.array([12.0, 250.0])
 
 
 @pytest.fixture(scope="module")
-def target():
-    return FESolverPredictor(SPEC).predict(TRUE)
+def fe() -> CachedPredictor:
+    """The FE model of SPEC, each point solved once for this file: the fits below start from the
+    same point and several retrace another's steps (a fit and its early-stopping twin, a fit and its
+    stalled twin); what a fit does with the answers is unchanged."""
+    return CachedPredictor(FESolverPredictor(SPEC))
+
+
+@pytest.fixture(scope="module")
+def target(fe):
+    return fe.predict(TRUE)
 
 
 @pytest.mark.slow
-def test_noise_free_fit_recovers_theta_from_the_paper_start(target):
+def test_noise_free_fit_recovers_theta_from_the_paper_start(target, fe):
     objective = Objective.from_prediction(target, radius=4.77)
-    fit = fit_parameters(objective, FESolverPredictor(SPEC), ETA)
+    fit = fit_parameters(objective, fe, ETA)
     np.testing.assert_allclose(fit.theta, TRUE, rtol=1e-5)
     assert fit.F < 1e-10 and fit.evaluations < 30
     # the paper's rule stops earlier, as soon as F < 3e-2
-    early = fit_parameters(objective, FESolverPredictor(SPEC), ETA, f_stop=PAPER_F_STOP)
+    early = fit_parameters(objective, fe, ETA, f_stop=PAPER_F_STOP)
     assert early.F < PAPER_F_STOP and early.evaluations <= fit.evaluations
 
 
 @pytest.mark.slow
-def test_noisy_fit_bounds_contain_the_truth(target):
+def test_noisy_fit_bounds_contain_the_truth(target, fe):
     rng = np.random.default_rng(1)
     force = target.force[0] * (1 + 0.02 * rng.standard_normal(target.force.shape[1]))
     u = target.displacement[0]
     noisy_u = u + 0.02 * np.abs(u).max(axis=(0, 1)) * rng.standard_normal(u.shape)
     objective = Objective(force, noisy_u, target.top_xyz, radius=4.77)
-    fit = fit_parameters(objective, FESolverPredictor(SPEC), ETA)
+    fit = fit_parameters(objective, fe, ETA)
     lo, hi = fit.interval().T
     assert np.all(lo < TRUE) and np.all(TRUE < hi)
     assert 0 < fit.s < 1 and fit.n_residuals == 4 + 2 * 4 * int(objective.measured.sum())  # uz has no weight
@@ -151,17 +159,17 @@ class _Jittery:
         return replace(pred, force=pred.force * (1.01 if self.calls % 2 else 0.99))
 
 
-def test_a_fit_on_an_objective_not_smooth_stops_at_its_best_point(target, monkeypatch):
+def test_a_fit_on_an_objective_not_smooth_stops_at_its_best_point(target, fe, monkeypatch):
     from indentation_studio.inference import inverse_fit
 
     objective = Objective.from_prediction(target, radius=4.77)
-    smooth = fit_parameters(objective, _Jittery(FESolverPredictor(SPEC)), ETA)
+    smooth = fit_parameters(objective, _Jittery(fe), ETA)
     assert "stopped at the best point" not in smooth.message  # here LM's own xtol ends it first
     # where F falls by under 10 s^2 in 3 evaluations in a row the fit stops (STALL_S2_FRACTION and
     # _EVALUATIONS scaled so that this smooth-enough case shows it; the real ones jump by 15 %)
     monkeypatch.setattr(inverse_fit, "STALL_EVALUATIONS", 3)
     monkeypatch.setattr(inverse_fit, "STALL_S2_FRACTION", 10.0)
-    fit = fit_parameters(objective, _Jittery(FESolverPredictor(SPEC)), ETA)
+    fit = fit_parameters(objective, _Jittery(fe), ETA)
     assert "stopped at the best point" in fit.message and fit.evaluations < smooth.evaluations
     Fs = [F for _, F in fit.history]
     assert fit.F == min(Fs)  # the best point, not the last one
