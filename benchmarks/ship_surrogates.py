@@ -91,6 +91,11 @@ def campaign(runs_dir: Path, name: str, grid: str, args: argparse.Namespace, mes
     )
 
 
+def train(campaign_name: str, kind: str, *options: str) -> None:
+    """``indent-studio surrogate train`` of one campaign."""
+    run([CLI, "surrogate", "train", "--campaign", campaign_name, "--kind", kind, *options])
+
+
 def up_to_date(model: Path, *inputs: Path) -> bool:
     """Whether a trained file exists and is newer than everything it was trained from."""
     return model.is_file() and all(model.stat().st_mtime > path.stat().st_mtime for path in inputs)
@@ -171,39 +176,11 @@ def main() -> None:
     if up_to_date(stick, index["stick"], index["test"]):  # a stopped recipe resumes, as campaigns do
         print(f"{stick}: trained after its campaigns, used as it is", flush=True)
     else:
-        run(
-            [
-                CLI,
-                "surrogate",
-                "train",
-                "--campaign",
-                names["stick"],
-                "--kind",
-                "gp",
-                "--test-campaign",
-                names["test"],
-                *common,
-            ]
-        )
+        train(names["stick"], "gp", "--test-campaign", names["test"], *common)
     if up_to_date(slip, index["mu"], stick):
         print(f"{slip}: trained after its campaign and stick surrogate, used as it is", flush=True)
     else:
-        run(
-            [
-                CLI,
-                "surrogate",
-                "train",
-                "--campaign",
-                names["mu"],
-                "--kind",
-                "slip",
-                "--stick",
-                str(stick),
-                "--kfold",
-                "5",
-                *common,
-            ]
-        )
+        train(names["mu"], "slip", "--stick", str(stick), "--kfold", "5", *common)
     run(
         [
             CLI,

@@ -32,10 +32,8 @@ from pathlib import Path
 import numpy as np
 
 from indentation_studio.atomic_write import atomic_write_json
-from indentation_studio.forward.predictor import FESolverPredictor
-from indentation_studio.forward.spec import ModelSpec
 from indentation_studio.inference.experiment_fit import fit_experiment
-from indentation_studio.inference.model_error import has_high_fidelity_level
+from indentation_studio.inference.fit_inputs import surrogate_fe_model
 from indentation_studio.inference.synthetic_experiment import LAB_RECORDING, write_synthetic_experiment
 from indentation_studio.surrogate.persistence import load_surrogate
 from indentation_studio.surrogate.shipped import shipped_for_test
@@ -61,16 +59,6 @@ def points(text: str) -> list[tuple[np.ndarray, float | None]]:
         theta, mu = item.split(":")
         out.append((np.array([float(v) for v in theta.split(",")]), None if mu == "stick" else float(mu)))
     return out
-
-
-def fe_model(surrogate, mu: float | None):
-    """The FE model the surrogate emulates, with friction ``mu`` (None: the stick), over (c1, c5)."""
-    corrected = has_high_fidelity_level(surrogate)
-    spec = ModelSpec.from_dict((surrogate.low if corrected else surrogate).meta["campaign"]["model"])
-    if mu is not None:
-        spec = spec.with_friction(mu)
-    fe = FESolverPredictor(spec, parameters=("c1", "c5"))
-    return surrogate.corrected(fe) if corrected else fe
 
 
 def _fit_row(fit) -> dict:
@@ -110,7 +98,7 @@ def case(
     folder = out / tag
     t0 = time.perf_counter()
     write_synthetic_experiment(
-        fe_model(surrogate, mu),
+        surrogate_fe_model(surrogate, friction=mu),
         theta,
         folder,
         radius,

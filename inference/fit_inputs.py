@@ -18,7 +18,7 @@ from .experiment_data import ExperimentData, load_experiment
 from .experiment_processing import RegisteredDIC, experiment_objective
 from .model_error import has_high_fidelity_level
 
-__all__ = ["FitInputs", "prepare_fit"]
+__all__ = ["FitInputs", "prepare_fit", "surrogate_fe_model"]
 
 
 @dataclass
@@ -90,13 +90,7 @@ class FitInputs:
         Predictor
             An FE predictor, or the low level's corrected by the discrepancy.
         """
-        corrected = self.corrects_a_low_level and solver == "embedded"
-        spec = self.fe_stage_spec if corrected else self.spec
-        if friction is not None:
-            spec = spec.with_friction(friction)
-        parameters = ("c1", "c5", "mu") if with_mu else ("c1", "c5")
-        fe = FESolverPredictor(spec, parameters=parameters, solver=solver)
-        return self.surrogate.corrected(fe) if corrected else fe
+        return surrogate_fe_model(self.surrogate, friction=friction, with_mu=with_mu, solver=solver)
 
     def fe_stage_words(self) -> str:
         """The FE stage's model in words (``contact-L1 corrected toward contact-L3``)."""
@@ -104,6 +98,45 @@ class FitInputs:
         if not self.corrects_a_low_level:
             return high
         return f"{self.fe_stage_spec.mesh.preset} corrected by the learned discrepancy toward {high}"
+
+
+def surrogate_fe_model(
+    surrogate: FieldSurrogate,
+    *,
+    friction: float | None = None,
+    with_mu: bool = False,
+    solver: str = "embedded",
+):
+    """The FE model a surrogate emulates, as a fit's FE stage runs it (paper 2.8.2).
+
+    For a multi-fidelity surrogate, its low level's FE model corrected by its discrepancy
+    (:meth:`~indentation_studio.surrogate.multi_fidelity.MultiFidelitySurrogate.corrected`); with
+    ``solver="febio"`` the surrogate's own FE model, never corrected.
+
+    Parameters
+    ----------
+    surrogate : FieldSurrogate
+        The surrogate.
+    friction : float, optional
+        Hold mu at this value (the model over (c1, c5)); None: the model's own contact.
+    with_mu : bool, default False
+        The model over (c1, c5, mu).
+    solver : str, default "embedded"
+        The FE solver.
+
+    Returns
+    -------
+    Predictor
+        An FE predictor, or the low level's corrected by the discrepancy.
+    """
+    corrected = has_high_fidelity_level(surrogate) and solver == "embedded"
+    source = surrogate.low if corrected else surrogate
+    spec = ModelSpec.from_dict(source.meta["campaign"]["model"])
+    if friction is not None:
+        spec = spec.with_friction(friction)
+    parameters = ("c1", "c5", "mu") if with_mu else ("c1", "c5")
+    fe = FESolverPredictor(spec, parameters=parameters, solver=solver)
+    return surrogate.corrected(fe) if corrected else fe
 
 
 def prepare_fit(
