@@ -10,6 +10,11 @@ from importlib.metadata import PackageNotFoundError, version
 
 import lazy_loader as lazy
 
+from .thread_waits import sleeping_thread_waits
+
+# before MKL, numba or torch loads an OpenMP runtime: waiting threads sleep (thread_waits)
+sleeping_thread_waits()
+
 try:
     __version__ = version("indentation-studio")
 except PackageNotFoundError:  # running from a source tree that was not installed

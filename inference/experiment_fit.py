@@ -9,6 +9,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from ..atomic_write import atomic_write_json
 from ..design.friction_treatment import (
@@ -352,6 +353,7 @@ class ExperimentFit:
         return atomic_write_json(Path(folder) / "fit.json", self.to_dict())
 
 
+@threadpool_limits.wrap(limits=1, user_api="blas")  # OpenBLAS spins: see forward.threads
 def fit_experiment(
     experiment: str | Path | ExperimentData,
     surrogate: str | Path | FieldSurrogate | None = None,

@@ -9,6 +9,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from ..atomic_write import atomic_write_json
 from ..design.certainty import bounds_pct
@@ -158,6 +159,7 @@ class ExperimentPosterior:
         return atomic_write_json(Path(folder) / "posterior.json", {**self.to_dict(), **extra})
 
 
+@threadpool_limits.wrap(limits=1, user_api="blas")  # OpenBLAS spins: see forward.threads
 def sample_posterior_for(
     experiment: str | Path | ExperimentData,
     surrogate: str | Path | FieldSurrogate | None = None,

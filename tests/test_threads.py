@@ -1,9 +1,14 @@
 """The thread policy: a lone run takes the idle cores, a fixed count is honoured, and the numbers
 do not depend on the thread count beyond round-off."""
 
+import os
+import subprocess
+import sys
+
 import numba
 import numpy as np
 import pytest
+from threadpoolctl import threadpool_info, threadpool_limits
 
 from indentation_studio.forward import threads
 from indentation_studio.forward.solver import EmbeddedSolver
@@ -66,3 +71,41 @@ def test_a_campaign_worker_solves_on_one_thread(monkeypatch):
     spec = ModelSpec(mesh=MeshChoice("coarse"), protocol=Protocol(step_size=0.5, steps=2))
     row = runner.solve_point(0, spec.to_dict(), "embedded", ("c1", "c5"), [10.0, 350.0], None)
     assert row["status"] == "done" and seen == [1]
+
+
+@pytest.mark.parametrize("preset, expected", [(None, "PASSIVE"), ("ACTIVE", "ACTIVE")])
+def test_importing_the_package_lets_waiting_openmp_threads_sleep_unless_the_user_chose(preset, expected):
+    env = {k: v for k, v in os.environ.items() if k != "OMP_WAIT_POLICY"}
+    if preset is not None:
+        env["OMP_WAIT_POLICY"] = preset
+    code = "import os, indentation_studio; print(os.environ['OMP_WAIT_POLICY'])"
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == expected
+
+
+class _Stop(Exception):
+    pass
+
+
+@pytest.mark.parametrize(
+    "module, workflow",
+    [("experiment_fit", "fit_experiment"), ("experiment_posterior", "sample_posterior_for")],
+)
+def test_the_experiment_workflows_keep_blas_on_one_thread(monkeypatch, module, workflow):
+    import importlib
+
+    mod = importlib.import_module(f"indentation_studio.inference.{module}")
+    seen = []
+
+    def record(*args, **kwargs):
+        seen.extend(p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas")
+        raise _Stop
+
+    monkeypatch.setattr(mod, "prepare_fit", record)
+    with threadpool_limits(limits=2, user_api="blas"):
+        if not any(p["user_api"] == "blas" and p["num_threads"] == 2 for p in threadpool_info()):
+            pytest.skip("no BLAS here that takes two threads")
+        with pytest.raises(_Stop):
+            getattr(mod, workflow)("any-experiment")
+        assert seen and all(n == 1 for n in seen)
+        assert any(p["user_api"] == "blas" and p["num_threads"] == 2 for p in threadpool_info())  # restored
