@@ -152,6 +152,7 @@ def train_and_save(
         runs_dir=runs_dir,
         error_budget=budget,
         stick=stick,
+        say=say,
     )
     name = model.meta["campaign"].get("name", campaign)
     path = save_surrogate(model, out or Path(runs_dir) / name / f"surrogate-{kind}.safetensors")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -100,6 +101,7 @@ def train_surrogate(
     runs_dir: str | Path = "runs",
     error_budget: dict | None = None,
     stick: str | Path | FieldSurrogate | None = None,
+    say: Callable[[str], None] | None = None,
 ) -> FieldSurrogate:
     """Train a ``kind`` surrogate on ``campaign``, with its validation and error budget in ``meta``.
 
@@ -130,6 +132,8 @@ def train_surrogate(
         ``meta['error_budget']``: fits carry it in their bounds.
     stick : str, pathlib.Path or FieldSurrogate, optional
         ``kind="slip"``: the perfect-stick surrogate over (c1, c5) on the same mesh and test.
+    say : callable, optional
+        Told of the cross-validation's progress, fold by fold.
 
     Returns
     -------
@@ -152,7 +156,12 @@ def train_surrogate(
         steps, nodes = data.displacement.shape[1:3]
         errors = np.zeros((data.n, steps * (1 + 3 * nodes)))
         validation["kfold"] = k_fold_errors(
-            lambda: make_surrogate(kind, input_scale, pca_tol, **extra), data, kfold, seed, held_out=errors
+            lambda: make_surrogate(kind, input_scale, pca_tol, **extra),
+            data,
+            kfold,
+            seed,
+            held_out=errors,
+            say=say,
         )
         source = f"{kfold}-fold cross-validation of its {data.n} training points"
         model.emulation_error = EmulationError.from_errors(data.theta, errors, steps=steps, source=source)

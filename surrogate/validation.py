@@ -4,6 +4,9 @@ RMS and max; k-fold cross-validation on a campaign."""
 
 from __future__ import annotations
 
+import time
+from collections.abc import Callable
+
 import numpy as np
 from sklearn.model_selection import KFold
 
@@ -48,7 +51,13 @@ def prediction_errors(surrogate: FieldSurrogate, data: TrainingData) -> dict[str
 
 
 def k_fold_errors(
-    make, data: TrainingData, folds: int = 5, seed: int = 0, *, held_out: np.ndarray | None = None
+    make,
+    data: TrainingData,
+    folds: int = 5,
+    seed: int = 0,
+    *,
+    held_out: np.ndarray | None = None,
+    say: Callable[[str], None] | None = None,
 ) -> dict[str, float]:
     """k-fold cross-validation of a surrogate: the held-out errors of all folds pooled.
 
@@ -79,12 +88,19 @@ def k_fold_errors(
     """
     if folds < 2 or folds > data.n:
         raise ValueError(f"k-fold needs 2 <= folds <= points ({data.n}), got {folds}")
-    parts = []
-    for train, test in KFold(folds, shuffle=True, random_state=seed).split(data.theta):
+    parts, t0 = [], time.perf_counter()
+    for k, (train, test) in enumerate(KFold(folds, shuffle=True, random_state=seed).split(data.theta)):
         s = make().fit(data.subset(train), seed=seed)
         parts.append((prediction_errors(s, data.subset(test)), len(test)))
         if held_out is not None:
             held_out[test] = held_out_errors(s, data.subset(test))
+        if say is not None:
+            elapsed = time.perf_counter() - t0
+            say(
+                f"  fold {k + 1}/{folds}: {len(test)} held-out points, force RMS "
+                f"{parts[-1][0].get('force_rms_pct', float('nan')):.3g} %  elapsed {elapsed:.0f} s, "
+                f"eta {elapsed / (k + 1) * (folds - k - 1):.0f} s"
+            )
     n = sum(k for _, k in parts)
     out = {"folds": folds, "points": n}
     for key in parts[0][0]:

@@ -98,8 +98,12 @@ def test_save_load_round_trip_and_bad_file(trained, tmp_path):
 
 def test_kfold_and_cli(campaigns, tmp_path):
     root, train, _ = campaigns
-    e = k_fold_errors(lambda: make_surrogate("gp"), train, folds=3)
+    told = []
+    e = k_fold_errors(lambda: make_surrogate("gp"), train, folds=3, say=told.append)
     assert e["points"] == 36 and e["force_rms_pct"] < 2.0
+    # a line per fold, each with its 12 held-out points and the time left
+    assert [t.split(":")[0].strip() for t in told] == ["fold 1/3", "fold 2/3", "fold 3/3"]
+    assert all("12 held-out points" in t and "eta" in t for t in told) and told[-1].endswith("eta 0 s")
     res = CliRunner().invoke(
         app,
         [
