@@ -62,6 +62,10 @@ def row(folder: Path, surrogates: dict[float, str]) -> dict:
     out["friction"] = d.get("friction")
     out["fe_stage_model"] = d["inputs"].get("fe_stage_model")
     out["surrogate"] = d["inputs"].get("surrogate")
+    confirmation = d.get("fe_confirmation") or {}
+    # the FE confirmation's Gauss-Newton step from the fit (None: the fit went on on the FE model)
+    out["confirmation_step_pct"] = (confirmation.get("gauss_newton_shift_pct") or [None, None])[:2]
+    out["fitted_on_fe"] = d.get("fe_fit") is not None
     return out
 
 
@@ -77,9 +81,9 @@ def main() -> None:
     rows = []
     print(
         "| experiment | truth | c1 fit (err %) | +- % (stat, disc, budget, sur, proc) | in | c5 fit (err %) | "
-        "+- % (stat, disc, budget, sur, proc) | in | chi2/dof | flagged | wall s |"
+        "+- % (stat, disc, budget, sur, proc) | in | chi2/dof | flagged | FE step c1, c5 % | wall s |"
     )
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for folder in args.experiments:
         r = row(folder, surrogates)
         rows.append(r)
@@ -103,10 +107,16 @@ def main() -> None:
             ]
         a = r["adequacy"]
         ratio = "n/a" if a["per_degree"] is None else f"{a['per_degree']:.3f}"
+        step = r["confirmation_step_pct"]
+        step = (
+            "fitted on the FE model"
+            if r["fitted_on_fe"]
+            else ("n/a" if step[0] is None else f"{step[0]:+.2f}, {step[1]:+.2f}")
+        )
         print(
             f"| {r['experiment']} | {r['truth']} | "
             + " | ".join(cells)
-            + f" | {ratio} | {a['flagged']} | {r['wall_s']} |",
+            + f" | {ratio} | {a['flagged']} | {step} | {r['wall_s']} |",
             flush=True,
         )
         if args.out:
