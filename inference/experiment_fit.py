@@ -56,6 +56,7 @@ __all__ = [
     "default_friction",
     "fit_experiment",
     "fit_on_surrogate_with_mu",
+    "mu_is_identified",
     "resolved_fe_stage",
     "surrogate_with_mu",
 ]
@@ -308,7 +309,8 @@ class ExperimentFit:
         95 % interval within the range (an end the certainty region reaches taken as the interval's:
         :func:`_mu_reach`), whether it ended on its range's limit, the bounds of (c1, c5) with mu
         known and mu's share. mu counts as identified only where its certainty region reaches
-        neither end: bounded on one side only, the data fix no value of it."""
+        neither end and its interval is not the whole range: bounded on one side only, or nowhere
+        once the surrogate's own error is counted, the data fix no value of it."""
         out = {"treatment": self.friction.mode, "contact": self.contact}
         if self.friction.mode == "known":
             out["mu"] = self.friction.value
@@ -329,7 +331,7 @@ class ExperimentFit:
                 "mu_reaches_range_end": reach,
                 "mu_reach_notes": self.mu_reach_notes,
                 "restarts": self.restarts,
-                "mu_identified": bool(not (reach.get("lower") or reach.get("upper")) and np.isfinite(mu_pct)),
+                "mu_identified": mu_is_identified(reach, mu_pct, interval, (lo, hi)),
                 "mu_range": [lo, hi],
                 "mu_at_limit": "lower" if mu <= lo * 1.001 else "upper" if mu >= hi * 0.999 else None,
                 "conditional_pct": fb["conditional_pct"],
@@ -351,6 +353,29 @@ class ExperimentFit:
             The file written.
         """
         return atomic_write_json(Path(folder) / "fit.json", self.to_dict())
+
+
+def mu_is_identified(reach: dict, mu_pct: float, interval, mu_range) -> bool:
+    """Whether a fit identifies mu: its certainty region reaches neither end of mu's range, its
+    half-width is finite and its 95 % interval (the surrogate's error counted) is not the whole range.
+
+    Parameters
+    ----------
+    reach : dict
+        ``{"lower": bool, "upper": bool}``: whether mu's certainty region reaches each end.
+    mu_pct : float
+        mu's 95 % half-width, percent (eq. 6, with the surrogate's part).
+    interval : sequence of float
+        mu's 95 % interval, within the range.
+    mu_range : sequence of float
+        The range (prior) of mu.
+
+    Returns
+    -------
+    bool
+    """
+    spans = interval[0] <= mu_range[0] and interval[1] >= mu_range[1]
+    return bool(not (reach.get("lower") or reach.get("upper")) and np.isfinite(mu_pct) and not spans)
 
 
 @threadpool_limits.wrap(limits=1, user_api="blas")  # OpenBLAS spins: see forward.threads

@@ -215,8 +215,13 @@ def _print_fit(result: inference.ExperimentFit, payload: dict, check_mesh: str |
             if sur is not None
             else ""
         )
+        if lo <= fr["mu_range"][0] and hi >= fr["mu_range"][1]:  # the interval is the whole range
+            said = f"  mu is not identified by these data: its 95 % interval{parts} is its whole range"
+            said += f" [{lo:.3g}, {hi:.3g}] (the fit at {fr['mu']:.3g}{limit})"
+        else:
+            said = f"  mu = {fr['mu']:.3g}{limit}, 95 % within [{lo:.3g}, {hi:.3g}]{parts}{open_}"
         Console().print(
-            f"  mu = {fr['mu']:.3g}{limit}, 95 % within [{lo:.3g}, {hi:.3g}]{parts}{open_}; mu's share of the bounds "
+            f"{said}; mu's share of the bounds "
             f"+- {share[0]:.2f} % / {share[1]:.2f} % (with mu known: +- {fr['conditional_pct'][0]:.2f} % / "
             f"{fr['conditional_pct'][1]:.2f} %)"
         )

@@ -15,6 +15,7 @@ from indentation_studio.design.friction_treatment import (
     friction_bounds,
     log_prior_sd,
 )
+from indentation_studio.inference.experiment_fit import mu_is_identified
 
 
 def test_treatments_from_text():
@@ -323,3 +324,13 @@ def test_the_fe_stage_identifies_mu_on_data_of_the_fe_model(mu_surrogate, tmp_pa
     assert d["warnings"] == [], (fit.surrogate_fit.F, fit.fit.F)
     missed = replace(fit, surrogate_fit=replace(fit.surrogate_fit, F=5.0 * fit.fit.F))
     assert "the gp surrogate's fit ended at F" in missed.to_dict()["warnings"][0]
+
+
+def test_mu_counts_as_identified_only_with_an_interval_inside_its_range():
+    free = {"lower": False, "upper": False}
+    assert mu_is_identified(free, 9.5, [0.71, 0.86], (0.1, 3.0))
+    # the shipped example's stick data: the surrogate's error makes the interval the whole range
+    assert not mu_is_identified(free, 1110.0, [0.1, 3.0], (0.1, 3.0))
+    assert not mu_is_identified({"lower": False, "upper": True}, 20.0, [1.2, 3.0], (0.1, 3.0))
+    assert not mu_is_identified(free, float("inf"), [0.5, 0.9], (0.1, 3.0))
+    assert mu_is_identified(free, 40.0, [0.1, 2.0], (0.1, 3.0))  # one end only: still a bound on mu
