@@ -74,6 +74,8 @@ def k_fold_errors(
     held_out : numpy.ndarray, optional
         (points, steps + steps * nodes * 3), filled with each point's error vector from the model
         that did not see it (:func:`surrogate.emulation_error.held_out_errors`).
+    say : callable, optional
+        Told after each fold: its number, its held-out force RMS and the time so far.
 
     Returns
     -------
