@@ -18,7 +18,13 @@ __getattr__, __dir__, __all__ = lazy.attach(
         ],
         "inverse_fit": ["FitResult", "fit_parameters"],
         "fit_inputs": ["FitInputs", "prepare_fit"],
-        "experiment_fit": ["ExperimentFit", "FE_STAGES", "default_friction", "fit_experiment"],
+        "experiment_fit": [
+            "ExperimentFit",
+            "FE_STAGES",
+            "default_friction",
+            "fit_experiment",
+            "mu_is_identified",
+        ],
         "fit_confirmation": ["FitConfirmation", "confirm_fit"],
         "posterior": ["Posterior", "sample_posterior"],
         "model_error": [

@@ -356,8 +356,10 @@ class ExperimentFit:
 
 
 def mu_is_identified(reach: dict, mu_pct: float, interval, mu_range) -> bool:
-    """Whether a fit identifies mu: its certainty region reaches neither end of mu's range, its
-    half-width is finite and its 95 % interval (the surrogate's error counted) is not the whole range.
+    """Whether a fit identifies mu (fit.json's ``friction.mu_identified``).
+
+    Its certainty region reaches neither end of mu's range, its half-width is finite and its 95 %
+    interval (the surrogate's error counted) is not the whole range.
 
     Parameters
     ----------
