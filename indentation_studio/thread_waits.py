@@ -1,7 +1,7 @@
 """Threads that wait for work sleep instead of spinning (``OMP_WAIT_POLICY=PASSIVE``).
 
-MKL's PARDISO (Intel OpenMP), numba's kernels and torch (GNU OpenMP) keep their idle threads
-spinning by default, which pays where every thread has a core of its own and costs dearly where
+MKL's PARDISO (on GNU OpenMP with pip's wheels, ``libmkl_gnu_thread``; Intel OpenMP elsewhere),
+numba's kernels and torch keep their idle threads spinning by default, which pays where every thread has a core of its own and costs dearly where
 one does not: with another process on one of two cores, a contact-L1 run with sensitivities (the
 fit's FE confirmation) took 51.4 s with PARDISO on two threads against 6.3 s on one; with the
 waits passive, 6.7 s (docs/validation/solver-and-speed.md, "Threads that wait"). An OpenMP
