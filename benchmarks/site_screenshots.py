@@ -63,8 +63,10 @@ MEASURE = """() => {
 }"""
 
 
-def measure_pages(site: Path, out: Path, chromium: str, word: str) -> tuple[list[dict], dict]:
-    """Screenshots and measurements of :data:`PAGES`, and a search for ``word``.
+def measure_pages(
+    site: Path, out: Path, chromium: str, word: str, pages: dict[str, str] | None = None
+) -> tuple[list[dict], dict]:
+    """Screenshots and measurements of ``pages`` (default :data:`PAGES`), and a search for ``word``.
 
     Parameters
     ----------
@@ -76,6 +78,8 @@ def measure_pages(site: Path, out: Path, chromium: str, word: str) -> tuple[list
         The Chromium executable.
     word : str
         The word searched for on ``search.html``.
+    pages : dict, optional
+        Name -> page file relative to ``site`` (default :data:`PAGES`).
 
     Returns
     -------
@@ -92,7 +96,7 @@ def measure_pages(site: Path, out: Path, chromium: str, word: str) -> tuple[list
     with sync_playwright() as p:
         browser = p.chromium.launch(executable_path=chromium, args=["--allow-file-access-from-files"])
         page = browser.new_page(viewport={"width": WIDTH, "height": HEIGHT})
-        for name, rel in PAGES.items():
+        for name, rel in (pages or PAGES).items():
             page.goto((site / rel).resolve().as_uri(), wait_until="load")
             page.wait_for_timeout(500)  # the theme's scripts settle the layout
             found = page.evaluate(MEASURE)
@@ -115,8 +119,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--word", default="fit", help="the word searched for")
     parser.add_argument("--chromium", default="/usr/bin/chromium", help="the Chromium executable")
     parser.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
+    parser.add_argument(
+        "--pages", help="comma-separated page files relative to --site (default: the four pages of PAGES)"
+    )
     args = parser.parse_args(argv)
-    rows, search = measure_pages(args.site, args.out, args.chromium, args.word)
+    pages = None if not args.pages else {Path(rel).stem: rel for rel in args.pages.split(",")}
+    rows, search = measure_pages(args.site, args.out, args.chromium, args.word, pages)
     if args.json:
         print(json.dumps({"pages": rows, "search": search}))
     else:

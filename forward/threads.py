@@ -11,13 +11,10 @@ element's share to its own slot and PARDISO's factorisation is deterministic per
 (tests/test_solver.py compares 1 and 2 threads to 1e-8 relative).
 
 Threads that wait spin by default, and a spinning thread on a core another process needs costs
-more than the thread gains: with another process on one of two cores, the fit's FE confirmation
-took 42 s with two threads against 6 s with one. The package therefore asks OpenMP runtimes to
-let waiting threads sleep (``OMP_WAIT_POLICY=PASSIVE``, :mod:`indentation_studio.thread_waits`),
-and the experiment workflows (``fit_experiment``, ``sample_posterior_for``) keep numpy's BLAS
-(OpenBLAS, whose threads spin whatever the policy) on one thread: a fit took 21.0 s with it on
-two threads beside a busy core and 13.6 s on one, and on an idle machine 12.9 against 11.7 s
-(docs/validation/solver-and-speed.md, "Threads that wait").
+more than the thread gains: the package asks OpenMP runtimes to let waiting threads sleep
+(:mod:`indentation_studio.thread_waits`), and the experiment workflows (``fit_experiment``,
+``sample_posterior_for``) keep numpy's BLAS (OpenBLAS, whose threads spin whatever the policy) on
+one thread (measured in docs/validation/solver-and-speed.md, "Threads that wait").
 """
 
 from __future__ import annotations

@@ -23,6 +23,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
             "FE_STAGES",
             "default_friction",
             "fit_experiment",
+            "interval_is_whole_range",
             "mu_is_identified",
         ],
         "fit_confirmation": ["FitConfirmation", "confirm_fit"],

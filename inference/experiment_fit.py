@@ -56,6 +56,7 @@ __all__ = [
     "default_friction",
     "fit_experiment",
     "fit_on_surrogate_with_mu",
+    "interval_is_whole_range",
     "mu_is_identified",
     "resolved_fe_stage",
     "surrogate_with_mu",
@@ -376,8 +377,28 @@ def mu_is_identified(reach: dict, mu_pct: float, interval, mu_range) -> bool:
     -------
     bool
     """
-    spans = interval[0] <= mu_range[0] and interval[1] >= mu_range[1]
-    return bool(not (reach.get("lower") or reach.get("upper")) and np.isfinite(mu_pct) and not spans)
+    return bool(
+        not (reach.get("lower") or reach.get("upper"))
+        and np.isfinite(mu_pct)
+        and not interval_is_whole_range(interval, mu_range)
+    )
+
+
+def interval_is_whole_range(interval, mu_range) -> bool:
+    """Whether mu's 95 % interval is its whole range: the data bound it nowhere.
+
+    Parameters
+    ----------
+    interval : sequence of float
+        mu's 95 % interval, within the range.
+    mu_range : sequence of float
+        The range (prior) of mu.
+
+    Returns
+    -------
+    bool
+    """
+    return bool(interval[0] <= mu_range[0] and interval[1] >= mu_range[1])
 
 
 @threadpool_limits.wrap(limits=1, user_api="blas")  # OpenBLAS spins: see forward.threads

@@ -215,7 +215,7 @@ def _print_fit(result: inference.ExperimentFit, payload: dict, check_mesh: str |
             if sur is not None
             else ""
         )
-        if lo <= fr["mu_range"][0] and hi >= fr["mu_range"][1]:  # the interval is the whole range
+        if inference.interval_is_whole_range((lo, hi), fr["mu_range"]):
             said = f"  mu is not identified by these data: its 95 % interval{parts} is its whole range"
             said += f" [{lo:.3g}, {hi:.3g}] (the fit at {fr['mu']:.3g}{limit})"
         else:

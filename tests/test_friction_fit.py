@@ -15,7 +15,7 @@ from indentation_studio.design.friction_treatment import (
     friction_bounds,
     log_prior_sd,
 )
-from indentation_studio.inference.experiment_fit import mu_is_identified
+from indentation_studio.inference.experiment_fit import interval_is_whole_range, mu_is_identified
 
 
 def test_treatments_from_text():
@@ -334,3 +334,6 @@ def test_mu_counts_as_identified_only_with_an_interval_inside_its_range():
     assert not mu_is_identified({"lower": False, "upper": True}, 20.0, [1.2, 3.0], (0.1, 3.0))
     assert not mu_is_identified(free, float("inf"), [0.5, 0.9], (0.1, 3.0))
     assert mu_is_identified(free, 40.0, [0.1, 2.0], (0.1, 3.0))  # one end only: still a bound on mu
+    assert interval_is_whole_range([0.1, 3.0], (0.1, 3.0)) and not interval_is_whole_range(
+        [0.1, 2.0], (0.1, 3.0)
+    )
