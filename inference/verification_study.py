@@ -16,6 +16,11 @@ Quantities, for each (point, radius):
   most). Its value on the finest level is the truth itself; the sequence over the levels is a
   functional of the response that converges like it, so its order, its extrapolated value and
   each level's GCI say how far a fit made with that level's model would move on a converged one.
+  The Jacobian may come from a coarser level (``fitting_level``, e.g. the high-fidelity level 3
+  when level 4 is added), interpolated at the finest level's top nodes: the finest level is then
+  solved without sensitivities, about a quarter of their cost, and the objective (its nodes, its
+  weights) stays the finest level's, so the fitted values change only to second order (the
+  response's difference times the Jacobians' difference between the two levels).
 
 Every run is kept in ``out_dir`` (one ``.npz`` per level, point, radius and substep count) and read
 back when the same spec and mesh are asked for again, so a study killed half-way (it is hours of
@@ -155,11 +160,12 @@ def parameter_bias(
     weights: Sequence[float] = PAPER_WEIGHTS,
     field_of_view: float = FIT_FIELD_OF_VIEW,
     reading: str = "fit",
+    jacobian_from: SimulationResult | None = None,
 ) -> np.ndarray:
     """The (c1, c5) one Gauss-Newton step of the objective (eq. 4, 5) fits to ``data``'s response.
 
-    The step is in log theta, from ``model`` solved at the truth with sensitivities; the data are
-    noise-free.
+    The step is in log theta, from ``model`` solved at the truth with sensitivities (or with those
+    of ``jacobian_from``); the data are noise-free.
 
     Parameters
     ----------
@@ -175,6 +181,10 @@ def parameter_bias(
     reading : str, default "fit"
         How eq. 4 is read (:class:`Objective`): the fit's objective (DIC from 1.5 R) by default;
         ``paper`` for the paper's rings from 1 R.
+    jacobian_from : SimulationResult, optional
+        Another mesh of the same test at the same parameters, with sensitivities, whose Jacobian
+        (interpolated at ``model``'s top nodes) takes the place of ``model``'s own; ``model``
+        then needs none.
 
     Returns
     -------
@@ -184,17 +194,25 @@ def parameter_bias(
     Raises
     ------
     ValueError
-        If ``model`` was solved without sensitivities.
+        If the Jacobian's source was solved without sensitivities, or at other parameters.
     """
-    if model.force_sensitivity is None:
+    source = model if jacobian_from is None else jacobian_from
+    if source.force_sensitivity is None:
         raise ValueError("the fitting model must be solved with sensitivities")
+    if source.spec["material"] != model.spec["material"]:
+        raise ValueError("the Jacobian's source must be solved at the fitting model's parameters")
     theta = np.array([model.spec["material"]["c1"], model.spec["material"]["c5"]], float)
     top = np.asarray(model.top_xyz)
     target = prediction_at_nodes(data, top)
     radius = float(model.spec["indenter"]["radius"])
     mask = np.hypot(top[:, 0], top[:, 1]) <= field_of_view
     objective = Objective(target.force[0], target.displacement[0], top, radius, mask=mask, reading=reading)
-    pred = Prediction.from_results([model], ("c1", "c5"))
+    pred = Prediction.from_results([source], ("c1", "c5"))
+    if jacobian_from is not None:
+        field = np.moveaxis(pred.displacement_jacobian[0], 1, 0)  # (nodes, steps, 3, p)
+        at_top = np.moveaxis(top_field_interpolator(pred.top_xyz, field)(top), 0, 1)
+        own = Prediction.from_results([model], ("c1", "c5"))
+        pred = replace(own, force_jacobian=pred.force_jacobian, displacement_jacobian=at_top[None])
     r = objective.residuals(pred, weights)[0]
     J = objective.jacobian(pred, weights)[0] * theta
     delta, *_ = np.linalg.lstsq(J, -r, rcond=None)
@@ -212,9 +230,10 @@ def _case(
     progress: Callable[[str, int, int, float], None] | None,
     say: Callable[[str], None] | None,
     reading: str,
+    fitting_level: int,
 ) -> dict[str, Any]:
-    """One (point, radius): every level solved (the finest with sensitivities), the quantities'
-    convergence, the costs, and the increments' study on the finest levels."""
+    """One (point, radius): every level solved (the fitting level with sensitivities), the
+    quantities' convergence, the costs, and the increments' study on the finest levels."""
     radius = spec.indenter.radius
     runs: dict[tuple[int, int], SimulationResult] = {}
     for level in levels:
@@ -227,7 +246,7 @@ def _case(
                 family,
                 level,
                 folder / f"{label}.npz",
-                sensitivities=(level == levels[0] and n == substeps[0]),
+                sensitivities=(level == fitting_level and n == substeps[0]),
                 progress=report,
                 say=say,
             )
@@ -241,8 +260,9 @@ def _case(
     for r in base:
         for name, v in field_quantities(r, radius).items():
             values.setdefault(name, []).append(v)
+    jacobian = None if fitting_level == levels[0] else base[levels.index(fitting_level)]
     for r in base:
-        c1, c5 = parameter_bias(base[0], r, reading=reading)
+        c1, c5 = parameter_bias(base[0], r, reading=reading, jacobian_from=jacobian)
         values.setdefault("fit c1", []).append(float(c1))
         values.setdefault("fit c5", []).append(float(c5))
     quantities: dict[str, ConvergenceOfQuantity] = {
@@ -282,6 +302,7 @@ def _case(
         ],
         "quantities": {name: q.to_dict() for name, q in quantities.items()},
         "increments": increments,
+        "fitting_level": int(fitting_level),
     }
 
 
@@ -298,6 +319,7 @@ def run_verification_study(
     progress: Callable[[str, int, int, float], None] | None = None,
     say: Callable[[str], None] | None = None,
     reading: str = "fit",
+    fitting_level: int | None = None,
 ) -> VerificationStudy:
     """Solve and tabulate the verification study; resumable through ``out_dir``.
 
@@ -309,7 +331,7 @@ def run_verification_study(
     family : MeshFamily
         The refined meshes.
     levels : sequence of int
-        At least three levels of ``family``; any order (the finest is solved with sensitivities).
+        At least three levels of ``family``; any order.
     points, radii : optional
         (c1, c5) points (kPa) and indenter radii (mm).
     substeps : sequence of int, optional
@@ -327,6 +349,10 @@ def run_verification_study(
         The objective of the fitted (c1, c5) (:func:`parameter_bias`): the fit's (DIC from
         1.5 R) or ``paper`` (from 1 R); the runs do not depend on it, so a study read back
         with another reading only refits.
+    fitting_level : int, optional
+        The level solved with sensitivities, whose Jacobian fits every level's response
+        (:func:`parameter_bias`); the finest by default. A coarser one spares the finest level
+        its sensitivities (module docstring).
 
     Returns
     -------
@@ -336,11 +362,15 @@ def run_verification_study(
     Raises
     ------
     ValueError
-        If fewer than three levels are given or a substep is not a whole number >= 1.
+        If fewer than three levels are given, ``fitting_level`` is not one of them or a substep
+        is not a whole number >= 1.
     """
     ordered = tuple(sorted({int(k) for k in levels}, reverse=True))
     if len(ordered) < 3:
         raise ValueError(f"a verification study needs three or more levels, got {list(levels)}")
+    fitting = ordered[0] if fitting_level is None else int(fitting_level)
+    if fitting not in ordered:
+        raise ValueError(f"the fitting level {fitting} is not one of the study's levels {list(ordered)}")
     if not substeps or any(int(n) < 1 for n in substeps):
         raise ValueError(f"substeps must be whole numbers >= 1, got {list(substeps)}")
     out = Path(out_dir)
@@ -356,6 +386,7 @@ def run_verification_study(
             "weights": list(PAPER_WEIGHTS),
             "field_of_view_mm": FIT_FIELD_OF_VIEW,
             "reading": reading,
+            "fitting_level": fitting,
             "solver": "embedded",
         },
     )
@@ -377,6 +408,7 @@ def run_verification_study(
                     progress=progress,
                     say=say,
                     reading=reading,
+                    fitting_level=fitting,
                 )
             )
             atomic_write_json(out / "study.json", study.to_dict() | {"wall_s": time.perf_counter() - t0})

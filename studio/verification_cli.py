@@ -73,6 +73,11 @@ READING = Annotated[
     ),
 ]
 
+FITTING_LEVEL = Annotated[
+    int | None,
+    typer.Option(help="level whose sensitivities fit every level's response (the finest by default)"),
+]
+
 
 @model_options("kappa", "steps", "step_size", "contact", "contact_order", "contact_penalty", "fiber_stretch")
 def verification_study(
@@ -87,6 +92,7 @@ def verification_study(
     out_dir: OUT_DIR = Path("runs/verification"),
     figure: FIGURE = None,
     reading: READING = "fit",
+    fitting_level: FITTING_LEVEL = None,
     as_json: JSON = False,
 ) -> None:
     """Verification study (Roache's GCI, ASME V&V 20): observed orders, asymptotic range,
@@ -112,6 +118,7 @@ def verification_study(
                 progress=_steps_progress(bar),
                 say=say,
                 reading=reading,
+                fitting_level=fitting_level,
             )
     except (SpecError, ValueError, forward.SimulationError, OSError) as exc:
         fail(str(exc), as_json)

@@ -204,3 +204,26 @@ def test_the_command_runs_the_study_and_prints_one_json_object(small_study):
     assert payload["cases"][0]["quantities"]["fit c5"]["values"] == pytest.approx(list(stored), rel=1e-12)
     bad = CliRunner().invoke(app, ["verification-study", "--family", "8x8:1.6", "--json"])
     assert bad.exit_code == 1 and "CXYxCZ:H0:RATIO" in json.loads(bad.stdout)["error"]
+
+
+def test_a_coarser_fitting_level_spares_the_finest_its_sensitivities(small_study):
+    from indentation_studio.forward.result import SimulationResult
+    from indentation_studio.inference.verification_study import run_verification_study
+
+    study, out, spec, family = small_study
+    kwargs = dict(points=[(10.0, 350.0)], radii=[4.77], substeps=(1,), out_dir=out, reading="paper")
+    by_middle = run_verification_study(spec, family, [0, 1, 2], fitting_level=1, **kwargs)
+    c5 = by_middle.cases[0]["quantities"]["fit c5"]["values"]
+    finest = study.cases[0]["quantities"]["fit c5"]["values"]
+    # the finest level still fits itself; the others move to second order only (the Jacobians'
+    # difference times the response's): on this coarse family biases of 11 and 32 % move by 1.6 and
+    # 0.8 % of themselves (measured)
+    assert c5[0] == pytest.approx(350.0, rel=1e-9)
+    for k in (1, 2):
+        assert abs(c5[k] - 350.0) > 10.0
+        assert c5[k] - 350.0 == pytest.approx(finest[k] - 350.0, rel=0.05)
+        assert c5[k] != pytest.approx(finest[k], rel=1e-6)  # another Jacobian indeed
+    assert by_middle.cases[0]["fitting_level"] == 1
+    assert SimulationResult.load(out / "R4.77" / "c1-10_c5-350" / "L1-s1.npz").force_sensitivity is not None
+    with pytest.raises(ValueError, match="fitting level 3 is not one of"):
+        run_verification_study(spec, family, [0, 1, 2], fitting_level=3, **kwargs)
