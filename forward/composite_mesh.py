@@ -30,7 +30,7 @@ import numpy as np
 
 from .block_mesh import BlockMesh, grid_block
 from .hex8_mean_dilatation import ReferenceGeometry
-from .mesh_presets import COMPOSITE_MESH_PRESETS, CompositeMeshPreset
+from .mesh_presets import COMPOSITE_MESH_PRESETS, CONTACT_CORE_PER_RADIUS, CompositeMeshPreset
 from .spec import Geometry
 
 #: Element-set names of a composite mesh, in the order of ``BlockMesh.element_material``.
@@ -190,21 +190,27 @@ def conforming_axis(
     h0: float,
     growth: float,
     from_end: bool = False,
+    core: float = 0.0,
 ) -> np.ndarray:
     """Node coordinates on [0, length] through every fiber boundary: ``fiber_cells`` equal cells
-    across each fiber, and between them cells of about h(t) = h0 + growth t, t the distance from
-    0 (or from ``length`` with ``from_end``), spaced so that 1/h is integrated equally (cells grow
-    smoothly within a gap)."""
-    if h0 <= 0 or growth < 0 or fiber_cells < 1:
-        raise ValueError("conforming_axis: h0 > 0, growth >= 0 and fiber_cells >= 1 are needed")
+    across each fiber, and between them cells of about h(t) = h0 + growth max(t - core, 0), t the
+    distance from 0 (or from ``length`` with ``from_end``), spaced so that 1/h is integrated
+    equally (cells grow smoothly within a gap; uniform over the first ``core`` mm)."""
+    if h0 <= 0 or growth < 0 or fiber_cells < 1 or core < 0:
+        raise ValueError("conforming_axis: h0 > 0, growth >= 0, fiber_cells >= 1 and core >= 0 are needed")
     breaks = sorted({0.0, length, *(v for f in fibers for v in f)})
     inside = {(round(lo, 12), round(hi, 12)) for lo, hi in fibers}
 
+    def grown(s: np.ndarray) -> np.ndarray:  # integral of 1/h over s mm past the core
+        return s / h0 if growth == 0 else np.log1p(growth * s / h0) / growth
+
     def phi(t: np.ndarray) -> np.ndarray:  # integral of 1/h from 0 to t
-        return t / h0 if growth == 0 else np.log1p(growth * t / h0) / growth
+        return np.minimum(t, core) / h0 + grown(np.maximum(t - core, 0.0))
 
     def phi_inv(p: np.ndarray) -> np.ndarray:
-        return p * h0 if growth == 0 else h0 * np.expm1(growth * p) / growth
+        past = np.maximum(p - core / h0, 0.0)
+        s = past * h0 if growth == 0 else h0 * np.expm1(growth * past) / growth
+        return np.minimum(p * h0, core) + s
 
     coords = [0.0]
     for a, b in itertools.pairwise(breaks):
@@ -222,7 +228,12 @@ def conforming_axis(
 
 
 def phantom_mesh(
-    geometry: Geometry, preset: CompositeMeshPreset, layout: PhantomLayout = PHANTOM, name: str = "custom"
+    geometry: Geometry,
+    preset: CompositeMeshPreset,
+    layout: PhantomLayout = PHANTOM,
+    name: str = "custom",
+    *,
+    radius: float | None = None,
 ) -> BlockMesh:
     """The conforming hex8 mesh of the phantom's quarter block with its element sets (module docstring).
 
@@ -238,17 +249,33 @@ def phantom_mesh(
         The fibers.
     name : str, default "custom"
         The mesh's name (its source is ``composite:<name>``).
+    radius : float, optional
+        The indenter's radius, mm: needed when the preset follows the contact (its core is
+        ``CONTACT_CORE_PER_RADIUS`` R, whole mm, as :func:`forward.mesh_family.contact_family`'s).
 
     Returns
     -------
     BlockMesh
         The mesh, element sets ``matrix`` and ``fibers``.
+
+    Raises
+    ------
+    ValueError
+        If the preset follows the contact and no positive radius is given.
     """
+    core = 0.0
+    if preset.follows_contact:
+        if radius is None or not radius > 0.0:
+            raise ValueError(
+                f"a composite mesh that follows the contact needs the indenter's radius, got {radius!r}"
+            )
+        core = max(1.0, float(round(CONTACT_CORE_PER_RADIUS * radius)))
+        name = f"{name}-core{core:g}"
     xf = _intervals(layout.x_centres(2 * geometry.half_x), layout.fiber_size, geometry.half_x)
     zf = _intervals(layout.z_centres(geometry.height), layout.fiber_size, geometry.height)
-    x = conforming_axis(geometry.half_x, xf, preset.fiber_cells, preset.h0, preset.growth)
+    x = conforming_axis(geometry.half_x, xf, preset.fiber_cells, preset.h0, preset.growth, core=core)
     z = conforming_axis(geometry.height, zf, preset.fiber_cells, preset.h0, preset.growth, from_end=True)
-    y = conforming_axis(geometry.half_y, [], 1, preset.h0_y, preset.growth_y)
+    y = conforming_axis(geometry.half_y, [], 1, preset.h0_y, preset.growth_y, core=core)
     xc, zc = 0.5 * (x[1:] + x[:-1]), 0.5 * (z[1:] + z[:-1])
     in_x = np.zeros(xc.size, bool)
     for lo, hi in xf:
@@ -262,13 +289,14 @@ def phantom_mesh(
     return grid_block(x, y, z, f"composite:{name}", material, COMPOSITE_SETS)
 
 
-def composite_mesh(name: str, geometry: Geometry | None = None) -> BlockMesh:
-    """The named composite phantom mesh of :data:`COMPOSITE_MESH_PRESETS`."""
+def composite_mesh(name: str, geometry: Geometry | None = None, *, radius: float | None = None) -> BlockMesh:
+    """The named composite phantom mesh of :data:`COMPOSITE_MESH_PRESETS` (``radius``, mm, for
+    the one that follows the contact)."""
     if name not in COMPOSITE_MESH_PRESETS:
         raise ValueError(
             f"unknown composite mesh preset {name!r}; use one of {sorted(COMPOSITE_MESH_PRESETS)}"
         )
-    return phantom_mesh(geometry or Geometry(), COMPOSITE_MESH_PRESETS[name], name=name)
+    return phantom_mesh(geometry or Geometry(), COMPOSITE_MESH_PRESETS[name], name=name, radius=radius)
 
 
 def fiber_volume_fraction(mesh: BlockMesh) -> float:

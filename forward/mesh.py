@@ -130,7 +130,7 @@ def build_mesh(spec: ModelSpec) -> BlockMesh:
     if spec.mesh.feb_file:
         return read_feb_block_mesh(spec.mesh.feb_file)
     if spec.mesh.is_composite:
-        return composite_mesh(spec.mesh.preset, spec.geometry)
+        return composite_mesh(spec.mesh.preset, spec.geometry, radius=spec.indenter.radius)
     if spec.mesh.preset in CONTACT_MESH_LEVELS:
         return contact_mesh(spec.mesh.preset, spec.indenter.radius, spec.geometry)
     return preset_mesh(spec.mesh.preset, spec.geometry)

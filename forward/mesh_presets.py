@@ -44,23 +44,30 @@ MESH_PRESETS: dict[str, MeshPreset] = {
 class CompositeMeshPreset:
     """Grading of a composite phantom mesh (:mod:`forward.composite_mesh`): cell size
     ``h0 + growth * t`` at distance t from the indenter's axis (x, y) or from the top (z), mm;
-    ``fiber_cells`` cells across each fiber in x and z."""
+    ``fiber_cells`` cells across each fiber in x and z. With ``follows_contact`` the cells along
+    x and y are uniform (``h0``, ``h0_y``) over the core of the meshes that follow the contact
+    (``CONTACT_CORE_PER_RADIUS`` R, whole mm) and grow from its edge: the mesh depends on the
+    indenter's radius."""
 
     h0: float
     growth: float
     fiber_cells: int
     h0_y: float
     growth_y: float
+    follows_contact: bool = False
 
 
 #: Composite phantom meshes: ``composite`` near the paper's 86,400 hex8 (2.4.2), ``composite-medium``
 #: a third of it (its mesh-convergence partner: 1 mm cells at the indenter, 1 to 1.6 mm along the
 #: fibers), ``composite-coarse`` a few thousand nodes for tests. Two cells across each fiber: with one, the equibiaxial stretch
 #: locks (transverse stress at lambda = 1.03 twice that of finer meshes, and kappa-dependent).
+#: ``composite-contact`` follows the contact as ``contact-L2`` does (uniform 0.8 mm cells over the
+#: same core, two across a fiber), with the surface contact by default.
 COMPOSITE_MESH_PRESETS: dict[str, CompositeMeshPreset] = {
     "composite-coarse": CompositeMeshPreset(2.0, 0.15, 2, 4.0, 0.5),
     "composite-medium": CompositeMeshPreset(1.0, 0.06, 2, 1.0, 0.15),
     "composite": CompositeMeshPreset(0.7, 0.03, 2, 0.5, 0.07),
+    "composite-contact": CompositeMeshPreset(0.8, 0.08, 2, 0.8, 0.15, follows_contact=True),
 }
 
 

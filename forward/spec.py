@@ -356,8 +356,12 @@ class MeshChoice:
 
     @property
     def follows_contact(self) -> bool:
-        """Whether the mesh is one of the levels that follow the contact (``contact-L0`` to ``-L4``)."""
-        return self.feb_file is None and self.preset in CONTACT_MESH_LEVELS
+        """Whether the mesh follows the contact: the levels ``contact-L0`` to ``-L4`` and the
+        composite meshes whose core is theirs (``composite-contact``)."""
+        if self.feb_file is not None:
+            return False
+        composite = COMPOSITE_MESH_PRESETS.get(self.preset)
+        return self.preset in CONTACT_MESH_LEVELS or (composite is not None and composite.follows_contact)
 
 
 #: Penalty of the frictional contact (kPa per mm of penetration) unless the spec says otherwise;

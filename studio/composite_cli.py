@@ -67,7 +67,9 @@ def equibiaxial(
 EXPERIMENT_OUT = Annotated[Path, typer.Option(help="experiment folder to write (the result is kept in it)")]
 COMPOSITE_MESH = Annotated[
     str,
-    typer.Option(help="composite mesh preset: composite (paper size), composite-medium or composite-coarse"),
+    typer.Option(
+        help="composite mesh preset: composite (paper size), composite-medium, composite-coarse or composite-contact (its core follows the contact, surface contact by default)"
+    ),
 ]
 FROM_RESULT = Annotated[
     Path | None, typer.Option(help="write the experiment from this composite result (.npz), no run")

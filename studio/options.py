@@ -183,13 +183,13 @@ CONTACT = Annotated[
         "--contact",
         help="where the contact is evaluated: node (node by node, the stick exact) or surface (Gauss "
         "points of the top faces, stick and friction by a penalty); default: the mesh's own, surface "
-        "on contact-L0 .. contact-L4, node on every other mesh",
+        "on the meshes that follow the contact (contact-L0 .. contact-L4, composite-contact), node on every other mesh",
     ),
 ]
 CONTACT_ORDER = Annotated[
     int | None,
     typer.Option(
-        help="Gauss points per face edge of --contact surface; default: 1 on contact-L meshes, 2 elsewhere"
+        help="Gauss points per face edge of --contact surface; default: 1 on the meshes that follow the contact, 2 elsewhere"
     ),
 ]
 CONTACT_PENALTY = Annotated[

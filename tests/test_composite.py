@@ -87,6 +87,34 @@ def test_mesh_is_graded_towards_the_indenter(coarse):
     assert np.all(np.diff(np.diff(y)) > 0)
 
 
+@pytest.mark.parametrize(("radius", "core"), [(4.77, 8.0), (8.0, 13.0)])
+def test_the_composite_mesh_that_follows_the_contact_has_the_familys_core(radius, core):
+    from indentation_studio.forward.composite_mesh import conforming_axis
+    from indentation_studio.forward.spec import MeshChoice
+
+    mesh = composite_mesh("composite-contact", radius=radius)
+    assert mesh.source == f"composite:composite-contact-core{core:g}"
+    y = np.unique(mesh.nodes[:, 1])
+    inside = np.diff(y)[y[1:] <= core + 1e-9]
+    # along the fibers (no boundaries to meet): uniform cells of at most 0.8 mm over the core
+    # (a whole number of cells over the axis shrinks them a little), growing beyond it
+    assert inside.size >= int(core / 0.8) and np.ptp(inside) < 1e-9 and 0.75 < inside[0] <= 0.8
+    assert np.all(np.diff(np.diff(y)[y[:-1] >= core]) > 0)
+    x = np.unique(mesh.nodes[:, 0])
+    assert np.diff(x)[x[1:] <= core + 1e-9].max() <= 0.8 + 1e-9  # fibers cut cells, never enlarge them
+    # the axis by itself: a 4 mm core of 0.5 mm cells, then h = 0.5 + 0.1 (t - 4): the integral
+    # of 1/h over 20 mm is 8 + 10 ln 4.2 = 22.35, made 23 equal parts (0.486 mm in the core)
+    t = conforming_axis(20.0, [], 1, 0.5, 0.1, core=4.0)
+    assert t.size == 24 and np.allclose(np.diff(t)[:8], 0.5 * 22.3509 / 23, rtol=1e-4)
+    mid = 0.5 * (t[1:] + t[:-1])
+    assert np.allclose(np.diff(t)[9:], (0.5 + 0.1 * (mid[9:] - 4.0)) * 22.3509 / 23, rtol=0.02)
+    choice = MeshChoice("composite-contact")
+    assert choice.follows_contact and not MeshChoice("composite-medium").follows_contact
+    assert ins.forward.spec.Contact().on_mesh(choice).integration == "surface"
+    with pytest.raises(ValueError, match="needs the indenter's radius"):
+        composite_mesh("composite-contact")
+
+
 def test_paper_size_preset_is_near_the_papers_mesh():
     """2.4.2: 97,163 nodes and 86,400 hex8 in the paper's quarter."""
     mesh = composite_mesh("composite")
