@@ -73,6 +73,7 @@ def contact_response(
     eps: np.ndarray,
     mu: float,
     status: np.ndarray,
+    stuck: np.ndarray | None = None,
 ) -> ContactResponse:
     """The indenter's force on contact points and its derivatives (module docstring).
 
@@ -93,6 +94,10 @@ def contact_response(
     status : ndarray, shape (m,)
         Each point's status held (FREE or CONTACT); a point held in contact that has left its
         plane is pulled back (p < 0): what :func:`settled_status` releases.
+    stuck : ndarray of bool, shape (m,), optional
+        Points whose response is the stick's whatever their cone (the trial traction and its
+        derivatives): a Newton step's prediction that a slipping point turning round sticks
+        (:meth:`FrictionContactState.turning`), never a converged state's.
 
     Returns
     -------
@@ -126,6 +131,8 @@ def contact_response(
     stick = np.isinf(mu)  # mu = inf: stick by the penalty spring, no cone to reach
     cone = np.zeros_like(p) if stick else mu * cone_p
     slipping = active & (size > cone) & (size > 0.0) & ~stick
+    if stuck is not None:
+        slipping &= ~stuck
     s3, s33 = slipping[:, None], slipping[:, None, None]
     proj = (cone / safe_size)[:, None, None] * (eye - tau_hat[:, :, None] * tau_hat[:, None, :])
     grow = (0.0 if stick else mu) * pushed[:, None, None] * tau_hat[:, :, None]  # the cone grows with p
@@ -201,20 +208,27 @@ def settled_status(
     return new
 
 
-def anchor_crossing_step(w: np.ndarray, normal: np.ndarray, step: np.ndarray, slipping: np.ndarray) -> float:
-    """The largest fraction (<= 1) of the node ``step`` (nt, 3) that takes no slipping node past
-    the plane through its anchor across its slip (``w``: the node's offset from its anchor,
-    ``normal``: the indenter's normal there): beyond it the friction would turn round, and a
-    Newton step that ignores the stick zone between (mu p / eps wide) jumps from one side to the
-    other without end. Stopping at the plane puts the node where it can stick."""
+def anchor_crossing_fractions(
+    w: np.ndarray, normal: np.ndarray, step: np.ndarray, slipping: np.ndarray
+) -> np.ndarray:
+    """Each point's largest fraction (<= 1) of its ``step`` (nt, 3) that takes it, if slipping,
+    no farther than the plane through its anchor across its slip (``w``: the point's offset from
+    its anchor, ``normal``: the indenter's normal there): beyond it the friction would turn
+    round, and a Newton step that ignores the stick zone between (mu p / eps wide) jumps from one
+    side to the other without end. Stopping at the plane puts the point where it can stick."""
     w_t = w - normal * np.einsum("ij,ij->i", normal, w)[:, None]
     s_t = step - normal * np.einsum("ij,ij->i", normal, step)[:, None]
     towards = np.einsum("ij,ij->i", w_t, s_t)
     back = slipping & (towards < 0.0)
-    if not back.any():
-        return 1.0
-    alpha = np.einsum("ij,ij->i", w_t[back], w_t[back]) / -towards[back]
-    return float(min(1.0, alpha.min()))
+    alpha = np.ones(w.shape[0])
+    alpha[back] = np.minimum(1.0, np.einsum("ij,ij->i", w_t[back], w_t[back]) / -towards[back])
+    return alpha
+
+
+def anchor_crossing_step(w: np.ndarray, normal: np.ndarray, step: np.ndarray, slipping: np.ndarray) -> float:
+    """The largest fraction (<= 1) of the points' ``step`` that takes no slipping point past
+    its anchor's plane: the least of :func:`anchor_crossing_fractions`."""
+    return float(anchor_crossing_fractions(w, normal, step, slipping).min(initial=1.0))
 
 
 @dataclass
@@ -253,6 +267,9 @@ class FrictionContactState:
     dforce: np.ndarray | None = field(init=False, default=None)
     #: the nodes slipping at the end of the last increment
     slipping: np.ndarray = field(init=False)
+    #: points whose response a Newton step predicts as the stick's (:meth:`turning`); None
+    #: (the physics) everywhere else, and always in a residual that decides convergence
+    stuck: np.ndarray | None = field(init=False, default=None)
 
     def __post_init__(self) -> None:
         nt = self.top_xyz0.shape[0]
@@ -355,7 +372,7 @@ class FrictionContactState:
         ContactResponse
         """
         r = self.relative(u_top, depth)
-        return contact_response(r, self.anchor, self.eps, self.mu, self.status)
+        return contact_response(r, self.anchor, self.eps, self.mu, self.status, stuck=self.stuck)
 
     def settled_status(self, u_top: np.ndarray, depth: float, tol: float) -> np.ndarray:
         """The statuses a state calls for (:func:`settled_status`).
@@ -394,14 +411,37 @@ class FrictionContactState:
         float
             In (0, 1] (:func:`anchor_crossing_step`).
         """
+        return float(self._crossing_fractions(u_top, step_top, depth).min(initial=1.0))
+
+    def turning(self, u_top: np.ndarray, step_top: np.ndarray, depth: float) -> np.ndarray:
+        """The slipping points that a step would take past their anchor's plane: where the
+        friction turns round, so that they stick on the way (the stick zone is mu p / eps wide).
+
+        Parameters
+        ----------
+        u_top : ndarray, shape (m, 3)
+            The points' displacements.
+        step_top : ndarray, shape (m, 3)
+            Their step.
+        depth : float
+            The indenter's depth, mm.
+
+        Returns
+        -------
+        ndarray of bool, shape (m,)
+        """
+        return self._crossing_fractions(u_top, step_top, depth) < 1.0
+
+    def _crossing_fractions(self, u_top: np.ndarray, step_top: np.ndarray, depth: float) -> np.ndarray:
+        """:func:`anchor_crossing_fractions` of the points slipping with a traction."""
         if self.mu == 0.0:  # no friction to turn round
-            return 1.0
+            return np.ones(u_top.shape[0])
         resp = self.response(u_top, depth)
         rubbing = resp.slipping & (np.linalg.norm(resp.traction, axis=1) > 0.0)
         if not rubbing.any():
-            return 1.0
+            return np.ones(u_top.shape[0])
         w = self.relative(u_top, depth) - self.anchor
-        return anchor_crossing_step(w, resp.normal, step_top, rubbing)
+        return anchor_crossing_fractions(w, resp.normal, step_top, rubbing)
 
     def settle(self, u_top: np.ndarray, depth: float, du_top: np.ndarray | None = None) -> None:
         """End an increment at a converged state.

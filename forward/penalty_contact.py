@@ -63,6 +63,10 @@ STATUS_NEWTON_UPDATES = 8
 #: "The penalty and the points per face").
 STICK_STEP_LIMIT = 0.2
 
+#: How many times a Newton step is made again with more turning points' stick predicted
+#: (:meth:`PenaltyContact._turning_points_stick`): the new step can turn others round.
+TURNING_ROUNDS = 4
+
 
 class PenaltyContact(IndenterContact):
     """Stick or Coulomb friction by a penalty at contact points (module docstring).
@@ -277,10 +281,8 @@ class PenaltyContact(IndenterContact):
                 if K is None:
                     _, K, _ = s.assemble(u.reshape(-1, 3))
                 try:
-                    if exact:  # the last step did not lower the residual: a factorisation here
-                        du = s.fresh_step(K, cmask, r_free)
-                    else:  # an inexact Newton step, as exact as the residual is far above the reactions
-                        du = s.newton_step(K, cmask, r_free, KRYLOV_RTOL * min(1.0, ref / norm))
+                    du = self._newton_direction(K, cmask, r_free, exact, KRYLOV_RTOL * min(1.0, ref / norm))
+                    du = self._turning_points_stick(u, du, cmask, exact, KRYLOV_RTOL * min(1.0, ref / norm))
                 except LinearSolveError as exc:
                     raise IncrementFailed(str(exc)) from exc
                 step = self._damped_step(u, du, norm, cmask, halve=True)
@@ -293,6 +295,49 @@ class PenaltyContact(IndenterContact):
                 R, _, _ = s.assemble(u.reshape(-1, 3), tangent=False)
                 last, exact, stale_steps = np.inf, False, MAX_STALE_STEPS
         raise IncrementFailed(f"Newton did not converge in {FRICTION_NEWTON} iterations")
+
+    def _newton_direction(
+        self, K: sp.csr_matrix, cmask: np.ndarray, r_free: np.ndarray, exact: bool, rtol: float
+    ) -> np.ndarray:
+        """The Newton step of the tangent ``K``: by a factorisation here when ``exact`` (the last
+        step did not lower the residual), else inexact (the factorisation in hand preconditions
+        a Krylov solve to ``rtol``)."""
+        s = self.solver
+        return s.fresh_step(K, cmask, r_free) if exact else s.newton_step(K, cmask, r_free, rtol)
+
+    def _turning_points_stick(
+        self, u: np.ndarray, du: np.ndarray, cmask: np.ndarray, exact: bool, rtol: float
+    ) -> np.ndarray:
+        """The Newton step ``du`` made again, if it takes slipping points past their anchors'
+        planes (:meth:`FrictionContactState.turning`), with those points' response the stick's.
+
+        A slipping point's tangent has no stiffness along its slip, so a step that turns it round
+        overshoots the stick zone (mu p / eps wide) and the friction flips; cutting the whole step
+        to the first anchor's plane (:meth:`FrictionContactState.step_fraction`) then leaves the
+        rest of the mesh where it was, iteration after iteration. Predicting that the turning
+        points stick (an active-set step, as a semi-smooth Newton method takes) puts them near
+        their anchors and the rest where that calls for. The prediction enters only this step's
+        system: the residual that accepts the step and decides convergence is the physics'.
+        """
+        s = self.solver
+        c, top, pts = self._state, s.top, self._points
+        if c is None or c.mu == 0.0 or np.isinf(c.mu):
+            return du
+        at = pts.to_points(u.reshape(-1, 3)[top])
+        stuck = np.zeros(at.shape[0], bool)
+        for _ in range(TURNING_ROUNDS):
+            turning = c.turning(at, pts.to_points(-du.reshape(-1, 3)[top]), self._depth) & ~stuck
+            if not turning.any():
+                break
+            stuck |= turning
+            log.debug("  %d slipping points turn round: their stick predicted", int(stuck.sum()))
+            c.stuck = stuck
+            try:
+                R, K, _ = s.assemble(u.reshape(-1, 3))
+            finally:
+                c.stuck = None
+            du = self._newton_direction(K, cmask, np.where(cmask, 0.0, R), exact, rtol)
+        return du
 
     def _statuses_follow(self, u: np.ndarray) -> bool:
         """Within a Newton solve, hold the contact statuses the state ``u`` calls for (a

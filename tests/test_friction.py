@@ -252,3 +252,67 @@ def test_a_contact_correction_capped_below_the_contact_set_still_solves():
     np.testing.assert_allclose(r_capped.force[1:], r_full.force[1:], rtol=2e-3)
     np.testing.assert_allclose(r_capped.force_sensitivity[1:], r_full.force_sensitivity[1:], rtol=0.05)
     assert capped.linear._W.shape[1] <= 3  # the kept columns stay within max_extra
+
+
+def test_a_point_predicted_to_stick_answers_with_the_stick_law():
+    r, a, eps = _nodes(1)
+    status = np.full(r.shape[0], CONTACT, np.int8)
+    slid = contact_response(r, a, eps, 0.2, status)
+    on = np.flatnonzero(slid.slipping & (slid.pressure > 0))
+    assert on.size >= 2
+    stuck = np.zeros(r.shape[0], bool)
+    stuck[on[0]] = True
+    predicted = contact_response(r, a, eps, 0.2, status, stuck=stuck)
+    spring = contact_response(r, a, eps, 1e9, status)  # the stick by the same penalty
+    k = on[0]
+    assert np.allclose(predicted.force[k], spring.force[k]) and not predicted.slipping[k]
+    assert np.allclose(predicted.df_dr[k], spring.df_dr[k])
+    assert np.linalg.norm(predicted.traction[k]) > 0.2 * predicted.pressure[k]  # off the cone
+    rest = np.arange(r.shape[0]) != k  # every other point as the law has it
+    assert np.array_equal(predicted.force[rest], slid.force[rest])
+    assert np.array_equal(predicted.df_dr[rest], slid.df_dr[rest])
+
+
+def test_a_slipping_point_turns_round_when_a_step_takes_it_past_its_anchor():
+    from indentation_studio.forward.coulomb_contact import FrictionContactState
+    from indentation_studio.forward.stick_contact import RigidSphere
+
+    sphere = RigidSphere(4.77, 60.0)
+    x0 = np.array([[0.5, 0.0, 60.0]])
+    state = FrictionContactState(sphere, x0, np.array([1000.0]), 0.3)
+    depth = 1.0
+    centre = sphere.centre(depth)
+    state.status[:] = CONTACT
+    state.anchor[:] = capsule_projection(x0 - centre, sphere.radius)[0]
+    n = state.anchor[0] / sphere.radius  # the sphere's outward normal there
+    along = np.array([n[2], 0.0, -n[0]])  # the tangent in the x-z plane, +x
+    u = (state.anchor + centre - x0) + 0.05 * along - 0.002 * n  # slid 0.05 mm along +x, pressed in
+    assert state.response(u, depth).slipping[0] and state.response(u, depth).pressure[0] > 0
+    back = -0.08 * along[None, :]  # past the anchor's plane
+    assert state.turning(u, back, depth)[0]
+    assert state.step_fraction(u, back, depth) == pytest.approx(0.05 / 0.08, rel=0.02)
+    assert not state.turning(u, 0.5 * back, depth)[0]  # back, but not as far as the anchor
+    assert not state.turning(u, -back, depth)[0]  # on along its slip
+
+
+def test_turning_points_predicted_to_stick_save_newton_iterations_not_accuracy(monkeypatch):
+    """The coarse mesh, R = 8 mm, mu = 0.3, 6 steps: the Newton steps that turn slipping points
+    round are made again with their stick predicted (PenaltyContact._turning_points_stick): 46
+    Newton iterations instead of 64 (measured), the forces the same to the solver's tolerance."""
+    import indentation_studio.forward.penalty_contact as penalty_contact
+    from indentation_studio.forward.spec import Indenter
+
+    spec = (
+        ModelSpec(
+            mesh=MeshChoice("coarse"), indenter=Indenter(8.0), protocol=Protocol(step_size=0.5, steps=6)
+        )
+        .with_material(c1=7.0, c5=520.0)
+        .with_friction(0.3)
+    )
+    predicted = EmbeddedSolver(spec).run()
+    monkeypatch.setattr(penalty_contact, "TURNING_ROUNDS", 0)  # the whole step cut at the first anchor
+    cut = EmbeddedSolver(spec).run()
+    n_predicted = int(predicted.convergence["newton_iterations"].sum())
+    n_cut = int(cut.convergence["newton_iterations"].sum())
+    assert n_predicted < 0.85 * n_cut
+    np.testing.assert_allclose(predicted.force[1:], cut.force[1:], rtol=2e-5)
