@@ -414,8 +414,9 @@ class FrictionContactState:
         return float(self._crossing_fractions(u_top, step_top, depth).min(initial=1.0))
 
     def turning(self, u_top: np.ndarray, step_top: np.ndarray, depth: float) -> np.ndarray:
-        """The slipping points that a step would take past their anchor's plane: where the
-        friction turns round, so that they stick on the way (the stick zone is mu p / eps wide).
+        """The slipping points that a step would take past their anchor's plane.
+
+        There the friction turns round: they stick on the way (the stick zone is mu p / eps wide).
 
         Parameters
         ----------

@@ -356,8 +356,11 @@ class MeshChoice:
 
     @property
     def follows_contact(self) -> bool:
-        """Whether the mesh follows the contact: the levels ``contact-L0`` to ``-L4`` and the
-        composite meshes whose core is theirs (``composite-contact``)."""
+        """Whether the mesh follows the contact (its default contact is then the surface's).
+
+        The levels ``contact-L0`` to ``-L4`` and the composite meshes whose core is theirs
+        (``composite-contact``).
+        """
         if self.feb_file is not None:
             return False
         composite = COMPOSITE_MESH_PRESETS.get(self.preset)

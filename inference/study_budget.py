@@ -47,7 +47,10 @@ def reference_uncertainty_pct(values: Sequence[float], sizes: Sequence[float], l
     observed order of the triplet that starts at that level limited to :data:`ORDER_LIMITS`
     (2 when the triplet oscillates or has no order), and Fs :data:`FS_ASYMPTOTIC` when the
     study's levels are in the asymptotic range there (two triplets whose orders agree within 0.5,
-    neither oscillating) and :data:`FS_OUTSIDE` otherwise.
+    neither oscillating) and :data:`FS_OUTSIDE` otherwise. Where the study has a finer level, the
+    level is never given less than what that level measured: its distance to the finer level
+    plus the finer level's own uncertainty (by this rule), so that levels which agree by chance
+    (an oscillating or stalled sequence) do not make the bound narrower than the study's data.
 
     Parameters
     ----------
@@ -72,6 +75,10 @@ def reference_uncertainty_pct(values: Sequence[float], sizes: Sequence[float], l
     >>> # c5 on levels 3, 2, 1, 0 at {11, 330} kPa, R = 4.77 mm: monotone, orders 2.02 and 1.60
     >>> round(reference_uncertainty_pct([330.0, 336.1, 350.1, 376.8], [1.0, 1.5, 2.25, 3.375], 0), 2)
     1.85
+    >>> # the same levels under a finer one 2.3 % away (oscillating: Fs 3): 2.3 % plus its own 5.5 %
+    >>> v = [337.7, 330.0, 336.1, 350.1, 376.8]
+    >>> round(reference_uncertainty_pct(v, [0.667, 1.0, 1.5, 2.25, 3.375], 1), 2)
+    7.94
     """
     v, h = [float(x) for x in values], [float(x) for x in sizes]
     k = int(level_index)
@@ -90,7 +97,11 @@ def reference_uncertainty_pct(values: Sequence[float], sizes: Sequence[float], l
         and abs(triplets[0].order - triplets[1].order) <= 0.5
     )
     fs = FS_ASYMPTOTIC if asymptotic else FS_OUTSIDE
-    return float(100.0 * fs * abs(v[k] - v[k + 1]) / abs(v[k]) / (r**p - 1.0))
+    own = float(100.0 * fs * abs(v[k] - v[k + 1]) / abs(v[k]) / (r**p - 1.0))
+    if k == 0:
+        return own
+    finer = reference_uncertainty_pct(v, h, k - 1) * abs(v[k - 1])  # % times its value
+    return max(own, float((100.0 * abs(v[k] - v[k - 1]) + finer) / abs(v[k])))
 
 
 def _case_folder(study_dir: Path, radius: float, theta: Sequence[float]) -> Path:

@@ -53,6 +53,17 @@ def test_reference_uncertainty_is_roaches_gci_with_the_order_limited():
     assert reference_uncertainty_pct(f, h, 1) == pytest.approx(
         100 * FS_OUTSIDE * abs(f[1] - f[2]) / f[1] / 1.25
     )
+    # a level that agrees with the next coarser one but not with the finer one (R = 8 mm, {3, 330}
+    # kPa, c5 on levels 4 to 1: 330, 322.5, 325.2, 355.6): never less than the finer level
+    # measured, its distance to it plus that level's own uncertainty
+    c5 = [330.0, 322.479, 325.24, 355.595]
+    hh = [0.444, 0.667, 1.0, 1.5]
+    below = reference_uncertainty_pct(c5[1:], hh[1:], 0)  # without level 4
+    u4 = reference_uncertainty_pct(c5, hh, 0)
+    u3 = reference_uncertainty_pct(c5, hh, 1)
+    assert below < 100 * (330.0 - 322.479) / 322.479 < u3  # less than level 4 measured
+    assert u3 == pytest.approx((100 * (330.0 - 322.479) + u4 * 330.0) / 322.479)
+    assert u3 > 100 * (330.0 - 322.479) / 322.479 + u4 > 4.0
     with pytest.raises(ValueError, match="no coarser level"):
         reference_uncertainty_pct(f, h, 3)
 
