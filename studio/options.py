@@ -164,7 +164,8 @@ MESH = Annotated[
     typer.Option(
         help="mesh preset: coarse, default, fine, reference; contact-L0 .. contact-L4: meshes that follow the "
         "indenter's contact (a uniform core 1.65 R wide; the verification study's levels); composite-coarse, "
-        "composite-medium, composite: the composite phantom (its constituents, not c1/c5)"
+        "composite-medium, composite, composite-contact (its core follows the contact): the composite phantom (its "
+        "constituents, not c1/c5)"
     ),
 ]
 MESH_FROM = Annotated[Path | None, typer.Option(help="run on the hex8 block mesh of this FEBio .feb file")]
