@@ -282,7 +282,7 @@ class PenaltyContact(IndenterContact):
                     _, K, _ = s.assemble(u.reshape(-1, 3))
                 try:
                     du = self._newton_direction(K, cmask, r_free, exact, KRYLOV_RTOL * min(1.0, ref / norm))
-                    du = self._turning_points_stick(u, du, cmask, KRYLOV_RTOL * min(1.0, ref / norm))
+                    du = self._turning_points_stick(u, du, cmask, exact, KRYLOV_RTOL * min(1.0, ref / norm))
                 except LinearSolveError as exc:
                     raise IncrementFailed(str(exc)) from exc
                 step = self._damped_step(u, du, norm, cmask, halve=True)
@@ -306,7 +306,7 @@ class PenaltyContact(IndenterContact):
         return s.fresh_step(K, cmask, r_free) if exact else s.newton_step(K, cmask, r_free, rtol)
 
     def _turning_points_stick(
-        self, u: np.ndarray, du: np.ndarray, cmask: np.ndarray, rtol: float
+        self, u: np.ndarray, du: np.ndarray, cmask: np.ndarray, exact: bool, rtol: float
     ) -> np.ndarray:
         """The Newton step ``du`` made again, if it takes slipping points past their anchors'
         planes (:meth:`FrictionContactState.turning`), with those points' response the stick's.
@@ -336,14 +336,7 @@ class PenaltyContact(IndenterContact):
                 R, K, _ = s.assemble(u.reshape(-1, 3))
             finally:
                 c.stuck = None
-            if not s.linear.covers(cmask):
-                break
-            # preconditioned by the factorisation in hand (the prediction changes a few points'
-            # blocks); where that does not converge, the last step stands: no factorisation
-            again = s.krylov(K, cmask, np.where(cmask, 0.0, R), rtol, s.krylov_maxiter())
-            if again is None:
-                break
-            du = again
+            du = self._newton_direction(K, cmask, np.where(cmask, 0.0, R), exact, rtol)
         return du
 
     def _statuses_follow(self, u: np.ndarray) -> bool:
