@@ -123,7 +123,8 @@ def main(argv: list[str] | None = None) -> int:
         "--pages", help="comma-separated page files relative to --site (default: the four pages of PAGES)"
     )
     args = parser.parse_args(argv)
-    pages = None if not args.pages else {Path(rel).stem: rel for rel in args.pages.split(",")}
+    # keyed by the path without .html: two pages of one name in two folders are two pages
+    pages = None if not args.pages else {rel.removesuffix(".html"): rel for rel in args.pages.split(",")}
     rows, search = measure_pages(args.site, args.out, args.chromium, args.word, pages)
     if args.json:
         print(json.dumps({"pages": rows, "search": search}))
