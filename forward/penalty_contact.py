@@ -282,7 +282,9 @@ class PenaltyContact(IndenterContact):
                     _, K, _ = s.assemble(u.reshape(-1, 3))
                 try:
                     du = self._newton_direction(K, cmask, r_free, exact, KRYLOV_RTOL * min(1.0, ref / norm))
-                    du = self._turning_points_stick(u, du, cmask, exact, KRYLOV_RTOL * min(1.0, ref / norm))
+                    du = self._turning_points_stick(
+                        u, du, K, r_free, cmask, exact, KRYLOV_RTOL * min(1.0, ref / norm)
+                    )
                 except LinearSolveError as exc:
                     raise IncrementFailed(str(exc)) from exc
                 step = self._damped_step(u, du, norm, cmask, halve=True)
@@ -306,7 +308,14 @@ class PenaltyContact(IndenterContact):
         return s.fresh_step(K, cmask, r_free) if exact else s.newton_step(K, cmask, r_free, rtol)
 
     def _turning_points_stick(
-        self, u: np.ndarray, du: np.ndarray, cmask: np.ndarray, exact: bool, rtol: float
+        self,
+        u: np.ndarray,
+        du: np.ndarray,
+        K: sp.csr_matrix,
+        r_free: np.ndarray,
+        cmask: np.ndarray,
+        exact: bool,
+        rtol: float,
     ) -> np.ndarray:
         """The Newton step ``du`` made again, if it takes slipping points past their anchors'
         planes (:meth:`FrictionContactState.turning`), with those points' response the stick's.
@@ -318,12 +327,16 @@ class PenaltyContact(IndenterContact):
         points stick (an active-set step, as a semi-smooth Newton method takes) puts them near
         their anchors and the rest where that calls for. The prediction enters only this step's
         system: the residual that accepts the step and decides convergence is the physics'.
+        Only the contact's part of the tangent ``K`` and of the residual ``r_free`` (both at
+        ``u``) changes: the body is not assembled again.
         """
         s = self.solver
         c, top, pts = self._state, s.top, self._points
         if c is None or c.mu == 0.0 or np.isinf(c.mu):
             return du
         at = pts.to_points(u.reshape(-1, 3)[top])
+        law = c.response(at, self._depth)
+        law_blocks = -pts.cell_blocks(law.df_dr)  # the contact's blocks in K
         stuck = np.zeros(at.shape[0], bool)
         for _ in range(TURNING_ROUNDS):
             turning = c.turning(at, pts.to_points(-du.reshape(-1, 3)[top]), self._depth) & ~stuck
@@ -333,10 +346,17 @@ class PenaltyContact(IndenterContact):
             log.debug("  %d slipping points turn round: their stick predicted", int(stuck.sum()))
             c.stuck = stuck
             try:
-                R, K, _ = s.assemble(u.reshape(-1, 3))
+                predicted = c.response(at, self._depth)
             finally:
                 c.stuck = None
-            du = self._newton_direction(K, cmask, np.where(cmask, 0.0, R), exact, rtol)
+            # the tangent's contact blocks as an assembly would leave them (the corrections and
+            # the factorisation read them)
+            self._contact_blocks = -pts.cell_blocks(predicted.df_dr)
+            K_stuck = K.copy()
+            K_stuck.data += self.scatter_cells(self._contact_blocks - law_blocks)
+            rhs = r_free.copy()
+            rhs.reshape(-1, 3)[top] -= pts.to_nodes(predicted.force - law.force)
+            du = self._newton_direction(K_stuck, cmask, np.where(cmask, 0.0, rhs), exact, rtol)
         return du
 
     def _statuses_follow(self, u: np.ndarray) -> bool:
