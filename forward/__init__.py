@@ -49,7 +49,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
             "top_faces",
             "tributary_areas",
         ],
-        "solver": ["EmbeddedSolver", "SimulationError", "simulate"],
+        "solver": ["CheckpointMismatch", "EmbeddedSolver", "SimulationError", "simulate"],
         "indenter_contact": ["IndenterContact"],
         "node_stick": ["NodeStickContact"],
         "penalty_contact": ["PenaltyContact"],

@@ -167,6 +167,7 @@ def run_simulation(
     sensitivities: bool = False,
     vtu: str | Path | None = None,
     from_log: str | Path | None = None,
+    restart: bool = False,
     progress: Callable[[int, int, float], None] | None = None,
     say: Callable[[str], None] | None = None,
 ) -> SimulationRun:
@@ -189,6 +190,10 @@ def run_simulation(
         A folder for a VTU series of every node's displacement (embedded solver).
     from_log : str or pathlib.Path, optional
         Read an existing FEBio run back instead of solving.
+    restart : bool, default False
+        Keep the embedded run's state after every step in ``<out>.checkpoint.pkl`` and resume
+        from it when it exists (:meth:`EmbeddedSolver.run`'s ``checkpoint``); it is deleted once
+        the result is written.
     progress : callable, optional
         ``progress(step, steps, value)``: the force (embedded) or the depth (FEBio).
     say : callable, optional
@@ -215,9 +220,10 @@ def run_simulation(
     t0 = time.perf_counter()
     if solver not in SOLVERS:
         raise ValueError(f"unknown solver {solver!r}; use one of {', '.join(SOLVERS)}")
-    if (solver == "febio" or from_log is not None) and (sensitivities or vtu is not None):
+    if (solver == "febio" or from_log is not None) and (sensitivities or vtu is not None or restart):
         raise ValueError(
-            "--sensitivities and --vtu need the embedded solver (FEBio writes its own .xplt for FEBio Studio)"
+            "--sensitivities, --vtu and --restart need the embedded solver (FEBio writes its own "
+            ".xplt for FEBio Studio)"
         )
     out = (
         Path(out)
@@ -225,6 +231,7 @@ def run_simulation(
         else default_result_file(spec, "febio" if from_log is not None else solver)
     )
     engine = None
+    checkpoint = out.with_name(out.stem + ".checkpoint.pkl") if restart else None
     try:
         if from_log is not None:
             result = read_febio_run(Path(from_log), spec)
@@ -235,7 +242,10 @@ def run_simulation(
             engine = EmbeddedSolver(spec)
             with termination_as_interrupt():
                 result = engine.run(
-                    sensitivities=sensitivities, progress=progress, full_field=vtu is not None
+                    sensitivities=sensitivities,
+                    progress=progress,
+                    full_field=vtu is not None,
+                    checkpoint=checkpoint,
                 )
     except (SimulationError, KeyboardInterrupt) as exc:
         kept = getattr(exc, "partial", None)
@@ -246,6 +256,8 @@ def run_simulation(
                 say(f"steps completed before {what} are kept in {partial}")
         raise
     path = result.save(out)
+    if checkpoint is not None:
+        checkpoint.unlink(missing_ok=True)
     pvd = None
     if vtu is not None:
         pvd = write_vtu_series(result, engine.mesh, vtu)

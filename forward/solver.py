@@ -20,8 +20,11 @@ from __future__ import annotations
 
 import hashlib
 import logging
+import os
+import pickle
 import time
 from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
 
@@ -40,7 +43,15 @@ from .spec import ModelSpec
 from .stick_contact import RigidSphere
 from .threads import solver_threads, thread_limits
 
-__all__ = ["CUTBACK_BUDGET", "EmbeddedSolver", "SimulationError", "mesh_structures", "simulate"]
+__all__ = [
+    "CHECKPOINT_FORMAT",
+    "CUTBACK_BUDGET",
+    "CheckpointMismatch",
+    "EmbeddedSolver",
+    "SimulationError",
+    "mesh_structures",
+    "simulate",
+]
 
 log = logging.getLogger(__name__)
 
@@ -76,6 +87,15 @@ CUTBACK_BUDGET = 4
 SINGLE_PRECISION_DOFS = 20_000
 
 _STRUCTURES: dict[bytes, tuple[ReferenceGeometry, SparsePattern]] = {}
+
+
+#: the layout of a run's checkpoint (:meth:`EmbeddedSolver.run`); a file of another is refused
+CHECKPOINT_FORMAT = 1
+
+
+class CheckpointMismatch(ValueError):
+    """A checkpoint file that is not this run's: another spec, mesh, sensitivities, version or
+    layout (the message names which). Delete it to start the run from the beginning."""
 
 
 def mesh_structures(mesh: BlockMesh) -> tuple[ReferenceGeometry, SparsePattern]:
@@ -223,6 +243,7 @@ class EmbeddedSolver(NewtonSystem):
         full_field: bool = False,
         *,
         threads: int | None = None,
+        checkpoint: str | Path | None = None,
     ) -> SimulationResult:
         """Run the protocol.
 
@@ -238,6 +259,11 @@ class EmbeddedSolver(NewtonSystem):
         threads : int or None, optional
             numba's and MKL's thread count for this run; None takes the idle cores
             (:func:`forward.threads.solver_threads`), a campaign worker passes 1.
+        checkpoint : str or pathlib.Path, optional
+            A restart file, as FEBio's dump: the run's whole state is written there after every
+            step (atomically), and a run given a file that exists resumes after its last step
+            instead of starting again. The caller deletes it once the result is kept. It is a
+            pickle: load only checkpoints your own runs wrote.
 
         Returns
         -------
@@ -249,6 +275,8 @@ class EmbeddedSolver(NewtonSystem):
             Sensitivities asked of a composite.
         SimulationError
             The protocol's final depth not reached (with the finished steps).
+        CheckpointMismatch
+            ``checkpoint`` holds another run's state.
 
         Notes
         -----
@@ -260,7 +288,12 @@ class EmbeddedSolver(NewtonSystem):
             )
         try:
             with thread_limits(solver_threads() if threads is None else threads):
-                result = self._run(sensitivities, progress, full_field)
+                result = self._run(
+                    sensitivities,
+                    progress,
+                    full_field,
+                    Path(checkpoint) if checkpoint is not None else None,
+                )
         finally:
             self.linear.release()
         return result
@@ -270,6 +303,7 @@ class EmbeddedSolver(NewtonSystem):
         sensitivities: bool,
         progress: Callable[[int, int, float], None] | None,
         full_field: bool = False,
+        checkpoint: Path | None = None,
     ) -> SimulationResult:
         t_start = time.perf_counter()
         self.want_sensitivities = sensitivities
@@ -301,6 +335,19 @@ class EmbeddedSolver(NewtonSystem):
         u_sens = [np.zeros((nt, 3, n_p))]
         du_dtheta = np.zeros((n, 3, n_p)) if sensitivities else None
         last_dinc = np.zeros((n, 3, n_p)) if sensitivities else None
+        steps_done, d = 0, 0.0
+        if checkpoint is not None and checkpoint.is_file():
+            saved = self._read_checkpoint(checkpoint, sensitivities, full_field)
+            steps_done, d = saved["steps_done"], saved["depth"]
+            u, last_inc, last_dd, contact = saved["u"], saved["last_inc"], saved["last_dd"], saved["contact"]
+            du_dtheta, last_dinc = saved["du_dtheta"], saved["last_dinc"]
+            depths, forces, disp, f_sens, u_sens = (
+                saved[k] for k in ("depths", "forces", "disp", "f_sens", "u_sens")
+            )
+            self._status, self._full, conv = saved["status"], saved["full"], saved["conv"]
+            self.stats.update(saved["stats"])
+            t_start -= saved["elapsed_s"]
+            log.info("resumed from %s after step %d (%.4g mm)", checkpoint, steps_done, d)
 
         def result_so_far() -> SimulationResult:
             return self._result(
@@ -314,10 +361,11 @@ class EmbeddedSolver(NewtonSystem):
                 t_start=t_start,
             )
 
-        d = 0.0
         nominal = proto.step_size / opts.substeps
         try:
             for k, d_target in enumerate(proto.depths, start=1):
+                if k <= steps_done:
+                    continue
                 t_step = time.perf_counter()
                 rec = dict.fromkeys(("newton_iterations", "increments", "cutbacks", "contact_passes"), 0)
                 inc = nominal
@@ -379,6 +427,32 @@ class EmbeddedSolver(NewtonSystem):
                 if "mu" in self.contact.parameters:
                     conv.setdefault("slipping_nodes", [0]).append(int(slipping.sum()))
                 conv["wall_s"].append(time.perf_counter() - t_step)
+                if checkpoint is not None:
+                    self._write_checkpoint(
+                        checkpoint,
+                        {
+                            "steps_done": k,
+                            "depth": d,
+                            "u": u,
+                            "last_inc": last_inc,
+                            "last_dd": last_dd,
+                            "contact": contact,
+                            "du_dtheta": du_dtheta,
+                            "last_dinc": last_dinc,
+                            "depths": depths,
+                            "forces": forces,
+                            "disp": disp,
+                            "f_sens": f_sens,
+                            "u_sens": u_sens,
+                            "status": self._status,
+                            "full": self._full,
+                            "conv": conv,
+                            "stats": self.stats,
+                            "elapsed_s": time.perf_counter() - t_start,
+                        },
+                        sensitivities,
+                        full_field,
+                    )
                 if progress is not None:
                     progress(k, proto.steps, forces[-1])
         except KeyboardInterrupt as exc:  # Ctrl-C (or SIGTERM under run_simulation): keep the steps done
@@ -390,6 +464,44 @@ class EmbeddedSolver(NewtonSystem):
             exc.partial = result_so_far() if done > 1 else None
             raise
         return result_so_far()
+
+    def _checkpoint_identity(self, sensitivities: bool, full_field: bool) -> dict:
+        mesh = self.mesh
+        return {
+            "format": CHECKPOINT_FORMAT,
+            "version": __version__,
+            "spec": self.spec.to_dict(),
+            "mesh": {"source": mesh.source, "nodes": mesh.n_nodes, "elements": mesh.n_elements},
+            "sensitivities": bool(sensitivities),
+            "full_field": bool(full_field),
+        }
+
+    def _write_checkpoint(self, path: Path, state: dict, sensitivities: bool, full_field: bool) -> None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(path.name + ".tmp")
+        with open(tmp, "wb") as fh:
+            pickle.dump(
+                {"identity": self._checkpoint_identity(sensitivities, full_field), "state": state},
+                fh,
+                protocol=pickle.HIGHEST_PROTOCOL,
+            )
+        os.replace(tmp, path)  # a run stopped while writing leaves the last whole checkpoint
+
+    def _read_checkpoint(self, path: Path, sensitivities: bool, full_field: bool) -> dict:
+        try:
+            with open(path, "rb") as fh:
+                saved = pickle.load(fh)
+            identity, state = saved["identity"], saved["state"]
+        except Exception as exc:  # a truncated or foreign file: say which, never resume from it
+            raise CheckpointMismatch(f"{path} is not a readable checkpoint ({exc!r}); delete it") from exc
+        want = self._checkpoint_identity(sensitivities, full_field)
+        differ = [key for key in want if identity.get(key) != want[key]]
+        if differ:
+            raise CheckpointMismatch(
+                f"{path} holds another run's state (its {', '.join(differ)} differ); delete it "
+                "to start this run from the beginning"
+            )
+        return state
 
     def _result(self, depths, forces, disp, conv, f_sens, u_sens, sensitivities, t_start) -> SimulationResult:
         mesh = self.mesh

@@ -113,7 +113,8 @@ def _solve_or_reuse(
     say: Callable[[str], None] | None,
 ) -> SimulationResult:
     """``spec`` on the family's ``level``, read back from ``path`` when it holds the same spec on
-    the same mesh (and sensitivities where asked for), else solved and kept there."""
+    the same mesh (and sensitivities where asked for), else solved and kept there (resumed from
+    ``<path stem>.checkpoint.pkl`` when an earlier study was stopped mid-run)."""
     mesh = family.mesh(level, spec.geometry)
     if path.is_file():
         try:
@@ -130,8 +131,14 @@ def _solve_or_reuse(
             if say is not None:
                 say(f"{path.name}: read back (same spec and mesh)")
             return old
-    result = EmbeddedSolver(spec, mesh=mesh).run(sensitivities=sensitivities, progress=progress)
+    # a level-4 run outlasts a session: its steps are kept as they finish and a study run again
+    # resumes it (EmbeddedSolver.run's checkpoint)
+    restart = path.with_name(path.stem + ".checkpoint.pkl")
+    result = EmbeddedSolver(spec, mesh=mesh).run(
+        sensitivities=sensitivities, progress=progress, checkpoint=restart
+    )
     result.save(path)
+    restart.unlink(missing_ok=True)
     return result
 
 

@@ -112,6 +112,13 @@ RESULT_OUT = Annotated[Path | None, typer.Option(help="result file (.npz); defau
 VTU = Annotated[
     Path | None, typer.Option(help="also write the whole block per step as VTU (+ .pvd) for ParaView here")
 ]
+RESTART = Annotated[
+    bool,
+    typer.Option(
+        help="keep the run's state after every step in <out>.checkpoint.pkl (as FEBio's restart dump) "
+        "and resume from it when it exists: a long run stopped part way goes on from its last step"
+    ),
+]
 FROM_LOG = Annotated[
     Path | None,
     typer.Option(
@@ -130,6 +137,7 @@ def simulate(
     out: RESULT_OUT = None,
     vtu: VTU = None,
     from_log: FROM_LOG = None,
+    restart: RESTART = False,
     as_json: JSON = False,
 ) -> None:
     """One indentation simulation (default: the paper's baseline, R = 4.77 mm, 28 x 0.5 mm).
@@ -149,6 +157,7 @@ def simulate(
                 sensitivities=sensitivities,
                 vtu=vtu,
                 from_log=from_log,
+                restart=restart,
                 progress=lambda k, n, v: bar.update(k, f"{v:.2f} {unit}"),
                 say=say,
             )

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import signal
 
@@ -11,7 +12,8 @@ import pytest
 from indentation_studio.forward.node_stick import NodeStickContact
 from indentation_studio.forward.result import SimulationResult
 from indentation_studio.forward.simulation_run import run_simulation
-from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
+from indentation_studio.forward.solver import CheckpointMismatch, EmbeddedSolver
+from indentation_studio.forward.spec import Contact, Material, MeshChoice, ModelSpec, Protocol
 
 SPEC = ModelSpec(mesh=MeshChoice("coarse"), protocol=Protocol(steps=5))
 
@@ -57,3 +59,84 @@ def test_ctrl_c_in_the_middle_of_a_step_keeps_only_whole_steps(tmp_path, monkeyp
     with pytest.raises(KeyboardInterrupt):
         run_simulation(SPEC, tmp_path / "none.npz")
     assert not (tmp_path / "none.partial.npz").exists()
+
+
+@pytest.mark.parametrize(
+    "contact",
+    [
+        Contact(),
+        Contact(integration="surface", order=1),
+        Contact(integration="surface", order=1, friction=0.3),
+    ],
+    ids=["node stick", "surface stick", "surface mu 0.3"],
+)
+def test_a_run_stopped_part_way_resumes_from_its_checkpoint(tmp_path, contact):
+    """Stopped after its second step with a checkpoint, the run given the same checkpoint again
+    solves only steps 3 to 5 and ends where an uninterrupted run does (forces, displacements,
+    sensitivities, and so the anchors carried in the contact's state) within the Newton
+    tolerance (residual 1e-4 of its scale): the resumed run has no factorisation to reuse, so its
+    iterations differ. Steps 1 and 2 are the checkpoint's, bit for bit."""
+    spec = dataclasses.replace(SPEC, contact=contact)
+    whole = EmbeddedSolver(spec).run(sensitivities=True)
+    restart = tmp_path / "run.checkpoint.pkl"
+
+    def stop_after_two(k, n, force):
+        if k == 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        EmbeddedSolver(spec).run(sensitivities=True, progress=stop_after_two, checkpoint=restart)
+    assert restart.is_file()
+    resumed_solver = EmbeddedSolver(spec)
+    steps = []
+    resumed = resumed_solver.run(
+        sensitivities=True, checkpoint=restart, progress=lambda k, n, f: steps.append(k)
+    )
+    assert steps == [3, 4, 5]
+    assert resumed.force.shape == whole.force.shape == (6,)
+    np.testing.assert_array_equal(resumed.force[:3], whole.force[:3])
+    np.testing.assert_allclose(resumed.force, whole.force, rtol=1e-4)
+    np.testing.assert_allclose(resumed.displacement, whole.displacement, atol=1e-4 * spec.protocol.max_depth)
+    np.testing.assert_allclose(
+        resumed.force_sensitivity,
+        whole.force_sensitivity,
+        rtol=1e-3,
+        atol=1e-4 * abs(whole.force_sensitivity).max(),
+    )
+    np.testing.assert_array_equal(
+        resumed.convergence["newton_iterations"][:3], whole.convergence["newton_iterations"][:3]
+    )
+
+
+def test_a_checkpoint_of_another_run_is_refused_by_name(tmp_path):
+    restart = tmp_path / "run.checkpoint.pkl"
+
+    def stop_after_one(k, n, force):
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        EmbeddedSolver(SPEC).run(progress=stop_after_one, checkpoint=restart)
+    other = dataclasses.replace(SPEC, material=Material(c1=5.0, c5=200.0))
+    with pytest.raises(CheckpointMismatch, match="spec"):
+        EmbeddedSolver(other).run(checkpoint=restart)
+    with pytest.raises(CheckpointMismatch, match="sensitivities"):
+        EmbeddedSolver(SPEC).run(sensitivities=True, checkpoint=restart)
+    restart.write_bytes(restart.read_bytes()[:40])  # a file cut short by a full disk
+    with pytest.raises(CheckpointMismatch, match="not a readable checkpoint"):
+        EmbeddedSolver(SPEC).run(checkpoint=restart)
+
+
+def test_simulate_restart_deletes_its_checkpoint_once_the_result_is_written(tmp_path):
+    def stop_after_three(k, n, force):
+        if k == 3:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        run_simulation(SPEC, tmp_path / "run.npz", restart=True, progress=stop_after_three)
+    assert (tmp_path / "run.checkpoint.pkl").is_file()
+    steps = []
+    run = run_simulation(SPEC, tmp_path / "run.npz", restart=True, progress=lambda k, n, f: steps.append(k))
+    assert steps == [4, 5] and run.result.force.shape == (6,)
+    assert not (tmp_path / "run.checkpoint.pkl").exists()
+    with pytest.raises(ValueError, match="--restart need the embedded solver"):
+        run_simulation(SPEC, tmp_path / "f.npz", solver="febio", restart=True)
