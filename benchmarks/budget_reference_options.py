@@ -1,0 +1,65 @@
+"""The three options for the error budgets' reference where level 4 exists (issue 45's decision).
+
+For every point of a verification study whose finest level is contact-L4, the fitted c1 and c5
+budget's model-error part under:
+
+(a) level 3 as the reference, with ``inference.reference_uncertainty_pct`` (its GCI, never less
+    than its distance to level 4 plus level 4's own);
+(b) level 4 as the reference: level 3's fit corrected by the measured level 3 -> 4 difference,
+    only level 4's GCI carried;
+(c) as (b), corrected to the extrapolated value where the finest triplet is monotone (the
+    correction's size shown), level 4's GCI carried.
+
+.venv/bin/python benchmarks/budget_reference_options.py /work/longruns/verif-R8/study.json [...]
+"""
+
+from __future__ import annotations
+
+import sys
+
+from indentation_studio.inference import reference_uncertainty_pct
+from indentation_studio.inference.verification_study import load_verification_study
+
+
+def rows(path: str) -> list[str]:
+    study = load_verification_study(path)
+    out = []
+    for case in study["cases"]:
+        levels = [lv["level"] for lv in case["levels"]]
+        if levels[0] != 4:
+            continue
+        cells = []
+        for p in ("c1", "c5"):
+            q = case["quantities"][f"fit {p}"]
+            v, h = q["values"], q["sizes"]
+            a = reference_uncertainty_pct(v, h, 1)
+            b = reference_uncertainty_pct(v, h, 0)
+            shift = 100.0 * (v[0] - v[1]) / v[1]  # the correction (b) applies to level 3's fit
+            ext = q["extrapolated"]
+            to_ext = (
+                100.0 * (ext - v[0]) / v[0] if ext == ext and not q["triplets"][0]["oscillatory"] else None
+            )
+            cells += [
+                f"{a:.2f}",
+                f"{shift:+.2f}",
+                f"{b:.2f}",
+                "oscillates" if to_ext is None else f"{to_ext:+.2f}",
+            ]
+        out.append(
+            f"| {case['radius']:g} | {case['theta'][0]:g}, {case['theta'][1]:g} | " + " | ".join(cells) + " |"
+        )
+    return out
+
+
+def main(paths: list[str]) -> None:
+    print(
+        "| R mm | c1, c5 kPa | c1 (a) % | c1 L3->L4 % | c1 (b) % | c1 L4->extrap. % "
+        "| c5 (a) % | c5 L3->L4 % | c5 (b) % | c5 L4->extrap. % |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    for path in paths:
+        print("\n".join(rows(path)))
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
