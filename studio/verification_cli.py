@@ -97,7 +97,8 @@ def verification_study(
 ) -> None:
     """Verification study (Roache's GCI, ASME V&V 20): observed orders, asymptotic range,
     extrapolated values and GCI of the force, the top field and the fit's (c1, c5) over a family of
-    systematically refined meshes; resumable (run the same command again: finished runs are read back, a run stopped part way goes on from its last step)."""
+    systematically refined meshes; resumable (run the same command again: finished runs are read
+    back, a run stopped part way goes on from its last step)."""
     try:
         fam = parse_family(family)
         level_list = [int(v) for v in _floats(levels, "--levels")]
