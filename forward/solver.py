@@ -94,8 +94,11 @@ CHECKPOINT_FORMAT = 1
 
 
 class CheckpointMismatch(ValueError):
-    """A checkpoint file that is not this run's: another spec, mesh, sensitivities, version or
-    layout (the message names which). Delete it to start the run from the beginning."""
+    """A checkpoint file that is not this run's.
+
+    Another spec, mesh, sensitivity setting, version or layout, or a file cut short (the message
+    names which). Delete it to start the run from the beginning.
+    """
 
 
 def mesh_structures(mesh: BlockMesh) -> tuple[ReferenceGeometry, SparsePattern]:
