@@ -341,7 +341,6 @@ class EmbeddedSolver(NewtonSystem):
         steps_done, d = 0, 0.0
         if checkpoint is not None and checkpoint.is_file():
             saved = self._read_checkpoint(checkpoint, sensitivities, full_field)
-            steps_done, d = saved["steps_done"], saved["depth"]
             u, last_inc, last_dd, contact = saved["u"], saved["last_inc"], saved["last_dd"], saved["contact"]
             du_dtheta, last_dinc = saved["du_dtheta"], saved["last_dinc"]
             depths, forces, disp, f_sens, u_sens = (
@@ -350,6 +349,7 @@ class EmbeddedSolver(NewtonSystem):
             self._status, self._full, conv = saved["status"], saved["full"], saved["conv"]
             self.stats.update(saved["stats"])
             t_start -= saved["elapsed_s"]
+            steps_done, d = len(depths) - 1, depths[-1]  # depths[0] is the start, 0 mm
             log.info("resumed from %s after step %d (%.4g mm)", checkpoint, steps_done, d)
 
         def result_so_far() -> SimulationResult:
@@ -434,8 +434,6 @@ class EmbeddedSolver(NewtonSystem):
                     self._write_checkpoint(
                         checkpoint,
                         {
-                            "steps_done": k,
-                            "depth": d,
                             "u": u,
                             "last_inc": last_inc,
                             "last_dd": last_dd,
