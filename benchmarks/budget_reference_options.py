@@ -81,8 +81,8 @@ def main(paths: list[str]) -> None:
         print("\n".join(level_rows(path)))
     print()
     print(
-        "| R mm | c1, c5 kPa | c1 (a) % | c1 L3->L4 % | c1 (b) % | c1 L4->extrap. % "
-        "| c5 (a) % | c5 L3->L4 % | c5 (b) % | c5 L4->extrap. % |"
+        "| R mm | c1, c5 kPa | c1 (a) % | c1 (b)'s correction % | c1 (b) % | c1 (c)'s further correction % "
+        "| c5 (a) % | c5 (b)'s correction % | c5 (b) % | c5 (c)'s further correction % |"
     )
     print("|---|---|---|---|---|---|---|---|---|---|")
     for path in paths:
