@@ -1,6 +1,8 @@
 """The checks of a campaign store's files: the sha256 and size of each point file as written
-(:func:`file_digest`, :func:`point_file_reason`), ``campaign.json`` against ``campaign.sha256``
-(:func:`read_spec`), and a full disk named as such (:func:`disk_full`) for every write
+(:func:`file_digest`, :func:`point_file_reason`), a point file without them checked by loading it
+(:func:`check_point_file`), a file that fails kept aside in ``damaged/`` (:func:`set_aside`),
+``campaign.json`` against ``campaign.sha256`` (:func:`write_spec`, :func:`read_spec`), and a full
+disk named as such (:func:`disk_full`, :func:`full_disk_as_error`) for every write
 (:func:`write_checked`: atomic, the file whole or absent)."""
 
 from __future__ import annotations
@@ -8,23 +10,33 @@ from __future__ import annotations
 import errno
 import hashlib
 import json
+import os
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from ..atomic_write import atomic_write
+from ..forward.result import SimulationResult
 from .errors import CampaignError, DiskFullError
 from .spec import CampaignSpec
 
 __all__ = [
+    "FileCheck",
     "Problem",
+    "check_point_file",
     "disk_full",
     "file_digest",
+    "full_disk_as_error",
     "point_file_reason",
     "raise_if_full",
     "read_spec",
+    "set_aside",
     "spec_digest",
     "write_checked",
+    "write_spec",
 ]
 
 
@@ -87,6 +99,67 @@ def point_file_reason(path: Path, sha256: str, size: int) -> str | None:
     return None
 
 
+@dataclass
+class FileCheck:
+    """What the check of one point file found: why it fails (None when it passes) and, for a file
+    checked by loading it (no sha256 recorded), its result and its (sha256, size) to record."""
+
+    reason: str | None
+    result: SimulationResult | None = None
+    digest: tuple[str, int] | None = None
+
+
+def check_point_file(path: Path, recorded: tuple[str, int] | None) -> FileCheck:
+    """Check a point file against the sha256 and size recorded when it was written or, without
+    them (an older store, a run killed between writing the file and its index row), by loading it.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        The point file (it exists).
+    recorded : tuple of (str, int) or None
+        Its recorded sha256 hex and size in bytes, or None when none was recorded.
+
+    Returns
+    -------
+    FileCheck
+        The reason it fails, or (a file loaded) its result and digest.
+    """
+    if recorded is not None:
+        return FileCheck(point_file_reason(path, *recorded))
+    try:
+        result = SimulationResult.load(path)
+        digest = file_digest(path)
+    except (ValueError, OSError) as exc:
+        return FileCheck(f"unreadable: {_reason(exc)}")
+    return FileCheck(None, result, digest)
+
+
+def set_aside(path: Path, damaged_dir: Path) -> None:
+    """Move a file that failed its check into ``damaged_dir`` to look at (never read again).
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        The file; removed when it cannot be moved.
+    damaged_dir : pathlib.Path
+        The store's ``damaged/`` folder (made when missing); the file is renamed there with the
+        time appended.
+    """
+    target = damaged_dir / f"{path.name}.{time.strftime('%Y%m%dT%H%M%S')}"
+    target.parent.mkdir(exist_ok=True)
+    try:
+        os.replace(path, target)
+    except OSError:
+        path.unlink(missing_ok=True)
+
+
+def _reason(exc: BaseException) -> str:
+    """An error's message without the path it starts with (the problem names the file)."""
+    text = str(exc)
+    return text.split(": ", 1)[1] if text.startswith("/") and ": " in text else text
+
+
 def disk_full(exc: BaseException, path: Path) -> CampaignError | None:
     """A clear error for a full disk (ENOSPC, EDQUOT), else None."""
     if isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT):
@@ -104,14 +177,48 @@ def raise_if_full(exc: BaseException, path: Path) -> None:
         raise full from exc
 
 
-def write_checked(path: Path, content: Any) -> None:
-    """Write ``path`` atomically (:func:`~indentation_studio.atomic_write.atomic_write`), a full
-    disk raised as :class:`~indentation_studio.campaign.errors.DiskFullError`."""
+@contextmanager
+def full_disk_as_error(path: Path) -> Iterator[None]:
+    """A context in which a full disk while writing ``path`` is raised as
+    :class:`~indentation_studio.campaign.errors.DiskFullError` (other errors unchanged).
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        The file written, named in the error.
+
+    Yields
+    ------
+    None
+        Nothing: the writes are made inside the context.
+    """
     try:
-        atomic_write(path, content)
+        yield
     except OSError as exc:
         raise_if_full(exc, path)
         raise
+
+
+def write_checked(path: Path, content: Any) -> None:
+    """Write ``path`` atomically (:func:`~indentation_studio.atomic_write.atomic_write`), a full
+    disk raised as :class:`~indentation_studio.campaign.errors.DiskFullError`."""
+    with full_disk_as_error(path):
+        atomic_write(path, content)
+
+
+def write_spec(meta: Path, text: str) -> None:
+    """Write ``campaign.json`` and, beside it, ``campaign.sha256`` (its sha256, which
+    :func:`read_spec` checks).
+
+    Parameters
+    ----------
+    meta : pathlib.Path
+        The store's ``campaign.json``.
+    text : str
+        Its text.
+    """
+    write_checked(meta, text)
+    write_checked(meta.with_name("campaign.sha256"), spec_digest(text) + "\n")
 
 
 def read_spec(meta: Path, repair: bool) -> CampaignSpec:

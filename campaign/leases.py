@@ -3,7 +3,7 @@ lease ``leases/<n>.json`` (host, pid, start time, a heartbeat renewed while it s
 short file lock on the store (:class:`StoreLock`); other runs skip the points a live lease holds
 (:func:`lease_alive`). A lease whose heartbeat is older than the lease timeout, or whose process
 is gone (same host), belongs to a run that died and is taken over. :class:`LeaseFiles` reads and
-writes one store's leases."""
+writes one store's leases, claims a point (:meth:`LeaseFiles.claim_first`) and releases it."""
 
 from __future__ import annotations
 
@@ -12,6 +12,7 @@ import os
 import socket
 import time
 import uuid
+from collections.abc import Callable, Collection, Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -70,7 +71,7 @@ class RunIdentity:
 
 @dataclass
 class ClaimOutcome:
-    """What :meth:`CampaignStore.claim_next` found: the point claimed (or None), the candidates
+    """What :meth:`LeaseFiles.claim_first` found: the point claimed (or None), the candidates
     finished by another run meanwhile, and those held by another live run (with its lease)."""
 
     point: int | None
@@ -175,6 +176,96 @@ class LeaseFiles:
         """Whether ``run``'s lease is the one on ``point``."""
         lease = self.read(point)
         return lease is not None and lease.get("run_id") == run.run_id
+
+    def held_elsewhere(
+        self, point: int, run: RunIdentity, lease_timeout_s: float, now: float | None = None
+    ) -> dict[str, Any] | None:
+        """The lease of another live run on ``point``, or None (unclaimed, ``run``'s, or expired).
+
+        Parameters
+        ----------
+        point : int
+            The point.
+        run : RunIdentity
+            The run asking.
+        lease_timeout_s : float
+            A lease not renewed for this long belongs to a dead run, s.
+        now : float, optional
+            The time to judge the heartbeat by (epoch s; default now).
+
+        Returns
+        -------
+        dict or None
+            The other run's lease.
+        """
+        lease = self.read(point)
+        if lease is None or lease.get("run_id") == run.run_id or not lease_alive(lease, lease_timeout_s, now):
+            return None
+        return lease
+
+    def claim_first(
+        self,
+        candidates: Iterable[int],
+        run: RunIdentity,
+        lease_timeout_s: float,
+        finished: Collection[int],
+        solved_meanwhile: Callable[[int], bool],
+    ) -> ClaimOutcome:
+        """Claim the first of ``candidates`` that is not finished and no other live run holds, by
+        writing ``run``'s lease on it (call under the store's lock: two runs never claim the same
+        point).
+
+        Parameters
+        ----------
+        candidates : iterable of int
+            The points to try, in order.
+        run : RunIdentity
+            The claiming run.
+        lease_timeout_s : float
+            A lease not renewed for this long belongs to a dead run and is taken over, s.
+        finished : collection of int
+            Points already finished (skipped before their lease is read).
+        solved_meanwhile : callable
+            Asked of a point no live run holds, just before claiming it: True when it was solved
+            meanwhile (the store's check of a file a dead run left without its index row).
+
+        Returns
+        -------
+        ClaimOutcome
+            The point claimed (or None), the candidates tried and found finished, and those
+            another live run holds.
+        """
+        done: set[int] = set()
+        held: dict[int, dict[str, Any]] = {}
+        now = time.time()
+        for i in candidates:
+            if i in finished:
+                done.add(i)
+                continue
+            lease = self.held_elsewhere(i, run, lease_timeout_s, now)
+            if lease is not None:
+                held[i] = lease
+                continue
+            if solved_meanwhile(i):
+                done.add(i)
+                continue
+            self.write(i, run.lease(i))
+            return ClaimOutcome(i, done, held)
+        return ClaimOutcome(None, done, held)
+
+    def release(self, point: int, run: RunIdentity) -> None:
+        """Remove ``run``'s lease on ``point`` (call under the store's lock; another run's lease
+        is left alone).
+
+        Parameters
+        ----------
+        point : int
+            The point.
+        run : RunIdentity
+            The run giving up its claim.
+        """
+        if self.held_by(point, run):
+            self.path(point).unlink(missing_ok=True)
 
     def renew(self, points: list[int], run: RunIdentity) -> set[int]:
         """Renew ``run``'s heartbeat on ``points`` (call under the lock); the points whose lease

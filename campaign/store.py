@@ -5,10 +5,11 @@ backend's interface apart from each backend:
 - :mod:`~indentation_studio.campaign.layout`: where each file of the store lives;
 - :mod:`~indentation_studio.campaign.spec`: what the campaign computes (``campaign.json``);
 - :mod:`~indentation_studio.campaign.checksums`: the sha256 and size of each file as written,
-  and a full disk named as such;
+  the check of a point file, setting a failed one aside, and a full disk named as such;
 - :mod:`~indentation_studio.campaign.index`: ``index.parquet``, one row per point, checked
   against the design and merged with what other runs wrote;
-- :mod:`~indentation_studio.campaign.leases`: claims on points and their leases.
+- :mod:`~indentation_studio.campaign.leases`: claims on points and their leases (claiming,
+  renewing, releasing); the store calls them under its lock.
 
 Nothing is trusted blindly (:meth:`CampaignStore.verify`): opening a store for a run checks
 every point file against its recorded sha256 and size (a file of an older store, without them,
@@ -27,7 +28,6 @@ update is made under the lock and merged with what other runs wrote.
 from __future__ import annotations
 
 import json
-import os
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -42,12 +42,13 @@ from ..forward.mesh import build_mesh
 from ..forward.result import SimulationResult
 from .checksums import (
     Problem,
+    check_point_file,
     file_digest,
-    point_file_reason,
-    raise_if_full,
+    full_disk_as_error,
     read_spec,
-    spec_digest,
+    set_aside,
     write_checked,
+    write_spec,
 )
 from .errors import CampaignError
 from .index import (
@@ -69,7 +70,6 @@ from .leases import (
     LeaseFiles,
     RunIdentity,
     StoreLock,
-    lease_alive,
 )
 from .spec import CampaignSpec
 
@@ -150,9 +150,7 @@ class CampaignStore(StoreLayout):
                         "code_version": __version__,
                         "created": time.strftime("%Y-%m-%dT%H:%M:%S"),
                     }
-                    text = json.dumps(record, indent=1)
-                    write_checked(layout.spec_path, text)
-                    write_checked(layout.spec_sha256_path, spec_digest(text) + "\n")
+                    write_spec(layout.spec_path, json.dumps(record, indent=1))
                     store = cls(root, spec, fresh_index(spec))
                     write_checked(layout.index_path, lambda tmp: store.index.to_parquet(tmp, index=False))
         store = cls.open(root, repair=repair)
@@ -202,20 +200,15 @@ class CampaignStore(StoreLayout):
         spec = read_spec(layout.spec_path, repair)
         store = cls(root, spec, fresh_index(spec))
         if not repair:  # read only (a store on a read-only share too): every write is a rename
-            store.index, store.problems = store._read_index()
+            store.index, store.problems = read_index(store.index_path, spec)
             store.verify(repair=False)
             return store
         with store.locked():
-            store.index, store.problems = store._read_index()
+            store.index, store.problems = read_index(store.index_path, spec)
             store.verify(repair=True)
             store._clean_temporaries()
             store.write_index()
         return store
-
-    def _read_index(self) -> tuple[pd.DataFrame, list[Problem]]:
-        """The index on disk checked against the design (:func:`~.index.read_index`). Call under
-        the lock."""
-        return read_index(self.index_path, self.spec)
 
     # ------------------------------------------------------------ the checks
     def verify(self, repair: bool = True) -> list[Problem]:
@@ -239,55 +232,32 @@ class CampaignStore(StoreLayout):
         present = {int(p.stem) for p in self.points_dir.glob("[0-9]*.npz") if p.stem.isdigit()}
         status = self.index["status"].astype(str).to_numpy()
         for i in range(len(self.index)):
-            path = self.result_path(i)
-            row = self.index.loc[i]
+            path, row, done = self.result_path(i), self.index.loc[i], status[i] == "done"
             if i not in present:
-                if status[i] == "done":
+                if done:
                     found.append(Problem(str(path), "missing (the index says done)", i, "solve again"))
                     if repair:
                         self.record(i, PENDING_ROW, write=False)
                 continue
-            sha, size = row["sha256"], row["bytes"]
-            if status[i] == "done" and not is_missing(sha):
-                reason = point_file_reason(path, sha, int(size))
-                if reason is None:
-                    continue
-                found.append(Problem(str(path), reason, i, "solve again"))
+            hashed = done and not is_missing(row["sha256"])
+            check = check_point_file(path, (row["sha256"], int(row["bytes"])) if hashed else None)
+            if check.reason is not None:
+                found.append(Problem(str(path), check.reason, i, "solve again"))
                 if repair:
-                    self._set_aside(path)
+                    set_aside(path, self.damaged_dir)
                     self.record(i, PENDING_ROW, write=False)
-                continue
-            # a file without a hash (an older store) or without a done row: it must load
-            try:
-                result = SimulationResult.load(path)
-                digest = file_digest(path)
-            except (ValueError, OSError) as exc:
-                found.append(Problem(str(path), f"unreadable: {_reason(exc)}", i, "solve again"))
-                if repair:
-                    self._set_aside(path)
-                    self.record(i, PENDING_ROW, write=False)
-                continue
-            if repair:
+            elif repair and check.digest is not None:  # loaded (no hash recorded): hashed now
                 self.hashed_now.append(i)
-                row_update: dict[str, Any] = {"sha256": digest[0], "bytes": digest[1]}
-                if status[i] != "done":
-                    row_update |= result_row(result) | {"status": "done", "error": None}
-                    row_update["attempts"] = max(int(as_int(row["attempts"]) or 0), 1)
-                self.record(i, row_update, write=False)
+                update: dict[str, Any] = {"sha256": check.digest[0], "bytes": check.digest[1]}
+                if not done:
+                    update |= result_row(check.result) | {"status": "done", "error": None}
+                    update["attempts"] = max(int(as_int(row["attempts"]) or 0), 1)
+                self.record(i, update, write=False)
         if not repair:
             for p in found:
                 p.action = "reported: `campaign run` solves it again"
         self.problems += found
         return found
-
-    def _set_aside(self, path: Path) -> None:
-        """A file that failed its check, kept in ``damaged/`` to look at (never read again)."""
-        target = self.damaged_dir / f"{path.name}.{time.strftime('%Y%m%dT%H%M%S')}"
-        target.parent.mkdir(exist_ok=True)
-        try:
-            os.replace(path, target)
-        except OSError:
-            path.unlink(missing_ok=True)
 
     def _clean_temporaries(self) -> None:
         """Temporary files of writes cut short by a kill (never renamed), except those of points
@@ -343,7 +313,8 @@ class CampaignStore(StoreLayout):
             self.index = self._merged()
 
     def _merged(self) -> pd.DataFrame:
-        disk, problems = self._read_index()
+        """The index on disk with this run's changed rows merged in (call under the lock)."""
+        disk, problems = read_index(self.index_path, self.spec)
         if problems:  # unreadable or damaged on disk: ours is the checked one
             disk = self.index.copy()
         return merge_rows(disk, self.index, sorted(self._dirty))
@@ -382,38 +353,32 @@ class CampaignStore(StoreLayout):
             The point claimed (or None), the candidates finished elsewhere meanwhile, and those
             another live run holds.
         """
-        finished: set[int] = set()
-        held: dict[int, dict[str, Any]] = {}
         with self.locked():
             self.index = self._merged()
+            attempts = self.index["attempts"].map(lambda a: int(as_int(a) or 0)).to_numpy()
             status = self.index["status"].astype(str).to_numpy()
-            now = time.time()
-            for i in candidates:
-                attempts = int(as_int(self.index.loc[i, "attempts"]) or 0)
-                if status[i] == "done" or (
-                    attempts_at_start is not None and attempts > attempts_at_start.get(i, 0)
-                ):
-                    finished.add(i)
-                    continue
-                lease = self._leases.read(i)
-                if (
-                    lease is not None
-                    and lease.get("run_id") != run.run_id
-                    and lease_alive(lease, lease_timeout_s, now)
-                ):
-                    held[i] = lease
-                    continue
-                if self.result_path(i).is_file():  # written by a run that died before its index row
-                    before = len(self.problems)
-                    self.verify(repair=True)
-                    self.write_index()
-                    if str(self.index.loc[i, "status"]) == "done":
-                        finished.add(i)
-                        continue
-                    del self.problems[before:]
-                self._leases.write(i, run.lease(i))
-                return ClaimOutcome(i, finished, held)
-        return ClaimOutcome(None, finished, held)
+            finished = {
+                i
+                for i in candidates
+                if status[i] == "done"
+                or (attempts_at_start is not None and attempts[i] > attempts_at_start.get(i, 0))
+            }
+            return self._leases.claim_first(
+                candidates, run, lease_timeout_s, finished, self._recorded_from_its_file
+            )
+
+    def _recorded_from_its_file(self, point: int) -> bool:
+        """Whether ``point``'s result file, left by a run that died before its index row, passes
+        its check and is now recorded done (call under the lock)."""
+        if not self.result_path(point).is_file():
+            return False
+        before = len(self.problems)
+        self.verify(repair=True)
+        self.write_index()
+        if str(self.index.loc[point, "status"]) == "done":
+            return True
+        del self.problems[before:]
+        return False
 
     def renew(self, points: list[int], run: RunIdentity) -> set[int]:
         """Renew this run's leases (their heartbeat).
@@ -461,8 +426,7 @@ class CampaignStore(StoreLayout):
             The run; a lease another run holds is left alone.
         """
         with self.locked():
-            if self.holds(point, run):
-                self.lease_path(point).unlink(missing_ok=True)
+            self._leases.release(point, run)
 
     def holders(self, lease_timeout_s: float = DEFAULT_LEASE_TIMEOUT_S) -> list[dict[str, Any]]:
         """The claims on the store and whether each holding run is alive.
@@ -508,18 +472,12 @@ class CampaignStore(StoreLayout):
         update = dict(row)
         if result is not None:
             path = self.result_path(point)
-            try:
+            with full_disk_as_error(path):
                 result.save(path)
-            except OSError as exc:
-                raise_if_full(exc, path)
-                raise
             update["sha256"], update["bytes"] = file_digest(path)
         if partial is not None:
-            try:
+            with full_disk_as_error(self.partial_path(point)):
                 partial.save(self.partial_path(point))
-            except OSError as exc:
-                raise_if_full(exc, self.partial_path(point))
-                raise
         update["attempts"] = int(as_int(self.index.loc[point, "attempts"]) or 0) + 1
         self.record(point, update, write=False)
 
@@ -602,9 +560,3 @@ class CampaignStore(StoreLayout):
             "claims": self.holders(lease_timeout_s),
             "store_bytes": sum(p.stat().st_size for p in self.root.rglob("*") if p.is_file()),
         }
-
-
-def _reason(exc: BaseException) -> str:
-    """An error's message without the path it starts with (the problem names the file)."""
-    text = str(exc)
-    return text.split(": ", 1)[1] if text.startswith("/") and ": " in text else text
