@@ -30,31 +30,53 @@ __all__ = ["CONTACT_INTEGRATIONS", "ContactPoints", "contact_points", "top_faces
 #: The placements of :func:`contact_points`.
 CONTACT_INTEGRATIONS = ("node", "surface")
 
-#: hex8 faces that can lie on the top, each in a cyclic order of its corners
-_TOP_FACES = ((4, 5, 6, 7), (0, 1, 2, 3))
+#: The six faces of a hex8 element (FEBio's node order), each in a cyclic order of its corners.
+_HEX8_FACES = np.array([[4, 5, 6, 7], [0, 1, 2, 3], [0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6], [3, 0, 4, 7]])
 
 
-def top_faces(mesh: BlockMesh) -> np.ndarray:
+def top_faces(mesh: BlockMesh, *, upward: bool = False) -> np.ndarray:
     """The top face's quads: the faces of hex8 elements whose four nodes all lie on the top.
+
+    The one list of the top faces: the surface contact integrates over them
+    (:func:`contact_points`) and the FEBio writer writes them as the contact surface
+    (``upward=True``).
 
     Parameters
     ----------
     mesh : BlockMesh
         The block.
+    upward : bool, default False
+        Turn each quad whose normal (right-hand rule over its corners' order) points down so that
+        every normal is +z, out of the block, as FEBio's contact surface needs; by default each
+        quad keeps its element's order of corners.
 
     Returns
     -------
     ndarray, shape (nf, 4)
-        Node indices (into the mesh) of each quad, in cyclic order.
+        Node indices (into the mesh) of each quad, in cyclic order, in element order.
+
+    Raises
+    ------
+    ValueError
+        If no element face lies on the top.
     """
-    return _top_quads(mesh.n_nodes, mesh.elements, mesh.top)
+    quads = _top_quads(mesh.n_nodes, mesh.elements, mesh.top)
+    if len(quads) == 0:
+        raise ValueError(f"mesh {mesh.source}: no element face lies on the top surface")
+    if not upward:
+        return quads
+    x = mesh.nodes[quads]
+    normal_z = np.cross(x[:, 1] - x[:, 0], x[:, 3] - x[:, 0])[:, 2]
+    return np.where((normal_z > 0)[:, None], quads, quads[:, ::-1])
 
 
 def _top_quads(n_nodes: int, elements: np.ndarray, top: np.ndarray) -> np.ndarray:
-    """The faces of hex8 ``elements`` whose four nodes are all in ``top`` (nf, 4)."""
+    """The faces of hex8 ``elements`` whose four nodes are all in ``top`` (nf, 4), in element order."""
     on_top = np.zeros(n_nodes, dtype=bool)
     on_top[top] = True
-    return np.concatenate([q[on_top[q].all(axis=1)] for q in (elements[:, f] for f in _TOP_FACES)])
+    quads = elements[:, _HEX8_FACES]  # (ne, 6, 4)
+    element, face = np.nonzero(on_top[quads].all(axis=2))
+    return quads[element, face]
 
 
 def tributary_areas(nodes: np.ndarray, elements: np.ndarray, top: np.ndarray) -> np.ndarray:

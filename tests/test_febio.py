@@ -14,6 +14,7 @@ import pytest
 from conftest import FEBIO_BASELINE
 from typer.testing import CliRunner
 
+from indentation_studio.forward.contact_quadrature import top_faces
 from indentation_studio.forward.febio.log import febio_result, read_febio_log
 from indentation_studio.forward.febio.runner import (
     FebioError,
@@ -21,7 +22,7 @@ from indentation_studio.forward.febio.runner import (
     FebioSolver,
     find_febio,
 )
-from indentation_studio.forward.febio.writer import indenter_surface, top_faces, write_feb
+from indentation_studio.forward.febio.writer import indenter_surface, write_feb
 from indentation_studio.forward.mesh import preset_mesh
 from indentation_studio.forward.spec import MeshChoice, ModelSpec
 from indentation_studio.studio.cli import app
@@ -134,11 +135,13 @@ def test_indenter_surface_on_sphere_with_outward_normals():
 
 def test_top_faces_cover_the_top_with_upward_normals():
     mesh = preset_mesh("coarse")
-    faces = top_faces(mesh)
+    faces = top_faces(mesh, upward=True)
     x = mesh.nodes[faces]
     area = 0.5 * np.linalg.norm(np.cross(x[:, 2] - x[:, 0], x[:, 3] - x[:, 1]), axis=1)
     assert area.sum() == pytest.approx(50.0 * 50.0, rel=1e-12)
     assert np.all(np.cross(x[:, 1] - x[:, 0], x[:, 3] - x[:, 0])[:, 2] > 0)
+    # the same faces as the surface contact's, each only turned
+    assert {frozenset(f) for f in top_faces(mesh)} == {frozenset(f) for f in faces}
 
 
 def test_no_febio_names_febio_path(monkeypatch, tmp_path):

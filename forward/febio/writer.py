@@ -32,6 +32,7 @@ import numpy as np
 
 from ... import __version__
 from ...atomic_write import atomic_write
+from ..contact_quadrature import top_faces
 from ..mesh import BlockMesh, build_mesh
 from ..spec import ModelSpec
 
@@ -188,23 +189,6 @@ def indenter_surface(radius: float, center: np.ndarray, divisions: int) -> tuple
     return np.array(pts), np.array(tris, dtype=np.int64)
 
 
-def top_faces(mesh: BlockMesh) -> np.ndarray:
-    """Quad4 faces (zero-based node indices) of the block's top surface, outward normal +z,
-    in element order."""
-    on_top = np.zeros(mesh.n_nodes, bool)
-    on_top[mesh.top] = True
-    local = np.array([[4, 5, 6, 7], [0, 1, 2, 3], [0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6], [3, 0, 4, 7]])
-    quads = mesh.elements[:, local]  # (ne, 6, 4)
-    hit = on_top[quads].all(axis=2)
-    elem, face = np.nonzero(hit)
-    if len(elem) == 0:
-        raise ValueError(f"mesh {mesh.source}: no element face lies on the top surface")
-    q = quads[elem, face]
-    x = mesh.nodes[q]
-    normal_z = np.cross(x[:, 1] - x[:, 0], x[:, 3] - x[:, 0])[:, 2]
-    return np.where((normal_z > 0)[:, None], q, q[:, ::-1])
-
-
 def _sub(parent: ET.Element, tag: str, text: Any = None, **attrib: Any) -> ET.Element:
     el = ET.SubElement(parent, tag, {k: str(v) for k, v in attrib.items()})
     if text is not None:
@@ -344,7 +328,7 @@ def build_feb(
     for name in ("bottom", "xsym", "ysym", "top"):
         _sub(geo, "NodeSet", _ids(np.sort(ids[getattr(mesh, name)])), name=name)
     surf = _sub(geo, "Surface", name="BlockTop")
-    for f, quad in enumerate(top_faces(mesh)):
+    for f, quad in enumerate(top_faces(mesh, upward=True)):
         _sub(surf, "quad4", _ids(ids[quad]), id=f + 1)
     surf = _sub(geo, "Surface", name="IndenterSurface")
     for f, tri in enumerate(sphere_tri):
