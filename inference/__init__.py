@@ -30,6 +30,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
         "posterior": ["Posterior", "sample_posterior"],
         "model_error": [
             "ModelError",
+            "budget_correction",
             "combined_pct",
             "emulation_error_pct",
             "model_error_at",
@@ -60,7 +61,14 @@ __getattr__, __dir__, __all__ = lazy.attach(
             "resolve_model",
         ],
         "verification_study": ["VerificationStudy", "parameter_bias", "run_verification_study"],
-        "study_budget": ["reference_uncertainty_pct", "study_error_budget"],
+        "study_budget": [
+            "ReferenceCorrection",
+            "finest_reference_budget",
+            "reference_correction",
+            "reference_uncertainty_pct",
+            "study_error_budget",
+            "with_finest_reference",
+        ],
         "febio_experiment": [
             "RecordedRun",
             "experiment_from_febio_run",

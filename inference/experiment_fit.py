@@ -39,6 +39,7 @@ from .inverse_fit import (
 from .mesh_check import MeshCheck, check_mesh_at
 from .model_error import (
     ModelError,
+    budget_correction,
     combined_pct,
     emulation_error_pct,
     has_high_fidelity_level,
@@ -171,8 +172,15 @@ class ExperimentFit:
 
     @property
     def theta(self) -> np.ndarray:
-        """The fitted (c1, c5), kPa (mu, when fitted, is in ``fit.theta[2]`` and fit.json's 'friction')."""
-        return self.fit.theta[:2]
+        """The fitted (c1, c5), kPa, corrected by the error budget where it corrects its model.
+
+        The fit of the surrogate's (or FE stage's) model is ``fit.theta``; a budget moved to a finer
+        reference (``inference.with_finest_reference``) brings it there, ``model_error.correction_pct``.
+        mu, when fitted, is in ``fit.theta[2]`` and fit.json's 'friction'.
+        """
+        if self.model_error is None:
+            return self.fit.theta[:2]
+        return self.model_error.corrected(self.fit.theta[:2])
 
     @property
     def bounds_pct(self) -> np.ndarray:
@@ -259,9 +267,18 @@ class ExperimentFit:
         final, inputs = self.fit, self.inputs
         first = self.surrogate_fit
         budget = budget_status(self)
+        correction = None if self.model_error is None else self.model_error.correction_pct
         return {
-            "c1": float(final.theta[0]),
-            "c5": float(final.theta[1]),
+            "c1": float(self.theta[0]),
+            "c5": float(self.theta[1]),
+            "model_fit": {"c1": float(final.theta[0]), "c5": float(final.theta[1])},
+            "correction": None
+            if correction is None
+            else {
+                "c1_pct": float(correction[0]),
+                "c5_pct": float(correction[1]),
+                "reference": (self.model_error.budget_source or {}).get("rule"),
+            },
             "c1_pct": float(self.bounds_pct[0]),
             "c5_pct": float(self.bounds_pct[1]),
             "bounds_include": model_error_scope(self.model_error, contact=self.contact),
@@ -992,7 +1009,8 @@ def _stick_mesh_budget(surrogate, contact: str, measured_with: str, *, theta) ->
         return None
     source = dict(budget.get("source") or {}) | {"measured_with": measured_with}
     pct = np.array([float(budget.get("c1_pct", 0.0)), float(budget.get("c5_pct", 0.0))])
-    return ModelError(np.zeros(2), pct, np.zeros((2, 2)), source, False, contact)
+    correction = budget_correction(budget, ("c1", "c5"))
+    return ModelError(np.zeros(2), pct, np.zeros((2, 2)), source, False, contact, correction_pct=correction)
 
 
 def _told(say: Callable[[str], None]) -> Callable[[int, np.ndarray, float], None]:

@@ -101,12 +101,11 @@ class ExperimentPosterior:
 
     @property
     def marker(self) -> np.ndarray:
-        """The fit, moved as the samples were when the posterior was carried to a finer mesh."""
+        """The fit, moved as the samples were: by a corrected budget, or carried to a finer mesh."""
+        theta = self.fit.theta if self.model_error is None else self.model_error.corrected(self.fit.theta)
         if self.carried is None:
-            return self.fit.theta
-        return (
-            self.fit.theta + np.asarray(self.carried["theta"]) * np.asarray(self.carried["shift_pct"]) / 100.0
-        )
+            return theta
+        return theta + np.asarray(self.carried["theta"]) * np.asarray(self.carried["shift_pct"]) / 100.0
 
     def _laplace_pct(self, s: float) -> np.ndarray:
         """Eq. 6's half-widths (percent) at the fit for ``s``; with mu sampled, those of
@@ -303,8 +302,8 @@ def sample_posterior_for(
         model_error = _with_processing(
             model_error, inputs, fit.theta, inputs.spec.contact.describe(), registration_mm, say
         )
-    if model_error is not None:
-        post = replace(post, samples=with_model_error(post.samples, model_error, seed))
+    if model_error is not None:  # spread by the model error, moved by a corrected budget's correction
+        post = replace(post, samples=model_error.corrected(with_model_error(post.samples, model_error, seed)))
     carried = None
     if mesh_check is not None:
         carried = load_mesh_check(mesh_check, inputs.experiment.root, fit.theta)

@@ -39,6 +39,7 @@ from .processing_error import ProcessingError
 __all__ = [
     "Z95",
     "ModelError",
+    "budget_correction",
     "combined_pct",
     "emulation_error_pct",
     "model_error_at",
@@ -78,6 +79,9 @@ class ModelError:
     processing : ProcessingError or None
         The experiment's processing (DIC points to nodes, registration) measured at the fit
         (``inference.processing_error``); None: not carried.
+    correction_pct : numpy.ndarray or None
+        (p,) what a corrected error budget moves the fit by, percent of it (the budget's model
+        brought to its reference, ``inference.with_finest_reference``); None: no correction.
     """
 
     discrepancy_pct: np.ndarray  # from the discrepancy's predictive uncertainty
@@ -89,6 +93,28 @@ class ModelError:
     surrogate_pct: np.ndarray | None = None  # the surrogate's own error, pushed through the fit
     surrogate_source: str | None = None  # where its held-out errors came from
     processing: ProcessingError | None = None  # the experiment's processing, measured at the fit
+    correction_pct: np.ndarray | None = None  # a corrected budget's move of the fit, percent
+
+    def corrected(self, theta: np.ndarray) -> np.ndarray:
+        """``theta`` moved by the budget's correction (its first parameters; the rest as they are).
+
+        Parameters
+        ----------
+        theta : numpy.ndarray
+            (..., q) values, q >= p or q < p (the first min(p, q) are corrected).
+
+        Returns
+        -------
+        numpy.ndarray
+            The corrected values, theta (1 + c / 100).
+        """
+        theta = np.array(theta, float)
+        if self.correction_pct is None:
+            return theta
+        c = np.asarray(self.correction_pct, float)
+        k = min(c.size, theta.shape[-1])
+        theta[..., :k] = theta[..., :k] * (1.0 + c[:k] / 100.0)
+        return theta
 
     def _systematic_pct(self) -> np.ndarray:
         """(p,) the systematic parts (budget, surrogate, processing), root sum of squares."""
@@ -134,6 +160,7 @@ class ModelError:
             "surrogate_pct": None if self.surrogate_pct is None else self.surrogate_pct.tolist(),
             "surrogate_source": self.surrogate_source,
             "processing": None if self.processing is None else self.processing.to_dict(),
+            "correction_pct": None if self.correction_pct is None else self.correction_pct.tolist(),
             "includes": model_error_scope(self),
         }
 
@@ -477,10 +504,19 @@ def model_error_at(
     theta = np.asarray(theta, float)
     names = surrogate.parameters[:free]
     budget_pct = np.array([float(budget.get(f"{name}_pct", 0.0)) for name in names])
+    correction = budget_correction(budget, names)
     p = len(names)
     if not has_high_fidelity_level(surrogate):
         known = (
-            ModelError(np.zeros(p), budget_pct, np.zeros((p, p)), budget.get("source"), False, contact)
+            ModelError(
+                np.zeros(p),
+                budget_pct,
+                np.zeros((p, p)),
+                budget.get("source"),
+                False,
+                contact,
+                correction_pct=correction,
+            )
             if budget
             else None
         )
@@ -494,10 +530,31 @@ def model_error_at(
             covariance_log=cov,
             budget_source=budget.get("source") if budget else None,
             contact=contact,
+            correction_pct=correction,
         )
     if not on_surrogate:
         return known
     return with_emulation_error(known, objective, eta, surrogate, theta, free=free)
+
+
+def budget_correction(budget: dict | None, names) -> np.ndarray | None:
+    """A budget's correction of the fit at a point (``surrogate.error_budgets.budget_at``), or None.
+
+    Parameters
+    ----------
+    budget : dict or None
+        What ``budget_at`` read at the fit.
+    names : sequence of str
+        The fit's parameters; those without a correction in the budget (mu) get 0.
+
+    Returns
+    -------
+    numpy.ndarray or None
+        (len(names),) percent; None where the budget corrects nothing.
+    """
+    if not budget or budget.get("c1_correction_pct") is None:
+        return None
+    return np.array([float(budget.get(f"{name}_correction_pct", 0.0)) for name in names])
 
 
 def with_model_error(samples: np.ndarray, model: ModelError, seed: int = 0) -> np.ndarray:

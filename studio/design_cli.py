@@ -467,6 +467,58 @@ def study_budget_cmd(
     _report_budget(budget, out, f"level {reference_level} of {study}", as_json)
 
 
+BUDGET_FILE = Annotated[Path, typer.Option(help="an error-budget.json against a verification study's level")]
+FINEST_STUDY = Annotated[
+    Path, typer.Option(help="a verification study's study.json with a finer level, at the budget's points")
+]
+
+
+@design_app.command("budget-reference")
+def budget_reference_cmd(
+    budget: BUDGET_FILE, study: FINEST_STUDY, out: STUDY_BUDGET_OUT, as_json: JSON = False
+) -> None:
+    """Move a budget to a finer study's finest level: its level's fit corrected to the extrapolated
+    value where the finest triplet is monotone, to the finest level where it oscillates; the width
+    is the finest level's own GCI (docs/explanation/model-error.md)."""
+    try:
+        payload = inference.finest_reference_budget(budget, study)
+        atomic_write_json(out, payload)
+    except (ValueError, OSError, KeyError) as exc:
+        fail(str(exc), as_json)
+    if as_json:
+        print(strict_json(payload | {"json_file": str(out)}))
+        return
+    level = payload["reference"]["corrected_level"]
+    view = Table(title=f"contact-L{level} moved to level {payload['reference']['level']} of {study}")
+    for col in (
+        "c1, c5 kPa",
+        "c1 reference",
+        "c1 correction %",
+        "c1 +-95 %",
+        "c5 reference",
+        "c5 correction %",
+        "c5 +-95 %",
+    ):
+        view.add_column(col)
+    for r in payload["rows"]:
+        if r["model"] != f"contact-L{level}":
+            continue
+        view.add_row(
+            f"{r['c1_true']:g}, {r['c5_true']:g}",
+            *(
+                cell
+                for p in ("c1", "c5")
+                for cell in (
+                    r[f"{p}_reference"],
+                    f"{r[f'{p}_correction_pct']:+.2f}",
+                    f"{r[f'{p}_reference_gci_pct']:.2f}",
+                )
+            ),
+        )
+    Console(width=140).print(view)
+    Console().print(f"wrote {out}")
+
+
 def _print_budget(budget: inference.ErrorBudget, reference: str) -> None:
     """Each model's bias per test point beside the 95 % half-width, and whether it converged."""
     view = Table(title=f"error budget against {reference} ({budget.reference['points']} test points)")

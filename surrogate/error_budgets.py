@@ -36,7 +36,10 @@ def remaining_bias(budget_file, model: str) -> dict:
     for a bias b. (A fit 18 % below the truth is 22 % of the fit away from it.) Where the rows
     carry the reference level's own uncertainty (``c1_reference_gci_pct``, a budget against a
     verification study's level, :func:`indentation_studio.inference.study_error_budget`), it is
-    added at each point.
+    added at each point. Where they carry a correction (``c1_correction_pct``: a budget moved to a
+    study's finest level, :func:`indentation_studio.inference.with_finest_reference`), a fit at a
+    point is moved by it and its half-width is the reference's width; the largest value, held
+    where no point is read, counts the correction as an error.
 
     Parameters
     ----------
@@ -49,9 +52,10 @@ def remaining_bias(budget_file, model: str) -> dict:
     -------
     dict
         ``c1_pct`` and ``c5_pct`` (percent, the largest over the points), ``points`` (each test
-        point's ``c1``, ``c5`` and what it leaves, ``c1_pct`` and ``c5_pct``: what
+        point's ``c1``, ``c5`` and what it leaves, ``c1_pct`` and ``c5_pct``, with
+        ``c1_correction_pct`` and ``c5_correction_pct`` in a corrected budget: what
         :func:`budget_at` interpolates) and ``source`` (the file, the model, the number of test
-        points).
+        points; a corrected budget's reference level and rule).
 
     Raises
     ------
@@ -85,10 +89,22 @@ def remaining_bias(budget_file, model: str) -> dict:
                 )
             each[name] = each[name] + u
         left[f"{name}_pct"] = float(np.max(each[name]))
+    corrections = _corrections(rows, budget_file, model)
+    if corrections is not None:  # held everywhere (no point read), the correction is a width again
+        for j, name in enumerate(("c1", "c5")):
+            left[f"{name}_pct"] = float(np.max(each[name] + np.abs(corrections[:, j])))
     try:
         left["points"] = [
             {"c1": float(row["c1_true"]), "c5": float(row["c5_true"]), "c1_pct": float(a), "c5_pct": float(b)}
-            for row, a, b in zip(rows, each["c1"], each["c5"], strict=True)
+            | (
+                {}
+                if corrections is None
+                else {
+                    "c1_correction_pct": float(corrections[i, 0]),
+                    "c5_correction_pct": float(corrections[i, 1]),
+                }
+            )
+            for i, (row, a, b) in enumerate(zip(rows, each["c1"], each["c5"], strict=True))
         ]
     except (KeyError, TypeError, ValueError):
         pass  # no test points recorded: the budget holds its largest value everywhere
@@ -100,7 +116,29 @@ def remaining_bias(budget_file, model: str) -> dict:
         "reference_extrapolated": bool(reference.get("extrapolated", False)),
         "reference_gci_carried": bool(reference.get("gci_carried", False)),
     }
+    if corrections is not None:
+        left["source"] |= {
+            "reference_level": reference.get("level"),
+            "corrected_level": reference.get("corrected_level"),
+            "rule": reference.get("rule"),
+        }
     return left
+
+
+def _corrections(rows: list[dict], budget_file, model: str) -> np.ndarray | None:
+    """(points, 2) the rows' corrections of c1 and c5 (percent of the fit), or None: not corrected."""
+    found = [row.get("c1_correction_pct") is not None for row in rows]
+    if not any(found):
+        return None
+    try:
+        out = np.array([[row["c1_correction_pct"], row["c5_correction_pct"]] for row in rows], float)
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ValueError(
+            f"{budget_file}: {model!r} has a correction missing at some point ({exc!r})"
+        ) from exc
+    if not np.all(np.isfinite(out) & (out > -100.0)):
+        raise ValueError(f"{budget_file}: {model!r} has a correction that is not a number above -100 %")
+    return out
 
 
 def budget_at(budget: dict | None, theta) -> dict | None:
@@ -117,8 +155,10 @@ def budget_at(budget: dict | None, theta) -> dict | None:
     the convex hull of the test points (in log c1, log c5, each scaled by the points'
     span) the remaining half-widths are interpolated linearly over the points' Delaunay
     triangles; outside it the largest of the :data:`NEAREST_OUTSIDE` nearest points' holds, and
-    the source says so. A budget without per-point values (one recorded before they were) or
-    with too few points to triangulate keeps its largest value everywhere.
+    the source says so (``"verified": False``). A corrected budget's corrections are interpolated
+    the same way; outside, the nearest point's holds and the spread of the nearest points'
+    corrections joins the width. A budget without per-point values (one recorded before they were)
+    or with too few points to triangulate keeps its largest value everywhere.
 
     Parameters
     ----------
@@ -130,7 +170,8 @@ def budget_at(budget: dict | None, theta) -> dict | None:
     Returns
     -------
     dict or None
-        The budget with ``c1_pct`` and ``c5_pct`` at ``theta`` and its ``source`` extended by
+        The budget with ``c1_pct`` and ``c5_pct`` (and, corrected, ``c1_correction_pct`` and
+        ``c5_correction_pct``) at ``theta`` and its ``source`` extended by
         ``at`` (c1, c5) and ``where``: ``"interpolated"``, ``"outside"`` (with ``nearest``, the
         points read) or ``"largest"`` (a reference that is one mesh, or no per-point values).
 
@@ -164,18 +205,28 @@ def budget_at(budget: dict | None, theta) -> dict | None:
         return out
     lo, span = xy.min(axis=0), np.ptp(xy, axis=0)
     xy, q = (xy - lo) / span, (np.log(at) - lo) / span
-    values = np.array([[p["c1_pct"], p["c5_pct"]] for p in points])
+    corrected = all("c1_correction_pct" in p for p in points)
+    names = ("c1_pct", "c5_pct") + (("c1_correction_pct", "c5_correction_pct") if corrected else ())
+    values = np.array([[p[name] for name in names] for p in points], float)
     try:
         inside = LinearNDInterpolator(xy, values)(q[None, :])[0]
     except QhullError:  # the points on one line: no triangles
-        inside = np.full(2, np.nan)
+        inside = np.full(len(names), np.nan)
     if np.all(np.isfinite(inside)):
-        out["c1_pct"], out["c5_pct"] = (float(v) for v in inside)
+        out |= {name: float(v) for name, v in zip(names, inside, strict=True)}
         out["source"]["where"] = "interpolated"
         return out
     nearest = np.argsort(np.linalg.norm(xy - q, axis=1))[:NEAREST_OUTSIDE]
-    out["c1_pct"], out["c5_pct"] = (float(v) for v in values[nearest].max(axis=0))
-    out["source"] |= {"where": "outside", "nearest": [[points[i]["c1"], points[i]["c5"]] for i in nearest]}
+    widths = values[nearest, :2].max(axis=0)
+    if corrected:  # the nearest point's correction; how much the nearest ones differ joins the width
+        out["c1_correction_pct"], out["c5_correction_pct"] = (float(v) for v in values[nearest[0], 2:])
+        widths = widths + np.ptp(values[nearest, 2:], axis=0)
+    out["c1_pct"], out["c5_pct"] = (float(v) for v in widths)
+    out["source"] |= {
+        "where": "outside",
+        "verified": False,
+        "nearest": [[points[i]["c1"], points[i]["c5"]] for i in nearest],
+    }
     return out
 
 

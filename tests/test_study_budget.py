@@ -17,11 +17,14 @@ from indentation_studio.forward.predictor import CachedPredictor, FESolverPredic
 from indentation_studio.forward.result import SimulationResult
 from indentation_studio.forward.spec import Contact, Indenter, MeshChoice, ModelSpec, Protocol
 from indentation_studio.inference.error_budget import compute_error_budget
+from indentation_studio.inference.model_error import ModelError
 from indentation_studio.inference.study_budget import (
     FS_ASYMPTOTIC,
     FS_OUTSIDE,
+    reference_correction,
     reference_uncertainty_pct,
     study_error_budget,
+    with_finest_reference,
 )
 from indentation_studio.inference.verification_study import run_verification_study
 from indentation_studio.surrogate.error_budgets import (
@@ -227,3 +230,100 @@ def test_a_fit_at_each_paper_radius_finds_its_budget_and_its_model(radius):
         is None
     )
     assert shipped_budget(spec.with_friction(0.3)) is None
+
+
+@pytest.mark.parametrize("order", [1.0, 1.5, 2.0])
+def test_a_monotone_finest_triplet_corrects_a_levels_fit_to_the_converged_value(order):
+    # level k answers as the converged model at theta + d_k, d_k = C h_k^p; the study's values are
+    # the finest level's fits of each level's response, f_k = theta + d_k - d_0 (verification_study)
+    h, theta, C = [1.0, 1.5, 2.25, 3.375], 100.0, 2.0
+    d = [C * x**order for x in h]
+    f = [theta + dk - d[0] for dk in d]
+    for k in (1, 2):
+        rc = reference_correction(f, h, k, finest_level=4)
+        assert rc.reference == "extrapolated"
+        assert rc.reference_value == pytest.approx(theta - d[0])
+        fitted = theta - d[k]  # what level k's model fits to a converged experiment
+        assert fitted * (1 + rc.correction_pct / 100) == pytest.approx(theta, rel=1e-12)
+        # the width is the finest level's GCI, and holds the finest level's own distance d_0
+        assert rc.width_pct == pytest.approx(reference_uncertainty_pct(f, h, 0))
+        assert rc.width_pct >= 100 * d[0] / (theta - d[0])
+
+
+def test_an_oscillating_finest_triplet_corrects_to_the_finest_level():
+    h = [1.0, 1.5, 2.25, 3.375]
+    f = [100.0, 98.0, 101.0, 99.0]  # level 3's fit of level 4's response 2 % low, then 1 % high
+    rc = reference_correction(f, h, 1, finest_level=4)
+    assert rc.reference == "level 4" and rc.reference_value == 100.0
+    # level 3 fits theta - d_3 = 102 to what level 4 reads as 100: corrected by -2 / 102
+    assert rc.correction_pct == pytest.approx(-200.0 / 102.0)
+    assert rc.width_pct == pytest.approx(reference_uncertainty_pct(f, h, 0))  # Fs 3, order 2
+    assert rc.width_pct == pytest.approx(100 * FS_OUTSIDE * 0.02 / 1.25)
+
+
+def test_a_budget_moved_to_the_studys_finest_level_follows_the_rule(small_study):
+    out, _, _ = small_study
+    payload = study_error_budget(out, ("contact-L0", "contact-L1"), reference_level=1, fe_steps=2).to_dict()
+    loaded = json.loads((out / "study.json").read_text())
+    moved = with_finest_reference(payload, loaded, {"contact-L1": 1, "contact-L0": 0})
+    assert moved["reference"]["level"] == 2 and moved["reference"]["corrected"] is True
+    for case in loaded["cases"]:
+        sizes = [lv["h_mm"] for lv in case["levels"]]
+        rows = {r["model"]: r for r in moved["rows"] if (r["c1_true"], r["c5_true"]) == tuple(case["theta"])}
+        for p in ("c1", "c5"):
+            v = case["quantities"][f"fit {p}"]["values"]
+            triplet = case["quantities"][f"fit {p}"]["triplets"][0]
+            expected = "level 2" if triplet["oscillatory"] else "extrapolated"
+            assert rows["contact-L1"][f"{p}_reference"] == expected
+            f_inf = v[0] if triplet["oscillatory"] else reference_correction(v, sizes, 1).reference_value
+            assert rows["contact-L1"][f"{p}_correction_pct"] == pytest.approx(
+                100 * (v[1] - f_inf) / (v[0] - v[1] + f_inf)
+            )
+            assert rows["contact-L1"][f"{p}_bias_pct"] == 0.0
+            # the coarser model keeps its bias and carries level 1's correction as an error
+            width = rows["contact-L1"][f"{p}_reference_gci_pct"]
+            assert rows["contact-L0"][f"{p}_reference_gci_pct"] == pytest.approx(
+                abs(rows["contact-L1"][f"{p}_correction_pct"]) + width
+            )
+            assert rows["contact-L0"][f"{p}_bias_pct"] != 0.0
+
+
+def test_a_corrected_budget_moves_the_fit_and_never_narrows_outside_its_points(tmp_path):
+    rows = [
+        {
+            "model": FIT_MESH,
+            "c1_true": c1,
+            "c5_true": c5,
+            "c1_bias_pct": 0.0,
+            "c5_bias_pct": 0.0,
+            "c1_correction_pct": 2.0,
+            "c5_correction_pct": -1.0 if c1 < 10 else -3.0,
+            "c1_reference_gci_pct": 1.0,
+            "c5_reference_gci_pct": 2.0,
+        }
+        for c1 in (3.0, 19.0)
+        for c5 in (120.0, 540.0)
+    ]
+    path = tmp_path / "budget.json"
+    path.write_text(
+        json.dumps({"reference": {"gci_carried": True, "corrected": True, "level": 4}, "rows": rows})
+    )
+    left = remaining_bias(path, FIT_MESH)
+    # held everywhere (no point read), a correction counts as an error again
+    assert left["c5_pct"] == pytest.approx(5.0) and left["c1_pct"] == pytest.approx(3.0)
+    mid = budget_at(left, [np.sqrt(3 * 19), 250.0])
+    assert mid["source"]["where"] == "interpolated"
+    assert mid["c5_pct"] == pytest.approx(2.0) and -3.0 < mid["c5_correction_pct"] < -1.0
+    assert mid["c1_correction_pct"] == pytest.approx(2.0)
+    # outside the points: the nearest point's correction, its width plus the nearest ones' spread
+    soft = budget_at(left, [1.0, 600.0])
+    assert soft["source"]["where"] == "outside" and soft["source"]["verified"] is False
+    assert soft["c5_correction_pct"] == pytest.approx(-1.0)
+    assert soft["c5_pct"] == pytest.approx(2.0 + 2.0) and soft["c5_pct"] >= mid["c5_pct"]
+    error = ModelError(
+        np.zeros(2),
+        np.array([soft["c1_pct"], soft["c5_pct"]]),
+        np.zeros((2, 2)),
+        correction_pct=np.array([2.0, -1.0]),
+    )
+    assert error.corrected(np.array([10.0, 300.0, 0.5])) == pytest.approx([10.2, 297.0, 0.5])
