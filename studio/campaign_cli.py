@@ -15,13 +15,23 @@ from .. import campaign  # lazy: a command imports what it runs
 from ..atomic_write import atomic_write, strict_json
 from ..campaign.errors import CampaignError, DesignError
 from ..forward.spec import SpecError
-from .options import JSON, MODEL_FLAGS, ModelOptions, SolverName, err, fail, model_options
+from .options import (
+    JOBS,
+    JSON,
+    MODEL_FLAGS,
+    RUNS_DIR,
+    SOLVER,
+    ModelOptions,
+    SolverName,
+    err,
+    fail,
+    model_options,
+)
 from .progress import step_progress
 
 campaign_app = typer.Typer(help="Many simulations over a parameter design, resumable, in parallel.")
 
 NAME = Annotated[str, typer.Option(help="campaign name: its folder under --runs-dir")]
-RUNS_DIR = Annotated[Path, typer.Option(help="where campaigns live")]
 
 
 def _print_summary(summary: dict[str, Any], title: str) -> None:
@@ -85,8 +95,6 @@ GRID = Annotated[
         "mu=LO:HI:N[:log] adds friction as a third axis (:log spaces it in log)"
     ),
 ]
-SOLVER = Annotated[SolverName, typer.Option(help="FE solver")]
-JOBS = Annotated[int, typer.Option(help="parallel processes (default: all cores)")]
 SCHEDULER = Annotated[
     str | None, typer.Option(help="dask.distributed scheduler address, e.g. tcp://10.0.0.1:8786")
 ]

@@ -28,7 +28,19 @@ from .design_cli import design_app
 from .help_text import tidy_help
 from .import_cli import register as register_import
 from .inference_cli import register as register_inference
-from .options import JSON, MODEL_FLAGS, ModelOptions, SolverName, err, fail, model_options, say
+from .options import (
+    CHAIN_STEPS,
+    JOBS,
+    JSON,
+    MODEL_FLAGS,
+    SOLVER,
+    ModelOptions,
+    SolverName,
+    err,
+    fail,
+    model_options,
+    say,
+)
 from .progress import step_progress
 from .surrogate_cli import surrogate_app
 from .verification_cli import register as register_verification
@@ -104,7 +116,6 @@ register_import(app)
 register_verification(app)
 
 
-SOLVER = Annotated[SolverName, typer.Option(help="FE solver")]
 SENSITIVITIES = Annotated[
     bool, typer.Option(help="also d(force, displacement)/d(c1, c5) (and d/d(mu) with --friction)")
 ]
@@ -297,8 +308,8 @@ def _print_mesh_study(rows: list[dict[str, Any]], reference: str) -> None:
 def demo(
     name: Annotated[str, typer.Option(help="campaign and report name under runs/")] = "demo",
     full: Annotated[bool, typer.Option(help="the paper's 775-point grid instead of a 9 x 9 one")] = False,
-    jobs: Annotated[int, typer.Option(help="parallel simulations (0: all cores)")] = 0,
-    posterior_steps: Annotated[int, typer.Option(help="emcee steps per walker")] = 1500,
+    jobs: JOBS = 0,
+    posterior_steps: CHAIN_STEPS = 1500,
     as_json: JSON = False,
 ) -> None:
     """The paper's results from nothing, on the embedded solver: campaign, surrogates, Table 1,

@@ -17,7 +17,7 @@ from rich.console import Console
 from .. import design, forward, inference, studio  # lazy packages: a command imports what it runs
 from ..atomic_write import strict_json
 from ..forward.spec import SpecError
-from .options import JSON, ModelOptions, err, fail, model_options, say
+from .options import JSON, OVERWRITE, SEED, ModelOptions, err, fail, model_options, say
 from .progress import step_progress
 
 composite_app = typer.Typer(help="The composite phantom (paper 2.4.2, 2.9): TPU fibers in a silicone matrix.")
@@ -74,8 +74,6 @@ COMPOSITE_MESH = Annotated[
 FROM_RESULT = Annotated[
     Path | None, typer.Option(help="write the experiment from this composite result (.npz), no run")
 ]
-SEED = Annotated[int, typer.Option(help="noise seed")]
-OVERWRITE = Annotated[bool, typer.Option(help="replace an experiment already in --out")]
 
 
 @composite_app.command("indent")

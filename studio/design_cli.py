@@ -14,7 +14,19 @@ from .. import design, inference, studio  # lazy packages: a command imports wha
 from ..atomic_write import atomic_write_json, strict_json
 from ..forward.mesh_presets import FIT_MESH
 from ..forward.spec import SpecError
-from .options import JSON, MODEL_FLAGS, ModelOptions, err, fail, model_options
+from .options import (
+    DIC_NOISE,
+    FORCE_NOISE,
+    JSON,
+    MODEL_FLAGS,
+    RADII,
+    RUNS_DIR,
+    WEIGHTS,
+    ModelOptions,
+    err,
+    fail,
+    model_options,
+)
 
 design_app = typer.Typer(
     help="Experiment design: certainty bounds and objective weights (paper 2.6, Table 1)."
@@ -37,7 +49,7 @@ FD_STEP = Annotated[
         "as the authors' code)"
     ),
 ]
-JOBS = Annotated[int, typer.Option("--jobs", help="parallel simulations for the fd stencil")]
+FD_JOBS = Annotated[int, typer.Option("--jobs", help="parallel simulations for the fd stencil")]
 
 
 def _fd_step(text: str):
@@ -84,7 +96,7 @@ WEIGHTS_OUT = Annotated[Path | None, typer.Option(help="also write the table as 
 @design_app.command("bounds")
 @model_options(*(f for f in MODEL_FLAGS if f not in ("c1", "c5")))
 def bounds(
-    weights: Annotated[str, typer.Option(help="eta = force,ux,uy,uz on the simplex")] = "0.45,0.35,0.2,0",
+    weights: WEIGHTS = "0.45,0.35,0.2,0",
     s: S = 0.05,
     theta: THETA = "10,350",
     *,
@@ -92,7 +104,7 @@ def bounds(
     method: METHOD = "exact",
     reading: READING = "paper",
     fd_step: FD_STEP = "0.02",
-    jobs: JOBS = 1,
+    jobs: FD_JOBS = 1,
     mu_prior: MU_PRIOR = "0.1:3",
     as_json: JSON = False,
 ) -> None:
@@ -146,7 +158,7 @@ def weights_cmd(
     method: METHOD = "exact",
     reading: READING = "paper",
     fd_step: FD_STEP = "0.02",
-    jobs: JOBS = 1,
+    jobs: FD_JOBS = 1,
     out: WEIGHTS_OUT = None,
     as_json: JSON = False,
 ) -> None:
@@ -232,7 +244,7 @@ def baseline_cmd(
 @design_app.command("map")
 def map_cmd(
     campaign: Annotated[str, typer.Option(help="campaign name under runs/ (or its folder)")],
-    weights: Annotated[str, typer.Option(help="eta = force,ux,uy,uz on the simplex")] = "0.45,0.35,0.2,0",
+    weights: WEIGHTS = "0.45,0.35,0.2,0",
     s: S = 0.05,
     theta: THETA = "10,350",
     reading: READING = "paper",
@@ -272,7 +284,6 @@ def _floats(text: str) -> list[float]:
     return [float(v) for v in text.split(",") if v.strip()]
 
 
-RADII = Annotated[str, typer.Option(help="indenter radii, mm")]
 DEPTHS = Annotated[str, typer.Option(help="maximum depths, mm")]
 EVERY = Annotated[str, typer.Option(help="measure every k-th 0.5 mm step (k values)")]
 FOVS = Annotated[str, typer.Option(help="DIC field-of-view radii, mm ('all' = whole top)")]
@@ -369,15 +380,11 @@ BUDGET_MODELS = Annotated[
         "PRESET@mu=VALUE: that mesh with another contact (a stick model fitted to frictional data)"
     ),
 ]
-WEIGHTS = Annotated[str, typer.Option(help="eta = force,ux,uy,uz on the simplex")]
-FORCE_NOISE = Annotated[float, typer.Option(help="relative force noise per step")]
-DIC_NOISE = Annotated[float, typer.Option(help="DIC noise per node, mm")]
 FE_STEPS = Annotated[int, typer.Option(help="Gauss-Newton steps of an FE model's fit")]
 FOV = Annotated[float, typer.Option(help="DIC field of view: radius around the axis, mm (0: whole top)")]
 BUDGET_OUT = Annotated[
     Path | None, typer.Option(help="JSON to write (default runs/<reference>/error-budget.json)")
 ]
-RUNS_DIR = Annotated[Path, typer.Option(help="where campaigns live")]
 
 
 @design_app.command("error-budget")

@@ -15,16 +15,27 @@ import typer
 from .. import forward, inference  # lazy: a command imports what it runs
 from ..atomic_write import strict_json
 from .help_text import first_sentence
-from .options import JSON, REQUIRED, err, fail, option_group
+from .options import (
+    DIC_NOISE,
+    EXPERIMENT,
+    FORCE_NOISE,
+    JSON,
+    OVERWRITE,
+    RADIUS,
+    REQUIRED,
+    SEED,
+    STEP_SIZE,
+    STEPS,
+    err,
+    fail,
+    option_group,
+)
 
 import_app = typer.Typer(help="Import a lab's files (DIC export, load-frame record) as an experiment folder.")
 
 OUT = Annotated[
     Path, typer.Option(help="the experiment folder to write (refused if it exists, unless --overwrite)")
 ]
-RADIUS = Annotated[float, typer.Option(help="indenter sphere radius, mm")]
-STEP_SIZE = Annotated[float, typer.Option(help="depth per step, mm")]
-STEPS = Annotated[int, typer.Option(help="number of indentation steps (holds)")]
 FIBER = Annotated[
     float | None,
     typer.Option(help="fiber direction in the DIC frame, degrees from x (default: from the strain)"),
@@ -70,7 +81,6 @@ CONTACT = Annotated[
         help="record: the position at zero depth, mm (default: where the force leaves its baseline)"
     ),
 ]
-OVERWRITE = Annotated[bool, typer.Option(help="replace an existing experiment folder")]
 DESCRIPTION = Annotated[str, typer.Option(help="free text for experiment.json")]
 ENCODING = Annotated[
     str | None,
@@ -395,16 +405,10 @@ def import_load_frame_command(
 
 FEBIO_LOG = Annotated[Path, typer.Option(help="the FEBio 4 run's log file (its material echoed in it)")]
 FEB = Annotated[Path | None, typer.Option(help="the run's .feb (default: beside the log)")]
-RUN_RADIUS = Annotated[float, typer.Option(help="the run's indenter radius, mm")]
-RUN_STEPS = Annotated[int, typer.Option(help="the run's number of steps")]
-RUN_STEP_SIZE = Annotated[float, typer.Option(help="the run's depth per step, mm")]
-DIC_NOISE = Annotated[float, typer.Option(help="DIC displacement noise (sd), mm")]
-FORCE_NOISE = Annotated[float, typer.Option(help="force noise (sd) relative to the force")]
 MISREGISTRATION = Annotated[float, typer.Option(help="registration error of the indentation point, mm")]
 FOV = Annotated[float, typer.Option(help="DIC field of view (radius from the indenter), mm")]
 DIC_POINTS = Annotated[int, typer.Option(help="DIC points over the field of view")]
 RUN_FIBER = Annotated[float, typer.Option(help="fiber direction in the DIC frame, degrees")]
-SEED = Annotated[int, typer.Option(help="random seed of the noise and the DIC points")]
 
 
 @import_app.command("febio")
@@ -412,9 +416,9 @@ def import_febio_command(
     log: FEBIO_LOG,
     out: OUT,
     feb: FEB = None,
-    radius: RUN_RADIUS = 4.77,
-    steps: RUN_STEPS = 28,
-    step_size: RUN_STEP_SIZE = 0.5,
+    radius: RADIUS = 4.77,
+    steps: STEPS = 28,
+    step_size: STEP_SIZE = 0.5,
     dic_noise: DIC_NOISE = 0.02,
     force_noise: FORCE_NOISE = 0.02,
     misregistration: MISREGISTRATION = 0.1,
@@ -458,7 +462,7 @@ def register(app: typer.Typer) -> None:
 
     @app.command("check")
     def check(
-        experiment: Annotated[Path, typer.Option(help="experiment folder")],
+        experiment: EXPERIMENT,
         out: Annotated[Path | None, typer.Option(help="report folder (default <experiment>/check)")] = None,
         mesh: Annotated[
             str, typer.Option(help="mesh preset whose top nodes are matched to the DIC data")

@@ -13,11 +13,8 @@ from rich.panel import Panel
 
 from .. import inference, studio  # lazy: a command imports what it runs
 from ..atomic_write import strict_json
-from .options import JSON, err, fail, say
+from .options import CHAIN_STEPS, EXPERIMENT, JSON, SEED, WEIGHTS, err, fail, say
 
-EXPERIMENT = Annotated[
-    Path, typer.Option(help="experiment folder (its format: docs/guide/import-and-check.md)")
-]
 SURROGATE = Annotated[
     Path | None,
     typer.Option(
@@ -25,7 +22,6 @@ SURROGATE = Annotated[
         "experiment's test (the paper's R = 4.77 and 8 mm, 28 x 0.5 mm), checked against its sha256"
     ),
 ]
-WEIGHTS = Annotated[str, typer.Option(help="eta = force,ux,uy,uz on the simplex")]
 OUT = Annotated[Path | None, typer.Option(help="folder for the result files (default: <experiment>/results)")]
 EXCLUDE = Annotated[
     str, typer.Option(help="steps (1..N, comma-separated) to leave out beside those experiment.json excludes")
@@ -38,14 +34,14 @@ CHECK_MESH = Annotated[
     ),
 ]
 
-FORCE_NOISE = Annotated[
+DECLARED_FORCE_NOISE = Annotated[
     float | None,
     typer.Option(
         help="declared force noise, relative, of one reading (e.g. 0.02); default: measured from each "
         "hold's eq. 9 residuals (the model-adequacy test)"
     ),
 ]
-DIC_NOISE = Annotated[
+DECLARED_DIC_NOISE = Annotated[
     float | None,
     typer.Option(
         help="declared DIC noise, mm; default: measured from the DIC data (the model-adequacy test)"
@@ -93,8 +89,6 @@ REGISTRATION = Annotated[
 ]
 PAPER_STOP = Annotated[bool, typer.Option(help="stop as soon as F < 3e-2 (the paper's rule)")]
 WALKERS = Annotated[int, typer.Option(help="emcee walkers")]
-CHAIN_STEPS = Annotated[int, typer.Option(help="emcee steps per walker")]
-SEED = Annotated[int, typer.Option(help="random seed")]
 MESH_CHECK = Annotated[
     Path | None,
     typer.Option(
@@ -129,8 +123,8 @@ def fit(
     check_mesh: CHECK_MESH = None,
     exclude_steps: EXCLUDE = "",
     friction: FIT_FRICTION = None,
-    force_noise: FORCE_NOISE = None,
-    dic_noise: DIC_NOISE = None,
+    force_noise: DECLARED_FORCE_NOISE = None,
+    dic_noise: DECLARED_DIC_NOISE = None,
     registration_mm: REGISTRATION = REGISTRATION_DEFAULT_MM,
     out: OUT = None,
     as_json: JSON = False,
@@ -209,15 +203,20 @@ def _print_fit(result: inference.ExperimentFit, payload: dict, check_mesh: str |
         lo, hi = fr["mu_interval"]
         ends = [side for side, reached in fr["mu_reaches_range_end"].items() if reached]
         open_ = f"; the data do not bound it at the range's {' and '.join(ends)} end" if ends else ""
-        sur = fr.get("mu_surrogate_pct")
+        sur = fr.get("mu_model_pct")
         parts = (
-            f" (statistical +- {fr['mu_statistical_pct']:.3g} %, surrogate +- {sur:.3g} %)"
+            f" (statistical +- {fr['mu_statistical_pct']:.3g} %, model +- {sur:.3g} %)"
             if sur is not None
             else ""
         )
         if inference.interval_is_whole_range((lo, hi), fr["mu_range"]):
             said = f"  mu is not identified by these data: its 95 % interval{parts} is its whole range"
             said += f" [{lo:.3g}, {hi:.3g}] (the fit at {fr['mu']:.3g}{limit})"
+        elif not fr["mu_identified"]:
+            said = (
+                f"  mu is not identified by these data: its 95 % interval{parts} [{lo:.3g}, {hi:.3g}] reaches "
+                f"its range's end (the fit at {fr['mu']:.3g}{limit}{open_})"
+            )
         else:
             said = f"  mu = {fr['mu']:.3g}{limit}, 95 % within [{lo:.3g}, {hi:.3g}]{parts}{open_}"
         Console().print(

@@ -209,6 +209,23 @@ FIBER_STRETCH = Annotated[
 ]
 JSON = Annotated[bool, typer.Option("--json", help="print one JSON object on stdout")]
 
+# The options several commands share, each defined here once (a command's own options stay beside
+# it; an option of the same name that means something else there, such as fit's declared
+# --force-noise, is named for what it is).
+RUNS_DIR = Annotated[Path, typer.Option(help="where campaigns live")]
+SEED = Annotated[int, typer.Option(help="random seed")]
+JOBS = Annotated[int, typer.Option(help="parallel processes (0: all cores)")]
+SOLVER = Annotated[SolverName, typer.Option(help="FE solver")]
+WEIGHTS = Annotated[str, typer.Option(help="eta = force,ux,uy,uz on the simplex")]
+RADII = Annotated[str, typer.Option(help="indenter radii, mm")]
+FORCE_NOISE = Annotated[float, typer.Option(help="force noise (sd) relative to the force, per step")]
+DIC_NOISE = Annotated[float, typer.Option(help="DIC displacement noise (sd), mm")]
+OVERWRITE = Annotated[bool, typer.Option(help="replace an experiment already in --out")]
+EXPERIMENT = Annotated[
+    Path, typer.Option(help="experiment folder (its format: docs/guide/import-and-check.md)")
+]
+CHAIN_STEPS = Annotated[int, typer.Option(help="emcee steps per walker")]
+
 #: The flag of each :class:`ModelOptions` field, in the order the commands list them.
 MODEL_FLAGS = {
     "c1": C1,

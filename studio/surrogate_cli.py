@@ -14,14 +14,13 @@ from rich.table import Table
 
 from .. import surrogate  # lazy: the command imports what it runs
 from ..atomic_write import strict_json
-from .options import JSON, err, fail
+from .options import JSON, RUNS_DIR, SEED, err, fail
 
 surrogate_app = typer.Typer(
     help="Gaussian-process and MLP emulators of the forward model, trained on a campaign."
 )
 
 CAMPAIGN = Annotated[str, typer.Option(help="campaign name under --runs-dir (or its folder)")]
-RUNS_DIR = Annotated[Path, typer.Option(help="where campaigns live")]
 
 
 class Kind(StrEnum):
@@ -100,7 +99,6 @@ INPUT_SCALE = Annotated[str, typer.Option(help="linear or log scaling of the par
 PCA_TOL = Annotated[float, typer.Option(help="PCA reconstruction tolerance (relative)")]
 TEST_CAMPAIGN = Annotated[str | None, typer.Option(help="a campaign of points to test on")]
 KFOLD = Annotated[int, typer.Option(help="k-fold cross-validation on the training campaign (0: none)")]
-SEED = Annotated[int, typer.Option(help="random seed")]
 MODEL_OUT = Annotated[
     Path | None, typer.Option(help="model file (default runs/<campaign>/surrogate-<kind>.safetensors)")
 ]

@@ -15,7 +15,7 @@ from rich.table import Table
 from .. import forward, inference, studio  # lazy packages: a command imports what it runs
 from ..atomic_write import strict_json
 from ..forward.spec import SpecError
-from .options import JSON, ModelOptions, err, fail, model_options, say
+from .options import JSON, RADII, ModelOptions, err, fail, model_options, say
 from .progress import step_progress
 
 
@@ -61,7 +61,6 @@ FAMILY = Annotated[
 ]
 LEVELS = Annotated[str, typer.Option(help="comma-separated levels (0 the coarsest)")]
 POINTS = Annotated[str, typer.Option(help="c1:c5 pairs, kPa")]
-RADII = Annotated[str, typer.Option(help="indenter radii, mm")]
 SUBSTEP_COUNTS = Annotated[str, typer.Option(help="increments per step; all of them on the finest levels")]
 SUBSTEP_LEVELS = Annotated[int, typer.Option(help="how many finest levels get every substep count")]
 OUT_DIR = Annotated[Path, typer.Option(help="every run and study.json; a run already there is read back")]
