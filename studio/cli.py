@@ -25,7 +25,7 @@ from ..forward.spec import SpecError
 from .campaign_cli import campaign_app
 from .composite_cli import composite_app
 from .design_cli import design_app
-from .help_text import tidy_help
+from .help_text import COMMAND_ORDER, place_commands, tidy_help
 from .import_cli import register as register_import
 from .inference_cli import register as register_inference
 from .options import (
@@ -66,7 +66,13 @@ class StudioGroup(TyperGroup):
     """The command group with the JSON error contract's safety net: a library error no command
     caught (a bug, or a file damaged in a way no loader foresaw) becomes the studio's own error,
     one line on stderr and, with --json, ``{"error": ...}`` on stdout, exit code 1: never a
-    traceback. ``INDENT_STUDIO_TRACEBACK=1`` shows the traceback instead (for a bug report)."""
+    traceback. ``INDENT_STUDIO_TRACEBACK=1`` shows the traceback instead (for a bug report). Its
+    ``--help`` lists the commands in a user's order (``help_text.COMMAND_PANELS``)."""
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        """The commands in the order of their panels (``help_text.COMMAND_ORDER``), any other after."""
+        rank = {name: k for k, name in enumerate(COMMAND_ORDER)}
+        return sorted(super().list_commands(ctx), key=lambda name: rank.get(name, len(rank)))
 
     def invoke(self, ctx: click.Context) -> Any:
         raw = [*getattr(ctx, "_protected_args", []), *ctx.args, *sys.argv[1:]]
@@ -331,6 +337,7 @@ def demo(
 
 
 tidy_help(app)  # every command above is registered: plain help texts with their guide page
+place_commands(app)  # and the panels of --help, in a user's order
 
 
 def main() -> None:  # pragma: no cover

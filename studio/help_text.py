@@ -1,7 +1,8 @@
 """Help texts as a terminal shows them: the commands' docstrings without the reStructuredText a
 terminal does not render (double backticks, ``:func:`` roles), a one-sentence line in the command
-list, and the guide page of each command (a page under ``docs/guide/`` that exists: the test
-over every command's ``--help`` checks both)."""
+list, the guide page of each command (a page under ``docs/guide/`` that exists: the test over
+every command's ``--help`` checks both), and the panels of ``indent-studio --help`` that list the
+commands in a user's order (:data:`COMMAND_PANELS`)."""
 
 from __future__ import annotations
 
@@ -29,6 +30,26 @@ GUIDE_PAGES = {
 }
 #: a command of ``import`` whose page is another
 _SUB_PAGES = {("import", "febio"): "febio"}
+
+#: The panels of ``indent-studio --help`` (typer's ``rich_help_panel``) and their top-level
+#: commands, in a user's order: the demo first, then what is decided before a test, what is done
+#: after one, the models and campaigns under both, and the tools.
+COMMAND_PANELS = {
+    "Start here": ("demo",),
+    "Before a test": ("design",),
+    "After a test": ("import", "check", "fit", "posterior", "confirm"),
+    "Models and campaigns": (
+        "simulate",
+        "campaign",
+        "surrogate",
+        "mesh-study",
+        "verification-study",
+        "composite",
+    ),
+    "Tools": ("export-feb",),
+}
+#: The top-level commands in the order ``indent-studio --help`` lists them.
+COMMAND_ORDER = tuple(name for names in COMMAND_PANELS.values() for name in names)
 
 _ROLE = re.compile(r":(?:func|mod|class|meth|data|attr|ref|doc):`~?([^`<]+?)(?:\s*<[^>]*>)?`")
 #: the longest line a command gets in its group's list
@@ -62,11 +83,16 @@ def guide_page(path: tuple[str, ...]) -> str:
     return f"docs/guide/{_SUB_PAGES.get(path[:2], GUIDE_PAGES[path[0]])}.md"
 
 
+def _command_name(info: typer.models.CommandInfo) -> str:
+    """The name a registered command has on the command line (its function's, dashed, unless given)."""
+    return info.name or info.callback.__name__.replace("_", "-")
+
+
 def tidy_help(app: typer.Typer, path: tuple[str, ...] = ()) -> None:
     """Give every command of ``app`` (and of its groups) a plain help text ending with its guide
     page, and a one-sentence line in its group's command list."""
     for info in app.registered_commands:
-        name = info.name or info.callback.__name__.replace("_", "-")
+        name = _command_name(info)
         text = plain(
             inspect.cleandoc(info.help if isinstance(info.help, str) else (info.callback.__doc__ or ""))
         )
@@ -79,3 +105,13 @@ def tidy_help(app: typer.Typer, path: tuple[str, ...] = ()) -> None:
         text = plain(sub.info.help if isinstance(sub.info.help, str) else "")
         sub.info.help = f"{text}\n\nGuide: {guide_page((*path, group.name))}"
         sub.info.short_help = first_sentence(text)
+
+
+def place_commands(app: typer.Typer) -> None:
+    """Put each top-level command and command group of ``app`` in its panel of :data:`COMMAND_PANELS`
+    (one not named there stays in typer's default panel, "Commands")."""
+    panel = {name: title for title, names in COMMAND_PANELS.items() for name in names}
+    for info in app.registered_commands:
+        info.rich_help_panel = panel.get(_command_name(info))
+    for group in app.registered_groups:
+        group.rich_help_panel = panel.get(group.name)

@@ -9,7 +9,7 @@ from typer.main import get_command
 from typer.testing import CliRunner
 
 from indentation_studio.studio.cli import app
-from indentation_studio.studio.help_text import first_sentence, plain
+from indentation_studio.studio.help_text import COMMAND_ORDER, COMMAND_PANELS, first_sentence, plain
 
 ROOT = Path(__file__).resolve().parents[1]
 runner = CliRunner()
@@ -45,6 +45,19 @@ def test_command_list_shows_one_sentence():
     assert res.exit_code == 0
     line = next(v for v in res.output.splitlines() if " check " in v)
     assert "The data check before any fit: holds and their eq. 9 fits" in line and "registration" not in line
+
+
+def test_command_list_is_in_a_users_order():
+    """``indent-studio --help`` starts with the demo and groups the commands in panels (before a
+    test, after a test, models and campaigns, tools); every command is in one panel, once."""
+    res = runner.invoke(app, ["--help"], env={"COLUMNS": "200"})
+    assert res.exit_code == 0
+    lines = res.output.splitlines()
+    panels = [line.strip("╭─ ").split(" ─")[0] for line in lines if line.startswith("╭─")]
+    assert panels == ["Options", *COMMAND_PANELS]
+    listed = [line.split()[1] for line in lines if line.startswith("│ ") and not line.startswith("│ --")]
+    assert listed == list(COMMAND_ORDER) and listed[0] == "demo"
+    assert sorted(listed) == sorted({path[0] for path in COMMANDS})
 
 
 def test_plain_and_first_sentence():
