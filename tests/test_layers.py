@@ -2,7 +2,11 @@
 package imports only itself and those below it, at module level and inside functions alike (an
 import placed in a function does not dodge a cycle), and no two modules import each other in a
 cycle. Imports of the project's own modules inside functions are counted, and the count may only
-fall (their place is at the top of the module; lazy_loader makes the packages' names cheap)."""
+fall (their place is at the top of the module; lazy_loader makes the packages' names cheap).
+
+Every form of import is read (``from .. import x``, ``from ..x import y``, ``import
+indentation_studio.x.y``, ``from indentation_studio import x``); the checker is run on scratch
+trees with an upward import of each form written into them, and must fail on each."""
 
 from __future__ import annotations
 
@@ -11,6 +15,7 @@ import re
 from pathlib import Path
 
 import networkx as nx
+import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 #: Bottom to top. ``indentation_studio`` is the root package's own modules (atomic writes).
@@ -23,20 +28,38 @@ LAYERS = ("indentation_studio", "forward", "campaign", "surrogate", "design", "i
 MAX_IMPORTS_IN_FUNCTIONS = 8
 
 
-def _modules() -> dict[str, Path]:
-    """'package[.subpackage].module' -> file, for every module of the layers (subpackages too)."""
+def _modules(root: Path = ROOT) -> dict[str, Path]:
+    """'package[.subpackage].module' -> file, for every module of the layers (subpackages too) in
+    the tree at ``root`` (the repository, or a scratch tree of the same layout)."""
     out = {}
     for pkg in LAYERS:
-        folder = ROOT / pkg
-        for f in sorted(folder.rglob("*.py")):
+        folder = root / pkg
+        for f in sorted(folder.rglob("*.py")) if folder.is_dir() else ():
             rel = f.relative_to(folder).with_suffix("").parts
             out[".".join((pkg, *rel))] = f
     return out
 
 
-def _imports(name: str, path: Path) -> list[tuple[str, bool]]:
+def _known(modules: dict[str, Path]) -> set[str]:
+    """The names of the modules and of the packages (a package is named without its ``__init__``)."""
+    return set(modules) | {m.removesuffix(".__init__") for m in modules}
+
+
+def _layer_name(module: list[str]) -> list[str]:
+    """A module path as :func:`_modules` names it: 'indentation_studio.forward.mesh' is
+    'forward.mesh'; the root package and its own modules keep 'indentation_studio'."""
+    if module[:1] == ["indentation_studio"] and len(module) > 1 and module[1] in LAYERS:
+        return module[1:]
+    return module
+
+
+def _imports(name: str, path: Path, known: set[str]) -> list[tuple[str, bool]]:
     """(imported module as 'package[.sub].module', inside a function?) for every own-module import
-    of module ``name`` (a key of :func:`_modules`)."""
+    of module ``name`` (a key of :func:`_modules`), in each form: ``import indentation_studio.x.y``,
+    ``from indentation_studio import x``, ``from indentation_studio.x import y``, ``from .. import
+    x``, ``from ..x import y``. An imported name that is a module (``known``) is that module, any
+    other name the module it comes from: ``from .. import inference`` is an import of
+    ``inference``, never of the root package."""
     tree = ast.parse(path.read_text())
     in_function = set()
     for fn in ast.walk(tree):
@@ -47,22 +70,24 @@ def _imports(name: str, path: Path) -> list[tuple[str, bool]]:
     own = (["indentation_studio"] if parts[0] != "indentation_studio" else []) + parts[:-1]
     found = []
     for node in ast.walk(tree):
-        if not isinstance(node, ast.ImportFrom):
-            continue
-        if node.level:
-            base = own[: len(own) - (node.level - 1)]
-        elif (node.module or "").startswith("indentation_studio"):
-            base = []
+        if isinstance(node, ast.Import):
+            modules = [a.name.split(".") for a in node.names]
+            targets = [_layer_name(m) for m in modules if m[0] == "indentation_studio"]
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = own[: len(own) - (node.level - 1)]
+            elif (node.module or "").split(".")[0] == "indentation_studio":
+                base = []
+            else:
+                continue
+            module = base + (node.module.split(".") if node.module else [])
+            targets = []
+            for alias in node.names:
+                submodule = _layer_name([*module, alias.name])
+                targets.append(submodule if ".".join(submodule) in known else _layer_name(module))
         else:
             continue
-        module = base + (node.module.split(".") if node.module else [])
-        if module[:1] == ["indentation_studio"] and len(module) > 1 and module[1] in LAYERS:
-            module = module[1:]
-        if not node.module:  # "from . import x" / "from .. import forward": the names are modules
-            targets = [".".join([*module, a.name]) for a in node.names]
-        else:
-            targets = [".".join(module)]
-        found += [(t, id(node) in in_function) for t in targets]
+        found += [(".".join(t), id(node) in in_function) for t in targets]
     return found
 
 
@@ -91,24 +116,75 @@ def _module_strings(path: Path) -> list[str]:
     ]
 
 
-def _graph():
-    modules = _modules()
+def _graph(root: Path = ROOT) -> tuple[dict[str, Path], list[tuple[str, str, bool]]]:
+    """The modules of the tree at ``root`` and every own-module import: (importer, imported, inside
+    a function?)."""
+    modules = _modules(root)
+    known = _known(modules)
     edges = []
     for name, path in modules.items():
-        for target, inside in _imports(name, path):
+        for target, inside in _imports(name, path, known):
             edges.append((name, target, inside))
     return modules, edges
 
 
-def test_each_package_imports_only_the_layers_below_it():
-    _, edges = _graph()
+def upward_imports(root: Path = ROOT) -> list[str]:
+    """'importer -> imported' for every import against the layers in the tree at ``root``."""
+    _, edges = _graph(root)
     rank = {pkg: k for k, pkg in enumerate(LAYERS)}
-    upward = sorted(
+    return sorted(
         f"{src} -> {dst}{' (inside a function)' if inside else ''}"
         for src, dst, inside in edges
         if dst.split(".")[0] in rank and rank[dst.split(".")[0]] > rank[src.split(".")[0]]
     )
+
+
+def test_each_package_imports_only_the_layers_below_it():
+    upward = upward_imports()
     assert not upward, "imports against the layers:\n" + "\n".join(upward)
+
+
+#: Each form of an upward import (forward importing inference), as a module of ``forward`` writes it.
+UPWARD_FORMS = {
+    "relative package": "from .. import inference",
+    "relative module": "from .. import atomic_write, inference",
+    "relative from": "from ..inference import fit",
+    "relative from module": "from ..inference.fit import theta",
+    "absolute import": "import indentation_studio.inference.fit",
+    "absolute import as": "import indentation_studio.inference as inf",
+    "absolute from root": "from indentation_studio import inference",
+    "absolute from": "from indentation_studio.inference import fit",
+    "inside a function": "def load():\n    from .. import inference\n    return inference",
+}
+
+
+def _scratch_tree(root: Path, module: str, source: str) -> None:
+    """A tree of the repository's layout at ``root`` (forward, inference with a module ``fit``, the
+    root package's atomic_write) and the scratch module ``module`` ('forward.x') holding ``source``."""
+    for pkg in ("forward", "forward/febio", "inference", "indentation_studio"):
+        (root / pkg).mkdir(parents=True, exist_ok=True)
+        (root / pkg / "__init__.py").write_text("")
+    (root / "inference" / "fit.py").write_text("theta = 1.0\n")
+    (root / "indentation_studio" / "atomic_write.py").write_text("")
+    (root / Path(*module.split("."))).with_suffix(".py").write_text(source + "\n")
+
+
+@pytest.mark.parametrize("form", sorted(UPWARD_FORMS))
+def test_the_check_fails_on_an_upward_import_in_any_form(tmp_path, form):
+    _scratch_tree(tmp_path, "forward.scratch", UPWARD_FORMS[form])
+    found = upward_imports(tmp_path)
+    assert found and all(f.startswith("forward.scratch -> inference") for f in found), found
+
+
+def test_the_check_fails_on_an_upward_import_from_a_subpackage(tmp_path):
+    _scratch_tree(tmp_path, "forward.febio.scratch", "from ... import inference")
+    assert upward_imports(tmp_path) == ["forward.febio.scratch -> inference"]
+
+
+def test_the_check_passes_imports_down_the_layers(tmp_path):
+    down = "from .. import atomic_write, forward\nfrom ..forward import febio\nimport indentation_studio"
+    _scratch_tree(tmp_path, "inference.scratch", down)
+    assert upward_imports(tmp_path) == []
 
 
 def test_no_module_forwards_to_a_layer_above_it_by_strings():
