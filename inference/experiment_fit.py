@@ -58,7 +58,10 @@ __all__ = [
     "fit_experiment",
     "fit_on_surrogate_with_mu",
     "interval_is_whole_range",
+    "model_error_with_mu",
     "mu_is_identified",
+    "mu_model_error_pct",
+    "mu_reach_by_model_error",
     "resolved_fe_stage",
     "surrogate_with_mu",
 ]
@@ -121,9 +124,9 @@ class ExperimentFit:
     mu_reach: dict[str, bool] | None = None  # does mu's certainty region reach the range's ends
     mu_reach_notes: dict[str, str] = field(default_factory=dict)  # an end not checked, and why
     restarts: list[dict] = field(default_factory=list)  # fits again from a better point found at an end
-    # the surrogate's own error as a part of mu's 95 % half-width, percent (a fit with mu that ends
-    # on a surrogate with held-out errors): its error can move mu far more than (c1, c5)
-    mu_surrogate_pct: float | None = None
+    # the model's own errors as a part of mu's 95 % half-width, percent (mu_model_error_pct: the
+    # surrogate's held-out errors, the discrepancy's uncertainty): they can move mu far more than (c1, c5)
+    mu_model_pct: float | None = None
     adequacy: object | None = None  # inference.adequacy.Adequacy: can the model explain the data
     adequacy_note: str | None = None  # why the adequacy test was not made
     confirmation: FitConfirmation | None = None  # fe_stage "confirm": one FE run at the surrogate's fit
@@ -335,18 +338,22 @@ class ExperimentFit:
         fb = self.friction_bounds
         if fb is not None:
             mu, (lo, hi) = float(self.fit.theta[2]), self.mu_range
-            mu_pct = float(np.hypot(fb["mu_pct"], self.mu_surrogate_pct or 0.0))
+            mu_pct = float(np.hypot(fb["mu_pct"], self.mu_model_pct or 0.0))
             half = mu * mu_pct / 100.0
             laplace = [max(mu - half, lo), min(mu + half, hi)]  # nothing is known outside the range
-            reach = self.mu_reach or {}
+            by_model = mu_reach_by_model_error(mu, self.mu_model_pct, (lo, hi))
+            reach = {
+                side: bool((self.mu_reach or {}).get(side) or by_model[side]) for side in ("lower", "upper")
+            }
             interval = [lo if reach.get("lower") else laplace[0], hi if reach.get("upper") else laplace[1]]
             out |= {
                 "mu": mu,
                 "mu_pct": mu_pct,
                 "mu_statistical_pct": fb["mu_pct"],
-                "mu_surrogate_pct": self.mu_surrogate_pct,
+                "mu_model_pct": self.mu_model_pct,
                 "mu_interval": interval,
                 "mu_reaches_range_end": reach,
+                "mu_reaches_range_end_by_model_error": by_model,
                 "mu_reach_notes": self.mu_reach_notes,
                 "restarts": self.restarts,
                 "mu_identified": mu_is_identified(reach, mu_pct, interval, (lo, hi)),
@@ -376,8 +383,10 @@ class ExperimentFit:
 def mu_is_identified(reach: dict, mu_pct: float, interval, mu_range) -> bool:
     """Whether a fit identifies mu (fit.json's ``friction.mu_identified``).
 
-    Its certainty region reaches neither end of mu's range, its half-width is finite and its 95 %
-    interval (the surrogate's error counted) is not the whole range.
+    Its certainty region reaches neither end of mu's range (``reach``: the statistical profile's
+    answer merged with :func:`mu_reach_by_model_error`, the model's own errors on mu, so that a mu
+    the model's error could move to the range's end is not claimed: issue 57, mu = 0.69 claimed on
+    data made with the stick), its half-width is finite and its 95 % interval is not the whole range.
 
     Parameters
     ----------
@@ -399,6 +408,42 @@ def mu_is_identified(reach: dict, mu_pct: float, interval, mu_range) -> bool:
         and np.isfinite(mu_pct)
         and not interval_is_whole_range(interval, mu_range)
     )
+
+
+def mu_reach_by_model_error(mu: float, model_pct: float | None, mu_range) -> dict[str, bool]:
+    """Whether the model's own errors on mu (a 95 % half-width, percent) can move it to its range's ends.
+
+    Read in log mu (mu is a scale): the lower end is reached when mu / (1 + m / 100) <= lo, the
+    upper when mu (1 + m / 100) >= hi. The statistical profile (``_mu_reach``) does not see these
+    errors, so a fit reports an end reached when either says so.
+
+    Parameters
+    ----------
+    mu : float
+        The fitted mu.
+    model_pct : float or None
+        :func:`mu_model_error_pct`; None: nothing known, nothing reached.
+    mu_range : sequence of float
+        mu's range (lo, hi).
+
+    Returns
+    -------
+    dict
+        ``{"lower": bool, "upper": bool}``.
+
+    Examples
+    --------
+    >>> from indentation_studio.inference.experiment_fit import mu_reach_by_model_error
+    >>> mu_reach_by_model_error(1.59, 1107.0, (0.1, 3.0))
+    {'lower': True, 'upper': True}
+    >>> mu_reach_by_model_error(0.5, 20.0, (0.1, 3.0))
+    {'lower': False, 'upper': False}
+    """
+    lo, hi = (float(v) for v in mu_range)
+    if model_pct is None or not np.isfinite(model_pct):
+        return {"lower": model_pct is not None, "upper": model_pct is not None}
+    factor = 1.0 + float(model_pct) / 100.0
+    return {"lower": bool(mu / factor <= lo), "upper": bool(mu * factor >= hi)}
 
 
 def interval_is_whole_range(interval, mu_range) -> bool:
@@ -820,28 +865,22 @@ def _fit_with_friction(
         friction=treatment,
         mu_range=mu_range,
     )
-    at = _with_held_mu(final.theta, model, treatment) if with_mu else final.theta
-    if with_mu and has_high_fidelity_level(model):  # its discrepancy (learned at the stick or over mu)
-        say("the model error at the fit (discrepancy and error budget, mu held) ...")
-        error = model_error_at(obj, eta, model, at, free=2, on_surrogate=not refine)
-        fit.model_error = None if error is None else replace(error, contact=fit.contact)
-    else:
-        fit.model_error = _stick_mesh_budget(model, fit.contact, spec.contact.describe(), theta=final.theta)
-        if with_mu and not refine:  # the final stage on the surrogate: its own error too
-            error = with_emulation_error(fit.model_error, obj, eta, model, at, free=2)
-            fit.model_error = None if error is None else replace(error, contact=fit.contact)
     if with_mu:
-        fit.model_error = _with_processing(
-            fit.model_error, inputs, at, fit.contact, registration_mm, say, free=2
+        fit.model_error = model_error_with_mu(
+            inputs,
+            treatment,
+            mu_range,
+            final.theta,
+            on_surrogate=not refine,
+            registration_mm=registration_mm,
+            say=say,
         )
     else:  # the stick surrogate's field at (c1, c5) stands for the model's
-        fit.model_error = _with_processing(
-            fit.model_error, inputs, final.theta[:2], fit.contact, registration_mm, say
-        )
+        error = _stick_mesh_budget(model, fit.contact, spec.contact.describe(), theta=final.theta)
+        fit.model_error = _with_processing(error, inputs, final.theta[:2], fit.contact, registration_mm, say)
     fit.mu_reach, fit.mu_reach_notes, fit.restarts = reach, notes, restarts
-    if with_mu and treatment.fits_mu and not refine:
-        moved = emulation_error_pct(obj, eta, model, final.theta)  # every parameter free
-        fit.mu_surrogate_pct = None if moved is None else float(moved[2])
+    if with_mu and treatment.fits_mu:
+        fit.mu_model_pct = mu_model_error_pct(inputs, final.theta, on_surrogate=not refine)
     if stage == "confirm":
         say(f"confirming on the FE solver at {np.round(final.theta, 3).tolist()} ...")
         if treatment.mode == "known":
@@ -850,6 +889,103 @@ def _fit_with_friction(
             fe = inputs.fe_model(with_mu=True)
         fit.confirmation = _confirm(fit, fe, inside if treatment.fits_mu else None)
     return fit
+
+
+def model_error_with_mu(
+    inputs: FitInputs,
+    treatment: FrictionTreatment,
+    mu_range: tuple[float, float] | None,
+    theta: np.ndarray,
+    *,
+    on_surrogate: bool,
+    registration_mm: float = REGISTRATION_MM,
+    say: Callable[[str], None] | None = None,
+) -> ModelError | None:
+    """The model-error parts of (c1, c5) at a fit on a surrogate trained with mu, mu held there.
+
+    The discrepancy's uncertainty and the error budget of a multi-fidelity surrogate
+    (:func:`~indentation_studio.inference.model_error.model_error_at`, mu held: at mu's range ends
+    nothing slips and d/dmu vanishes), or the stick-measured budget of a single-level one
+    (:func:`_stick_mesh_budget`); the surrogate's own error where the final stage is on it; the
+    processing's part. A fit and a posterior of the same data carry the same parts.
+
+    Parameters
+    ----------
+    inputs : FitInputs
+        The experiment, surrogate (with mu) and objective.
+    treatment : FrictionTreatment
+        How mu is treated.
+    mu_range : tuple of float or None
+        mu's range (identify, marginalise).
+    theta : numpy.ndarray
+        The fit: (c1, c5, mu), or (c1, c5) with mu known.
+    on_surrogate : bool
+        The final stage is on the surrogate (its own error counted).
+    registration_mm : float, default REGISTRATION_MM
+        The indentation point's uncertainty, mm.
+    say : callable, optional
+        Where progress messages go.
+
+    Returns
+    -------
+    ModelError or None
+        The parts over (c1, c5); None where nothing is known.
+    """
+    say = say or (lambda message: None)
+    model, obj, eta = inputs.surrogate, inputs.objective, inputs.eta
+    contact = treatment.describe(inputs.spec.contact.describe(), mu_range)
+    at = _with_held_mu(theta, model, treatment)
+    if has_high_fidelity_level(model):  # its discrepancy (learned at the stick or over mu)
+        say("the model error at the fit (discrepancy and error budget, mu held) ...")
+        error = model_error_at(obj, eta, model, at, free=2, on_surrogate=on_surrogate)
+    else:
+        error = _stick_mesh_budget(model, contact, inputs.spec.contact.describe(), theta=theta)
+        if on_surrogate:  # the final stage on the surrogate: its own error too
+            error = with_emulation_error(error, obj, eta, model, at, free=2)
+    error = None if error is None else replace(error, contact=contact)
+    return _with_processing(error, inputs, at, contact, registration_mm, say, free=2)
+
+
+def mu_model_error_pct(inputs: FitInputs, theta: np.ndarray, *, on_surrogate: bool) -> float | None:
+    """What the model's own errors leave on a fitted mu: a 95 % half-width, percent of mu.
+
+    Every parameter free (mu's certainty is what is asked): the surrogate's held-out errors pushed
+    through the fit where its final stage is on it
+    (:func:`~indentation_studio.inference.model_error.emulation_error_pct`), and, on a
+    multi-fidelity surrogate with mu inside its range, the discrepancy's uncertainty pushed the same
+    way (:func:`~indentation_studio.inference.model_error.model_error_at` over all three), root sum of
+    squares. A model error that moves mu by its whole range is what makes data with no slip in them
+    look as if they held a mu.
+
+    Parameters
+    ----------
+    inputs : FitInputs
+        The experiment, surrogate (with mu) and objective.
+    theta : numpy.ndarray
+        (c1, c5, mu) the fit.
+    on_surrogate : bool
+        The final stage is on the surrogate.
+
+    Returns
+    -------
+    float or None
+        The half-width; None where neither part is known.
+    """
+    model, obj, eta = inputs.surrogate, inputs.objective, inputs.eta
+    parts = []
+    if on_surrogate:
+        moved = emulation_error_pct(obj, eta, model, theta)
+        if moved is not None:
+            parts.append(float(moved[2]))
+    lo, hi = (float(model.scaler.lo[2]), float(model.scaler.hi[2]))
+    if has_high_fidelity_level(model) and lo * 1.01 < theta[2] < hi / 1.01:
+        try:
+            error = model_error_at(obj, eta, model, theta, on_surrogate=False)
+        except np.linalg.LinAlgError:  # mu not determined there: nothing to push through
+            error = None
+        if error is not None and np.isfinite(error.discrepancy_pct[2]):
+            parts.append(float(error.discrepancy_pct[2]))
+    return float(np.hypot.reduce(parts)) if parts else None
 
 
 #: Starts in mu of the FE stage of a fit with mu on a surrogate without it (spread in log over mu's range).

@@ -19,10 +19,10 @@ from ..surrogate.base import FieldSurrogate
 from .experiment_data import ExperimentData
 from .experiment_fit import (
     _mu_range,
-    _stick_mesh_budget,
-    _with_held_mu,
     _with_processing,
     fit_on_surrogate_with_mu,
+    model_error_with_mu,
+    mu_model_error_pct,
     surrogate_with_mu,
 )
 from .fit_inputs import FitInputs, prepare_fit
@@ -30,15 +30,15 @@ from .inverse_fit import FitResult, fit_parameters
 from .mesh_check import load_mesh_check
 from .model_error import (
     ModelError,
+    combined_pct,
     model_error_at,
     model_error_scope,
-    with_emulation_error,
     with_model_error,
 )
 from .posterior import Posterior, carried_to_finer_mesh, sample_posterior
 from .processing_error import REGISTRATION_MM
 
-__all__ = ["ExperimentPosterior", "sample_posterior_for"]
+__all__ = ["PRIOR_END_FRACTION", "ExperimentPosterior", "interval_reaches_prior_end", "sample_posterior_for"]
 
 
 @dataclass
@@ -73,6 +73,35 @@ class ExperimentPosterior:
     model_error: ModelError | None = None  # spread into the samples (multi-fidelity surrogate)
     friction: FrictionTreatment = field(default_factory=FrictionTreatment)
     mu_range: tuple[float, float] | None = None  # the prior's range when mu is sampled
+    mu_model_pct: float | None = None  # the model's own errors on mu spread into its samples
+
+    @property
+    def mu_identified(self) -> bool | None:
+        """Whether the posterior identifies mu (None: mu not sampled).
+
+        mu's 95 % interval reaches neither end of its prior's range: an end within
+        :data:`PRIOR_END_FRACTION` of the range (in log mu) counts as reached, since a marginal that
+        the data do not bound there runs to the prior's end.
+        """
+        if self.mu_range is None or "mu" not in self.posterior.parameters:
+            return None
+        k = self.posterior.parameters.index("mu")
+        return not any(interval_reaches_prior_end(self.posterior.interval(0.95)[k], self.mu_range).values())
+
+    @property
+    def not_identified(self) -> tuple[str, ...]:
+        """The sampled parameters the data do not identify (mu, where :attr:`mu_identified` is False)."""
+        return ("mu",) if self.mu_identified is False else ()
+
+    @property
+    def fit_bounds(self) -> np.ndarray:
+        """(p, 2) the fit's 95 % bounds as a fit reports them (eq. 6 and the same model-error parts).
+
+        Around the fit moved as the samples were (:attr:`marker`).
+        """
+        pct = combined_pct(self._laplace_pct(self.fit.s), self.model_error)
+        centre = self.marker
+        return np.column_stack([centre * (1 - pct / 100.0), centre * (1 + pct / 100.0)])
 
     @property
     def contact(self) -> str:
@@ -94,6 +123,11 @@ class ExperimentPosterior:
                 "prior": "log-uniform" if self.friction.mode == "marginalise" else "uniform",
                 "mu_median": float(np.median(self.posterior.samples[:, k])),
                 "mu_ci95": self.posterior.interval(0.95)[k].tolist(),
+                "mu_model_pct": self.mu_model_pct,
+                "mu_identified": self.mu_identified,
+                "mu_reaches_prior_end": interval_reaches_prior_end(
+                    self.posterior.interval(0.95)[k], self.mu_range
+                ),
                 "laplace_conditional_pct": fb["conditional_pct"],
                 "laplace_mu_share_pct": fb["mu_share_pct"],
             }
@@ -130,6 +164,7 @@ class ExperimentPosterior:
             "fit": self.fit.theta.tolist(),
             "hessian_sd": self.hessian_sd.tolist(),
             "hessian_bounds_pct": self._laplace_pct(self.fit.s).tolist(),
+            "fit_bounds": self.fit_bounds.tolist(),
             "sigma": self.sigma,
             "carried_to_finer_mesh": self.carried,
             "model_error": None if self.model_error is None else self.model_error.to_dict(),
@@ -156,6 +191,41 @@ class ExperimentPosterior:
             The file written.
         """
         return atomic_write_json(Path(folder) / "posterior.json", {**self.to_dict(), **extra})
+
+
+#: A 95 % interval whose end lies within this fraction of the prior's range (in log) of the range's
+#: end reaches it: a marginal the data leave open runs to the prior's end (a log-uniform prior puts
+#: 2.5 % of its mass in the last 2.5 % of its log range).
+PRIOR_END_FRACTION = 0.05
+
+
+def interval_reaches_prior_end(interval, prior_range) -> dict[str, bool]:
+    """Whether a positive parameter's 95 % interval reaches each end of its prior's range.
+
+    Parameters
+    ----------
+    interval : sequence of float
+        The interval (lower, upper).
+    prior_range : sequence of float
+        The prior's range (lo, hi), both > 0.
+
+    Returns
+    -------
+    dict
+        ``{"lower": bool, "upper": bool}``.
+
+    Examples
+    --------
+    >>> from indentation_studio.inference.experiment_posterior import interval_reaches_prior_end
+    >>> interval_reaches_prior_end((0.105, 2.9), (0.1, 3.0))
+    {'lower': True, 'upper': True}
+    >>> interval_reaches_prior_end((0.4, 0.6), (0.1, 3.0))
+    {'lower': False, 'upper': False}
+    """
+    lo, hi = (float(v) for v in prior_range)
+    a, b = (float(v) for v in interval)
+    margin = PRIOR_END_FRACTION * np.log(hi / lo)
+    return {"lower": bool(np.log(a / lo) <= margin), "upper": bool(np.log(hi / b) <= margin)}
 
 
 @threadpool_limits.wrap(limits=1, user_api="blas")  # OpenBLAS spins: see forward.threads
@@ -275,35 +345,28 @@ def sample_posterior_for(
         seed=seed,
         log_uniform=log_uniform,
     )
-    if (
-        "mu" in model.parameters
-    ):  # the stick-measured mesh budget of (c1, c5) (experiment_fit._stick_mesh_budget)
-        contact = treatment.describe(inputs.spec.contact.describe(), mu_range)
-        model_error = _stick_mesh_budget(model, contact, inputs.spec.contact.describe(), theta=fit.theta)
-        at = _with_held_mu(fit.theta, model, treatment)
-        model_error = with_emulation_error(model_error, inputs.objective, inputs.eta, model, at, free=2)
-        model_error = replace(
-            _with_processing(model_error, inputs, at, contact, registration_mm, say, free=2),
-            contact=contact,
+    mu_model_pct = None
+    if "mu" in model.parameters:  # the parts the fit carries (experiment_fit.model_error_with_mu)
+        model_error = model_error_with_mu(
+            inputs,
+            treatment,
+            mu_range,
+            fit.theta,
+            on_surrogate=True,
+            registration_mm=registration_mm,
+            say=say,
         )
-        if fit.theta.size == 3:  # mu sampled: no budget, surrogate or processing part of its own
-            model_error = replace(
-                model_error,
-                discrepancy_pct=np.zeros(3),
-                budget_pct=np.append(model_error.budget_pct, 0.0),
-                covariance_log=np.zeros((3, 3)),
-                surrogate_pct=None
-                if model_error.surrogate_pct is None
-                else np.append(model_error.surrogate_pct, 0.0),
-                processing=model_error.processing.padded(3),
-            )
+        if fit.theta.size == 3 and model_error is not None:  # mu sampled: its own model error beside
+            mu_model_pct = mu_model_error_pct(inputs, fit.theta, on_surrogate=True)
+            model_error = model_error.with_mu(mu_model_pct)
     else:
         model_error = model_error_at(inputs.objective, inputs.eta, model, fit.theta)
         model_error = _with_processing(
             model_error, inputs, fit.theta, inputs.spec.contact.describe(), registration_mm, say
         )
     if model_error is not None:  # spread by the model error, moved by a corrected budget's correction
-        post = replace(post, samples=model_error.corrected(with_model_error(post.samples, model_error, seed)))
+        spread = with_model_error(post.samples, model_error, seed, box=box)
+        post = replace(post, samples=model_error.corrected(spread))
     carried = None
     if mesh_check is not None:
         carried = load_mesh_check(mesh_check, inputs.experiment.root, fit.theta)
@@ -319,4 +382,5 @@ def sample_posterior_for(
         model_error=model_error,
         friction=treatment,
         mu_range=mu_range,
+        mu_model_pct=mu_model_pct,
     )

@@ -95,6 +95,34 @@ class ModelError:
     processing: ProcessingError | None = None  # the experiment's processing, measured at the fit
     correction_pct: np.ndarray | None = None  # a corrected budget's move of the fit, percent
 
+    def with_mu(self, mu_pct: float | None) -> ModelError:
+        """The parts over (c1, c5, mu), mu's own model error as its budget part.
+
+        ``mu_pct`` is a 95 % half-width in percent of mu
+        (:func:`inference.experiment_fit.mu_model_error_pct`); no correlation with (c1, c5) (theirs
+        are taken with mu held); nothing corrected in mu.
+
+        Parameters
+        ----------
+        mu_pct : float or None
+            mu's model error; None: 0.
+
+        Returns
+        -------
+        ModelError
+            The parts padded to three parameters.
+        """
+        cov = np.zeros((3, 3))
+        cov[:2, :2] = self.covariance_log[:2, :2]
+        return replace(
+            self,
+            discrepancy_pct=np.append(self.discrepancy_pct[:2], 0.0),
+            budget_pct=np.append(self.budget_pct[:2], 0.0 if mu_pct is None else float(mu_pct)),
+            covariance_log=cov,
+            surrogate_pct=None if self.surrogate_pct is None else np.append(self.surrogate_pct[:2], 0.0),
+            processing=None if self.processing is None else self.processing.padded(3),
+        )
+
     def corrected(self, theta: np.ndarray) -> np.ndarray:
         """``theta`` moved by the budget's correction (its first parameters; the rest as they are).
 
@@ -557,11 +585,20 @@ def budget_correction(budget: dict | None, names) -> np.ndarray | None:
     return np.array([float(budget.get(f"{name}_correction_pct", 0.0)) for name in names])
 
 
-def with_model_error(samples: np.ndarray, model: ModelError, seed: int = 0) -> np.ndarray:
+def with_model_error(
+    samples: np.ndarray,
+    model: ModelError,
+    seed: int = 0,
+    *,
+    box: tuple[np.ndarray, np.ndarray] | None = None,
+    tries: int = 50,
+) -> np.ndarray:
     """Posterior samples spread by the model error: each multiplied by exp(e).
 
     e is normal with the model error's covariance of log theta (discrepancy, error budget and
-    the surrogate's own error).
+    the surrogate's own error). With a prior ``box``, the spread is truncated to it (the prior
+    times the spread): a sample moved outside is drawn again, so a parameter whose model error
+    is as wide as its range (mu on data with no slip) fills the range instead of piling at its ends.
 
     Parameters
     ----------
@@ -571,6 +608,10 @@ def with_model_error(samples: np.ndarray, model: ModelError, seed: int = 0) -> n
         The model-error parts.
     seed : int, default 0
         Seed of e.
+    box : tuple of numpy.ndarray, optional
+        (lo, hi) the prior's box; None: no truncation.
+    tries : int, default 50
+        Draws of e for a sample before it is held at its own value (its spread then nil).
 
     Returns
     -------
@@ -579,5 +620,18 @@ def with_model_error(samples: np.ndarray, model: ModelError, seed: int = 0) -> n
     """
     rng = np.random.default_rng(seed)
     cov = model.covariance_with_budget()
+    samples = np.asarray(samples, float)
     e = rng.multivariate_normal(np.zeros(len(cov)), cov, size=len(samples), method="eigh")
-    return np.asarray(samples) * np.exp(e)
+    out = samples * np.exp(e)
+    if box is None:
+        return out
+    lo, hi = (np.asarray(b, float) for b in box)
+    outside = ~np.all((out > lo) & (out < hi), axis=1)
+    for _ in range(tries):
+        if not outside.any():
+            break
+        e = rng.multivariate_normal(np.zeros(len(cov)), cov, size=int(outside.sum()), method="eigh")
+        out[outside] = samples[outside] * np.exp(e)
+        outside = ~np.all((out > lo) & (out < hi), axis=1)
+    out[outside] = samples[outside]
+    return out

@@ -9,7 +9,9 @@ whole ensemble in one batch. A Predictor with a reduced basis (the surrogates) i
 its fields at all: F is evaluated in its PCA space (design/reduced_objective.py), exactly up to
 rounding and without rebuilding steps x nodes x 3 values per walker. The chain is checked:
 integrated autocorrelation time (the chain must be longer than 50 of them for emcee's estimate to
-be trusted) and acceptance fraction.
+be trusted: :data:`AUTOCORRELATION_TOL`, emcee's own ``tol``) and acceptance fraction. The chain
+runs on until that rule holds, up to a cap; a chain stopped at the cap says so and how many steps
+the rule asks for.
 """
 
 from __future__ import annotations
@@ -22,6 +24,12 @@ import numpy as np
 
 from ..design.objective import Objective, check_weights
 from ..design.reduced_objective import ReducedObjective, objective_function
+
+#: emcee's rule: a chain is long enough when it holds this many integrated autocorrelation times
+#: (``emcee.autocorr.integrated_time``'s ``tol``).
+AUTOCORRELATION_TOL = 50
+#: A chain that has not converged is run on by at most this many times its first length.
+MAX_STEPS_FACTOR = 8
 
 
 @dataclass
@@ -39,13 +47,16 @@ class Posterior:
     acceptance_fraction : float
         The walkers' mean acceptance fraction.
     converged : bool
-        Whether the chain is longer than 50 autocorrelation times (every one finite).
+        Whether the chain is longer than :data:`AUTOCORRELATION_TOL` autocorrelation times (every
+        one finite).
     wall_s : float
         Wall time, s.
     s : float
         The likelihood's noise level.
     objective_path : {"full", "reduced"}
         ``reduced``: F in the predictor's PCA space; ``full``: from its fields.
+    steps : int
+        Steps each walker ran (0: not recorded).
     """
 
     samples: np.ndarray
@@ -56,6 +67,37 @@ class Posterior:
     wall_s: float
     s: float
     objective_path: str = "full"  # "reduced": F in the predictor's PCA space; "full": from its fields
+    steps: int = 0  # steps each walker ran
+
+    @property
+    def steps_needed(self) -> int | None:
+        """The steps emcee's rule asks for (:data:`AUTOCORRELATION_TOL` autocorrelation times), or None.
+
+        Returns
+        -------
+        int or None
+            None where an autocorrelation time is not finite.
+        """
+        tau = np.asarray(self.autocorrelation_steps, float)
+        if tau.size == 0 or not np.all(np.isfinite(tau)):
+            return None
+        return int(np.ceil(AUTOCORRELATION_TOL * tau.max())) + 1
+
+    @property
+    def convergence_message(self) -> str:
+        """The chain's convergence in words, as the CLI, the JSON and the report say it."""
+        tau = ", ".join(f"{t:.1f}" for t in np.asarray(self.autocorrelation_steps, float))
+        if self.converged:
+            return (
+                f"converged: {self.steps} steps, more than {AUTOCORRELATION_TOL} autocorrelation times "
+                f"({tau} steps)"
+            )
+        needed = self.steps_needed
+        more = "an autocorrelation time that is not finite" if needed is None else f"{needed} steps"
+        return (
+            f"not converged: {self.steps} steps where emcee's rule ({AUTOCORRELATION_TOL} autocorrelation "
+            f"times of {tau} steps) asks for {more}; run with --steps {needed or 2 * self.steps} or more"
+        )
 
     def median(self) -> np.ndarray:
         """(p,) the samples' median.
@@ -110,6 +152,9 @@ class Posterior:
             "autocorrelation_steps": self.autocorrelation_steps.tolist(),
             "acceptance_fraction": self.acceptance_fraction,
             "converged": self.converged,
+            "steps": self.steps,
+            "steps_needed": self.steps_needed,
+            "convergence": self.convergence_message,
             "samples": len(self.samples),
             "wall_s": self.wall_s,
             "s": self.s,
@@ -131,8 +176,13 @@ def sample_posterior(
     progress: bool = False,
     reduced: bool | None = None,
     log_uniform: tuple[int, ...] = (),
+    max_steps: int | None = None,
 ) -> Posterior:
     """Sample the posterior of theta with emcee, for log L = -F / (2 s^2) (F of eq. 5).
+
+    The chain runs ``steps``, then on until it holds :data:`AUTOCORRELATION_TOL` integrated
+    autocorrelation times (emcee's rule) or reaches ``max_steps``; :attr:`Posterior.converged`
+    says which.
 
     Parameters
     ----------
@@ -151,7 +201,7 @@ def sample_posterior(
     walkers : int, default 32
         emcee walkers (at least 2 p).
     steps : int, default 3000
-        Steps per walker.
+        Steps per walker at least.
     seed : int, default 0
         Seed of the start and the sampler.
     progress : bool, default False
@@ -163,6 +213,8 @@ def sample_posterior(
     log_uniform : tuple of int, default ()
         Indices of parameters whose prior is log-uniform on the box instead (a friction
         coefficient, whose scale is unknown: density 1 / mu).
+    max_steps : int, optional
+        Steps per walker at most; default :data:`MAX_STEPS_FACTOR` times ``steps``.
 
     Returns
     -------
@@ -204,9 +256,18 @@ def sample_posterior(
     p0 = np.clip(p0, lo + 1e-9 * (hi - lo), hi - 1e-9 * (hi - lo))
     sampler = emcee.EnsembleSampler(walkers, p, log_prob, vectorize=True)
     sampler.random_state = np.random.RandomState(seed).get_state()
+    cap = max(int(steps), int(max_steps if max_steps is not None else MAX_STEPS_FACTOR * steps))
     sampler.run_mcmc(p0, steps, progress=progress)
-    tau = sampler.get_autocorr_time(tol=0, quiet=True)
-    converged = bool(np.all(np.isfinite(tau)) and steps > 50 * np.max(tau))
+    while True:
+        tau = sampler.get_autocorr_time(tol=0, quiet=True)
+        steps = sampler.iteration
+        finite = bool(np.all(np.isfinite(tau)))
+        converged = bool(finite and steps > AUTOCORRELATION_TOL * np.max(tau))
+        if converged or steps >= cap:
+            break
+        # on to 20 % beyond what the rule asks for now (tau's estimate grows with the chain)
+        wanted = int(1.2 * AUTOCORRELATION_TOL * np.max(tau)) if finite else 2 * steps
+        sampler.run_mcmc(None, min(cap, max(wanted, steps + steps // 4)) - steps, progress=progress)
     burn = int(min(steps // 2, np.ceil(3 * np.nanmax(tau)))) if np.all(np.isfinite(tau)) else steps // 2
     thin = max(int(np.nanmin(tau) // 2), 1) if np.all(np.isfinite(tau)) else 1
     samples = sampler.get_chain(discard=burn, thin=thin, flat=True)
@@ -219,6 +280,7 @@ def sample_posterior(
         wall_s=time.perf_counter() - t0,
         s=float(s),
         objective_path="reduced" if isinstance(F_of_theta, ReducedObjective) else "full",
+        steps=int(steps),
     )
 
 

@@ -229,7 +229,10 @@ def _example(experiment, mlp, posterior_steps: int, out: Path, spec: ModelSpec, 
     _example_figures(out, result, post, check, truth, spec)
     return {
         "fit": {
-            "theta": fit.theta.tolist(),
+            "theta": np.append(
+                result.theta, fit.theta[2:]
+            ).tolist(),  # a corrected budget's correction applied
+            "model_fit": fit.theta.tolist(),
             "bounds_pct": result.bounds_pct.tolist(),  # statistical and, where known, model error
             "statistical_pct": fit.bounds_pct.tolist(),
             "model_error": None if result.model_error is None else result.model_error.to_dict(),
@@ -243,7 +246,8 @@ def _example(experiment, mlp, posterior_steps: int, out: Path, spec: ModelSpec, 
             "adequacy": result.to_dict()["adequacy"],
             "error_budget": result.to_dict()["error_budget"],
         },
-        "posterior": post.posterior.summary(),
+        "posterior": post.posterior.summary()
+        | {"fit_bounds": post.fit_bounds.tolist(), "not_identified": list(post.not_identified)},
         "confirmation": {"F_fe": check.to_dict()["F_fe"], "F_fit": fit.F},
         "fiber_angle_deg": result.inputs.dic.fiber_angle_deg,
     }
@@ -252,7 +256,15 @@ def _example(experiment, mlp, posterior_steps: int, out: Path, spec: ModelSpec, 
 def _example_figures(out: Path, result, post, check, truth, spec: ModelSpec) -> None:
     """The example's corner plot, force against depth and displacement maps at the fit."""
     fit = result.fit
-    corner = figures.corner_figure(post.posterior, fit.theta, fit.hessian, fit.s, truth=truth)
+    corner = figures.corner_figure(
+        post.posterior,
+        post.marker,
+        fit.hessian,
+        fit.s,
+        truth=truth,
+        bounds=post.fit_bounds,
+        not_identified=post.not_identified,
+    )
     figures.save_figure(corner, out / "corner.png", 120)
     f_inf, f_std = static_forces(result.inputs.experiment)
     curves = {

@@ -11,6 +11,7 @@ import numpy as np
 import pandas as pd
 from matplotlib.colors import LogNorm
 from matplotlib.figure import Figure
+from matplotlib.patches import Rectangle
 from matplotlib.ticker import ScalarFormatter
 
 from ..atomic_write import atomic_write
@@ -100,8 +101,17 @@ def design_comparison_figure(table: pd.DataFrame) -> Figure:
     return fig
 
 
-def corner_figure(posterior, fit_theta=None, fit_hessian=None, s: float | None = None, truth=None) -> Figure:
-    """Corner plot (corner package) of posterior samples, with the fit and its eq. 6 ellipse overlaid.
+def corner_figure(
+    posterior,
+    fit_theta=None,
+    fit_hessian=None,
+    s: float | None = None,
+    truth=None,
+    *,
+    bounds=None,
+    not_identified: tuple[str, ...] = (),
+) -> Figure:
+    """Corner plot (corner package) of posterior samples, with the fit, its bounds and eq. 6 ellipse overlaid.
 
     Parameters
     ----------
@@ -117,6 +127,12 @@ def corner_figure(posterior, fit_theta=None, fit_hessian=None, s: float | None =
     truth : array_like, optional
         The truth of a synthetic experiment, when known (green); the parameters it lacks (mu of
         a perfect-stick experiment) are left unmarked.
+    bounds : array_like, optional
+        (q, 2) the fit's 95 % bounds of the first q parameters, as the fit reports them (shaded on
+        the marginals, a box in the pairs), so that the plot shows what the fit's bounds hold.
+    not_identified : tuple of str, default ()
+        Parameters the data do not identify (a marginal that reaches its prior's end): said on
+        their panel, their fit line not drawn.
 
     Returns
     -------
@@ -140,9 +156,50 @@ def corner_figure(posterior, fit_theta=None, fit_hessian=None, s: float | None =
         quantiles=[0.025, 0.5, 0.975],
         show_titles=True,
         title_fmt=".4g",
-        truths=None if fit_theta is None else list(fit_theta),
+        truths=None
+        if fit_theta is None
+        else [
+            None if name in not_identified else float(v)
+            for name, v in zip(posterior.parameters, fit_theta, strict=False)
+        ],
         truth_color="tab:red",
     )
+    n = len(labels)
+    grid = np.array(fig.axes).reshape(n, n)
+    if bounds is not None:
+        b = np.asarray(bounds, float)
+        for i in range(min(len(b), n)):
+            if posterior.parameters[i] in not_identified:
+                continue
+            grid[i, i].axvspan(b[i, 0], b[i, 1], color="tab:red", alpha=0.12, lw=0)
+            for j in range(i):
+                if posterior.parameters[j] in not_identified:
+                    continue
+                grid[i, j].add_patch(
+                    Rectangle(
+                        (b[j, 0], b[i, 0]),
+                        b[j, 1] - b[j, 0],
+                        b[i, 1] - b[i, 0],
+                        fill=False,
+                        ec="tab:red",
+                        ls="--",
+                    )
+                )
+        grid[0, 0].plot([], [], color="tab:red", alpha=0.4, lw=6, label="fit's 95 % bounds")
+        grid[0, 0].legend(fontsize=7, loc="upper right")
+    for i, name in enumerate(posterior.parameters):
+        if name in not_identified:
+            grid[i, i].text(
+                0.5,
+                0.5,
+                f"{name} not identified:\nits 95 % interval\nreaches the prior's end",
+                transform=grid[i, i].transAxes,
+                ha="center",
+                va="center",
+                fontsize=8,
+                color="tab:red",
+                bbox={"fc": "white", "ec": "tab:red", "alpha": 0.85},
+            )
     if truth is not None:
         corner.overplot_lines(fig, truth, color="tab:green", lw=1.5)
         if None not in truth:

@@ -202,7 +202,11 @@ def _print_fit(result: inference.ExperimentFit, payload: dict, check_mesh: str |
         share = fr["mu_share_pct"]
         lo, hi = fr["mu_interval"]
         ends = [side for side, reached in fr["mu_reaches_range_end"].items() if reached]
-        open_ = f"; the data do not bound it at the range's {' and '.join(ends)} end" if ends else ""
+        open_ = (
+            f"; the data, with the model's own errors on mu, do not bound it at the range's {' and '.join(ends)} end"
+            if ends
+            else ""
+        )
         sur = fr.get("mu_model_pct")
         parts = (
             f" (statistical +- {fr['mu_statistical_pct']:.3g} %, model +- {sur:.3g} %)"
@@ -331,7 +335,14 @@ def posterior(
             registration_mm=registration_mm,
         )
         fit_ = result.fit
-        corner = studio.corner_figure(result.posterior, result.marker, fit_.hessian, fit_.s)
+        corner = studio.corner_figure(
+            result.posterior,
+            result.marker,
+            fit_.hessian,
+            fit_.s,
+            bounds=result.fit_bounds,
+            not_identified=result.not_identified,
+        )
         png = studio.save_figure(corner, folder / "corner.png", 120)
         result.save(folder, corner_png=str(png))
     except (ValueError, OSError, RuntimeError) as exc:
@@ -347,15 +358,23 @@ def _print_posterior(result: inference.ExperimentPosterior, payload: dict, png: 
     """Each parameter's median, interval and sd, the chain's convergence and the mesh carry."""
     for k, name in enumerate(result.posterior.parameters):
         lo, hi = payload["ci95"][k]
+        if name in result.not_identified:
+            Console().print(
+                f"{name} is not identified by these data: its 95 % interval [{lo:.4g}, {hi:.4g}] reaches its "
+                f"prior's end {list(result.mu_range)} (the model's own errors on it counted: "
+                f"+- {payload['friction'].get('mu_model_pct') or 0:.3g} %)"
+            )
+            continue
+        fit_lo, fit_hi = payload["fit_bounds"][k]
         Console().print(
             f"{name}: median {payload['median'][k]:.4g}, 95 % [{lo:.4g}, {hi:.4g}], sd {payload['std'][k]:.3g} "
-            f"(Hessian sd {payload['hessian_sd'][k]:.3g})"
+            f"(the fit's 95 % bounds [{fit_lo:.4g}, {fit_hi:.4g}])"
         )
     Console().print(f"intervals: {payload['intervals_include']}")
     post = result.posterior
+    colour = "green" if post.converged else "yellow"
     Console().print(
-        f"acceptance {post.acceptance_fraction:.2f}, autocorrelation "
-        f"{[round(float(t), 1) for t in post.autocorrelation_steps]} steps, converged {post.converged}; {png}"
+        f"[{colour}]{post.convergence_message}[/{colour}]; acceptance {post.acceptance_fraction:.2f}; {png}"
     )
     carried = result.carried
     if carried is not None:

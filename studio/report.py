@@ -71,6 +71,40 @@ def bounds_sentence(fit: dict) -> str:
     return f"These bounds hold: {holds}."
 
 
+def posterior_html(post: dict) -> str:
+    """The posterior's paragraph: its intervals beside the fit's bounds, mu's identification, the chain.
+
+    One thing per number: the fit's bounds are eq. 6 at the fit (a Gaussian in log theta) with the
+    model-error parts added in quadrature; the posterior samples the likelihood and is spread by the
+    same parts, so the two agree where the objective is near quadratic over the bounds, and where
+    they differ the posterior's shape (skew, a prior's end) is the reason, said here.
+    """
+    names = ["c1", "c5", "mu"][: len(post["median"])]
+    cells = []
+    for k, name in enumerate(names):
+        lo, hi = post["ci95"][k]
+        if name in post.get("not_identified", []):
+            cells.append(
+                f"{name} not identified: its 95 % interval [{lo:.3g}, {hi:.3g}] reaches its prior's end"
+            )
+            continue
+        text = f"{name} median {post['median'][k]:.4g}, 95 % [{lo:.4g}, {hi:.4g}]"
+        bounds = post.get("fit_bounds")
+        if bounds is not None and k < len(bounds):
+            width, fit_width = hi - lo, bounds[k][1] - bounds[k][0]
+            text += f" (the fit's bounds [{bounds[k][0]:.4g}, {bounds[k][1]:.4g}], width ratio {width / fit_width:.2f})"
+        cells.append(text)
+    converged = post.get("convergence") or f"converged {post.get('converged')}"
+    return (
+        "<p>Posterior (emcee on the surrogate, spread by the same model-error parts as the fit's bounds): "
+        + "; ".join(html.escape(c) for c in cells)
+        + f". Chain: {html.escape(converged)}, acceptance {post['acceptance_fraction']:.2f}. The fit's bounds "
+        "are eq. 6 at the fit with the model error added in quadrature; the posterior's intervals are the "
+        "sampled likelihood spread by the same parts: they agree where the objective is near quadratic over "
+        "the bounds, and a width ratio far from 1 is the posterior's shape (skew, an end of the prior).</p>"
+    )
+
+
 def fit_warnings_html(fit: dict) -> str:
     """The warnings a fit's numbers must be read with, as boxes above them: the model-adequacy
     flag (red: the model cannot explain the data) and a test without an error budget (amber);
@@ -207,10 +241,9 @@ def write_report(out: Path, results: dict, sections: list[tuple[str, str]]) -> P
         f"{fit['bounds_pct'][0]:.2f} %, c5 = {fit['theta'][1]:.1f} kPa +- {fit['bounds_pct'][1]:.2f} % (95 %; "
         f"statistical part eq. 6 with s = {fit['s']:.3g} from eq. 8: +- {_fmt(fit.get('statistical_pct', fit['bounds_pct']))} %). "
         f"{bounds_sentence(fit)} "
-        f"F = {fit['F']:.3g}. Synthetic truth: {_fmt(fit['truth'])}. Posterior median "
-        f"{_fmt(post['median'])}, 95 % intervals {_fmt(post['ci95'])}, acceptance {post['acceptance_fraction']:.2f}, "
-        f"autocorrelation {_fmt(post['autocorrelation_steps'])} steps. FE confirmation: F(theta_hat) = "
-        f"{results['confirmation']['F_fe']:.3g}.</p>"
+        f"F = {fit['F']:.3g}. Synthetic truth: {_fmt(fit['truth'])}.</p>"
+        + posterior_html(post)
+        + f"<p>FE confirmation: F(theta_hat) = {results['confirmation']['F_fe']:.3g}.</p>"
     )
     parts.append(_h2(out, "Figures"))
     for name, caption in sections:

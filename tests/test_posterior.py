@@ -121,3 +121,26 @@ def test_corner_figure_shows_a_truth_far_from_the_samples():
     (x0, x1), (y0, y1) = fig.axes[2].get_xlim(), fig.axes[2].get_ylim()
     assert x0 < 11.7 < 12.0 < x1 and y0 < 250.0 < 299.5 < y1  # the 17 % miss is on the plot
     assert len(fig.axes[2].lines) >= 4  # fit and truth cross-hairs, the ellipse
+
+
+def test_the_chain_runs_on_until_emcees_rule_holds_or_says_what_it_needs(linear_target):
+    from indentation_studio.inference.posterior import AUTOCORRELATION_TOL
+
+    model, objective, J, theta_ls = linear_target
+    s, truth = 0.05, theta_ls
+    sd = np.sqrt(np.diag(s**2 * np.linalg.inv(J.T @ J)))
+    box = (theta_ls - 40 * sd, theta_ls + 40 * sd)
+    short = sample_posterior(
+        objective, model, PAPER_WEIGHTS, s=s, box=box, start=truth, walkers=8, steps=60, max_steps=60
+    )
+    assert not short.converged and short.steps == 60
+    assert short.steps_needed == int(np.ceil(AUTOCORRELATION_TOL * short.autocorrelation_steps.max())) + 1
+    assert "not converged: 60 steps" in short.convergence_message
+    assert f"--steps {short.steps_needed}" in short.convergence_message
+    summary = short.summary()
+    assert summary["converged"] is False and summary["steps_needed"] == short.steps_needed
+    long = sample_posterior(
+        objective, model, PAPER_WEIGHTS, s=s, box=box, start=truth, walkers=8, steps=60, max_steps=20_000
+    )
+    assert long.converged and long.steps > AUTOCORRELATION_TOL * long.autocorrelation_steps.max()
+    assert long.steps > 60 and long.convergence_message.startswith("converged")
