@@ -260,13 +260,18 @@ def _budget_words(src: dict) -> str:
     """Where a budget's value at a fit came from (``surrogate.error_budgets.budget_at``), in words."""
     model, points, file = src.get("model"), src.get("points"), src.get("file")
     where = src.get("where")
+    corrected = (
+        f"; {model}'s fit corrected to level {src['reference_level']} of the verification study ({src['rule']})"
+        if src.get("reference_level") is not None and src.get("rule")
+        else ""
+    )
     if where == "interpolated":
-        return f"{model}'s bias interpolated at the fit between {points} test points of {file}"
+        return f"{model}'s bias interpolated at the fit between {points} test points of {file}{corrected}"
     if where == "outside":
         nearest = ", ".join("{" + f"{c1:g}, {c5:g}" + "}" for c1, c5 in src.get("nearest", []))
         return (
-            f"the fit lies outside the {points} test points of {file}: {model}'s largest bias at the "
-            f"nearest ({nearest} kPa)"
+            f"the fit lies outside the verified region (the {points} test points of {file}): {model}'s "
+            f"largest bias at the nearest ({nearest} kPa), never narrower than there{corrected}"
         )
     if where == "largest" and not src.get("reference_extrapolated", True):
         return (

@@ -9,6 +9,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
     submod_attrs={
         "figures": [
             "campaign_figure",
+            "budget_map_figure",
             "corner_figure",
             "design_comparison_figure",
             "displacement_maps_figure",

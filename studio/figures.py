@@ -657,3 +657,52 @@ def save_figure(fig: Figure, path: str | Path, dpi: int = 130) -> Path:
     finally:
         plt.close(fig)
     return path
+
+
+def budget_map_figure(
+    maps: dict, *, target_pct: float = 6.0, key: str = "total_c5_pct", title: str = ""
+) -> Figure:
+    """Maps of a parameter's 95 % half-width over (c1, c5), one panel per test, with the budget's points.
+
+    Parameters
+    ----------
+    maps : dict
+        A panel's title (e.g. ``"R = 8 mm"``) to a :func:`surrogate.error_budgets.budget_map`.
+    target_pct : float, default 6.0
+        The contour drawn: where a test cannot reach it.
+    key : str, default "total_c5_pct"
+        The map shown (``c5_pct``: the budget's part alone).
+    title : str, default ""
+        The figure's title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The maps.
+    """
+    fig, axes = plt.subplots(
+        1, len(maps), figsize=(5.2 * len(maps), 4.4), squeeze=False, constrained_layout=True
+    )
+    top = max(float(np.nanmax(m[key])) for m in maps.values())
+    levels = np.linspace(0.0, max(top, target_pct * 1.2), 13)
+    for ax, (name, m) in zip(axes[0], maps.items(), strict=True):
+        X, Y = np.meshgrid(m["c1"], m["c5"])
+        filled = ax.contourf(X, Y, m[key], levels=levels, cmap="viridis")
+        line = ax.contour(X, Y, m[key], levels=[target_pct], colors="white", linewidths=1.8)
+        ax.clabel(line, fmt=f"{target_pct:g} %%", fontsize=8)
+        outside = np.where(m["verified"], np.nan, 1.0)
+        ax.contourf(X, Y, outside, levels=[0.5, 1.5], colors="none", hatches=["//"])
+        if len(m["points"]):
+            ax.plot(m["points"][:, 0], m["points"][:, 1], "o", color="tab:red", label="budget's points")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("c1 (kPa)")
+        ax.set_ylabel("c5 (kPa)")
+        ax.set_title(f"{name} (hatched: outside the verified points)", fontsize=9)
+        ax.legend(fontsize=7, loc="lower right")
+    fig.colorbar(
+        filled, ax=axes[0].tolist(), label=f"{key.replace('_pct', '').replace('_', ' ')} 95 % half-width (%)"
+    )
+    if title:
+        fig.suptitle(title, fontsize=10)
+    return fig

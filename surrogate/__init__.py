@@ -32,6 +32,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
         "emulation_error": ["EMULATION_ENERGY", "EmulationError", "held_out_errors"],
         "error_budgets": [
             "budget_at",
+            "budget_map",
             "remaining_bias",
             "shipped_budget",
             "shipped_budgets_folder",

@@ -18,6 +18,7 @@ from scipy.spatial import QhullError
 
 __all__ = [
     "budget_at",
+    "budget_map",
     "remaining_bias",
     "shipped_budget",
     "shipped_budgets_folder",
@@ -327,3 +328,49 @@ def surrogate_error_budget(surrogate) -> dict | None:
         return meta["error_budget"]
     model = (meta.get("campaign") or {}).get("model")
     return shipped_budget(model) if model else None
+
+
+def budget_map(budget: dict, c1, c5, *, noise_pct=None) -> dict:
+    """A budget read over a grid of (c1, c5): its half-widths and where each value came from.
+
+    Parameters
+    ----------
+    budget : dict
+        As :func:`remaining_bias`.
+    c1, c5 : array_like
+        1-D grids, kPa.
+    noise_pct : dict, optional
+        ``{"c1": (points,), "c5": (points,)}``: a typical experiment's statistical half-width at the
+        budget's points (the budget rows' ``<p>_half_width_pct``), interpolated the same way and
+        combined with the budget's by root sum of squares in ``total_<p>_pct``.
+
+    Returns
+    -------
+    dict
+        ``c1``, ``c5`` (the grids), ``c1_pct``, ``c5_pct`` (len(c5), len(c1)), ``verified``
+        (bool, same shape: inside the points' hull), ``points`` ((n, 2) kPa) and, with
+        ``noise_pct``, ``total_c1_pct``, ``total_c5_pct``.
+    """
+    c1, c5 = np.asarray(c1, float), np.asarray(c5, float)
+    shape = (len(c5), len(c1))
+    out = {"c1": c1, "c5": c5, "c1_pct": np.empty(shape), "c5_pct": np.empty(shape)}
+    out["verified"] = np.zeros(shape, bool)
+    noise = None
+    if noise_pct is not None:
+        pts = [
+            dict(p, c1_pct=a, c5_pct=b)
+            for p, a, b in zip(budget["points"], noise_pct["c1"], noise_pct["c5"], strict=True)
+        ]
+        noise = dict(budget, points=pts)
+        out["total_c1_pct"], out["total_c5_pct"] = np.empty(shape), np.empty(shape)
+    for i, y in enumerate(c5):
+        for j, x in enumerate(c1):
+            at = budget_at(budget, [x, y])
+            out["c1_pct"][i, j], out["c5_pct"][i, j] = at["c1_pct"], at["c5_pct"]
+            out["verified"][i, j] = at["source"].get("where") == "interpolated"
+            if noise is not None:
+                n = budget_at(noise, [x, y])
+                out["total_c1_pct"][i, j] = np.hypot(at["c1_pct"], n["c1_pct"])
+                out["total_c5_pct"][i, j] = np.hypot(at["c5_pct"], n["c5_pct"])
+    out["points"] = np.array([[p["c1"], p["c5"]] for p in budget.get("points") or []], float)
+    return out

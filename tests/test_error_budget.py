@@ -316,7 +316,7 @@ def test_a_budget_varies_with_theta_between_its_points_and_says_where_it_is_read
     words = model_error_scope(
         ModelError(np.zeros(2), np.zeros(2), np.zeros((2, 2)), outside["source"], False)
     )
-    assert "outside the 9 test points" in words and "{3, 540}" in words
+    assert "outside the verified region (the 9 test points" in words and "{3, 540}" in words
     old = {k: v for k, v in left.items() if k != "points"}  # recorded before the points were
     assert budget_at(old, [11.0, 330.0])["c5_pct"] == left["c5_pct"]
     assert budget_at(old, [11.0, 330.0])["source"]["where"] == "largest"
