@@ -189,6 +189,7 @@ def corner_figure(
         grid[0, 0].legend(fontsize=7, loc="upper right")
     for i, name in enumerate(posterior.parameters):
         if name in not_identified:
+            grid[i, i].set_title(f"{name}: not identified", fontsize=10, color="tab:red")
             grid[i, i].text(
                 0.5,
                 0.5,
