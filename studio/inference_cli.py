@@ -183,6 +183,13 @@ def _print_fit(result: inference.ExperimentFit, payload: dict, check_mesh: str |
         f"c1 = {payload['c1']:.3f} kPa +- {payload['c1_pct']:.1f} %, c5 = {payload['c5']:.1f} kPa +- "
         f"{payload['c5_pct']:.1f} %  (95 %; F = {final.F:.3g}, s = {final.s:.3g}, n = {final.n_residuals})"
     )
+    correction = payload.get("correction")
+    if correction is not None:
+        model_fit = payload["model_fit"]
+        Console().print(
+            f"  corrected from the model's fit c1 = {model_fit['c1']:.3f}, c5 = {model_fit['c5']:.1f} kPa by "
+            f"{correction['c1_pct']:+.2f} % / {correction['c5_pct']:+.2f} % ({correction['reference']})"
+        )
     stat = payload["statistical_pct"]
     if payload["model_error"] is not None:
         m = payload["model_error"]
