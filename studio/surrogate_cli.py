@@ -109,7 +109,12 @@ MF_OUT = Annotated[
 
 @surrogate_app.command("train-mf")
 def train_mf(
-    low: Annotated[Path, typer.Option(help="the low-fidelity surrogate file (trained on a large campaign)")],
+    low: Annotated[
+        Path,
+        typer.Option(
+            help="the low-fidelity surrogate file (trained on a large campaign); a multi-fidelity one gives its low level"
+        ),
+    ],
     campaign: Annotated[
         str, typer.Option(help="the high-fidelity campaign (tens of points on a finer mesh)")
     ],

@@ -12,6 +12,7 @@ from ..campaign.loader import CampaignData, load_campaign
 from .base import FieldSurrogate, TrainingData
 from .emulation_error import EmulationError, held_out_errors
 from .error_budgets import surrogate_error_budget
+from .multi_fidelity import MultiFidelitySurrogate
 from .persistence import load_surrogate
 from .registry import surrogate_class
 from .validation import k_fold_errors, prediction_errors
@@ -222,7 +223,9 @@ def train_multi_fidelity(
     Parameters
     ----------
     low : str, pathlib.Path or FieldSurrogate
-        A surrogate file or a trained surrogate, e.g. on a large campaign on a coarser mesh.
+        A surrogate file or a trained surrogate, e.g. on a large campaign on a coarser mesh; a
+        multi-fidelity one gives its low level (its discrepancy learned anew from
+        ``high_campaign``, e.g. a shipped surrogate on a wider high-fidelity campaign).
     high_campaign : str, pathlib.Path or CampaignData
         A few tens of points on the finer mesh, same test.
     pca_tol : float, default 1e-3
@@ -249,6 +252,8 @@ def train_multi_fidelity(
         The trained surrogate.
     """
     low_model = low if isinstance(low, FieldSurrogate) else load_surrogate(low)
+    if isinstance(low_model, MultiFidelitySurrogate):  # a discrepancy learned anew on its low level
+        low_model = low_model.low
     data = training_data(high_campaign, runs_dir)
     model = surrogate_class("mf")(low_model, pca_tol=pca_tol, max_components=max_components, folds=folds).fit(
         data, seed=seed

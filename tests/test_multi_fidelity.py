@@ -276,6 +276,12 @@ def test_training_function_and_refusals(low, high_data, tmp_path):
     model = train_multi_fidelity(low_file, campaign, folds=0)
     assert model.meta["validation"]["training"]["force_max_pct"] < 0.01
     assert "discrepancy_kfold" not in model.meta and model.meta["campaign"]["name"] == "high-campaign"
+    # a multi-fidelity surrogate given as the low level: its low level, the discrepancy learned anew
+    # (a shipped surrogate on a wider high campaign), the same model as from the low level itself
+    again = train_multi_fidelity(save_surrogate(model, tmp_path / "mf.safetensors"), campaign, folds=0)
+    assert type(again.low) is type(low) and not isinstance(again.low, MultiFidelitySurrogate)
+    theta = high_data.theta[:2] * 1.01
+    np.testing.assert_allclose(again.predict(theta).force, model.predict(theta).force, rtol=1e-9)
     with pytest.raises(ValueError, match=r"'mf'.*train_multi_fidelity"):
         make_surrogate("mf")
 

@@ -340,3 +340,23 @@ def test_a_corrected_budget_moves_the_fit_and_never_narrows_outside_its_points(t
         correction_pct=np.array([2.0, -1.0]),
     )
     assert error.corrected(np.array([10.0, 300.0, 0.5])) == pytest.approx([10.2, 297.0, 0.5])
+
+
+def test_a_budget_map_reads_the_budget_as_a_fit_does(tmp_path):
+    from indentation_studio.surrogate.error_budgets import budget_map
+
+    rows = [
+        {"model": FIT_MESH, "c1_true": c1, "c5_true": c5, "c1_bias_pct": 0.0, "c5_bias_pct": 0.0,
+         "c1_reference_gci_pct": 1.0, "c5_reference_gci_pct": 2.0 if c1 < 10 else 4.0}
+        for c1 in (3.0, 19.0) for c5 in (120.0, 540.0)
+    ]  # fmt: skip
+    path = tmp_path / "budget.json"
+    path.write_text(json.dumps({"reference": {"gci_carried": True}, "rows": rows}))
+    left = remaining_bias(path, FIT_MESH)
+    noise = {"c1": [0.2] * 4, "c5": [1.5] * 4}
+    m = budget_map(left, [1.0, 3.0, 19.0], [120.0, 540.0], noise_pct=noise)
+    assert m["c5_pct"].shape == (2, 3) and m["points"].shape == (4, 2)
+    np.testing.assert_allclose(m["c5_pct"][:, 1:], [[2.0, 4.0], [2.0, 4.0]])  # at the points: theirs
+    np.testing.assert_allclose(m["total_c5_pct"][:, 1:], np.hypot([[2.0, 4.0], [2.0, 4.0]], 1.5))
+    assert m["verified"][:, 1:].all() and not m["verified"][:, 0].any()  # c1 = 1 kPa: outside
+    assert np.all(m["c5_pct"][:, 0] >= 2.0)  # never narrower than at the nearest point
