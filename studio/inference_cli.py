@@ -96,8 +96,14 @@ MESH_CHECK = Annotated[
         "finer mesh (shifted by the check's shift, spread by that mesh's GCI)"
     ),
 ]
-FITTED_C1 = Annotated[float, typer.Option(help="fitted c1, kPa")]
-FITTED_C5 = Annotated[float, typer.Option(help="fitted c5, kPa")]
+FITTED_C1 = Annotated[
+    float,
+    typer.Option(help="the model's fitted c1, kPa (fit.json's model_fit where a budget corrected the fit)"),
+]
+FITTED_C5 = Annotated[
+    float,
+    typer.Option(help="the model's fitted c5, kPa (fit.json's model_fit where a budget corrected the fit)"),
+]
 CONFIRM_SOLVER = Annotated[str, typer.Option(help="embedded or febio")]
 CONFIRM_FRICTION = Annotated[
     float | None,
