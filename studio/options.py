@@ -27,6 +27,7 @@ from ..forward.spec import (
     ModelSpec,
     Protocol,
     SolverOptions,
+    SpecError,
 )
 
 err = Console(stderr=True)
@@ -85,6 +86,9 @@ class ModelOptions:
     fiber_stretch : {"gauss", "mean"}
         Where the element evaluates the fiber term: at its Gauss points (FEBio's) or at its mean
         stretch (forward.spec.SolverOptions).
+    specimen : str
+        The specimen's size ``WIDTHxDEPTHxTHICKNESS`` in mm (full widths along x and y, across
+        and along the fibers; the model is its quarter): :func:`specimen_geometry`.
     """
 
     c1: float = 10.0
@@ -101,6 +105,7 @@ class ModelOptions:
     contact_order: int | None = None
     contact_penalty: float = DEFAULT_CONTACT_PENALTY
     fiber_stretch: str = "gauss"
+    specimen: str = "100x100x60"
 
     def spec(self) -> ModelSpec:
         """The model spec of these options.
@@ -119,7 +124,7 @@ class ModelOptions:
         composite = self.mesh in COMPOSITE_MESH_PRESETS and not self.mesh_from
         return ModelSpec(
             composite=CompositeMaterial() if composite else None,
-            geometry=Geometry(),
+            geometry=specimen_geometry(self.specimen),
             indenter=Indenter(self.radius),
             protocol=Protocol(step_size=self.step_size, steps=self.steps),
             material=Material(c1=self.c1, c5=self.c5, kappa=self.kappa),
@@ -151,6 +156,42 @@ class ModelOptions:
     def replace(self, **changes: Any) -> ModelOptions:
         """These options with ``changes`` (field name -> value), e.g. a command's fixed mesh."""
         return dataclasses.replace(self, **changes)
+
+
+def specimen_geometry(text: str) -> Geometry:
+    """The quarter model's geometry of a specimen written ``WIDTHxDEPTHxTHICKNESS`` (mm).
+
+    Parameters
+    ----------
+    text : str
+        Full width along x (across the fibers), along y (along them) and thickness, mm, e.g. the
+        paper's block ``100x100x60``.
+
+    Returns
+    -------
+    Geometry
+        Half the widths and the thickness.
+
+    Raises
+    ------
+    SpecError
+        A text that is not three positive numbers joined by ``x``.
+
+    Examples
+    --------
+    >>> from indentation_studio.studio.options import specimen_geometry
+    >>> specimen_geometry("60x60x30")
+    Geometry(half_x=30.0, half_y=30.0, height=30.0)
+    """
+    parts = str(text).lower().replace(" ", "").split("x")
+    try:
+        width, depth, thickness = (float(v) for v in parts)
+    except ValueError:
+        raise SpecError(
+            "specimen",
+            f"{text!r}: give its size as WIDTHxDEPTHxTHICKNESS in mm, e.g. 100x100x60 (the paper's block)",
+        ) from None
+    return Geometry(half_x=width / 2.0, half_y=depth / 2.0, height=thickness)
 
 
 C1 = Annotated[float, typer.Option(help="c1, kPa (eq. 3)")]
@@ -200,6 +241,13 @@ CONTACT_PENALTY = Annotated[
         "times each point's area"
     ),
 ]
+SPECIMEN = Annotated[
+    str,
+    typer.Option(
+        help="the specimen's size WIDTHxDEPTHxTHICKNESS, mm (full widths across and along the fibers; "
+        "the model is its quarter); the paper's block 100x100x60"
+    ),
+]
 FIBER_STRETCH = Annotated[
     str,
     typer.Option(
@@ -242,6 +290,7 @@ MODEL_FLAGS = {
     "contact_order": CONTACT_ORDER,
     "contact_penalty": CONTACT_PENALTY,
     "fiber_stretch": FIBER_STRETCH,
+    "specimen": SPECIMEN,
 }
 
 
