@@ -21,8 +21,10 @@ import numpy as np
 import pandas as pd
 
 from ..atomic_write import atomic_write
+from ..forward.mesh_presets import HIGH_FIDELITY_MESH
 from ..forward.predictor import FESolverPredictor, Prediction
-from ..forward.spec import Indenter, ModelSpec, Protocol
+from ..forward.spec import Indenter, MeshChoice, ModelSpec, Protocol
+from ..surrogate.error_budgets import budget_at, shipped_budget
 from .certainty import DESIGN_BOUNDS_INCLUDE, bounds_pct, combine, gauss_newton_term_hessians
 from .objective import PAPER_WEIGHTS, Objective, check_weights
 from .weights import optimise_weights
@@ -119,7 +121,11 @@ def compare_designs(
     pandas.DataFrame
         One row per candidate: its design (``radius_mm``, ``max_depth_mm``, ``steps``, ``every``,
         ``fov_mm``, ``s``), the bounds at ``weights`` (``c1_pct``, ``c5_pct``) and at its own
-        optimum (``c1_pct_optimised``, ``c5_pct_optimised``, ``optimised_weights``).
+        optimum (``c1_pct_optimised``, ``c5_pct_optimised``, ``optimised_weights``), and the model
+        error a fit of that test would carry (:func:`candidate_model_error`): ``c1_model_pct``,
+        ``c5_model_pct`` (NaN where no budget exists), ``c1_total_pct``, ``c5_total_pct`` (the
+        optimised bounds and the model error, root sum of squares; the statistical bound alone
+        where none exists) and ``model_error`` (its source, or ``"statistical only"``).
     """
     theta_star = np.asarray(theta_star, float)
     eta = check_weights(weights)
@@ -138,6 +144,8 @@ def compare_designs(
         b_fixed = bounds_pct(combine(H, eta), c.s)
         eta_opt = optimise_weights(H, criterion)
         b_opt = bounds_pct(combine(H, eta_opt), c.s)
+        model_pct, source = candidate_model_error(spec, c, theta_star)
+        total = b_opt if model_pct is None else np.hypot(b_opt, model_pct)
         rows.append(
             {
                 "radius_mm": c.radius,
@@ -151,9 +159,53 @@ def compare_designs(
                 "c1_pct_optimised": float(b_opt[0]),
                 "c5_pct_optimised": float(b_opt[1]),
                 "optimised_weights": tuple(round(float(v), 4) for v in eta_opt),
+                "c1_model_pct": np.nan if model_pct is None else float(model_pct[0]),
+                "c5_model_pct": np.nan if model_pct is None else float(model_pct[1]),
+                "c1_total_pct": float(total[0]),
+                "c5_total_pct": float(total[1]),
+                "model_error": source,
             }
         )
     return pd.DataFrame(rows)
+
+
+def candidate_model_error(spec: ModelSpec, candidate: Candidate, theta_star) -> tuple[np.ndarray | None, str]:
+    """The model error a fit of a candidate test would carry: its error budget's half-width at theta*.
+
+    The budget is the one shipped for that test (radius, depth in the spec's steps, specimen,
+    contact) on the high fidelity a fit's surrogate emulates (``HIGH_FIDELITY_MESH``), read at
+    theta* as a fit reads it (:func:`surrogate.error_budgets.budget_at`; outside its points the
+    nearest ones' largest). The discrepancy's, the surrogate's own and the processing's parts of a
+    real fit come on top; a test without a budget says "statistical only".
+
+    Parameters
+    ----------
+    spec : ModelSpec
+        The model (its step size is the protocol's).
+    candidate : Candidate
+        The design.
+    theta_star : array_like
+        (c1, c5), kPa.
+
+    Returns
+    -------
+    tuple
+        ((c1, c5) percent or None, the source in words).
+    """
+    step = spec.protocol.step_size
+    steps = round(candidate.max_depth / step)
+    test = replace(
+        spec,
+        indenter=Indenter(radius=candidate.radius),
+        protocol=Protocol(step_size=step, steps=steps),
+        mesh=MeshChoice(HIGH_FIDELITY_MESH),
+    )
+    budget = budget_at(shipped_budget(test), theta_star)
+    if budget is None:
+        return None, "statistical only"
+    where = budget["source"].get("where", "")
+    words = f"{budget['source']['file']} ({HIGH_FIDELITY_MESH}, {where})"
+    return np.array([budget["c1_pct"], budget["c5_pct"]], float), words
 
 
 def candidate_grid(

@@ -353,7 +353,17 @@ def _candidate_axes(radii: str, depths: str, every: str, fovs: str, noise: str) 
 def _print_comparison(comparison: design.DesignComparison, at: str) -> None:
     """The candidate designs' bounds as a table."""
     view = Table(title=f"candidate designs at {at}")
-    for col in ("R mm", "depth mm", "steps", "FOV mm", "s", "c1 / c5 fixed", "c1 / c5 optimised", "weights"):
+    for col in (
+        "R mm",
+        "depth mm",
+        "steps",
+        "FOV mm",
+        "s",
+        "c1 / c5 fixed",
+        "c1 / c5 optimised",
+        "c1 / c5 with model error",
+        "weights",
+    ):
         view.add_column(col)
     for r in comparison.table.itertuples():
         view.add_row(
@@ -364,10 +374,17 @@ def _print_comparison(comparison: design.DesignComparison, at: str) -> None:
             f"{r.s:g}",
             _pair(r.c1_pct, r.c5_pct),
             _pair(r.c1_pct_optimised, r.c5_pct_optimised),
+            "statistical only" if np.isnan(r.c1_model_pct) else _pair(r.c1_total_pct, r.c5_total_pct),
             _fmt(r.optimised_weights),
         )
-    Console(width=130).print(view)
+    Console(width=150).print(view)
     Console().print(f"bounds: {design.DESIGN_BOUNDS_INCLUDE}")
+    sources = sorted({s for s in comparison.table["model_error"] if s != "statistical only"})
+    Console().print(
+        "model error: the error budget of the high fidelity a fit's surrogate emulates, where one exists for the "
+        f"test ({'; '.join(sources) or 'none of these tests'}); a fit adds its discrepancy's, surrogate's and "
+        "processing's parts"
+    )
 
 
 REFERENCE = Annotated[

@@ -69,6 +69,9 @@ def objective_map_figure(omap: ObjectiveMap, title: str = "") -> Figure:
 def design_comparison_figure(table: pd.DataFrame) -> Figure:
     """Bounds of c1 and c5 (optimised weights) against the maximum depth: which test identifies c5 best.
 
+    The statistical bound (eq. 6) as a line per indenter radius and field of view; where a budget
+    exists for the test, the bound with the model error as open squares beside it.
+
     Parameters
     ----------
     table : pandas.DataFrame
@@ -87,8 +90,21 @@ def design_comparison_figure(table: pd.DataFrame) -> Figure:
         label = f"R = {radius:g} mm" + ("" if np.isinf(fov) else f", FOV {fov:g} mm")
         label += "" if every == 1 else f", every {every} steps"
         label += f", s = {s:g}" if table["s"].nunique() > 1 else ""
-        for ax, col in zip(axes, ("c1_pct_optimised", "c5_pct_optimised"), strict=True):
-            ax.plot(g["max_depth_mm"], g[col], "o-", label=label)
+        for ax, name in zip(axes, ("c1", "c5"), strict=True):
+            (line,) = ax.plot(
+                g["max_depth_mm"], g[f"{name}_pct_optimised"], "o-", label=f"{label}: statistical"
+            )
+            if f"{name}_model_pct" in g and g[f"{name}_model_pct"].notna().any():
+                known = g[g[f"{name}_model_pct"].notna()]
+                ax.plot(
+                    known["max_depth_mm"],
+                    known[f"{name}_total_pct"],
+                    "s--",
+                    color=line.get_color(),
+                    mfc="none",
+                    ms=8,
+                    label=f"{label}: with model error",
+                )
     for ax, name in zip(axes, ("c1", "c5"), strict=True):
         ax.set_xlabel("maximum indentation depth (mm)")
         ax.set_ylabel(f"certainty bound of {name} (+- %)")
@@ -97,7 +113,11 @@ def design_comparison_figure(table: pd.DataFrame) -> Figure:
         ax.yaxis.set_minor_formatter(ScalarFormatter())
         ax.grid(True, which="both", alpha=0.3)
     axes[1].legend(fontsize=8)
-    fig.suptitle("candidate test designs (weights optimised per design, eq. 6)")
+    fig.suptitle(
+        "candidate test designs (weights optimised per design, eq. 6); open squares: with the model error "
+        "where a budget exists for that test",
+        fontsize=9,
+    )
     return fig
 
 

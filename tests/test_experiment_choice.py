@@ -96,3 +96,31 @@ def test_certainty_ellipse_is_the_level_set_and_fig8_is_written(tmp_path):
     fig = objective_map_figure(omap)
     np.testing.assert_allclose(fig.axes[0].lines[1].get_xydata(), e)  # the ellipse drawn is the level set
     assert save_figure(fig, tmp_path / "f8.png").stat().st_size > 10_000
+
+
+def test_a_candidate_with_a_budget_carries_its_model_error_and_one_without_says_so():
+    from indentation_studio.design.experiment_choice import candidate_model_error
+    from indentation_studio.forward.mesh_presets import FIT_MESH, HIGH_FIDELITY_MESH
+    from indentation_studio.forward.spec import Indenter
+    from indentation_studio.surrogate.error_budgets import budget_at, shipped_budget
+
+    spec = ModelSpec(mesh=MeshChoice(FIT_MESH), protocol=Protocol(step_size=0.5, steps=28))
+    for radius in (4.77, 8.0):
+        pct, source = candidate_model_error(spec, Candidate(radius, 14.0), THETA)
+        paper = ModelSpec(mesh=MeshChoice(HIGH_FIDELITY_MESH), indenter=Indenter(radius))
+        expected = budget_at(shipped_budget(paper), THETA)
+        np.testing.assert_allclose(pct, [expected["c1_pct"], expected["c5_pct"]])
+        assert f"fit-model-R{radius:g}.json" in source and "interpolated" in source
+        # a shallower test: no budget was measured for it, and the advice says so
+        assert candidate_model_error(spec, Candidate(radius, 7.0), THETA) == (None, "statistical only")
+    # the table's totals and the figure's second line where the model error is known
+    import pandas as pd
+
+    rows = [
+        {"radius_mm": 4.77, "max_depth_mm": d, "every": 1, "fov_mm": np.nan, "s": 0.05,
+         "c1_pct_optimised": 0.1, "c5_pct_optimised": 0.5, "c1_model_pct": m, "c5_model_pct": m,
+         "c1_total_pct": np.hypot(0.1, m) if m == m else 0.1, "c5_total_pct": np.hypot(0.5, m) if m == m else 0.5}
+        for d, m in ((7.0, np.nan), (10.5, np.nan), (14.0, 3.0))
+    ]  # fmt: skip
+    fig = design_comparison_figure(pd.DataFrame(rows))
+    assert [len(ax.lines) for ax in fig.axes] == [2, 2]  # statistical, and with the model error
