@@ -25,7 +25,7 @@ import numpy as np
 from objective_options import fit_c5  # the sibling script's one Gauss-Newton step with rings left out
 
 from indentation_studio.design.objective import PAPER_WEIGHTS
-from indentation_studio.forward.mesh_study import top_field_interpolator
+from indentation_studio.forward.convergence.mesh_study import top_field_interpolator
 from indentation_studio.forward.predictor import Prediction
 from indentation_studio.forward.result import SimulationResult
 from indentation_studio.inference.mesh_check import prediction_at_nodes

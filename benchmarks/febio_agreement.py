@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from indentation_studio.forward.mesh_study import interpolate_top_displacement
+from indentation_studio.forward.convergence.mesh_study import interpolate_top_displacement
 from indentation_studio.forward.result import SimulationResult
 from indentation_studio.forward.solver import simulate
 from indentation_studio.forward.spec import MeshChoice, ModelSpec

@@ -15,8 +15,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from indentation_studio.forward.convergence.mesh_study import mesh_errors
 from indentation_studio.forward.mesh import MESH_PRESETS, GradedAxis, MeshPreset, structured_block
-from indentation_studio.forward.mesh_study import mesh_errors
 from indentation_studio.forward.result import SimulationResult
 from indentation_studio.forward.solver import EmbeddedSolver
 from indentation_studio.forward.spec import ModelSpec

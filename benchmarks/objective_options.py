@@ -4,7 +4,7 @@ For one case folder of ``indent-studio verification-study`` (``L<k>-s1.npz``, th
 solved with sensitivities and taken as the model), each objective below fits every coarser level's
 noise-free response (one Gauss-Newton step in log theta, as
 ``inference.verification_study.parameter_bias``) and the c5 sequence over the levels gives the
-observed orders, the asymptotic test and the GCI (``forward.grid_convergence.study_quantity``);
+observed orders, the asymptotic test and the GCI (``forward.convergence.gci.study_quantity``);
 beside it the 95 % half-width of eq. 6 to 8 that a typical experiment gives with that objective
 (2 % force noise per step, 0.02 mm DIC noise at every measured node, as
 ``inference.error_budget`` computes it). An objective is the paper's (eq. 4, 5, Appendix B) with:
@@ -29,8 +29,8 @@ import numpy as np
 
 from indentation_studio.design.certainty import bounds_pct, s_from_data
 from indentation_studio.design.objective import PAPER_WEIGHTS, Objective
-from indentation_studio.forward.grid_convergence import study_quantity
-from indentation_studio.forward.mesh_family import MeshFamily
+from indentation_studio.forward.convergence.gci import study_quantity
+from indentation_studio.forward.convergence.mesh_family import MeshFamily
 from indentation_studio.forward.predictor import Prediction
 from indentation_studio.forward.result import SimulationResult
 from indentation_studio.inference.error_budget import noise_objective_value

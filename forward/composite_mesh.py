@@ -251,7 +251,7 @@ def phantom_mesh(
         The mesh's name (its source is ``composite:<name>``).
     radius : float, optional
         The indenter's radius, mm: needed when the preset follows the contact (its core is
-        ``CONTACT_CORE_PER_RADIUS`` R, whole mm, as :func:`forward.mesh_family.contact_family`'s).
+        ``CONTACT_CORE_PER_RADIUS`` R, whole mm, as :func:`forward.convergence.mesh_family.contact_family`'s).
 
     Returns
     -------

@@ -14,8 +14,8 @@ import numpy as np
 
 from .block_mesh import BlockMesh, grid_block
 from .composite_mesh import composite_mesh
+from .convergence.mesh_family import contact_mesh
 from .feb_mesh import read_feb_block_mesh
-from .mesh_family import contact_mesh
 from .mesh_presets import CONTACT_MESH_LEVELS, MESH_PRESETS, GradedAxis, MeshPreset
 from .spec import Geometry, ModelSpec
 

@@ -75,7 +75,7 @@ COMPOSITE_MESH_PRESETS: dict[str, CompositeMeshPreset] = {
 #: verification family whose uniform core, ``CONTACT_CORE_PER_RADIUS`` R wide along x and y, holds
 #: every material point the sphere touches (measured at 14 mm: r = 1.36 R at R = 4.77 mm and
 #: 1.21 R at R = 8 mm, docs/validation/verification.md) with margin, and grows beyond
-#: (:func:`forward.mesh_family.contact_family`). The levels are those of the verification study's
+#: (:func:`forward.convergence.mesh_family.contact_family`). The levels are those of the verification study's
 #: tables: ``contact-L3`` at R = 4.77 mm is its core-8 family's level 3 (21,952 nodes).
 CONTACT_MESH_LEVELS: dict[str, int] = {f"contact-L{k}": k for k in range(5)}
 

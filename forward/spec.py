@@ -331,7 +331,7 @@ class MeshChoice:
     preset : str, optional
         A preset of :mod:`forward.mesh`, of the composite phantom (``COMPOSITE_MESH_PRESETS``), or
         one that follows the contact of the spec's indenter (``contact-L0`` to ``contact-L4``,
-        ``CONTACT_MESH_LEVELS``: :func:`forward.mesh_family.contact_mesh`).
+        ``CONTACT_MESH_LEVELS``: :func:`forward.convergence.mesh_family.contact_mesh`).
     feb_file : str or None, optional
         A FEBio file whose hex8 block is the mesh (then ``preset`` is not used).
 

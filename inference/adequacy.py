@@ -51,7 +51,7 @@ import numpy as np
 from scipy import stats
 from scipy.linalg import cho_factor, cho_solve
 
-from ..forward.mesh_study import top_field_interpolator
+from ..forward.convergence.mesh_study import top_field_interpolator
 from .experiment_data import ExperimentData
 from .experiment_errors import ExperimentDataError
 from .experiment_processing import (

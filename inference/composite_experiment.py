@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from ..forward.composite_mesh import PHANTOM
-from ..forward.mesh_study import top_field_interpolator
+from ..forward.convergence.mesh_study import top_field_interpolator
 from ..forward.result import SimulationResult
 from ..forward.simulation_run import run_simulation
 from ..forward.solver import EmbeddedSolver

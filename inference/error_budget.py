@@ -32,11 +32,11 @@ from ..atomic_write import atomic_write_json
 from ..campaign.loader import load_point, open_campaign, require_sound
 from ..design.certainty import bounds_pct, s_from_data
 from ..design.objective import PAPER_WEIGHTS, Objective, check_weights
+from ..forward.convergence.richardson import RichardsonPredictor
 from ..forward.mesh import build_mesh
 from ..forward.mesh_presets import CONTACT_MESH_LEVELS, MESH_PRESETS
 from ..forward.predictor import CachedPredictor, FESolverPredictor, Prediction
 from ..forward.result import SimulationResult
-from ..forward.richardson import RichardsonPredictor
 from ..forward.spec import MeshChoice, ModelSpec
 from ..surrogate.persistence import load_surrogate
 from .inverse_fit import fit_parameters
@@ -367,7 +367,7 @@ def resolve_model(name: str, reference_spec, fe_cache: dict | None = None) -> tu
     ----------
     name : str
         A mesh preset (the reference's model on that mesh), a FEBio .feb file's hex8 mesh,
-        ``richardson:FINE,COARSE[,ORDER]`` (two presets extrapolated, :mod:`forward.richardson`)
+        ``richardson:FINE,COARSE[,ORDER]`` (two presets extrapolated, :mod:`forward.convergence.richardson`)
         or a surrogate file; ``@stick`` or ``@mu=VALUE`` after a mesh or a .feb gives the model
         another contact (the bias a contact model causes: a stick model fitted to frictional
         data).

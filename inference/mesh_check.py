@@ -33,7 +33,7 @@ import numpy as np
 
 from ..design.certainty import bounds_pct, s_from_data
 from ..design.objective import Objective, check_weights
-from ..forward.mesh_study import top_field_interpolator
+from ..forward.convergence.mesh_study import top_field_interpolator
 from ..forward.predictor import Prediction
 from ..forward.result import SimulationResult
 from ..forward.solver import simulate
@@ -139,7 +139,7 @@ class MeshCheck:
 def prediction_at_nodes(result: SimulationResult, top_xyz: np.ndarray) -> Prediction:
     """A simulation's response (steps without depth 0) at other top nodes ``top_xyz`` of the same
     block: the force as it is, the top displacement of every step interpolated at once
-    (:func:`forward.mesh_study.top_field_interpolator`)."""
+    (:func:`forward.convergence.mesh_study.top_field_interpolator`)."""
     field = np.moveaxis(result.displacement[1:], 0, 1)  # (nodes, steps, 3)
     u = np.moveaxis(top_field_interpolator(result.top_xyz, field)(top_xyz), 1, 0)
     return Prediction(result.force[None, 1:], u[None], result.depth[1:], np.asarray(top_xyz))

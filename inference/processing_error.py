@@ -25,7 +25,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..design.objective import Objective, check_weights
-from ..forward.mesh_study import top_field_interpolator
+from ..forward.convergence.mesh_study import top_field_interpolator
 from .experiment_processing import RegisteredDIC, dic_to_nodes
 
 __all__ = ["REGISTRATION_MM", "ProcessingError", "processing_error_at"]

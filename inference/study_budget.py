@@ -22,7 +22,7 @@ import numpy as np
 import pandas as pd
 
 from ..design.objective import PAPER_WEIGHTS
-from ..forward.grid_convergence import observed_order
+from ..forward.convergence.gci import observed_order
 from ..forward.mesh_presets import CONTACT_MESH_LEVELS
 from ..forward.predictor import CachedPredictor, FESolverPredictor
 from ..forward.result import SimulationResult

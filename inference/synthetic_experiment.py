@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..forward.mesh_study import top_field_interpolator
+from ..forward.convergence.mesh_study import top_field_interpolator
 from .experiment_folder import write_experiment_folder
 from .experiment_processing import rotation_to_fibers
 

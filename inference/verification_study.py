@@ -1,8 +1,8 @@
 """A verification study of the forward model, as the V&V literature does it (Roache's GCI, ASME
-V&V 20): a family of systematically refined meshes (:class:`forward.mesh_family.MeshFamily`) and
+V&V 20): a family of systematically refined meshes (:class:`forward.convergence.mesh_family.MeshFamily`) and
 refined increments, solved at a few parameter points and radii; for each quantity the observed
 order, whether the levels are in the asymptotic range, the extrapolated value and the GCI
-(:mod:`forward.grid_convergence`).
+(:mod:`forward.convergence.gci`).
 
 Quantities, for each (point, radius):
 
@@ -41,9 +41,9 @@ import numpy as np
 from .. import __version__
 from ..atomic_write import atomic_write_json
 from ..design.objective import PAPER_WEIGHTS, Objective
-from ..forward.grid_convergence import ConvergenceOfQuantity, observed_order, study_quantity
-from ..forward.mesh_family import MeshFamily
-from ..forward.mesh_study import top_field_interpolator
+from ..forward.convergence.gci import ConvergenceOfQuantity, observed_order, study_quantity
+from ..forward.convergence.mesh_family import MeshFamily
+from ..forward.convergence.mesh_study import top_field_interpolator
 from ..forward.predictor import Prediction
 from ..forward.result import SimulationResult
 from ..forward.solver import EmbeddedSolver

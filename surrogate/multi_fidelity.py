@@ -39,7 +39,7 @@ import numpy as np
 from scipy import sparse
 from sklearn.model_selection import KFold
 
-from ..forward.mesh_study import top_field_interpolator
+from ..forward.convergence.mesh_study import top_field_interpolator
 from ..forward.predictor import Prediction, ReducedBasis
 from .base import FieldSurrogate, InputScaler, TrainingData, padded_jacobian
 from .gaussian_process import GaussianProcessSurrogate

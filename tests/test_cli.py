@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from indentation_studio.forward.mesh_study import nodes_on_sphere
+from indentation_studio.forward.convergence.mesh_study import nodes_on_sphere
 from indentation_studio.forward.result import SimulationResult
 from indentation_studio.studio.cli import app
 

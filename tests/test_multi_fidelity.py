@@ -11,7 +11,7 @@ import pytest
 from indentation_studio.campaign.loader import CampaignData
 from indentation_studio.design.objective import Objective
 from indentation_studio.design.reduced_objective import FieldObjective, ReducedObjective, objective_function
-from indentation_studio.forward.mesh_study import top_field_interpolator
+from indentation_studio.forward.convergence.mesh_study import top_field_interpolator
 from indentation_studio.forward.predictor import Prediction
 from indentation_studio.inference.experiment_fit import fit_experiment
 from indentation_studio.inference.inverse_fit import fit_parameters

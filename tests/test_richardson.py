@@ -1,12 +1,12 @@
-"""Richardson extrapolation of two meshes (forward.richardson) and the caching Predictor."""
+"""Richardson extrapolation of two meshes (forward.convergence.richardson) and the caching Predictor."""
 
 from __future__ import annotations
 
 import numpy as np
 from sensitivity_check import assert_jacobian_matches_central_differences
 
+from indentation_studio.forward.convergence.richardson import RichardsonPredictor
 from indentation_studio.forward.predictor import CachedPredictor, FESolverPredictor
-from indentation_studio.forward.richardson import RichardsonPredictor
 from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol, SolverOptions
 
 PROTOCOL = Protocol(step_size=0.5, steps=2)

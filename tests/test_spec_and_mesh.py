@@ -129,7 +129,7 @@ def test_malformed_feb_is_named(tmp_path):
 def test_top_field_interpolator_reproduces_linear_fields(structured: bool) -> None:
     """The reference field at other nodes (eq. 1b's interpolation): exact for a linear field on
     a tensor-grid top (bilinear) and on a scattered one (a Cubit-like mesh read from a .feb)."""
-    from indentation_studio.forward.mesh_study import top_field_interpolator
+    from indentation_studio.forward.convergence.mesh_study import top_field_interpolator
 
     rng = np.random.default_rng(3)
     if structured:

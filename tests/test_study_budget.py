@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from indentation_studio.design.nodal_weights import FIT_INNER_RADII
-from indentation_studio.forward.mesh_family import contact_family
+from indentation_studio.forward.convergence.mesh_family import contact_family
 from indentation_studio.forward.mesh_presets import FIT_MESH, HIGH_FIDELITY_MESH
 from indentation_studio.forward.predictor import CachedPredictor, FESolverPredictor
 from indentation_studio.forward.result import SimulationResult

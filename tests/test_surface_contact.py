@@ -8,8 +8,8 @@ import pytest
 from sensitivity_check import assert_sensitivities_match_central_differences
 
 from indentation_studio.forward.contact_quadrature import contact_points, top_faces
+from indentation_studio.forward.convergence.mesh_family import MeshFamily
 from indentation_studio.forward.mesh import preset_mesh
-from indentation_studio.forward.mesh_family import MeshFamily
 from indentation_studio.forward.solver import EmbeddedSolver
 from indentation_studio.forward.spec import Contact, Material, MeshChoice, ModelSpec, Protocol, SolverOptions
 

@@ -4,8 +4,8 @@ mesh family's systematic refinement, and the study on a small family of real FE 
 import numpy as np
 import pytest
 
-from indentation_studio.forward.grid_convergence import observed_order, study_quantity
-from indentation_studio.forward.mesh_family import MeshFamily, graded_coordinates
+from indentation_studio.forward.convergence.gci import observed_order, study_quantity
+from indentation_studio.forward.convergence.mesh_family import MeshFamily, graded_coordinates
 
 
 def test_constant_ratio_recovers_order_extrapolation_and_gci():

@@ -29,10 +29,10 @@ from dataclasses import dataclass, replace
 import lazy_loader as lazy
 import numpy as np
 
-from .block_mesh import BlockMesh, grid_block
-from .grid_convergence import representative_size
-from .mesh_presets import CONTACT_CORE_PER_RADIUS, CONTACT_MESH_LEVELS
-from .spec import Geometry
+from ..block_mesh import BlockMesh, grid_block
+from ..mesh_presets import CONTACT_CORE_PER_RADIUS, CONTACT_MESH_LEVELS
+from ..spec import Geometry
+from .gci import representative_size
 
 # scipy.optimize loads on first use: a simulation's cold start does not pay for it (tests/test_cold_start.py)
 optimize = lazy.load("scipy.optimize", suppress_warning=True)
@@ -252,7 +252,7 @@ def contact_family(radius: float) -> MeshFamily:
 
     Examples
     --------
-    >>> from indentation_studio.forward.mesh_family import contact_family
+    >>> from indentation_studio.forward.convergence.mesh_family import contact_family
     >>> contact_family(4.77).name, contact_family(8.0).node_count(3)
     ('8x8-h1.2x1.2-r1.5-core8x0.5', 21952)
     """

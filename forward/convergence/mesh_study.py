@@ -9,11 +9,11 @@ from pathlib import Path
 import numpy as np
 from scipy.interpolate import LinearNDInterpolator, RegularGridInterpolator
 
-from .mesh import build_mesh
-from .result import SimulationResult
-from .solver import EmbeddedSolver
-from .spec import MeshChoice, ModelSpec
-from .stick_contact import RigidSphere
+from ..mesh import build_mesh
+from ..result import SimulationResult
+from ..solver import EmbeddedSolver
+from ..spec import MeshChoice, ModelSpec
+from ..stick_contact import RigidSphere
 
 
 def top_field_interpolator(top_xyz: np.ndarray, field: np.ndarray):

@@ -14,9 +14,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .mesh import build_mesh
+from ..mesh import build_mesh
+from ..predictor import Prediction
 from .mesh_study import top_field_interpolator
-from .predictor import Prediction
 
 
 class RichardsonPredictor:
