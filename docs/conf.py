@@ -12,6 +12,7 @@ are written from the subpackages' ``__all__`` by ``docs/api_pages.py`` into ``do
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import sys
@@ -59,6 +60,29 @@ suppress_warnings = []
 # MyST: the pages stay Markdown; `page.md#heading` links resolve to the heading's anchor
 myst_enable_extensions = ["colon_fence"]
 myst_heading_anchors = 4
+
+# The notebooks' kernel: this Python, its log at ERROR, so that ipykernel's notice that the kernel
+# talks to the build over local TCP (printed once per notebook) is not the build's output; a cell's
+# error still fails the build (it comes as the cell's output, not as a log line).
+_kernels = ROOT / "build" / "jupyter_kernels"
+(_kernels / "kernels" / "python3").mkdir(parents=True, exist_ok=True)
+(_kernels / "kernels" / "python3" / "kernel.json").write_text(
+    json.dumps(
+        {
+            "argv": [
+                sys.executable,
+                "-m",
+                "ipykernel_launcher",
+                "-f",
+                "{connection_file}",
+                "--IPKernelApp.log_level=ERROR",
+            ],
+            "display_name": "Python 3",
+            "language": "python",
+        }
+    )
+)
+os.environ["JUPYTER_PATH"] = os.pathsep.join(filter(None, [str(_kernels), os.environ.get("JUPYTER_PATH")]))
 
 # myst-nb: the notebooks run at build time and are cached; an error in a cell fails the build
 nb_execution_mode = "cache"
