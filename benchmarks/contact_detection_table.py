@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from indentation_studio.inference.experiment_data import ExperimentDataError
+from indentation_studio.inference.experiment.data import ExperimentDataError
 from indentation_studio.inference.lab.load_frame import LoadFrameRecord, find_holds
 
 LEAD_INS = ("preload", "contact", "air-10s", "air-300s")

@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from indentation_studio.atomic_write import atomic_write_json
-from indentation_studio.inference.experiment_data import load_experiment
+from indentation_studio.inference.experiment.data import load_experiment
 from indentation_studio.inference.experiment_fit import fit_experiment
 
 

@@ -32,8 +32,8 @@ from indentation_studio.atomic_write import atomic_write_json, strict_json
 from indentation_studio.design.friction_treatment import FrictionTreatment
 from indentation_studio.forward.predictor import FESolverPredictor
 from indentation_studio.forward.spec import MeshChoice, ModelSpec
+from indentation_studio.inference.experiment.synthetic import write_synthetic_experiment
 from indentation_studio.inference.experiment_fit import fit_experiment
-from indentation_studio.inference.synthetic_experiment import write_synthetic_experiment
 
 
 def _say(message: str) -> None:

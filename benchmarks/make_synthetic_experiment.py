@@ -18,7 +18,7 @@ import numpy as np
 from indentation_studio.forward.predictor import FESolverPredictor
 from indentation_studio.forward.result import SimulationResult
 from indentation_studio.forward.spec import Indenter, MeshChoice, ModelSpec
-from indentation_studio.inference.synthetic_experiment import (
+from indentation_studio.inference.experiment.synthetic import (
     LAB_RECORDING,
     Recording,
     write_experiment_from_model,

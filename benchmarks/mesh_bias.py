@@ -6,7 +6,7 @@ candidate meshes solved at the same theta with exact sensitivities. The Gauss-Ne
 objective (eq. 4, 5 with weights eta, paper reading) from theta is then the parameter bias that
 discretisation error alone causes in a fit (to first order), printed beside the eq. 6 half-width
 for a given s, i.e. what a fit on that mesh can resolve before its own mesh misleads it. The step
-is ``inference.mesh_check.mesh_check`` with the data mesh as the finer one.
+is ``inference.budgets.mesh_check.mesh_check`` with the data mesh as the finer one.
 
     .venv/bin/python benchmarks/mesh_bias.py DATA.npz [--meshes default,fine] [--eta 0.45,0.35,0.2,0]
 """
@@ -25,7 +25,7 @@ from indentation_studio.forward.mesh import MESH_PRESETS, GradedAxis, MeshPreset
 from indentation_studio.forward.result import SimulationResult
 from indentation_studio.forward.solver import EmbeddedSolver
 from indentation_studio.forward.spec import ModelSpec
-from indentation_studio.inference.mesh_check import mesh_check, prediction_at_nodes
+from indentation_studio.inference.budgets.mesh_check import mesh_check, prediction_at_nodes
 
 sys.path.insert(0, str(Path(__file__).parent))
 from mesh_candidates import CANDIDATES

@@ -20,9 +20,9 @@ from pathlib import Path
 import numpy as np
 
 from indentation_studio.campaign.loader import StoredResponses, load_campaign
+from indentation_studio.inference.experiment.synthetic import write_synthetic_experiment
 from indentation_studio.inference.experiment_fit import fit_experiment
-from indentation_studio.inference.experiment_posterior import sample_posterior_for
-from indentation_studio.inference.synthetic_experiment import write_synthetic_experiment
+from indentation_studio.inference.posterior.workflow import sample_posterior_for
 
 
 def main() -> None:

@@ -3,11 +3,11 @@
 For one case folder of ``indent-studio verification-study`` (``L<k>-s1.npz``, the finest level
 solved with sensitivities and taken as the model), each objective below fits every coarser level's
 noise-free response (one Gauss-Newton step in log theta, as
-``inference.verification_study.parameter_bias``) and the c5 sequence over the levels gives the
+``inference.budgets.verification_study.parameter_bias``) and the c5 sequence over the levels gives the
 observed orders, the asymptotic test and the GCI (``forward.convergence.gci.study_quantity``);
 beside it the 95 % half-width of eq. 6 to 8 that a typical experiment gives with that objective
 (2 % force noise per step, 0.02 mm DIC noise at every measured node, as
-``inference.error_budget`` computes it). An objective is the paper's (eq. 4, 5, Appendix B) with:
+``inference.budgets.error_budget`` computes it). An objective is the paper's (eq. 4, 5, Appendix B) with:
 
 - ``paper``: the weights (0.45, 0.35, 0.2, 0), the top nodes within 25 mm, those under the sphere
   (r < R) obscured;
@@ -33,8 +33,8 @@ from indentation_studio.forward.convergence.gci import study_quantity
 from indentation_studio.forward.convergence.mesh_family import MeshFamily
 from indentation_studio.forward.predictor import Prediction
 from indentation_studio.forward.result import SimulationResult
-from indentation_studio.inference.error_budget import noise_objective_value
-from indentation_studio.inference.mesh_check import prediction_at_nodes
+from indentation_studio.inference.budgets.error_budget import noise_objective_value
+from indentation_studio.inference.budgets.mesh_check import prediction_at_nodes
 
 FORCE_NOISE = 0.02
 DIC_NOISE_MM = 0.02

@@ -23,8 +23,8 @@ import numpy as np
 from indentation_studio.design.objective import PAPER_WEIGHTS
 from indentation_studio.forward.predictor import FESolverPredictor, Prediction
 from indentation_studio.forward.spec import Contact, Indenter, MeshChoice, ModelSpec, Protocol
-from indentation_studio.inference.experiment_data import load_experiment
-from indentation_studio.inference.experiment_processing import experiment_objective
+from indentation_studio.inference.experiment.data import load_experiment
+from indentation_studio.inference.experiment.processing import experiment_objective
 
 
 def main() -> None:

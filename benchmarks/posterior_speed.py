@@ -37,11 +37,11 @@ from indentation_studio.campaign.loader import load_campaign  # noqa: E402
 from indentation_studio.design.reduced_objective import FieldObjective, ReducedObjective  # noqa: E402
 from indentation_studio.forward.predictor import FESolverPredictor  # noqa: E402
 from indentation_studio.forward.spec import ModelSpec  # noqa: E402
-from indentation_studio.inference.experiment_data import load_experiment  # noqa: E402
-from indentation_studio.inference.experiment_processing import experiment_objective  # noqa: E402
-from indentation_studio.inference.inverse_fit import fit_parameters  # noqa: E402
-from indentation_studio.inference.posterior import sample_posterior  # noqa: E402
-from indentation_studio.inference.synthetic_experiment import write_synthetic_experiment  # noqa: E402
+from indentation_studio.inference.experiment.data import load_experiment  # noqa: E402
+from indentation_studio.inference.experiment.processing import experiment_objective  # noqa: E402
+from indentation_studio.inference.experiment.synthetic import write_synthetic_experiment  # noqa: E402
+from indentation_studio.inference.fit.inverse_fit import fit_parameters  # noqa: E402
+from indentation_studio.inference.posterior.sampling import sample_posterior  # noqa: E402
 from indentation_studio.surrogate.base import TrainingData  # noqa: E402
 from indentation_studio.surrogate.persistence import load_surrogate, save_surrogate  # noqa: E402
 from indentation_studio.surrogate.training import make_surrogate  # noqa: E402

@@ -3,7 +3,7 @@
 For each case: a noise-free synthetic experiment made by the FE model itself (so that only the
 processing can move a fit: the DIC points taken to the nodes, and the registration when the
 indenter's points are misplaced), its fit on the same FE model from the truth, and the part that
-``inference.processing_error`` measures at the truth. Prints one row per case: the fit's shift
+``inference.experiment.processing_error`` measures at the truth. Prints one row per case: the fit's shift
 from the truth and the part (the planes' signed shift, the registration part, the total).
 
     .venv/bin/python benchmarks/processing_part.py --mesh contact-L1 --steps 28 \\
@@ -23,11 +23,11 @@ import numpy as np
 from indentation_studio.design.objective import PAPER_WEIGHTS
 from indentation_studio.forward.predictor import FESolverPredictor
 from indentation_studio.forward.spec import Indenter, MeshChoice, ModelSpec, Protocol
-from indentation_studio.inference.experiment_data import load_experiment
-from indentation_studio.inference.experiment_processing import experiment_objective
-from indentation_studio.inference.inverse_fit import fit_parameters
-from indentation_studio.inference.processing_error import processing_error_at
-from indentation_studio.inference.synthetic_experiment import write_synthetic_experiment
+from indentation_studio.inference.experiment.data import load_experiment
+from indentation_studio.inference.experiment.processing import experiment_objective
+from indentation_studio.inference.experiment.processing_error import processing_error_at
+from indentation_studio.inference.experiment.synthetic import write_synthetic_experiment
+from indentation_studio.inference.fit.inverse_fit import fit_parameters
 
 
 def one_case(

@@ -32,9 +32,9 @@ from pathlib import Path
 import numpy as np
 
 from indentation_studio.atomic_write import atomic_write_json
+from indentation_studio.inference.experiment.synthetic import LAB_RECORDING, write_synthetic_experiment
 from indentation_studio.inference.experiment_fit import fit_experiment
-from indentation_studio.inference.fit_inputs import surrogate_fe_model
-from indentation_studio.inference.synthetic_experiment import LAB_RECORDING, write_synthetic_experiment
+from indentation_studio.inference.fit.inputs import surrogate_fe_model
 from indentation_studio.surrogate.persistence import load_surrogate
 from indentation_studio.surrogate.shipped import shipped_for_test
 

@@ -8,16 +8,16 @@ __getattr__, __dir__, __all__ = lazy.attach(
     __name__,
     submodules=["lab"],
     submod_attrs={
-        "experiment_data": ["ExperimentData", "ExperimentDataError", "load_experiment"],
-        "experiment_processing": ["experiment_objective", "static_forces", "to_model_frame"],
-        "synthetic_experiment": [
+        "experiment.data": ["ExperimentData", "ExperimentDataError", "load_experiment"],
+        "experiment.processing": ["experiment_objective", "static_forces", "to_model_frame"],
+        "experiment.synthetic": [
             "LAB_RECORDING",
             "Recording",
             "write_experiment_from_model",
             "write_synthetic_experiment",
         ],
-        "inverse_fit": ["FitResult", "fit_parameters"],
-        "fit_inputs": ["FitInputs", "prepare_fit"],
+        "fit.inverse_fit": ["FitResult", "fit_parameters"],
+        "fit.inputs": ["FitInputs", "prepare_fit"],
         "experiment_fit": [
             "ExperimentFit",
             "FE_STAGES",
@@ -26,9 +26,9 @@ __getattr__, __dir__, __all__ = lazy.attach(
             "interval_is_whole_range",
             "mu_is_identified",
         ],
-        "fit_confirmation": ["FitConfirmation", "confirm_fit"],
-        "posterior": ["Posterior", "sample_posterior"],
-        "model_error": [
+        "fit.confirm_stage": ["FitConfirmation", "confirm_fit"],
+        "posterior.sampling": ["Posterior", "sample_posterior"],
+        "budgets.model_error": [
             "ModelError",
             "budget_correction",
             "combined_pct",
@@ -39,10 +39,10 @@ __getattr__, __dir__, __all__ = lazy.attach(
             "with_model_error",
             "with_processing_error",
         ],
-        "processing_error": ["REGISTRATION_MM", "ProcessingError", "processing_error_at"],
-        "experiment_posterior": ["ExperimentPosterior", "sample_posterior_for"],
+        "experiment.processing_error": ["REGISTRATION_MM", "ProcessingError", "processing_error_at"],
+        "posterior.workflow": ["ExperimentPosterior", "sample_posterior_for"],
         "confirmation": ["Confirmation", "confirm"],
-        "mesh_check": ["MeshCheck", "check_mesh_at"],
+        "budgets.mesh_check": ["MeshCheck", "check_mesh_at"],
         "lab.experiment_import": [
             "import_dic_csv",
             "import_duodic",
@@ -50,9 +50,9 @@ __getattr__, __dir__, __all__ = lazy.attach(
             "import_load_frame",
             "import_matchid",
         ],
-        "data_check": ["check_experiment"],
+        "experiment.data_check": ["check_experiment"],
         "adequacy": ["CANNOT_EXPLAIN", "Adequacy", "NoiseModel", "chi_square_test", "noise_model"],
-        "error_budget": [
+        "budgets.error_budget": [
             "CONVERGED_FRACTION",
             "ErrorBudget",
             "campaign_error_budget",
@@ -60,8 +60,8 @@ __getattr__, __dir__, __all__ = lazy.attach(
             "noise_objective_value",
             "resolve_model",
         ],
-        "verification_study": ["VerificationStudy", "parameter_bias", "run_verification_study"],
-        "study_budget": [
+        "budgets.verification_study": ["VerificationStudy", "parameter_bias", "run_verification_study"],
+        "budgets.study_budget": [
             "ReferenceCorrection",
             "finest_reference_budget",
             "reference_correction",
@@ -69,13 +69,13 @@ __getattr__, __dir__, __all__ = lazy.attach(
             "study_error_budget",
             "with_finest_reference",
         ],
-        "febio_experiment": [
+        "experiment.febio": [
             "RecordedRun",
             "experiment_from_febio_run",
             "febio_contact",
             "febio_experiment_summary",
         ],
-        "composite_experiment": [
+        "experiment.composite": [
             "CompositeComparison",
             "CompositeExperiment",
             "compare_with_fit",

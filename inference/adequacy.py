@@ -16,7 +16,7 @@ The noise model:
 * DIC, per direction of the model frame: measured from the data (each point against a local
   quadratic through its neighbours, the fit's own leverage taken out exactly, robust spread
   over the points) or declared, in mm; at each FE node it is carried through the very planes
-  that interpolate the DIC points there (:func:`inference.experiment_processing.node_interpolation`),
+  that interpolate the DIC points there (:func:`inference.experiment.processing.node_interpolation`),
   so nodes sharing points are correlated as they are;
 * the registration: the indentation point's in-plane standard error from the sphere fit's
   residual, moving every node's value by the field's gradient there (a rank-two term, solved
@@ -52,17 +52,17 @@ from scipy import stats
 from scipy.linalg import cho_factor, cho_solve
 
 from ..forward.convergence.mesh_study import top_field_interpolator
-from .experiment_data import ExperimentData
-from .experiment_errors import ExperimentDataError
-from .experiment_processing import (
+from .budgets.model_error import has_high_fidelity_level, residual_changes
+from .experiment.data import ExperimentData
+from .experiment.errors import ExperimentDataError
+from .experiment.processing import (
     NodeInterpolation,
     RegisteredDIC,
     _noise_neighbours,
     fit_sphere,
     node_interpolation,
 )
-from .model_error import has_high_fidelity_level, residual_changes
-from .relaxation import relaxation_fit
+from .experiment.relaxation import relaxation_fit
 
 __all__ = [
     "ALPHA",
@@ -404,7 +404,7 @@ def chi_square_test(
     model_directions : numpy.ndarray, optional
         (k, residuals) the model's own stated uncertainty in residual space, one standard
         deviation per row (a multi-fidelity surrogate's discrepancy: its predictive covariance
-        factor moved through eq. 5, :func:`inference.model_error.residual_changes`); a low-rank
+        factor moved through eq. 5, :func:`inference.budgets.model_error.residual_changes`); a low-rank
         term of the covariance beside the registration's, by the same Woodbury identity.
     alternatives : numpy.ndarray, optional
         (a, residuals) the residual vector as other readings of the same data would make it
@@ -640,8 +640,8 @@ def model_adequacy(
     registration_mm: float = 0.0,
     model_directions: np.ndarray | None = None,
 ) -> Adequacy:
-    """The adequacy test of ``fit`` (a :class:`inference.inverse_fit.FitResult` carrying its
-    residuals) on ``inputs`` (:class:`inference.fit_inputs.FitInputs`): the chi-square statistic
+    """The adequacy test of ``fit`` (a :class:`inference.fit.inverse_fit.FitResult` carrying its
+    residuals) on ``inputs`` (:class:`inference.fit.inputs.FitInputs`): the chi-square statistic
     of its residuals whitened by the data's noise (module docstring), its degrees of freedom and
     p-value; flagged beyond the upper ``ALPHA`` tail. ``force_noise`` (relative, one reading) and
     ``dic_noise`` (mm) are declared levels; ``at_ends`` are parameters the caller found at a range

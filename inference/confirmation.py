@@ -13,9 +13,9 @@ from ..atomic_write import atomic_write_json
 from ..design.objective import PAPER_WEIGHTS
 from ..forward.predictor import Prediction
 from ..surrogate.base import FieldSurrogate
-from .experiment_data import ExperimentData
-from .fit_inputs import FitInputs, prepare_fit
-from .mesh_check import MeshCheck, check_mesh_at
+from .budgets.mesh_check import MeshCheck, check_mesh_at
+from .experiment.data import ExperimentData
+from .fit.inputs import FitInputs, prepare_fit
 
 __all__ = ["Confirmation", "confirm"]
 
@@ -126,7 +126,7 @@ def confirm(
         The experiment (folder or loaded).
     surrogate : str, pathlib.Path, FieldSurrogate or None
         The surrogate (file or loaded); its FE model is run. None: the one shipped for the
-        experiment's test (:func:`~indentation_studio.inference.fit_inputs.prepare_fit`).
+        experiment's test (:func:`~indentation_studio.inference.fit.inputs.prepare_fit`).
     theta : array_like
         (c1, c5), kPa.
     weights : array_like, default PAPER_WEIGHTS

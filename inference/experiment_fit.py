@@ -1,6 +1,6 @@
 """The inverse fit of a measured experiment (paper 2.8.2): Levenberg-Marquardt on the surrogate,
 then on the FE solver with its exact sensitivities, bounds from eq. 6 to 8; optionally the mesh check
-at the fit (:mod:`inference.mesh_check`) and the fit carried to the finer mesh."""
+at the fit (:mod:`inference.budgets.mesh_check`) and the fit carried to the finer mesh."""
 
 from __future__ import annotations
 
@@ -24,20 +24,9 @@ from ..forward.solver import SimulationError
 from ..surrogate.base import SPARSE_GAP, FieldSurrogate
 from ..surrogate.error_budgets import budget_at, surrogate_error_budget
 from .adequacy import fit_adequacy, training_box_ends
-from .budget_check import budget_status
-from .experiment_data import ExperimentData
-from .fit_confirmation import FitConfirmation, confirm_fit
-from .fit_inputs import FitInputs, prepare_fit
-from .inverse_fit import (
-    PAPER_F_STOP,
-    PAPER_START,
-    FitResult,
-    fit_parameters,
-    gauss_newton_refine,
-    residuals_at,
-)
-from .mesh_check import MeshCheck, check_mesh_at
-from .model_error import (
+from .budgets.check import budget_status
+from .budgets.mesh_check import MeshCheck, check_mesh_at
+from .budgets.model_error import (
     ModelError,
     budget_correction,
     combined_pct,
@@ -48,7 +37,18 @@ from .model_error import (
     with_emulation_error,
     with_processing_error,
 )
-from .processing_error import REGISTRATION_MM, processing_error_at
+from .experiment.data import ExperimentData
+from .experiment.processing_error import REGISTRATION_MM, processing_error_at
+from .fit.confirm_stage import FitConfirmation, confirm_fit
+from .fit.inputs import FitInputs, prepare_fit
+from .fit.inverse_fit import (
+    PAPER_F_STOP,
+    PAPER_START,
+    FitResult,
+    fit_parameters,
+    gauss_newton_refine,
+    residuals_at,
+)
 
 __all__ = [
     "FE_STAGES",
@@ -67,7 +67,7 @@ __all__ = [
 ]
 
 #: What follows the fit on the surrogate (``fit_experiment(fe_stage=...)``): ``confirm``, one FE run
-#: at the fit and the Gauss-Newton step it points to (:mod:`inference.fit_confirmation`); ``fit``,
+#: at the fit and the Gauss-Newton step it points to (:mod:`inference.fit.confirm_stage`); ``fit``,
 #: Levenberg-Marquardt on the FE model (paper 2.8.2; minutes with mu); ``none``; ``auto``,
 #: ``confirm`` on a surrogate trained with mu and ``fit`` on one without (its FE stage is what
 #: brings mu in, or refines the stick's fit).
@@ -490,7 +490,7 @@ def fit_experiment(
     or holds mu too, and by default the FE model confirms the fit (seconds); on one without, that
     stage fits (c1, c5) with its contact as a start, and the FE fit (needed then) brings mu in. Every fit is tested for model adequacy
     (:mod:`inference.adequacy`: its residuals against the data's noise) and says whether its test
-    has an error budget (:mod:`inference.budget_check`).
+    has an error budget (:mod:`inference.budgets.check`).
 
     Parameters
     ----------
@@ -498,7 +498,7 @@ def fit_experiment(
         The experiment (folder or loaded).
     surrogate : str, pathlib.Path, FieldSurrogate or None
         The surrogate (file or loaded); None (default): the one shipped for the experiment's test
-        (:func:`~indentation_studio.inference.fit_inputs.prepare_fit`), said in ``say``.
+        (:func:`~indentation_studio.inference.fit.inputs.prepare_fit`), said in ``say``.
     weights : array_like, default PAPER_WEIGHTS
         The weights of eq. 5.
     refine : bool, default True
@@ -528,7 +528,7 @@ def fit_experiment(
     registration_mm : float, default REGISTRATION_MM
         How far the indentation point found from the indenter's tracked points may lie from the
         true one, mm: the bounds carry its effect and that of the DIC-points-to-nodes planes,
-        measured at the fit (``inference.processing_error``).
+        measured at the fit (``inference.experiment.processing_error``).
 
     Returns
     -------
@@ -904,7 +904,7 @@ def model_error_with_mu(
     """The model-error parts of (c1, c5) at a fit on a surrogate trained with mu, mu held there.
 
     The discrepancy's uncertainty and the error budget of a multi-fidelity surrogate
-    (:func:`~indentation_studio.inference.model_error.model_error_at`, mu held: at mu's range ends
+    (:func:`~indentation_studio.inference.budgets.model_error.model_error_at`, mu held: at mu's range ends
     nothing slips and d/dmu vanishes), or the stick-measured budget of a single-level one
     (:func:`_stick_mesh_budget`); the surrogate's own error where the final stage is on it; the
     processing's part. A fit and a posterior of the same data carry the same parts.
@@ -951,9 +951,9 @@ def mu_model_error_pct(inputs: FitInputs, theta: np.ndarray, *, on_surrogate: bo
 
     Every parameter free (mu's certainty is what is asked): the surrogate's held-out errors pushed
     through the fit where its final stage is on it
-    (:func:`~indentation_studio.inference.model_error.emulation_error_pct`), and, on a
+    (:func:`~indentation_studio.inference.budgets.model_error.emulation_error_pct`), and, on a
     multi-fidelity surrogate with mu inside its range, the discrepancy's uncertainty pushed the same
-    way (:func:`~indentation_studio.inference.model_error.model_error_at` over all three), root sum of
+    way (:func:`~indentation_studio.inference.budgets.model_error.model_error_at` over all three), root sum of
     squares. A model error that moves mu by its whole range is what makes data with no slip in them
     look as if they held a mu.
 
@@ -1106,7 +1106,7 @@ def _with_processing(
     free: int | None = None,
 ) -> ModelError:
     """The fit's model error with the experiment's processing part measured at ``theta`` on the
-    fit's surrogate (``inference.processing_error``)."""
+    fit's surrogate (``inference.experiment.processing_error``)."""
     say(
         f"the processing's part at the fit (DIC points to nodes, registration within {registration_mm:g} mm) ..."
     )

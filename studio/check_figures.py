@@ -7,9 +7,9 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.figure import Figure
 
-from ..inference.data_check import DataCheck
-from ..inference.experiment_data import ExperimentData
-from ..inference.experiment_processing import RegisteredDIC, fit_sphere
+from ..inference.experiment.data import ExperimentData
+from ..inference.experiment.data_check import DataCheck
+from ..inference.experiment.processing import RegisteredDIC, fit_sphere
 
 
 def hold_fits_figure(exp: ExperimentData, check: DataCheck) -> Figure:

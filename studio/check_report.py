@@ -1,5 +1,5 @@
 """The data-check report (``indent-studio check``): the numbers of
-:func:`inference.data_check.check_experiment` as ``check.json`` and one HTML page with the
+:func:`inference.experiment.data_check.check_experiment` as ``check.json`` and one HTML page with the
 figures of :mod:`.check_figures` beside it."""
 
 from __future__ import annotations
@@ -9,9 +9,9 @@ import io
 from pathlib import Path
 
 from ..atomic_write import atomic_write, atomic_write_json
-from ..inference.data_check import check_experiment
-from ..inference.experiment_data import load_experiment
-from ..inference.experiment_processing import to_model_frame
+from ..inference.experiment.data import load_experiment
+from ..inference.experiment.data_check import check_experiment
+from ..inference.experiment.processing import to_model_frame
 from .check_figures import dic_coverage_figure, hold_fits_figure, registration_figure, sphere_fit_figure
 
 FIGURES = (

@@ -25,12 +25,12 @@ from ..design.study import fe_design_study
 from ..design.weights import PAPER_HESSIAN, compare_with_paper
 from ..forward.mesh import build_mesh
 from ..forward.spec import ModelSpec
+from ..inference.budgets.model_error import model_error_scope
 from ..inference.confirmation import confirm
-from ..inference.experiment_data import load_experiment
+from ..inference.experiment.data import load_experiment
+from ..inference.experiment.processing import static_forces
 from ..inference.experiment_fit import fit_experiment
-from ..inference.experiment_posterior import sample_posterior_for
-from ..inference.experiment_processing import static_forces
-from ..inference.model_error import model_error_scope
+from ..inference.posterior.workflow import sample_posterior_for
 from ..surrogate.persistence import save_surrogate
 from ..surrogate.shipped import shipped_for_test
 from ..surrogate.training import SURROGATE_KINDS, train_surrogate

@@ -558,7 +558,7 @@ def composite_comparison_figure(comparison, within_mm: float = 20.0, title: str 
     uz and in-plane |u| at the last step over the full field (quarter mirrored); (d) uz of the
     composite minus the homogeneous model's. The top layer's fibers (along y) are drawn as
     dashed bands: they imprint the surface. ``comparison`` is an
-    :class:`inference.composite_experiment.CompositeComparison`."""
+    :class:`inference.experiment.composite.CompositeComparison`."""
     c = comparison
     xy = c.top_xyz[:, :2]
     keep = np.all(np.abs(xy) <= within_mm, axis=1)
@@ -613,7 +613,7 @@ def verification_figure(case: dict, names: tuple[str, ...] | None = None, title:
     Parameters
     ----------
     case : dict
-        One case of :func:`inference.verification_study.run_verification_study` (its
+        One case of :func:`inference.budgets.verification_study.run_verification_study` (its
         ``quantities``).
     names : tuple of str, optional
         The quantities to draw; default all.

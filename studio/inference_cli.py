@@ -30,7 +30,7 @@ CHECK_MESH = Annotated[
     str | None,
     typer.Option(
         help="then solve at the fit on this finer mesh preset (e.g. reference): the fit carried there, with "
-        "bounds that add that mesh's discretisation uncertainty (inference/mesh_check.py)"
+        "bounds that add that mesh's discretisation uncertainty (inference/budgets/mesh_check.py)"
     ),
 ]
 

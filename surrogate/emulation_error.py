@@ -8,7 +8,7 @@ the held-out fold of a k-fold cross-validation): at each such point k the error 
 is what the surrogate gets wrong in the two outputs eq. 4a and 4b weigh. The errors of all points
 are kept, compressed by a truncated SVD (``E = scores @ directions``, the directions that hold all
 but ``1 - energy`` of the sum of squares), in the surrogate's file. A fit reads them at its own
-objective and parameters (``inference.model_error``): each e_k moves the residuals and so the fit,
+objective and parameters (``inference.budgets.model_error``): each e_k moves the residuals and so the fit,
 and the spread of those moves over the held-out points is the surrogate's part of the bounds.
 """
 

@@ -3,7 +3,7 @@ systematic 95 % half-width for one model (:func:`remaining_bias`), the budgets s
 studio (package data ``indentation_studio/error_budgets``) looked up by test and mesh
 (:func:`shipped_budget`), and the one a surrogate recorded at training
 (:func:`surrogate_error_budget`). Reading only: computing a budget (fits of a reference campaign)
-is :mod:`indentation_studio.inference.error_budget`'s. Below both the surrogates and the fits, so
+is :mod:`indentation_studio.inference.budgets.error_budget`'s. Below both the surrogates and the fits, so
 that training records a budget and a fit reads it without either importing the other."""
 
 from __future__ import annotations

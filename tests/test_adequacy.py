@@ -2,7 +2,7 @@
 chi-square statistic with n - p degrees of freedom; data the model made are not flagged (over
 20 noise draws at most one beyond the 0.1 % tail), data it cannot explain (a force scale 10 %
 off, fibers declared 90 deg from where they are) are. And a fit without an error budget for its
-test says so (inference.budget_check), in the CLI's text and the report too."""
+test says so (inference.budgets.check), in the CLI's text and the report too."""
 
 from __future__ import annotations
 
@@ -24,12 +24,12 @@ from indentation_studio.inference.adequacy import (
     model_adequacy,
     parameters_at_ends,
 )
-from indentation_studio.inference.budget_check import budget_status
-from indentation_studio.inference.experiment_data import load_experiment
-from indentation_studio.inference.experiment_processing import experiment_objective, to_model_frame
-from indentation_studio.inference.inverse_fit import fit_parameters
-from indentation_studio.inference.model_error import ModelError
-from indentation_studio.inference.synthetic_experiment import write_synthetic_experiment
+from indentation_studio.inference.budgets.check import budget_status
+from indentation_studio.inference.budgets.model_error import ModelError
+from indentation_studio.inference.experiment.data import load_experiment
+from indentation_studio.inference.experiment.processing import experiment_objective, to_model_frame
+from indentation_studio.inference.experiment.synthetic import write_synthetic_experiment
+from indentation_studio.inference.fit.inverse_fit import fit_parameters
 
 SPEC = ModelSpec(mesh=MeshChoice("coarse"), protocol=Protocol(step_size=0.5, steps=4))
 TRUE = np.array([12.0, 250.0])

@@ -27,7 +27,7 @@ from indentation_studio.campaign.loader import load_campaign
 from indentation_studio.campaign.runner import run_named_campaign
 from indentation_studio.design.objective import Objective
 from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
-from indentation_studio.inference.inverse_fit import PAPER_START, fit_parameters
+from indentation_studio.inference.fit.inverse_fit import PAPER_START, fit_parameters
 from indentation_studio.surrogate.training import train_surrogate
 
 SPEC = ModelSpec(mesh=MeshChoice("coarse"), protocol=Protocol(step_size=0.5, steps=4))

@@ -16,9 +16,10 @@ from lab_files import frames_with_reference, write_matchid
 from test_lab_importers import ETA, SPEC, TRUE, LinearPredictor
 
 from indentation_studio.forward.predictor import FESolverPredictor
-from indentation_studio.inference.experiment_data import ExperimentDataError, load_experiment
-from indentation_studio.inference.experiment_processing import experiment_objective, to_model_frame
-from indentation_studio.inference.inverse_fit import fit_parameters
+from indentation_studio.inference.experiment.data import ExperimentDataError, load_experiment
+from indentation_studio.inference.experiment.processing import experiment_objective, to_model_frame
+from indentation_studio.inference.experiment.synthetic import write_synthetic_experiment
+from indentation_studio.inference.fit.inverse_fit import fit_parameters
 from indentation_studio.inference.lab.experiment_import import (
     ForceSource,
     FrameChoice,
@@ -26,7 +27,6 @@ from indentation_studio.inference.lab.experiment_import import (
     ProtocolInfo,
     import_matchid,
 )
-from indentation_studio.inference.synthetic_experiment import write_synthetic_experiment
 
 TILT = np.radians(16.0)
 AXIS = np.array([np.cos(np.radians(30.0)), np.sin(np.radians(30.0)), 0.0])  # in the face

@@ -13,8 +13,8 @@ import pytest
 from test_lab_importers import SPEC, TRUE, LinearPredictor
 
 from indentation_studio.forward.predictor import FESolverPredictor
-from indentation_studio.inference.data_check import check_experiment
-from indentation_studio.inference.synthetic_experiment import write_synthetic_experiment
+from indentation_studio.inference.experiment.data_check import check_experiment
+from indentation_studio.inference.experiment.synthetic import write_synthetic_experiment
 
 
 @pytest.fixture(scope="module")

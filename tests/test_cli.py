@@ -146,7 +146,7 @@ def test_default_result_file_names_material_radius_contact_mesh_and_solver():
 
 
 def test_the_command_lines_registration_default_is_the_librarys():
-    from indentation_studio.inference.processing_error import REGISTRATION_MM
+    from indentation_studio.inference.experiment.processing_error import REGISTRATION_MM
     from indentation_studio.studio.inference_cli import REGISTRATION_DEFAULT_MM
 
     assert REGISTRATION_DEFAULT_MM == REGISTRATION_MM == 0.1

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from lab_files import sampled_record
 
-from indentation_studio.inference.experiment_data import ExperimentDataError
+from indentation_studio.inference.experiment.data import ExperimentDataError
 from indentation_studio.inference.lab.clock_offset import find_clock_offset, indentation_signal
 from indentation_studio.inference.lab.dic_series import DICSeries, frames_by_time
 from indentation_studio.inference.lab.load_frame import LoadFrameRecord, find_holds

@@ -1,4 +1,4 @@
-"""The composite phantom as an experiment (inference.composite_experiment; paper 3.3.1): its run
+"""The composite phantom as an experiment (inference.experiment.composite; paper 3.3.1): its run
 written in the lab format and read back, and the homogeneous model put beside it."""
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from indentation_studio.forward.mesh_presets import CompositeMeshPreset
 from indentation_studio.forward.result import SimulationResult
 from indentation_studio.forward.solver import EmbeddedSolver
 from indentation_studio.forward.spec import CompositeMaterial, Constituent, Protocol
-from indentation_studio.inference.composite_experiment import (
+from indentation_studio.inference.experiment.composite import (
     compare_with_homogeneous,
     composite_indentation,
     composite_spec,
@@ -119,7 +119,7 @@ def test_cli_composite_indent_and_compare(coarse_run, tmp_path):
 
 
 def test_fitted_model_reads_theta_and_the_mu_the_fit_used(tmp_path):
-    from indentation_studio.inference.composite_experiment import fitted_model
+    from indentation_studio.inference.experiment.composite import fitted_model
 
     marg = {"c1": 13.78, "c5": 243.7, "friction": {"treatment": "marginalise", "mu": 0.209}}
     assert fitted_model(marg) == ((13.78, 243.7), 0.209)

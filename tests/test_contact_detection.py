@@ -15,7 +15,7 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 from contact_detection_table import POSITION0, STEP_SIZE, as_record, detect, hertz, synthetic_record
 
-from indentation_studio.inference.experiment_data import ExperimentDataError
+from indentation_studio.inference.experiment.data import ExperimentDataError
 from indentation_studio.inference.lab.contact_onset import power_law_onset
 from indentation_studio.inference.lab.load_frame import find_holds
 

@@ -18,7 +18,7 @@ from typer.testing import CliRunner
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 from contact_detection_table import synthetic_record
 
-from indentation_studio.inference.experiment_data import ExperimentDataError, load_experiment
+from indentation_studio.inference.experiment.data import ExperimentDataError, load_experiment
 from indentation_studio.inference.lab.csv_text import csv_reading
 from indentation_studio.inference.lab.experiment_import import (
     ForceSource,

@@ -9,7 +9,7 @@ import pytest
 
 from indentation_studio.forward.predictor import FESolverPredictor
 from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
-from indentation_studio.inference.synthetic_experiment import write_synthetic_experiment
+from indentation_studio.inference.experiment.synthetic import write_synthetic_experiment
 from indentation_studio.studio.demo import run_demo
 
 

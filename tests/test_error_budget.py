@@ -1,4 +1,4 @@
-"""The error budget of a model (inference.error_budget; its files: surrogate.error_budgets): a model fitted to its own response has no
+"""The error budget of a model (inference.budgets.error_budget; its files: surrogate.error_budgets): a model fitted to its own response has no
 bias; the expected noise objective matches Monte Carlo; a coarser mesh's bias is the fit it causes."""
 
 from __future__ import annotations
@@ -13,14 +13,14 @@ from indentation_studio.design.objective import PAPER_WEIGHTS, Objective
 from indentation_studio.forward.predictor import FESolverPredictor
 from indentation_studio.forward.solver import simulate
 from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
-from indentation_studio.inference.error_budget import (
+from indentation_studio.inference.budgets.error_budget import (
     compute_error_budget,
     model_top_xyz,
     noise_objective_value,
     reference_prediction,
     resolve_model,
 )
-from indentation_studio.inference.inverse_fit import fit_parameters
+from indentation_studio.inference.fit.inverse_fit import fit_parameters
 from indentation_studio.surrogate.error_budgets import remaining_bias, shipped_budget
 
 PROTOCOL = Protocol(step_size=0.5, steps=3)
@@ -186,7 +186,7 @@ def test_surrogate_split_reuses_the_fe_models_row():
 def _budget_file(folder, reference_spec: ModelSpec, rows: list[dict], complete: bool = True):
     import json
 
-    from indentation_studio.inference.error_budget import ErrorBudget
+    from indentation_studio.inference.budgets.error_budget import ErrorBudget
 
     budget = ErrorBudget(
         __import__("pandas").DataFrame(rows),
@@ -232,7 +232,11 @@ def test_shipped_budget_applies_to_the_same_test_only(tmp_path):
 def test_single_level_surrogate_carries_its_meshs_budget():
     """A single-level surrogate with an error budget: the model error is that budget alone, the
     bounds its root sum of squares with the statistical ones, and they say what they hold."""
-    from indentation_studio.inference.model_error import combined_pct, model_error_at, model_error_scope
+    from indentation_studio.inference.budgets.model_error import (
+        combined_pct,
+        model_error_at,
+        model_error_scope,
+    )
 
     fe = FESolverPredictor(COARSE)
     sur = _Emulator(fe, 1.0)
@@ -283,7 +287,7 @@ def test_a_budget_varies_with_theta_between_its_points_and_says_where_it_is_read
     at a test point what that point leaves (c5 24.1 % below the truth at {3, 540} is 31.8 % of the
     fit; 11.6 % at {11, 330}), between two points linear in log theta, outside them the largest of
     the nearest three, and the bounds' sentence says which."""
-    from indentation_studio.inference.model_error import ModelError, model_error_scope
+    from indentation_studio.inference.budgets.model_error import ModelError, model_error_scope
     from indentation_studio.surrogate.error_budgets import budget_at, shipped_budget
 
     shipped = shipped_budget(ModelSpec())  # against one finer mesh ('reference'): its largest value
@@ -331,7 +335,7 @@ def _on(spec: ModelSpec, mesh: str) -> ModelSpec:
 def test_contact_model_bias_of_a_stick_fit_to_frictional_data():
     """``PRESET@stick`` is the reference's model with the perfect stick: its budget row against a
     frictional reference is the fit the stick assumption causes (a full LM fit agrees)."""
-    from indentation_studio.inference.error_budget import resolve_model
+    from indentation_studio.inference.budgets.error_budget import resolve_model
 
     frictional = COARSE.with_friction(0.3)
     stick, _ = resolve_model("coarse@stick", frictional)

@@ -17,21 +17,21 @@ import pytest
 
 from indentation_studio.forward.predictor import FESolverPredictor
 from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
-from indentation_studio.inference.experiment_data import ExperimentDataError, load_experiment
-from indentation_studio.inference.experiment_processing import (
+from indentation_studio.inference.experiment.data import ExperimentDataError, load_experiment
+from indentation_studio.inference.experiment.processing import (
     experiment_objective,
     fit_sphere,
     relaxation_fit,
     static_forces,
     to_model_frame,
 )
-from indentation_studio.inference.inverse_fit import fit_parameters
-from indentation_studio.inference.synthetic_experiment import (
+from indentation_studio.inference.experiment.synthetic import (
     LAB_RECORDING,
     Recording,
     write_experiment_from_model,
     write_synthetic_experiment,
 )
+from indentation_studio.inference.fit.inverse_fit import fit_parameters
 
 PROTOCOL = Protocol(step_size=0.5, steps=4)
 FINE = ModelSpec(mesh=MeshChoice("fine"), protocol=PROTOCOL)  # makes the data

@@ -298,10 +298,10 @@ def test_loader_keeps_points_with_flagged_steps_and_training_fills_them(tmp_path
 
 def test_febio_run_as_a_dic_like_experiment_leaves_out_the_step_off_equilibrium(tmp_path, febio_baseline):
     from indentation_studio.forward.predictor import Prediction
-    from indentation_studio.inference.experiment_data import load_experiment
-    from indentation_studio.inference.experiment_processing import static_forces
-    from indentation_studio.inference.febio_experiment import RecordedRun, experiment_from_febio_run
-    from indentation_studio.inference.synthetic_experiment import LAB_RECORDING
+    from indentation_studio.inference.experiment.data import load_experiment
+    from indentation_studio.inference.experiment.febio import RecordedRun, experiment_from_febio_run
+    from indentation_studio.inference.experiment.processing import static_forces
+    from indentation_studio.inference.experiment.synthetic import LAB_RECORDING
 
     out = experiment_from_febio_run(
         febio_baseline / "baseline.log",

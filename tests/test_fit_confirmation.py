@@ -1,4 +1,4 @@
-"""A fit on a surrogate over (c1, c5, mu) ended by one FE confirmation (inference.fit_confirmation):
+"""A fit on a surrogate over (c1, c5, mu) ended by one FE confirmation (inference.fit.confirm_stage):
 the run's F and the Gauss-Newton step it points to, recorded in fit.json and checked against the
 FE model by hand; a shift beyond the bound and a failed run said; the three-parameter MLP's
 Jacobian against central differences; where a fit lies in the training data."""
@@ -14,9 +14,9 @@ from indentation_studio.campaign.loader import load_campaign
 from indentation_studio.forward.predictor import FESolverPredictor
 from indentation_studio.forward.solver import SimulationError
 from indentation_studio.forward.spec import ModelSpec
+from indentation_studio.inference.experiment.synthetic import write_synthetic_experiment
 from indentation_studio.inference.experiment_fit import FE_STAGES, fit_experiment, resolved_fe_stage
-from indentation_studio.inference.fit_confirmation import confirm_fit, gauss_newton_step
-from indentation_studio.inference.synthetic_experiment import write_synthetic_experiment
+from indentation_studio.inference.fit.confirm_stage import confirm_fit, gauss_newton_step
 from indentation_studio.surrogate.base import SPARSE_GAP, TrainingData
 from indentation_studio.surrogate.mlp import MLPSurrogate
 from indentation_studio.surrogate.persistence import load_surrogate, save_surrogate

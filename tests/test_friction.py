@@ -226,12 +226,12 @@ def test_fe_predictor_with_mu_as_a_parameter():
 
 
 def test_bounds_name_the_contact_they_assume():
-    from indentation_studio.inference.model_error import model_error_scope
+    from indentation_studio.inference.budgets.model_error import model_error_scope
 
     assert "perfect stick assumed" in model_error_scope(None)
     said = model_error_scope(None, contact=ModelSpec().with_friction(0.3).contact.describe())
     assert "Coulomb friction mu = 0.3 assumed" in said and "hold no model error" in said
-    from indentation_studio.inference.model_error import ModelError
+    from indentation_studio.inference.budgets.model_error import ModelError
 
     carried = ModelError(np.zeros(2), np.ones(2), np.zeros((2, 2)), None, False, "frictionless")
     assert "frictionless assumed" in carried.to_dict()["includes"]

@@ -117,8 +117,8 @@ def test_a_surrogate_with_mu_is_a_three_parameter_predictor(mu_surrogate):
 
 
 def test_fit_identifies_mu_with_c1_c5_on_a_surrogate_with_mu(mu_surrogate, tmp_path):
+    from indentation_studio.inference.experiment.synthetic import write_synthetic_experiment
     from indentation_studio.inference.experiment_fit import fit_experiment
-    from indentation_studio.inference.synthetic_experiment import write_synthetic_experiment
 
     model = mu_surrogate
     truth = np.array([9.0, 330.0, 0.35])
@@ -196,8 +196,8 @@ def test_fit_identifies_mu_with_c1_c5_on_a_surrogate_with_mu(mu_surrogate, tmp_p
 
 
 def test_posterior_marginalises_mu_with_its_log_uniform_prior(mu_surrogate, tmp_path):
-    from indentation_studio.inference.experiment_posterior import sample_posterior_for
-    from indentation_studio.inference.synthetic_experiment import write_synthetic_experiment
+    from indentation_studio.inference.experiment.synthetic import write_synthetic_experiment
+    from indentation_studio.inference.posterior.workflow import sample_posterior_for
 
     model = mu_surrogate
     truth = np.array([9.0, 330.0, 0.35])
@@ -247,8 +247,8 @@ def test_design_bounds_with_mu_known_identified_and_a_nuisance():
 def test_a_fit_with_mu_keeps_the_stick_measured_mesh_budget_and_says_so(mu_surrogate, tmp_path):
     import copy
 
+    from indentation_studio.inference.experiment.synthetic import write_synthetic_experiment
     from indentation_studio.inference.experiment_fit import fit_experiment
-    from indentation_studio.inference.synthetic_experiment import write_synthetic_experiment
 
     model = copy.copy(mu_surrogate)
     model.meta = dict(model.meta) | {
@@ -299,8 +299,8 @@ def test_the_fe_stage_identifies_mu_on_data_of_the_fe_model(mu_surrogate, tmp_pa
     interval from the FE profile at the range's ends (one Gauss-Newton step each)."""
     from indentation_studio.forward.predictor import FESolverPredictor
     from indentation_studio.forward.spec import ModelSpec
+    from indentation_studio.inference.experiment.synthetic import write_synthetic_experiment
     from indentation_studio.inference.experiment_fit import fit_experiment
-    from indentation_studio.inference.synthetic_experiment import write_synthetic_experiment
 
     spec = ModelSpec.from_dict(mu_surrogate.meta["campaign"]["model"])  # the model it emulates
     fe = FESolverPredictor(spec, parameters=("c1", "c5", "mu"))
@@ -340,11 +340,11 @@ def test_mu_counts_as_identified_only_with_an_interval_inside_its_range():
 
 
 def test_a_stick_experiments_posterior_says_mu_is_not_identified(mu_surrogate, tmp_path):
-    from indentation_studio.inference.experiment_posterior import (
+    from indentation_studio.inference.experiment.synthetic import write_synthetic_experiment
+    from indentation_studio.inference.posterior.workflow import (
         interval_reaches_prior_end,
         sample_posterior_for,
     )
-    from indentation_studio.inference.synthetic_experiment import write_synthetic_experiment
     from indentation_studio.studio.figures import corner_figure
 
     model = mu_surrogate
@@ -368,7 +368,7 @@ def test_a_stick_experiments_posterior_says_mu_is_not_identified(mu_surrogate, t
 
 
 def test_a_model_error_as_wide_as_mus_range_fills_its_prior():
-    from indentation_studio.inference.model_error import ModelError, with_model_error
+    from indentation_studio.inference.budgets.model_error import ModelError, with_model_error
 
     rng = np.random.default_rng(0)
     samples = np.column_stack(

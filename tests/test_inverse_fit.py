@@ -8,7 +8,7 @@ import pytest
 from indentation_studio.design.objective import Objective
 from indentation_studio.forward.predictor import CachedPredictor, FESolverPredictor
 from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol, SolverOptions
-from indentation_studio.inference.inverse_fit import PAPER_F_STOP, fit_parameters
+from indentation_studio.inference.fit.inverse_fit import PAPER_F_STOP, fit_parameters
 
 # Newton to 1e-9 of the reactions: a noise-free fit then reaches F ~ 1e-10 and below (at the default
 # 1e-4 the forward solution itself carries residuals of that size)
@@ -70,7 +70,7 @@ def test_mesh_check_predicts_where_the_finer_mesh_puts_the_fit():
     the coarse mesh's error, and the mesh check at the coarse fit (one Gauss-Newton step with the
     finer mesh's response) puts it back on TRUE to first order."""
     from indentation_studio.forward.solver import simulate
-    from indentation_studio.inference.mesh_check import mesh_check, prediction_at_nodes
+    from indentation_studio.inference.budgets.mesh_check import mesh_check, prediction_at_nodes
 
     finer_spec = ModelSpec(protocol=SPEC.protocol)  # the default mesh
     data = simulate(finer_spec.with_material(c1=TRUE[0], c5=TRUE[1]))
@@ -100,7 +100,7 @@ def test_mesh_check_predicts_where_the_finer_mesh_puts_the_fit():
 def test_gauss_newton_refine_reaches_the_levenberg_marquardt_minimum(target):
     """From a start 3 % off (a surrogate's fit), Gauss-Newton stops in few evaluations within a third
     of the bounds of LM's minimum, with LM's bounds."""
-    from indentation_studio.inference.inverse_fit import gauss_newton_refine
+    from indentation_studio.inference.fit.inverse_fit import gauss_newton_refine
 
     rng = np.random.default_rng(4)
     force = target.force[0] * (1 + 0.02 * rng.standard_normal(target.force.shape[1]))
@@ -160,7 +160,7 @@ class _Jittery:
 
 
 def test_a_fit_on_an_objective_not_smooth_stops_at_its_best_point(target, fe, monkeypatch):
-    from indentation_studio.inference import inverse_fit
+    from indentation_studio.inference.fit import inverse_fit
 
     objective = Objective.from_prediction(target, radius=4.77)
     smooth = fit_parameters(objective, _Jittery(fe), ETA)

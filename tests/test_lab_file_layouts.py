@@ -19,7 +19,7 @@ from lab_files import (
     write_testsuite,
 )
 
-from indentation_studio.inference.experiment_data import ExperimentDataError
+from indentation_studio.inference.experiment.data import ExperimentDataError
 from indentation_studio.inference.lab.csv_text import csv_encoding
 from indentation_studio.inference.lab.duodic_results import read_duodic
 from indentation_studio.inference.lab.experiment_import import ProtocolInfo, import_load_frame

@@ -24,9 +24,10 @@ from lab_files import (
 
 from indentation_studio.forward.predictor import FESolverPredictor, Prediction
 from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
-from indentation_studio.inference.experiment_data import ExperimentDataError, load_experiment
-from indentation_studio.inference.experiment_processing import experiment_objective, static_forces
-from indentation_studio.inference.inverse_fit import fit_parameters
+from indentation_studio.inference.experiment.data import ExperimentDataError, load_experiment
+from indentation_studio.inference.experiment.processing import experiment_objective, static_forces
+from indentation_studio.inference.experiment.synthetic import write_synthetic_experiment
+from indentation_studio.inference.fit.inverse_fit import fit_parameters
 from indentation_studio.inference.lab.duodic_results import read_duodic
 from indentation_studio.inference.lab.experiment_import import (
     ForceSource,
@@ -41,7 +42,6 @@ from indentation_studio.inference.lab.experiment_import import (
 from indentation_studio.inference.lab.import_csv import CSVMapping
 from indentation_studio.inference.lab.load_frame import LoadFrameColumns
 from indentation_studio.inference.lab.matchid_export import read_matchid
-from indentation_studio.inference.synthetic_experiment import write_synthetic_experiment
 
 SPEC = ModelSpec(mesh=MeshChoice("coarse"), protocol=Protocol(step_size=0.5, steps=4))
 TRUE = np.array([12.0, 250.0])
@@ -378,7 +378,7 @@ def test_cli_import_and_check_of_an_imported_experiment(lab, tmp_path):
         check["sphere_radius_mm"] == pytest.approx(4.77, abs=0.01) and check["sphere_residual_rms_mm"] < 0.003
     )
     # the noise the synthetic experiment added: 2 % of max |u| per direction of the model frame
-    from indentation_studio.inference.experiment_processing import to_model_frame
+    from indentation_studio.inference.experiment.processing import to_model_frame
 
     truth = 0.02 * np.nanmax(np.abs(to_model_frame(lab["exp"]).u), axis=(0, 1))
     np.testing.assert_allclose(check["dic_noise_mm"], truth, rtol=0.2)
@@ -390,7 +390,7 @@ def test_cli_import_and_check_of_an_imported_experiment(lab, tmp_path):
 
 
 def test_data_check_warns_with_numbers(lab, tmp_path):
-    from indentation_studio.inference.data_check import check_experiment
+    from indentation_studio.inference.experiment.data_check import check_experiment
 
     exp_dir = tmp_path / "e"
     shutil.copytree(lab["studio"], exp_dir)

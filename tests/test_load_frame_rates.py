@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from lab_files import sampled_record
 
-from indentation_studio.inference.experiment_data import ExperimentDataError
+from indentation_studio.inference.experiment.data import ExperimentDataError
 from indentation_studio.inference.lab.experiment_import import ProtocolInfo, import_load_frame
 from indentation_studio.inference.lab.load_frame import LoadFrameRecord, find_holds
 

@@ -1,4 +1,4 @@
-"""Model error carried into a fit (inference.model_error): the discrepancy's covariance pushed
+"""Model error carried into a fit (inference.budgets.model_error): the discrepancy's covariance pushed
 through the fit equals the spread of refits of targets drawn from it; the error budget adds."""
 
 from __future__ import annotations
@@ -9,8 +9,13 @@ from sensitivity_check import assert_jacobian_matches_central_differences
 
 from indentation_studio.design.objective import PAPER_WEIGHTS, Objective
 from indentation_studio.forward.predictor import Prediction
-from indentation_studio.inference.inverse_fit import fit_parameters
-from indentation_studio.inference.model_error import Z95, combined_pct, model_error_at, with_model_error
+from indentation_studio.inference.budgets.model_error import (
+    Z95,
+    combined_pct,
+    model_error_at,
+    with_model_error,
+)
+from indentation_studio.inference.fit.inverse_fit import fit_parameters
 
 STEPS = 4
 XY = np.stack(np.meshgrid(np.linspace(0, 30, 9), np.linspace(0, 30, 9), indexing="ij"), -1).reshape(-1, 2)
@@ -141,7 +146,7 @@ def test_the_surrogates_own_error_is_how_far_it_moves_a_fit_of_the_model_it_emul
     """Issue 46: a surrogate with a known error (SkewedTruth) fits noise-free data of the model it
     emulates off the truth; the part its held-out errors give is that shift, to first order, and
     the truth lies inside the bounds that carry it."""
-    from indentation_studio.inference.model_error import emulation_error_pct
+    from indentation_studio.inference.budgets.model_error import emulation_error_pct
     from indentation_studio.surrogate.emulation_error import EmulationError, held_out_errors
 
     surrogate, truth = Plain(), SkewedTruth()

@@ -20,9 +20,9 @@ from indentation_studio.design.objective import Objective
 from indentation_studio.forward.predictor import FESolverPredictor
 from indentation_studio.forward.solver import simulate
 from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
-from indentation_studio.inference.inverse_fit import fit_parameters
-from indentation_studio.inference.mesh_check import prediction_at_nodes
-from indentation_studio.inference.synthetic_experiment import write_synthetic_experiment
+from indentation_studio.inference.budgets.mesh_check import prediction_at_nodes
+from indentation_studio.inference.experiment.synthetic import write_synthetic_experiment
+from indentation_studio.inference.fit.inverse_fit import fit_parameters
 from indentation_studio.studio.cli import app
 from indentation_studio.surrogate.training import train_multi_fidelity, train_surrogate
 

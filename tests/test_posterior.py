@@ -11,7 +11,7 @@ import pytest
 from indentation_studio.design import PAPER_WEIGHTS, Objective
 from indentation_studio.forward import Prediction
 from indentation_studio.inference import sample_posterior
-from indentation_studio.inference.posterior import carried_to_finer_mesh
+from indentation_studio.inference.posterior.sampling import carried_to_finer_mesh
 
 
 class LinearResponse:
@@ -109,7 +109,7 @@ def test_carried_posterior_is_shifted_and_widened_by_the_mesh_check(linear_targe
 
 
 def test_corner_figure_shows_a_truth_far_from_the_samples():
-    from indentation_studio.inference.posterior import Posterior
+    from indentation_studio.inference.posterior.sampling import Posterior
     from indentation_studio.studio.figures import corner_figure
 
     rng = np.random.default_rng(0)
@@ -124,7 +124,7 @@ def test_corner_figure_shows_a_truth_far_from_the_samples():
 
 
 def test_the_chain_runs_on_until_emcees_rule_holds_or_says_what_it_needs(linear_target):
-    from indentation_studio.inference.posterior import AUTOCORRELATION_TOL
+    from indentation_studio.inference.posterior.sampling import AUTOCORRELATION_TOL
 
     model, objective, J, theta_ls = linear_target
     s, truth = 0.05, theta_ls

@@ -1,4 +1,4 @@
-"""The processing's part of a fit's bounds (inference.processing_error, issue 45): the replay at the
+"""The processing's part of a fit's bounds (inference.experiment.processing_error, issue 45): the replay at the
 fit predicts how far the DIC-points-to-nodes planes move a noise-free fit on the FE model."""
 
 from __future__ import annotations
@@ -9,12 +9,12 @@ import pytest
 from indentation_studio.design.objective import PAPER_WEIGHTS
 from indentation_studio.forward.predictor import FESolverPredictor
 from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
-from indentation_studio.inference.experiment_data import load_experiment
-from indentation_studio.inference.experiment_processing import experiment_objective
-from indentation_studio.inference.inverse_fit import fit_parameters
-from indentation_studio.inference.model_error import model_error_scope, with_processing_error
-from indentation_studio.inference.processing_error import processing_error_at
-from indentation_studio.inference.synthetic_experiment import write_synthetic_experiment
+from indentation_studio.inference.budgets.model_error import model_error_scope, with_processing_error
+from indentation_studio.inference.experiment.data import load_experiment
+from indentation_studio.inference.experiment.processing import experiment_objective
+from indentation_studio.inference.experiment.processing_error import processing_error_at
+from indentation_studio.inference.experiment.synthetic import write_synthetic_experiment
+from indentation_studio.inference.fit.inverse_fit import fit_parameters
 
 TRUTH = np.array([12.0, 250.0])
 

@@ -17,10 +17,10 @@ from indentation_studio.design.objective import Objective
 from indentation_studio.design.reduced_objective import FieldObjective, ReducedObjective, objective_function
 from indentation_studio.forward.predictor import FESolverPredictor, ReducedPredictor
 from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
-from indentation_studio.inference.experiment_data import load_experiment
-from indentation_studio.inference.experiment_processing import experiment_objective
-from indentation_studio.inference.posterior import sample_posterior
-from indentation_studio.inference.synthetic_experiment import write_synthetic_experiment
+from indentation_studio.inference.experiment.data import load_experiment
+from indentation_studio.inference.experiment.processing import experiment_objective
+from indentation_studio.inference.experiment.synthetic import write_synthetic_experiment
+from indentation_studio.inference.posterior.sampling import sample_posterior
 from indentation_studio.surrogate.base import TrainingData
 from indentation_studio.surrogate.training import make_surrogate
 

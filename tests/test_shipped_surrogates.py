@@ -11,8 +11,8 @@ from typer.testing import CliRunner
 
 from indentation_studio.forward.predictor import FESolverPredictor
 from indentation_studio.forward.spec import ModelSpec
-from indentation_studio.inference.fit_inputs import prepare_fit
-from indentation_studio.inference.synthetic_experiment import write_synthetic_experiment
+from indentation_studio.inference.experiment.synthetic import write_synthetic_experiment
+from indentation_studio.inference.fit.inputs import prepare_fit
 from indentation_studio.studio.cli import app
 from indentation_studio.surrogate import shipped
 from indentation_studio.surrogate.persistence import save_surrogate

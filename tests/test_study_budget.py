@@ -1,5 +1,5 @@
 """Error budgets against a verification study's high-fidelity level with its GCI carried
-(inference.study_budget), what a fit reads of them (surrogate.error_budgets), and the fit's model
+(inference.budgets.study_budget), what a fit reads of them (surrogate.error_budgets), and the fit's model
 and objective (forward.mesh_presets.FIT_MESH, the ``fit`` reading)."""
 
 from __future__ import annotations
@@ -16,9 +16,9 @@ from indentation_studio.forward.mesh_presets import FIT_MESH, HIGH_FIDELITY_MESH
 from indentation_studio.forward.predictor import CachedPredictor, FESolverPredictor
 from indentation_studio.forward.result import SimulationResult
 from indentation_studio.forward.spec import Contact, Indenter, MeshChoice, ModelSpec, Protocol
-from indentation_studio.inference.error_budget import compute_error_budget
-from indentation_studio.inference.model_error import ModelError
-from indentation_studio.inference.study_budget import (
+from indentation_studio.inference.budgets.error_budget import compute_error_budget
+from indentation_studio.inference.budgets.model_error import ModelError
+from indentation_studio.inference.budgets.study_budget import (
     FS_ASYMPTOTIC,
     FS_OUTSIDE,
     reference_correction,
@@ -26,7 +26,7 @@ from indentation_studio.inference.study_budget import (
     study_error_budget,
     with_finest_reference,
 )
-from indentation_studio.inference.verification_study import run_verification_study
+from indentation_studio.inference.budgets.verification_study import run_verification_study
 from indentation_studio.surrogate.error_budgets import (
     budget_at,
     remaining_bias,

@@ -128,7 +128,7 @@ def test_confirm_with_mesh_check_cli(campaigns, tmp_path):
     """`confirm --check-mesh`: an experiment made on `default`, the fit's model on `coarse` (the
     campaign's mesh): the check solves both meshes and reports the shift and the widened bounds."""
     from indentation_studio.forward.predictor import FESolverPredictor
-    from indentation_studio.inference.synthetic_experiment import write_synthetic_experiment
+    from indentation_studio.inference.experiment.synthetic import write_synthetic_experiment
 
     root, _, _ = campaigns
     model_file = tmp_path / "gp.safetensors"

@@ -96,7 +96,7 @@ def test_a_family_with_a_core_keeps_its_cells_uniform_there_and_refines_systemat
 @pytest.fixture(scope="module")
 def small_study(tmp_path_factory):
     from indentation_studio.forward.spec import ModelSpec, Protocol
-    from indentation_studio.inference.verification_study import run_verification_study
+    from indentation_studio.inference.budgets.verification_study import run_verification_study
 
     family = MeshFamily(cells_xy=8, cells_z=8, h0_xy=1.6, h0_z=1.6, ratio=1.5)  # 729, 2197, 6859 nodes
     out = tmp_path_factory.mktemp("verification")
@@ -131,7 +131,7 @@ def test_observed_orders_of_the_fe_model_on_a_small_family(small_study):
 
 
 def test_the_study_resumes_from_its_runs(small_study):
-    from indentation_studio.inference.verification_study import (
+    from indentation_studio.inference.budgets.verification_study import (
         load_verification_study,
         run_verification_study,
     )
@@ -208,7 +208,7 @@ def test_the_command_runs_the_study_and_prints_one_json_object(small_study):
 
 def test_a_coarser_fitting_level_spares_the_finest_its_sensitivities(small_study):
     from indentation_studio.forward.result import SimulationResult
-    from indentation_studio.inference.verification_study import run_verification_study
+    from indentation_studio.inference.budgets.verification_study import run_verification_study
 
     study, out, spec, family = small_study
     kwargs = dict(points=[(10.0, 350.0)], radii=[4.77], substeps=(1,), out_dir=out, reading="paper")

@@ -7,7 +7,7 @@ a discretisation error that falls as h^p gives the extrapolated response
 
 (L. F. Richardson 1911; the estimate behind Roache's GCI), applied to log force per step and to
 the top-surface field, and so to their Jacobians. Whether it is closer to a much finer mesh than
-Y_f itself is what the error budget measures (``inference.error_budget``), not assumed.
+Y_f itself is what the error budget measures (``inference.budgets.error_budget``), not assumed.
 """
 
 from __future__ import annotations

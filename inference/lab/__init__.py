@@ -1,8 +1,8 @@
 """A lab's files read into the studio's experiment folder: DIC exports (MatchID, DuoDIC, CSV
 columns), load-frame records (vendor layouts, units, holds at any sampling rate, the contact
 point, drift), the clocks of the two, and the importer that brings them together
-(``experiment_import``). The folder's format and its writer are :mod:`inference.experiment_data`
-and :mod:`inference.experiment_folder`."""
+(``experiment_import``). The folder's format and its writer are :mod:`inference.experiment.data`
+and :mod:`inference.experiment.folder`."""
 
 import lazy_loader as lazy
 

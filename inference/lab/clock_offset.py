@@ -22,8 +22,8 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from ..experiment_data import ExperimentDataError
-from ..specimen_frame import surface_plane
+from ..experiment.data import ExperimentDataError
+from ..experiment.specimen_frame import surface_plane
 from .dic_series import DICSeries
 
 

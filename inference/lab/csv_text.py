@@ -27,7 +27,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..experiment_errors import ExperimentDataError
+from ..experiment.errors import ExperimentDataError
 
 #: how many lines a vendor's header block may have before the column names
 MAX_PREAMBLE = 200

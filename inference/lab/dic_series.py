@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..experiment_data import ExperimentDataError
+from ..experiment.data import ExperimentDataError
 
 
 @dataclass

@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..experiment_data import ExperimentDataError
+from ..experiment.data import ExperimentDataError
 from .dic_series import DICSeries
 from .units import unit_factor
 

@@ -17,8 +17,8 @@ import numpy as np
 import pandas as pd
 
 from ...atomic_write import atomic_write
-from ..experiment_data import ExperimentDataError
-from ..experiment_folder import write_experiment_folder
+from ..experiment.data import ExperimentDataError
+from ..experiment.folder import write_experiment_folder
 from .clock_offset import ClockOffset, find_clock_offset, indentation_signal
 from .dic_series import DICSeries, frames_by_list, frames_by_time
 from .duodic_results import read_duodic

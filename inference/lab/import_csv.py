@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..experiment_data import ExperimentDataError
+from ..experiment.data import ExperimentDataError
 from .dic_series import DICSeries, require_consecutive_frames
 from .table_columns import find_column, first_row, frame_number, numeric_column, read_table
 from .units import resolve_unit

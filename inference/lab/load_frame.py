@@ -22,11 +22,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..experiment_data import ExperimentDataError
-from ..hold_checks import check_hold_forces
-from ..relaxation import RelaxationFit, relaxation_fit
+from ..experiment.data import ExperimentDataError
+from ..experiment.hold_checks import check_hold_forces
+from ..experiment.relaxation import RelaxationFit, relaxation_fit
 from .contact_onset import ContactOnset, power_law_onset
-from .hold_detection import OFF, describe_stretches, still_stretches
+from .hold_detection import OFF, describe_stretches, robust_noise, still_stretches
 from .table_columns import bare_name, find_column, first_row, numeric_column, read_table, read_with
 from .units import resolve_unit
 
@@ -159,6 +159,25 @@ class HoldSearch:
         return self.tare_mN + self.drift_mN_per_s * (np.asarray(t, float) - self.tare_time_s)
 
 
+def _into_specimen(position: np.ndarray, force: np.ndarray) -> float:
+    """+1 when the position grows into the specimen, -1 when it falls, 0 when it never changes.
+
+    The way the stage went from its first reading to where the force strayed farthest from its
+    first readings' (the top 5 % of the readings: the deepest holds), when that force stands
+    clear of the noise; else the way of its largest excursion from its first reading. Not from
+    the contact: an approach through air from farther above the contact than the steps go below
+    it is the largest excursion from the contact, the wrong way.
+    """
+    p, f = np.asarray(position, float), np.asarray(force, float)
+    stray = np.abs(f - np.median(f[: max(3, f.size // 100)]))
+    loaded = stray >= np.quantile(stray, 0.95)
+    way = float(np.sign(np.median(p[loaded]) - p[0]))
+    if way and float(np.median(stray[loaded])) > 10.0 * robust_noise(f):
+        return way
+    excursion = p - p[0]
+    return float(np.sign(excursion[np.argmax(np.abs(excursion))]))
+
+
 def _contact(
     record: LoadFrameRecord, given: float | None, step_size: float
 ) -> tuple[float, str, ContactOnset | None]:
@@ -167,8 +186,7 @@ def _contact(
     if given is not None:
         return float(given), "given", None
     p = record.position_mm
-    excursion = p - p[0]
-    sign = float(np.sign(excursion[np.argmax(np.abs(excursion))])) or 1.0
+    sign = _into_specimen(p, record.force_mN) or 1.0
     onset = power_law_onset(record.time_s, p, record.force_mN, step_size, sign)
     if onset is None:
         return float(p[0]), "first reading", None
@@ -214,7 +232,7 @@ def find_holds(
     fitted to the loading, :func:`.contact_onset.power_law_onset`, or the first reading of a
     record that starts at the contact; the first reading when nothing can be fitted: the message
     of holds that do not fit the protocol names the option); ``position_sign`` +1 when the position grows into the specimen, -1 when it falls
-    (default: the sign of the largest excursion); ``force_sign`` makes compression positive
+    (default: the way the stage went to load the specimen, :func:`_into_specimen`); ``force_sign`` makes compression positive
     (default: the sign of the force at the deepest hold). A step of ``excluded_steps`` may have no
     hold and its readings are not checked. With ``drift``, unloaded readings after the last hold
     (the indenter withdrawn to the contact point or above) give the load cell's drift since the
@@ -224,7 +242,7 @@ def find_holds(
     p0, contact_from, onset = _contact(record, contact_position_mm, step_size)
     excursion = record.position_mm - p0
     sign = float(
-        position_sign if position_sign is not None else np.sign(excursion[np.argmax(np.abs(excursion))])
+        position_sign if position_sign is not None else _into_specimen(record.position_mm, record.force_mN)
     )
     if sign == 0:
         raise ExperimentDataError(f"{where}: the position never changes: no hold found")

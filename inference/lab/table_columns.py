@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..experiment_errors import ExperimentDataError
+from ..experiment.errors import ExperimentDataError
 from .csv_text import parse_csv_text
 
 _UNIT_SUFFIX = re.compile(r"\s*[\[(][^\])]*[\])]\s*$")

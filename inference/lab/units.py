@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import re
 
-from ..experiment_data import ExperimentDataError
+from ..experiment.data import ExperimentDataError
 
 #: factor to millimetres
 LENGTH_MM = {"m": 1e3, "cm": 10.0, "mm": 1.0, "um": 1e-3, "µm": 1e-3, "micron": 1e-3, "in": 25.4}

@@ -2,7 +2,7 @@
 
 Between the DIC points and the objective stand two steps the statistical bounds know nothing of:
 
-* **DIC points to nodes** (:func:`inference.experiment_processing.dic_to_nodes`): each node's value
+* **DIC points to nodes** (:func:`inference.experiment.processing.dic_to_nodes`): each node's value
   is a weighted least-squares plane through its neighbouring points, exact for a field that varies
   linearly; where the field bends (next to the indenter) it is biased, and the bias moves the fit.
   It is measured by a replay: the model's own field at the fit, read at the experiment's own DIC
@@ -15,7 +15,7 @@ Between the DIC points and the objective stand two steps the statistical bounds 
   parameter (the field is not linear in the point's position over a tenth of a millimetre).
 
 Both are systematic half-widths in percent of theta_hat, combined with the other parts of the
-bounds by root sum of squares (``inference.model_error``).
+bounds by root sum of squares (``inference.budgets.model_error``).
 """
 
 from __future__ import annotations
@@ -24,9 +24,9 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..design.objective import Objective, check_weights
-from ..forward.convergence.mesh_study import top_field_interpolator
-from .experiment_processing import RegisteredDIC, dic_to_nodes
+from ...design.objective import Objective, check_weights
+from ...forward.convergence.mesh_study import top_field_interpolator
+from .processing import RegisteredDIC, dic_to_nodes
 
 __all__ = ["REGISTRATION_MM", "ProcessingError", "processing_error_at"]
 

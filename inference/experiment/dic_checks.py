@@ -20,8 +20,8 @@ from itertools import pairwise
 
 import numpy as np
 
-from .experiment_data import ExperimentData
-from .experiment_processing import RegisteredDIC
+from .data import ExperimentData
+from .processing import RegisteredDIC
 
 INSIDE_FRACTION = 0.9
 SIGNATURE_FRACTION = 0.1

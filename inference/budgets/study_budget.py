@@ -3,7 +3,7 @@ that level's own uncertainty carried (docs/explanation/model-error.md, "Budgets 
 
 At each of a verification study's points the fit's model (a ``contact-L`` preset, with the
 surface contact the study used) is fitted to the high-fidelity level's noise-free response, as
-:func:`~indentation_studio.inference.error_budget.compute_error_budget` fits any model; each
+:func:`~indentation_studio.inference.budgets.error_budget.compute_error_budget` fits any model; each
 row then also carries how far that level itself may be from the converged model,
 :func:`reference_uncertainty_pct` of the study's fitted (c1, c5) over its levels. A fit's budget
 (:func:`~indentation_studio.surrogate.error_budgets.remaining_bias`) adds the two, so a bound is
@@ -21,12 +21,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..design.objective import PAPER_WEIGHTS
-from ..forward.convergence.gci import observed_order
-from ..forward.mesh_presets import CONTACT_MESH_LEVELS
-from ..forward.predictor import CachedPredictor, FESolverPredictor
-from ..forward.result import SimulationResult
-from ..forward.spec import Indenter, MeshChoice, ModelSpec
+from ...design.objective import PAPER_WEIGHTS
+from ...forward.convergence.gci import observed_order
+from ...forward.mesh_presets import CONTACT_MESH_LEVELS
+from ...forward.predictor import CachedPredictor, FESolverPredictor
+from ...forward.result import SimulationResult
+from ...forward.spec import Indenter, MeshChoice, ModelSpec
 from .error_budget import ErrorBudget, compute_error_budget
 from .verification_study import load_verification_study
 
@@ -154,7 +154,7 @@ def reference_correction(
     """The correction of a fit made on one level of a verification study, and its uncertainty.
 
     ``values`` are a study's fitted parameter on each level made by the finest level's model
-    (:mod:`inference.verification_study`): to first order f_k = theta + d_k - d_0, where the level-k
+    (:mod:`inference.budgets.verification_study`): to first order f_k = theta + d_k - d_0, where the level-k
     model at theta answers as the converged model at theta + d_k. A fit made with level k's model
     of a converged experiment is theta - d_k, so the correction that brings it to the converged
     value is d_k = f_k - f_inf, with f_inf = theta - d_0 the values' limit. The decision of issue

@@ -28,10 +28,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..forward.mesh import preset_mesh
+from ...forward.mesh import preset_mesh
+from .data import ExperimentData, ExperimentDataError, load_experiment
 from .dic_checks import contact_radius, dic_field_warnings
-from .experiment_data import ExperimentData, ExperimentDataError, load_experiment
-from .experiment_processing import (
+from .processing import (
     RegisteredDIC,
     _noise_neighbours,
     dic_to_nodes,

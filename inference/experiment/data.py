@@ -40,9 +40,9 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from .experiment_errors import ExperimentDataError
+from ..lab.table_columns import read_table
+from .errors import ExperimentDataError
 from .hold_checks import check_hold_forces
-from .lab.table_columns import read_table
 
 
 @dataclass

@@ -1,4 +1,4 @@
-"""Synthetic experiments in the data format of :mod:`inference.experiment_data`, from any Predictor.
+"""Synthetic experiments in the data format of :mod:`inference.experiment.data`, from any Predictor.
 
 Made on a finer mesh than the fit uses (no inverse crime): the model's top-surface field is
 interpolated at random DIC-like points over a field of view, the indenter's shadow removed, the
@@ -17,9 +17,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..forward.convergence.mesh_study import top_field_interpolator
-from .experiment_folder import write_experiment_folder
-from .experiment_processing import rotation_to_fibers
+from ...forward.convergence.mesh_study import top_field_interpolator
+from .folder import write_experiment_folder
+from .processing import rotation_to_fibers
 
 
 @dataclass(frozen=True)

@@ -1,5 +1,5 @@
 """The one writer of the experiment folder (experiment.json, force.csv, dic.npz, indenter.csv; the
-format is :mod:`inference.experiment_data`'s): every path that makes one (the importers, the
+format is :mod:`inference.experiment.data`'s): every path that makes one (the importers, the
 synthetic, FEBio and composite experiments) writes it here, validated and atomically."""
 
 from __future__ import annotations
@@ -11,8 +11,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..atomic_write import atomic_write, atomic_write_json, atomic_write_npz
-from .experiment_data import ExperimentDataError, load_experiment
+from ...atomic_write import atomic_write, atomic_write_json, atomic_write_npz
+from .data import ExperimentDataError, load_experiment
 
 __all__ = ["write_experiment_folder"]
 

@@ -18,7 +18,7 @@ uncertainties.
 
 The fit can also be carried to the finer mesh, theta_hat (1 + delta), whose own discretisation
 uncertainty is the fine-grid GCI, Fs |delta| / (r_h^p - 1) (smaller by r_h^p). The posterior is
-carried the same way (:func:`inference.posterior.carried_to_finer_mesh`): every sample shifted by
+carried the same way (:func:`inference.posterior.sampling.carried_to_finer_mesh`): every sample shifted by
 delta and spread by that GCI, read as a 95 % half-width of a normal error.
 """
 
@@ -31,13 +31,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ..design.certainty import bounds_pct, s_from_data
-from ..design.objective import Objective, check_weights
-from ..forward.convergence.mesh_study import top_field_interpolator
-from ..forward.predictor import Prediction
-from ..forward.result import SimulationResult
-from ..forward.solver import simulate
-from ..forward.spec import MeshChoice, ModelSpec
+from ...design.certainty import bounds_pct, s_from_data
+from ...design.objective import Objective, check_weights
+from ...forward.convergence.mesh_study import top_field_interpolator
+from ...forward.predictor import Prediction
+from ...forward.result import SimulationResult
+from ...forward.solver import simulate
+from ...forward.spec import MeshChoice, ModelSpec
 
 
 @dataclass(frozen=True)

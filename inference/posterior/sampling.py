@@ -22,8 +22,8 @@ from dataclasses import dataclass, replace
 import emcee
 import numpy as np
 
-from ..design.objective import Objective, check_weights
-from ..design.reduced_objective import ReducedObjective, objective_function
+from ...design.objective import Objective, check_weights
+from ...design.reduced_objective import ReducedObjective, objective_function
 
 #: emcee's rule: a chain is long enough when it holds this many integrated autocorrelation times
 #: (``emcee.autocorr.integrated_time``'s ``tol``).
@@ -292,7 +292,7 @@ def carried_to_finer_mesh(
     seed: int = 0,
 ) -> Posterior:
     """The posterior of theta on a finer mesh, from one sampled on the fit's mesh and a mesh
-    check at ``theta_hat`` (inference/mesh_check.py): each sample moved by the check's first-order
+    check at ``theta_hat`` (inference/budgets/mesh_check.py): each sample moved by the check's first-order
     shift, theta_hat shift_pct / 100, plus an independent normal error whose 95 % half-width is
     the finer mesh's GCI, ``uncertainty_pct`` of theta_hat. The discretisation error is thus
     treated as a second, independent source of error beside the measurement noise, and the

@@ -28,18 +28,18 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..atomic_write import atomic_write_json
-from ..campaign.loader import load_point, open_campaign, require_sound
-from ..design.certainty import bounds_pct, s_from_data
-from ..design.objective import PAPER_WEIGHTS, Objective, check_weights
-from ..forward.convergence.richardson import RichardsonPredictor
-from ..forward.mesh import build_mesh
-from ..forward.mesh_presets import CONTACT_MESH_LEVELS, MESH_PRESETS
-from ..forward.predictor import CachedPredictor, FESolverPredictor, Prediction
-from ..forward.result import SimulationResult
-from ..forward.spec import MeshChoice, ModelSpec
-from ..surrogate.persistence import load_surrogate
-from .inverse_fit import fit_parameters
+from ...atomic_write import atomic_write_json
+from ...campaign.loader import load_point, open_campaign, require_sound
+from ...design.certainty import bounds_pct, s_from_data
+from ...design.objective import PAPER_WEIGHTS, Objective, check_weights
+from ...forward.convergence.richardson import RichardsonPredictor
+from ...forward.mesh import build_mesh
+from ...forward.mesh_presets import CONTACT_MESH_LEVELS, MESH_PRESETS
+from ...forward.predictor import CachedPredictor, FESolverPredictor, Prediction
+from ...forward.result import SimulationResult
+from ...forward.spec import MeshChoice, ModelSpec
+from ...surrogate.persistence import load_surrogate
+from ..fit.inverse_fit import fit_parameters
 from .mesh_check import prediction_at_nodes
 
 __all__ = [

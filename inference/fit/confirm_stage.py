@@ -17,9 +17,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import lsq_linear
 
-from ..design.objective import Objective
-from ..forward.predictor import Prediction
-from ..forward.solver import SimulationError
+from ...design.objective import Objective
+from ...forward.predictor import Prediction
+from ...forward.solver import SimulationError
 from .inverse_fit import residuals_at
 
 __all__ = ["FitConfirmation", "confirm_fit", "gauss_newton_step"]
@@ -133,7 +133,7 @@ def confirm_fit(
     """Run the FE model once at a surrogate's fit and measure the Gauss-Newton step from there.
 
     The step is delta = -(J^T J)^-1 J^T r in log theta (eq. 4's residuals r and their exact
-    sensitivities J from the FE run), as :func:`inference.inverse_fit.gauss_newton_refine` takes
+    sensitivities J from the FE run), as :func:`inference.fit.inverse_fit.gauss_newton_refine` takes
     it, kept inside ``box`` (:func:`gauss_newton_step`: mu at or near its range's end, where the
     data barely move it, stays in the range and the others' step is the best one with it there).
 

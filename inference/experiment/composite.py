@@ -3,7 +3,7 @@
 The phantom's FE model (fibers and matrix as two materials, :mod:`forward.composite_mesh`) is
 indented with the paper's protocol; its indenter force and top-surface field become an experiment
 folder in the lab format (DIC-like points over a field of view, noise, a registration error:
-:func:`inference.synthetic_experiment.write_experiment_from_model`), which the studio's ``fit``
+:func:`inference.experiment.synthetic.write_experiment_from_model`), which the studio's ``fit``
 identifies with the homogeneous model, surrogate and all, as the paper did. There is no true
 (c1, c5): experiment.json says so (``synthetic.theta`` null) and names the composite model.
 
@@ -22,13 +22,13 @@ from typing import Any
 
 import numpy as np
 
-from ..forward.composite_mesh import PHANTOM
-from ..forward.convergence.mesh_study import top_field_interpolator
-from ..forward.result import SimulationResult
-from ..forward.simulation_run import run_simulation
-from ..forward.solver import EmbeddedSolver
-from ..forward.spec import Contact, Indenter, Material, MeshChoice, ModelSpec, Protocol
-from .synthetic_experiment import LAB_RECORDING, Recording, write_experiment_from_model
+from ...forward.composite_mesh import PHANTOM
+from ...forward.convergence.mesh_study import top_field_interpolator
+from ...forward.result import SimulationResult
+from ...forward.simulation_run import run_simulation
+from ...forward.solver import EmbeddedSolver
+from ...forward.spec import Contact, Indenter, Material, MeshChoice, ModelSpec, Protocol
+from .synthetic import LAB_RECORDING, Recording, write_experiment_from_model
 
 __all__ = [
     "CompositeComparison",
@@ -258,7 +258,7 @@ def experiment_from_composite(
     overwrite : bool, default False
         Replace an experiment already there.
     recording : Recording, default LAB_RECORDING
-        How the run is recorded (:class:`~indentation_studio.inference.synthetic_experiment.Recording`).
+        How the run is recorded (:class:`~indentation_studio.inference.experiment.synthetic.Recording`).
 
     Returns
     -------

@@ -19,7 +19,7 @@ from collections.abc import Sequence
 import numpy as np
 import pandas as pd
 
-from .experiment_errors import ExperimentDataError
+from .errors import ExperimentDataError
 from .relaxation import relaxation_fit
 
 STEP_RATIO = 20.0

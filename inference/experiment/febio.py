@@ -1,6 +1,6 @@
 """A DIC-like experiment made from a real FEBio run: its indenter force and top-node field, as a
 lab's DIC system and load cell would record them (points over a field of view with the
-indenter's shadow, noise, a registration error; :func:`inference.synthetic_experiment.write_synthetic_experiment`).
+indenter's shadow, noise, a registration error; :func:`inference.experiment.synthetic.write_synthetic_experiment`).
 
 This is how the studio is checked against a solver it does not share code with: an experiment
 made by FEBio 4 (its sliding-elastic contact, its three-field element) is fitted by the studio's
@@ -14,12 +14,12 @@ from typing import Any
 
 import numpy as np
 
-from ..forward.febio.log import FebioLogError
-from ..forward.febio.readback import logged_block_material, read_febio_run
-from ..forward.predictor import Prediction, as_theta
-from ..forward.spec import Indenter, Material, MeshChoice, ModelSpec, Protocol
-from .experiment_data import load_experiment
-from .synthetic_experiment import LAB_RECORDING, Recording, write_synthetic_experiment
+from ...forward.febio.log import FebioLogError
+from ...forward.febio.readback import logged_block_material, read_febio_run
+from ...forward.predictor import Prediction, as_theta
+from ...forward.spec import Indenter, Material, MeshChoice, ModelSpec, Protocol
+from .data import load_experiment
+from .synthetic import LAB_RECORDING, Recording, write_synthetic_experiment
 
 __all__ = ["RecordedRun", "experiment_from_febio_run", "febio_contact", "febio_experiment_summary"]
 
@@ -150,7 +150,7 @@ def experiment_from_febio_run(
     step_size : float, default 0.5
         The run's step size, mm.
     recording : Recording, default LAB_RECORDING
-        How the run is recorded (:class:`~indentation_studio.inference.synthetic_experiment.Recording`).
+        How the run is recorded (:class:`~indentation_studio.inference.experiment.synthetic.Recording`).
     seed : int, default 0
         The noise seed.
     overwrite : bool, default False

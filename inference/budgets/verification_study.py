@@ -38,16 +38,16 @@ from typing import Any
 
 import numpy as np
 
-from .. import __version__
-from ..atomic_write import atomic_write_json
-from ..design.objective import PAPER_WEIGHTS, Objective
-from ..forward.convergence.gci import ConvergenceOfQuantity, observed_order, study_quantity
-from ..forward.convergence.mesh_family import MeshFamily
-from ..forward.convergence.mesh_study import top_field_interpolator
-from ..forward.predictor import Prediction
-from ..forward.result import SimulationResult
-from ..forward.solver import EmbeddedSolver
-from ..forward.spec import Indenter, ModelSpec
+from ... import __version__
+from ...atomic_write import atomic_write_json
+from ...design.objective import PAPER_WEIGHTS, Objective
+from ...forward.convergence.gci import ConvergenceOfQuantity, observed_order, study_quantity
+from ...forward.convergence.mesh_family import MeshFamily
+from ...forward.convergence.mesh_study import top_field_interpolator
+from ...forward.predictor import Prediction
+from ...forward.result import SimulationResult
+from ...forward.solver import EmbeddedSolver
+from ...forward.spec import Indenter, ModelSpec
 from .mesh_check import prediction_at_nodes
 
 __all__ = ["VerificationStudy", "parameter_bias", "run_verification_study"]
@@ -56,7 +56,7 @@ __all__ = ["VerificationStudy", "parameter_bias", "run_verification_study"]
 FORCE_DEPTHS = (2.0, 7.0, 14.0)
 FIELD_RINGS = (1.0, 1.5, 2.0, 3.0)
 #: The field of view of the fit whose bias is studied (mm from the axis), as the synthetic
-#: experiments' DIC (inference.synthetic_experiment.LAB_RECORDING).
+#: experiments' DIC (inference.experiment.synthetic.LAB_RECORDING).
 FIT_FIELD_OF_VIEW = 25.0
 
 

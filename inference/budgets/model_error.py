@@ -8,7 +8,7 @@ multi-fidelity surrogate also knows two model errors, which are reported beside 
   the fit: each row l of L moves the residuals by dr_l and the fit, to first order, by
   d log theta_l = -(J^T J)^-1 J^T dr_l; the covariance is sum_l d log theta_l d log theta_l^T;
 * what the error budget leaves: the largest bias of the high-fidelity mesh itself against the
-  reference at the budget's test points (``inference.error_budget``), a systematic half-width
+  reference at the budget's test points (``inference.budgets.error_budget``), a systematic half-width
   recorded in the surrogate's provenance (``meta['error_budget']``);
 * the surrogate's own error (issue 46), for a fit whose final stage is on the surrogate: its error
   vectors at held-out points (``surrogate.emulation_error``), each moving the fit to first order
@@ -30,11 +30,11 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..design.objective import Objective, check_weights
-from ..forward.predictor import Prediction
-from ..forward.spec import ModelSpec
-from ..surrogate.error_budgets import budget_at, surrogate_error_budget
-from .processing_error import ProcessingError
+from ...design.objective import Objective, check_weights
+from ...forward.predictor import Prediction
+from ...forward.spec import ModelSpec
+from ...surrogate.error_budgets import budget_at, surrogate_error_budget
+from ..experiment.processing_error import ProcessingError
 
 __all__ = [
     "Z95",
@@ -78,7 +78,7 @@ class ModelError:
         Where the surrogate's held-out errors came from, in words.
     processing : ProcessingError or None
         The experiment's processing (DIC points to nodes, registration) measured at the fit
-        (``inference.processing_error``); None: not carried.
+        (``inference.experiment.processing_error``); None: not carried.
     correction_pct : numpy.ndarray or None
         (p,) what a corrected error budget moves the fit by, percent of it (the budget's model
         brought to its reference, ``inference.with_finest_reference``); None: no correction.
@@ -466,7 +466,7 @@ def with_emulation_error(
 
 
 def with_processing_error(model: ModelError | None, processing: ProcessingError, contact: str) -> ModelError:
-    """``model`` with the experiment's processing part (``inference.processing_error``) added.
+    """``model`` with the experiment's processing part (``inference.experiment.processing_error``) added.
 
     Parameters
     ----------

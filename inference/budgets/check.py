@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..forward.mesh_presets import CONTACT_CORE_PER_RADIUS
+from ...forward.mesh_presets import CONTACT_CORE_PER_RADIUS
 
 __all__ = ["FOV_TOLERANCE", "HOW_TO_MEASURE", "budget_status", "how_to_measure"]
 

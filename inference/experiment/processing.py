@@ -24,8 +24,8 @@ import numpy as np
 from scipy import sparse
 from scipy.spatial import cKDTree
 
-from ..design.objective import Objective
-from .experiment_data import ExperimentData, ExperimentDataError
+from ...design.objective import Objective
+from .data import ExperimentData, ExperimentDataError
 from .relaxation import RelaxationFit, relaxation_fit  # noqa: F401 (eq. 9's names, kept here too)
 from .specimen_frame import SpecimenFrame, specimen_frame
 

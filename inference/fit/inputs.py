@@ -8,15 +8,15 @@ from pathlib import Path
 
 import numpy as np
 
-from ..design.objective import PAPER_WEIGHTS, Objective, check_weights
-from ..forward.predictor import FESolverPredictor
-from ..forward.spec import ModelSpec
-from ..surrogate.base import FieldSurrogate
-from ..surrogate.persistence import load_surrogate
-from ..surrogate.shipped import load_shipped, recipe_for_test, shipped_for_test
-from .experiment_data import ExperimentData, load_experiment
-from .experiment_processing import RegisteredDIC, experiment_objective
-from .model_error import has_high_fidelity_level
+from ...design.objective import PAPER_WEIGHTS, Objective, check_weights
+from ...forward.predictor import FESolverPredictor
+from ...forward.spec import ModelSpec
+from ...surrogate.base import FieldSurrogate
+from ...surrogate.persistence import load_surrogate
+from ...surrogate.shipped import load_shipped, recipe_for_test, shipped_for_test
+from ..budgets.model_error import has_high_fidelity_level
+from ..experiment.data import ExperimentData, load_experiment
+from ..experiment.processing import RegisteredDIC, experiment_objective
 
 __all__ = ["FitInputs", "prepare_fit", "surrogate_fe_model"]
 

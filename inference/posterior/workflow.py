@@ -1,6 +1,6 @@
 """The posterior of (c1, c5) given a measured experiment, sampled on the surrogate (emcee), with the
 noise level from the surrogate fit's residuals; optionally carried to a finer mesh by a stored
-mesh check (:func:`inference.posterior.carried_to_finer_mesh`)."""
+mesh check (:func:`inference.posterior.sampling.carried_to_finer_mesh`)."""
 
 from __future__ import annotations
 
@@ -11,13 +11,22 @@ from pathlib import Path
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from ..atomic_write import atomic_write_json
-from ..design.certainty import bounds_pct
-from ..design.friction_treatment import FrictionTreatment, friction_bounds
-from ..design.objective import PAPER_WEIGHTS
-from ..surrogate.base import FieldSurrogate
-from .experiment_data import ExperimentData
-from .experiment_fit import (
+from ...atomic_write import atomic_write_json
+from ...design.certainty import bounds_pct
+from ...design.friction_treatment import FrictionTreatment, friction_bounds
+from ...design.objective import PAPER_WEIGHTS
+from ...surrogate.base import FieldSurrogate
+from ..budgets.mesh_check import load_mesh_check
+from ..budgets.model_error import (
+    ModelError,
+    combined_pct,
+    model_error_at,
+    model_error_scope,
+    with_model_error,
+)
+from ..experiment.data import ExperimentData
+from ..experiment.processing_error import REGISTRATION_MM
+from ..experiment_fit import (
     _mu_range,
     _with_processing,
     fit_on_surrogate_with_mu,
@@ -25,18 +34,9 @@ from .experiment_fit import (
     mu_model_error_pct,
     surrogate_with_mu,
 )
-from .fit_inputs import FitInputs, prepare_fit
-from .inverse_fit import FitResult, fit_parameters
-from .mesh_check import load_mesh_check
-from .model_error import (
-    ModelError,
-    combined_pct,
-    model_error_at,
-    model_error_scope,
-    with_model_error,
-)
-from .posterior import Posterior, carried_to_finer_mesh, sample_posterior
-from .processing_error import REGISTRATION_MM
+from ..fit.inputs import FitInputs, prepare_fit
+from ..fit.inverse_fit import FitResult, fit_parameters
+from .sampling import Posterior, carried_to_finer_mesh, sample_posterior
 
 __all__ = ["PRIOR_END_FRACTION", "ExperimentPosterior", "interval_reaches_prior_end", "sample_posterior_for"]
 
@@ -69,7 +69,7 @@ class ExperimentPosterior:
     posterior: Posterior
     fit: FitResult  # the fit on the surrogate the posterior was sampled on
     sigma: float  # the likelihood's residual sd, fit.residual_sd
-    carried: dict | None = None  # the mesh check read by inference.mesh_check.load_mesh_check
+    carried: dict | None = None  # the mesh check read by inference.budgets.mesh_check.load_mesh_check
     model_error: ModelError | None = None  # spread into the samples (multi-fidelity surrogate)
     friction: FrictionTreatment = field(default_factory=FrictionTreatment)
     mu_range: tuple[float, float] | None = None  # the prior's range when mu is sampled
@@ -216,7 +216,7 @@ def interval_reaches_prior_end(interval, prior_range) -> dict[str, bool]:
 
     Examples
     --------
-    >>> from indentation_studio.inference.experiment_posterior import interval_reaches_prior_end
+    >>> from indentation_studio.inference.posterior.workflow import interval_reaches_prior_end
     >>> interval_reaches_prior_end((0.105, 2.9), (0.1, 3.0))
     {'lower': True, 'upper': True}
     >>> interval_reaches_prior_end((0.4, 0.6), (0.1, 3.0))
@@ -250,7 +250,7 @@ def sample_posterior_for(
     log L = -F / (2 sigma^2) with sigma the fit's residual sd (:attr:`FitResult.residual_sd`),
     uniform prior on the surrogate's training box, walkers started at the surrogate fit. On a
     multi-fidelity surrogate each sample is spread by the model error at the fit
-    (:func:`inference.model_error.with_model_error`).
+    (:func:`inference.budgets.model_error.with_model_error`).
 
     Parameters
     ----------
@@ -258,7 +258,7 @@ def sample_posterior_for(
         The experiment (folder or loaded).
     surrogate : str, pathlib.Path, FieldSurrogate or None
         The surrogate (file or loaded); None (default): the one shipped for the experiment's test
-        (:func:`~indentation_studio.inference.fit_inputs.prepare_fit`), said in ``say``.
+        (:func:`~indentation_studio.inference.fit.inputs.prepare_fit`), said in ``say``.
     weights : array_like, default PAPER_WEIGHTS
         The weights of eq. 5.
     walkers : int, default 32
@@ -284,7 +284,7 @@ def sample_posterior_for(
         The objective (eq. 4's reading): the fit's (DIC from 1.5 R) or ``paper``; as the fit's.
     registration_mm : float, default REGISTRATION_MM
         The indentation point's uncertainty, mm: the samples are spread by the processing's part
-        as the fit's bounds carry it (``inference.processing_error``).
+        as the fit's bounds carry it (``inference.experiment.processing_error``).
 
     Returns
     -------

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .experiment_data import ExperimentDataError
+from .data import ExperimentDataError
 
 MAX_OFF_SURFACE_MM = 0.5
 OFF_SURFACE_NOISES = 5.0

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import curve_fit
 
-from .experiment_errors import ExperimentDataError
+from .errors import ExperimentDataError
 
 __all__ = ["RelaxationFit", "relaxation_fit"]
 

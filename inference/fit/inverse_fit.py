@@ -18,9 +18,9 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy.optimize import least_squares
 
-from ..design.certainty import bounds_pct, s_from_data
-from ..design.objective import Objective, check_weights
-from ..forward.solver import SimulationError
+from ...design.certainty import bounds_pct, s_from_data
+from ...design.objective import Objective, check_weights
+from ...forward.solver import SimulationError
 
 PAPER_START = (6.0, 300.0)
 PAPER_F_STOP = 3e-2

@@ -1,0 +1,9 @@
+"""Error budgets: every budget a fit's bounds carry, computed, checked and combined.
+
+A budget computed from a reference campaign (:mod:`.error_budget`) or from a verification study
+(:mod:`.verification_study`, :mod:`.study_budget`), the mesh check at a fit (:mod:`.mesh_check`),
+whether a fit has a budget for its model (:mod:`.check`), and the model error carried into the
+bounds (:mod:`.model_error`). The budgets a surrogate carries are read from their files by
+:mod:`indentation_studio.surrogate.error_budgets`. The names are exported by
+:mod:`indentation_studio.inference`.
+"""
