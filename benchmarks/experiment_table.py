@@ -22,7 +22,7 @@ import numpy as np
 
 from indentation_studio.atomic_write import atomic_write_json
 from indentation_studio.inference.experiment.data import load_experiment
-from indentation_studio.inference.experiment_fit import fit_experiment
+from indentation_studio.inference.fit.workflow import fit_experiment
 
 
 def _part(model: dict | None, key: str, j: int) -> float:

@@ -33,7 +33,7 @@ from indentation_studio.design.friction_treatment import FrictionTreatment
 from indentation_studio.forward.predictor import FESolverPredictor
 from indentation_studio.forward.spec import MeshChoice, ModelSpec
 from indentation_studio.inference.experiment.synthetic import write_synthetic_experiment
-from indentation_studio.inference.experiment_fit import fit_experiment
+from indentation_studio.inference.fit.workflow import fit_experiment
 
 
 def _say(message: str) -> None:

@@ -21,7 +21,7 @@ import numpy as np
 
 from indentation_studio.campaign.loader import StoredResponses, load_campaign
 from indentation_studio.inference.experiment.synthetic import write_synthetic_experiment
-from indentation_studio.inference.experiment_fit import fit_experiment
+from indentation_studio.inference.fit.workflow import fit_experiment
 from indentation_studio.inference.posterior.workflow import sample_posterior_for
 
 

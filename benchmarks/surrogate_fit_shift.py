@@ -33,8 +33,8 @@ import numpy as np
 
 from indentation_studio.atomic_write import atomic_write_json
 from indentation_studio.inference.experiment.synthetic import LAB_RECORDING, write_synthetic_experiment
-from indentation_studio.inference.experiment_fit import fit_experiment
 from indentation_studio.inference.fit.inputs import surrogate_fe_model
+from indentation_studio.inference.fit.workflow import fit_experiment
 from indentation_studio.surrogate.persistence import load_surrogate
 from indentation_studio.surrogate.shipped import shipped_for_test
 

@@ -33,7 +33,7 @@ from indentation_studio.atomic_write import atomic_write_json, strict_json
 from indentation_studio.forward.predictor import FESolverPredictor
 from indentation_studio.forward.spec import Indenter, MeshChoice, ModelSpec
 from indentation_studio.inference.experiment.synthetic import LAB_RECORDING, write_synthetic_experiment
-from indentation_studio.inference.experiment_fit import fit_experiment
+from indentation_studio.inference.fit.workflow import fit_experiment
 
 PAPER_CASES = (
     "4.77:10,350:0.3;4.77:10,350:1;4.77:10,350:stick;4.77:3,540:0.3;4.77:3,540:1;4.77:3,540:stick;"

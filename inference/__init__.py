@@ -1,6 +1,10 @@
-"""Inference: what is done after a test. Experiment data and its processing (eq. 9, registration,
-DIC to nodes), synthetic experiments, the inverse fit (2.8.2), posteriors, the model-error (mesh)
-check, the FE confirmation, the composite phantom as an experiment."""
+"""Inference: what is done after a test.
+
+Subpackages by concept: the experiment data, its processing (eq. 9, registration, DIC to nodes),
+checks and the experiments the studio makes (``experiment``; a lab's files: ``lab``), the inverse
+fit (2.8.2) with its friction path and result (``fit``), every error budget and the model error
+(``budgets``), the adequacy test (``adequacy``), posteriors (``posterior``), and the FE
+confirmation of a fit (the module ``confirmation``)."""
 
 import lazy_loader as lazy
 
@@ -18,14 +22,10 @@ __getattr__, __dir__, __all__ = lazy.attach(
         ],
         "fit.inverse_fit": ["FitResult", "fit_parameters"],
         "fit.inputs": ["FitInputs", "prepare_fit"],
-        "experiment_fit": [
-            "ExperimentFit",
-            "FE_STAGES",
-            "default_friction",
-            "fit_experiment",
-            "interval_is_whole_range",
-            "mu_is_identified",
-        ],
+        "fit.result": ["ExperimentFit"],
+        "fit.workflow": ["FE_STAGES", "fit_experiment"],
+        "fit.friction": ["default_friction"],
+        "fit.mu_reach": ["interval_is_whole_range", "mu_is_identified"],
         "fit.confirm_stage": ["FitConfirmation", "confirm_fit"],
         "posterior.sampling": ["Posterior", "sample_posterior"],
         "budgets.model_error": [
@@ -51,7 +51,8 @@ __getattr__, __dir__, __all__ = lazy.attach(
             "import_matchid",
         ],
         "experiment.data_check": ["check_experiment"],
-        "adequacy": ["CANNOT_EXPLAIN", "Adequacy", "NoiseModel", "chi_square_test", "noise_model"],
+        "adequacy.chi_square": ["CANNOT_EXPLAIN", "Adequacy", "chi_square_test"],
+        "adequacy.noise": ["NoiseModel", "noise_model"],
         "budgets.error_budget": [
             "CONVERGED_FRACTION",
             "ErrorBudget",

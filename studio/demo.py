@@ -29,7 +29,7 @@ from ..inference.budgets.model_error import model_error_scope
 from ..inference.confirmation import confirm
 from ..inference.experiment.data import load_experiment
 from ..inference.experiment.processing import static_forces
-from ..inference.experiment_fit import fit_experiment
+from ..inference.fit.workflow import fit_experiment
 from ..inference.posterior.workflow import sample_posterior_for
 from ..surrogate.persistence import save_surrogate
 from ..surrogate.shipped import shipped_for_test

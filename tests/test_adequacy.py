@@ -17,13 +17,9 @@ from scipy import stats
 
 from indentation_studio.forward.predictor import FESolverPredictor, Prediction
 from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
-from indentation_studio.inference.adequacy import (
-    ALPHA,
-    CANNOT_EXPLAIN,
-    dic_noise_mm,
-    model_adequacy,
-    parameters_at_ends,
-)
+from indentation_studio.inference.adequacy.chi_square import ALPHA, CANNOT_EXPLAIN
+from indentation_studio.inference.adequacy.noise import dic_noise_mm
+from indentation_studio.inference.adequacy.of_fit import model_adequacy, parameters_at_ends
 from indentation_studio.inference.budgets.check import budget_status
 from indentation_studio.inference.budgets.model_error import ModelError
 from indentation_studio.inference.experiment.data import load_experiment

@@ -15,8 +15,8 @@ from indentation_studio.forward.predictor import FESolverPredictor
 from indentation_studio.forward.solver import SimulationError
 from indentation_studio.forward.spec import ModelSpec
 from indentation_studio.inference.experiment.synthetic import write_synthetic_experiment
-from indentation_studio.inference.experiment_fit import FE_STAGES, fit_experiment, resolved_fe_stage
 from indentation_studio.inference.fit.confirm_stage import confirm_fit, gauss_newton_step
+from indentation_studio.inference.fit.workflow import FE_STAGES, fit_experiment, resolved_fe_stage
 from indentation_studio.surrogate.base import SPARSE_GAP, TrainingData
 from indentation_studio.surrogate.mlp import MLPSurrogate
 from indentation_studio.surrogate.persistence import load_surrogate, save_surrogate

@@ -15,7 +15,7 @@ from indentation_studio.design.friction_treatment import (
     friction_bounds,
     log_prior_sd,
 )
-from indentation_studio.inference.experiment_fit import interval_is_whole_range, mu_is_identified
+from indentation_studio.inference.fit.mu_reach import interval_is_whole_range, mu_is_identified
 
 
 def test_treatments_from_text():
@@ -118,7 +118,7 @@ def test_a_surrogate_with_mu_is_a_three_parameter_predictor(mu_surrogate):
 
 def test_fit_identifies_mu_with_c1_c5_on_a_surrogate_with_mu(mu_surrogate, tmp_path):
     from indentation_studio.inference.experiment.synthetic import write_synthetic_experiment
-    from indentation_studio.inference.experiment_fit import fit_experiment
+    from indentation_studio.inference.fit.workflow import fit_experiment
 
     model = mu_surrogate
     truth = np.array([9.0, 330.0, 0.35])
@@ -142,7 +142,7 @@ def test_fit_identifies_mu_with_c1_c5_on_a_surrogate_with_mu(mu_surrogate, tmp_p
     # the certainty region F - F_hat <= s^2 reaches both ends with a huge s, neither with a tiny one
     from dataclasses import replace
 
-    from indentation_studio.inference.experiment_fit import _mu_reach, _profile_at
+    from indentation_studio.inference.fit.mu_reach import _mu_reach, _profile_at
 
     args = (ident.inputs.objective, model, ident.inputs.eta)
     box = (model.scaler.lo, model.scaler.hi)
@@ -248,7 +248,7 @@ def test_a_fit_with_mu_keeps_the_stick_measured_mesh_budget_and_says_so(mu_surro
     import copy
 
     from indentation_studio.inference.experiment.synthetic import write_synthetic_experiment
-    from indentation_studio.inference.experiment_fit import fit_experiment
+    from indentation_studio.inference.fit.workflow import fit_experiment
 
     model = copy.copy(mu_surrogate)
     model.meta = dict(model.meta) | {
@@ -280,7 +280,7 @@ def test_parameters_are_put_and_kept_in_the_order_c1_c5_mu():
     from types import SimpleNamespace
 
     from indentation_studio.campaign.designs import DesignError, parse_grid
-    from indentation_studio.inference.experiment_fit import check_parameter_order
+    from indentation_studio.inference.fit.friction import check_parameter_order
 
     grid = parse_grid("mu=0.2:2:2:log,c5=250:450:2,c1=6:12:2")  # written in any order
     assert grid.parameters == ("c1", "c5", "mu")
@@ -300,7 +300,7 @@ def test_the_fe_stage_identifies_mu_on_data_of_the_fe_model(mu_surrogate, tmp_pa
     from indentation_studio.forward.predictor import FESolverPredictor
     from indentation_studio.forward.spec import ModelSpec
     from indentation_studio.inference.experiment.synthetic import write_synthetic_experiment
-    from indentation_studio.inference.experiment_fit import fit_experiment
+    from indentation_studio.inference.fit.workflow import fit_experiment
 
     spec = ModelSpec.from_dict(mu_surrogate.meta["campaign"]["model"])  # the model it emulates
     fe = FESolverPredictor(spec, parameters=("c1", "c5", "mu"))
@@ -385,7 +385,7 @@ def test_a_model_error_as_wide_as_mus_range_fills_its_prior():
 
 
 def test_a_mu_the_model_error_can_move_to_its_ranges_end_is_not_claimed():
-    from indentation_studio.inference.experiment_fit import mu_reach_by_model_error
+    from indentation_studio.inference.fit.mu_reach import mu_reach_by_model_error
 
     # issue 57's soft corner: mu = 0.69 on stick data; a model error of 400 % reaches the stick's end
     assert mu_reach_by_model_error(0.69, 400.0, (0.1, 3.0)) == {"lower": False, "upper": True}

@@ -14,8 +14,8 @@ from indentation_studio.design.reduced_objective import FieldObjective, ReducedO
 from indentation_studio.forward.convergence.mesh_study import top_field_interpolator
 from indentation_studio.forward.predictor import Prediction
 from indentation_studio.inference.experiment.synthetic import write_synthetic_experiment
-from indentation_studio.inference.experiment_fit import fit_experiment
 from indentation_studio.inference.fit.inverse_fit import fit_parameters
+from indentation_studio.inference.fit.workflow import fit_experiment
 from indentation_studio.surrogate.base import FieldSurrogate, TrainingData
 from indentation_studio.surrogate.emulation_error import EmulationError
 from indentation_studio.surrogate.gaussian_process import GaussianProcessSurrogate

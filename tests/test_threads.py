@@ -89,7 +89,7 @@ class _Stop(Exception):
 
 @pytest.mark.parametrize(
     "module, workflow",
-    [("experiment_fit", "fit_experiment"), ("posterior.workflow", "sample_posterior_for")],
+    [("fit.workflow", "fit_experiment"), ("posterior.workflow", "sample_posterior_for")],
 )
 def test_the_experiment_workflows_keep_blas_on_one_thread(monkeypatch, module, workflow):
     import importlib

@@ -50,7 +50,7 @@ def _test(spec, fov_mm: float) -> str:
 
 
 def budget_status(result) -> dict:
-    """Whether the fit (an :class:`inference.experiment_fit.ExperimentFit`) has an error budget
+    """Whether the fit (an :class:`inference.fit.result.ExperimentFit`) has an error budget
     for its test: ``{"known": bool, "test": str, "source": dict | None, "warning": str | None}``;
     the warning says what the bounds then hold and how to measure one."""
     inputs = result.inputs

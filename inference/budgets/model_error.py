@@ -99,7 +99,7 @@ class ModelError:
         """The parts over (c1, c5, mu), mu's own model error as its budget part.
 
         ``mu_pct`` is a 95 % half-width in percent of mu
-        (:func:`inference.experiment_fit.mu_model_error_pct`); no correlation with (c1, c5) (theirs
+        (:func:`inference.fit.error_parts.mu_model_error_pct`); no correlation with (c1, c5) (theirs
         are taken with mu held); nothing corrected in mu.
 
         Parameters

@@ -342,3 +342,8 @@ def gauss_newton_refine(
         message=message,
         prediction=seen.get("prediction"),
     )
+
+
+def _told(say: Callable[[str], None]) -> Callable[[int, np.ndarray, float], None]:
+    """An FE fit's evaluations, one line each, for ``say``."""
+    return lambda k, theta, F: say(f"  FE evaluation {k}: {np.round(theta, 4).tolist()}, F = {F:.4g}")

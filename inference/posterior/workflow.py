@@ -26,14 +26,8 @@ from ..budgets.model_error import (
 )
 from ..experiment.data import ExperimentData
 from ..experiment.processing_error import REGISTRATION_MM
-from ..experiment_fit import (
-    _mu_range,
-    _with_processing,
-    fit_on_surrogate_with_mu,
-    model_error_with_mu,
-    mu_model_error_pct,
-    surrogate_with_mu,
-)
+from ..fit.error_parts import _with_processing, model_error_with_mu, mu_model_error_pct
+from ..fit.friction import _mu_range, fit_on_surrogate_with_mu, surrogate_with_mu
 from ..fit.inputs import FitInputs, prepare_fit
 from ..fit.inverse_fit import FitResult, fit_parameters
 from .sampling import Posterior, carried_to_finer_mesh, sample_posterior
@@ -346,7 +340,7 @@ def sample_posterior_for(
         log_uniform=log_uniform,
     )
     mu_model_pct = None
-    if "mu" in model.parameters:  # the parts the fit carries (experiment_fit.model_error_with_mu)
+    if "mu" in model.parameters:  # the parts the fit carries (fit.error_parts.model_error_with_mu)
         model_error = model_error_with_mu(
             inputs,
             treatment,

@@ -1,0 +1,177 @@
+"""The model-error parts a fit carries beside its statistical bound: the processing's part at the
+fit, the mesh's budget measured with the perfect stick, and the parts of a fit on a surrogate
+trained with mu (those of (c1, c5), mu held, and what the model's errors leave on mu)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import replace
+
+import numpy as np
+
+from ...design.friction_treatment import FrictionTreatment
+from ...surrogate.error_budgets import budget_at, surrogate_error_budget
+from ..budgets.model_error import (
+    ModelError,
+    budget_correction,
+    emulation_error_pct,
+    has_high_fidelity_level,
+    model_error_at,
+    with_emulation_error,
+    with_processing_error,
+)
+from ..experiment.processing_error import REGISTRATION_MM, processing_error_at
+from .inputs import FitInputs
+
+__all__ = ["model_error_with_mu", "mu_model_error_pct"]
+
+
+def model_error_with_mu(
+    inputs: FitInputs,
+    treatment: FrictionTreatment,
+    mu_range: tuple[float, float] | None,
+    theta: np.ndarray,
+    *,
+    on_surrogate: bool,
+    registration_mm: float = REGISTRATION_MM,
+    say: Callable[[str], None] | None = None,
+) -> ModelError | None:
+    """The model-error parts of (c1, c5) at a fit on a surrogate trained with mu, mu held there.
+
+    The discrepancy's uncertainty and the error budget of a multi-fidelity surrogate
+    (:func:`~indentation_studio.inference.budgets.model_error.model_error_at`, mu held: at mu's range ends
+    nothing slips and d/dmu vanishes), or the stick-measured budget of a single-level one
+    (:func:`_stick_mesh_budget`); the surrogate's own error where the final stage is on it; the
+    processing's part. A fit and a posterior of the same data carry the same parts.
+
+    Parameters
+    ----------
+    inputs : FitInputs
+        The experiment, surrogate (with mu) and objective.
+    treatment : FrictionTreatment
+        How mu is treated.
+    mu_range : tuple of float or None
+        mu's range (identify, marginalise).
+    theta : numpy.ndarray
+        The fit: (c1, c5, mu), or (c1, c5) with mu known.
+    on_surrogate : bool
+        The final stage is on the surrogate (its own error counted).
+    registration_mm : float, default REGISTRATION_MM
+        The indentation point's uncertainty, mm.
+    say : callable, optional
+        Where progress messages go.
+
+    Returns
+    -------
+    ModelError or None
+        The parts over (c1, c5); None where nothing is known.
+    """
+    say = say or (lambda message: None)
+    model, obj, eta = inputs.surrogate, inputs.objective, inputs.eta
+    contact = treatment.describe(inputs.spec.contact.describe(), mu_range)
+    at = _with_held_mu(theta, model, treatment)
+    if has_high_fidelity_level(model):  # its discrepancy (learned at the stick or over mu)
+        say("the model error at the fit (discrepancy and error budget, mu held) ...")
+        error = model_error_at(obj, eta, model, at, free=2, on_surrogate=on_surrogate)
+    else:
+        error = _stick_mesh_budget(model, contact, inputs.spec.contact.describe(), theta=theta)
+        if on_surrogate:  # the final stage on the surrogate: its own error too
+            error = with_emulation_error(error, obj, eta, model, at, free=2)
+    error = None if error is None else replace(error, contact=contact)
+    return _with_processing(error, inputs, at, contact, registration_mm, say, free=2)
+
+
+def mu_model_error_pct(inputs: FitInputs, theta: np.ndarray, *, on_surrogate: bool) -> float | None:
+    """What the model's own errors leave on a fitted mu: a 95 % half-width, percent of mu.
+
+    Every parameter free (mu's certainty is what is asked): the surrogate's held-out errors pushed
+    through the fit where its final stage is on it
+    (:func:`~indentation_studio.inference.budgets.model_error.emulation_error_pct`), and, on a
+    multi-fidelity surrogate with mu inside its range, the discrepancy's uncertainty pushed the same
+    way (:func:`~indentation_studio.inference.budgets.model_error.model_error_at` over all three), root sum of
+    squares. A model error that moves mu by its whole range is what makes data with no slip in them
+    look as if they held a mu.
+
+    Parameters
+    ----------
+    inputs : FitInputs
+        The experiment, surrogate (with mu) and objective.
+    theta : numpy.ndarray
+        (c1, c5, mu) the fit.
+    on_surrogate : bool
+        The final stage is on the surrogate.
+
+    Returns
+    -------
+    float or None
+        The half-width; None where neither part is known.
+    """
+    model, obj, eta = inputs.surrogate, inputs.objective, inputs.eta
+    parts = []
+    if on_surrogate:
+        moved = emulation_error_pct(obj, eta, model, theta)
+        if moved is not None:
+            parts.append(float(moved[2]))
+    lo, hi = (float(model.scaler.lo[2]), float(model.scaler.hi[2]))
+    if has_high_fidelity_level(model) and lo * 1.01 < theta[2] < hi / 1.01:
+        try:
+            error = model_error_at(obj, eta, model, theta, on_surrogate=False)
+        except np.linalg.LinAlgError:  # mu not determined there: nothing to push through
+            error = None
+        if error is not None and np.isfinite(error.discrepancy_pct[2]):
+            parts.append(float(error.discrepancy_pct[2]))
+    return float(np.hypot.reduce(parts)) if parts else None
+
+
+def _with_processing(
+    model_error: ModelError | None,
+    inputs: FitInputs,
+    theta: np.ndarray,
+    contact: str,
+    registration_mm: float,
+    say: Callable[[str], None],
+    *,
+    free: int | None = None,
+) -> ModelError:
+    """The fit's model error with the experiment's processing part measured at ``theta`` on the
+    fit's surrogate (``inference.experiment.processing_error``)."""
+    say(
+        f"the processing's part at the fit (DIC points to nodes, registration within {registration_mm:g} mm) ..."
+    )
+    processing = processing_error_at(
+        inputs.objective,
+        inputs.dic,
+        inputs.surrogate,
+        theta,
+        inputs.eta,
+        used_steps=inputs.experiment.used_steps,
+        registration_mm=registration_mm,
+        free=free,
+    )
+    return with_processing_error(model_error, processing, contact)
+
+
+def _with_held_mu(theta: np.ndarray, model, treatment: FrictionTreatment) -> np.ndarray:
+    """(c1, c5, mu) of a fit on a surrogate with mu: mu as fitted, or the value held (at the
+    training range's nearest end, as :func:`surrogate_with_mu` holds it)."""
+    theta = np.asarray(theta, float)
+    if theta.size == len(model.parameters):
+        return theta
+    return np.append(theta, np.clip(treatment.value, model.scaler.lo[2], model.scaler.hi[2]))
+
+
+def _stick_mesh_budget(surrogate, contact: str, measured_with: str, *, theta) -> ModelError | None:
+    """The mesh's error budget of the surrogate's (c1, c5), measured with the perfect stick, for a
+    fit with friction: that mesh's error does not vanish when mu is held or fitted, and no budget
+    measured with friction is shipped; leaving it out would leave bounds of noise alone (a fit of
+    FEBio's baseline with mu identified: c5 +34 % outside +-3.9 %). Its source says which contact
+    it was measured with (``measured_with``: the surrogate's campaign's contact, which the shipped
+    budget was matched on), read at the fit ``theta`` (``surrogate.error_budgets.budget_at``)."""
+
+    budget = budget_at(surrogate_error_budget(surrogate), theta)
+    if not budget:
+        return None
+    source = dict(budget.get("source") or {}) | {"measured_with": measured_with}
+    pct = np.array([float(budget.get("c1_pct", 0.0)), float(budget.get("c5_pct", 0.0))])
+    correction = budget_correction(budget, ("c1", "c5"))
+    return ModelError(np.zeros(2), pct, np.zeros((2, 2)), source, False, contact, correction_pct=correction)
