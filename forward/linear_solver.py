@@ -24,6 +24,7 @@ ones), so a contact set that grows costs a few back-substitutions instead of a f
 from __future__ import annotations
 
 import os
+import time
 
 import numpy as np
 import scipy.linalg as sla
@@ -114,6 +115,25 @@ def _new_pardiso():
     return solver
 
 
+#: The counters a :class:`ConstrainedSymmetricSolver` keeps (in its ``stats``, which may be its
+#: caller's dict): PARDISO's symbolic analysis (once per run) and numerical factorisations apart,
+#: back-substitutions (calls, right-hand-side columns, seconds; those of
+#: :meth:`ConstrainedSymmetricSolver.inverse_columns`, the Schur complement's and the low-rank
+#: corrections' columns, also counted on their own).
+LINEAR_STATS: dict[str, float] = {
+    "symbolic_analyses": 0,
+    "symbolic_s": 0.0,
+    "numeric_factorizations": 0,
+    "numeric_factorize_s": 0.0,
+    "back_substitutions": 0,
+    "back_substitution_columns": 0,
+    "back_substitution_s": 0.0,
+    "inverse_column_solves": 0,
+    "inverse_columns": 0,
+    "inverse_columns_s": 0.0,
+}
+
+
 class ConstrainedSymmetricSolver:
     """Factorise K with a set of constrained dofs eliminated, then solve for many right-hand sides."""
 
@@ -123,11 +143,17 @@ class ConstrainedSymmetricSolver:
         backend: str | None = None,
         permanent: np.ndarray | None = None,
         single_precision: bool = False,
+        stats: dict | None = None,
     ) -> None:
         """``permanent`` (n,) marks dofs constrained for the whole run (supports, symmetry
         planes): they are dropped from the factorised system altogether. ``single_precision``
         (PARDISO only) factorises in float32 (iparm 28), about twice as fast: for callers that use
-        the factorisation as a preconditioner or in corrections checked by a residual."""
+        the factorisation as a preconditioner or in corrections checked by a residual. ``stats``:
+        a dict the counters of ``LINEAR_STATS`` are added to (the solver's own, made here if None)."""
+        #: counts and seconds of the analysis, factorisations and back-substitutions (LINEAR_STATS)
+        self.stats = {} if stats is None else stats
+        for key, zero in LINEAR_STATS.items():
+            self.stats.setdefault(key, zero)
         self.pattern = pattern
         self.backend = backend or default_backend()
         if self.backend not in ("pardiso", "superlu"):
@@ -178,7 +204,8 @@ class ConstrainedSymmetricSolver:
         try:
             if self.backend == "pardiso":
                 self._factorize_pardiso(data)
-            else:
+            else:  # SuperLU orders and factorises in one call: counted as numerical
+                t = time.perf_counter()
                 A = sp.csr_matrix(
                     (data[self._full_slots], self._full_indices, self._full_indptr), shape=(self.m, self.m)
                 )
@@ -188,6 +215,8 @@ class ConstrainedSymmetricSolver:
                     diag_pivot_thresh=0.0,
                     options={"SymmetricMode": True},
                 )
+                self.stats["numeric_factorizations"] += 1
+                self.stats["numeric_factorize_s"] += time.perf_counter() - t
         except LinearSolveError:
             raise
         except Exception as exc:  # pypardiso / SuperLU report singularity in their own types
@@ -232,11 +261,15 @@ class ConstrainedSymmetricSolver:
             self._reset_extra()  # at most max_extra columns kept: start again with those asked for
             missing = np.unique(dofs)
         if missing.size:
+            t = time.perf_counter()
             unit = np.zeros((self.pattern.n_dofs, missing.size))
             unit[missing, np.arange(missing.size)] = 1.0
             unit[self.factor_mask] = 0.0
             self._column_of[missing] = self._W.shape[1] + np.arange(missing.size)
             self._W = np.hstack([self._W, self.solve(unit).reshape(-1, missing.size)])
+            self.stats["inverse_column_solves"] += 1
+            self.stats["inverse_columns"] += int(missing.size)
+            self.stats["inverse_columns_s"] += time.perf_counter() - t
         return self._W[:, self._column_of[dofs]]
 
     def _factorize_pardiso(self, data: np.ndarray) -> None:
@@ -252,16 +285,23 @@ class ConstrainedSymmetricSolver:
             A.data = A.data.astype(np.float32)
         b = np.zeros((self.m, 1), dtype=A.dtype)
         if not self._analysed:
+            t = time.perf_counter()
             self._pardiso.set_phase(11)
             self._pardiso._call_pardiso(A, b)
             self._analysed = True
+            self.stats["symbolic_analyses"] += 1
+            self.stats["symbolic_s"] += time.perf_counter() - t
+        t = time.perf_counter()
         self._pardiso.set_phase(22)
         self._pardiso._call_pardiso(A, b)
+        self.stats["numeric_factorizations"] += 1
+        self.stats["numeric_factorize_s"] += time.perf_counter() - t
         self._matrix = A
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         """Solve with the last factorisation; ``rhs`` (n,) or (n, m) must be zero at the
         constrained dofs, and so is the solution."""
+        t = time.perf_counter()
         b = rhs[self.kept]
         if self.backend == "pardiso":
             self._pardiso.set_phase(33)
@@ -273,6 +313,9 @@ class ConstrainedSymmetricSolver:
             raise LinearSolveError(f"{self.backend}: non-finite solution (singular stiffness?)")
         x = np.zeros(rhs.shape)
         x[self.kept] = y
+        self.stats["back_substitutions"] += 1
+        self.stats["back_substitution_columns"] += 1 if rhs.ndim == 1 else int(rhs.shape[1])
+        self.stats["back_substitution_s"] += time.perf_counter() - t
         return x
 
     def __del__(self) -> None:

@@ -29,7 +29,7 @@ if TYPE_CHECKING:
     from .spec import ModelSpec
     from .stick_contact import RigidSphere
 
-__all__ = ["Equilibrium", "IncrementFailed", "NewtonSystem", "TangentContact"]
+__all__ = ["NEWTON_STATS", "Equilibrium", "IncrementFailed", "NewtonSystem", "TangentContact"]
 
 log = logging.getLogger(__name__)
 
@@ -57,6 +57,36 @@ SENSITIVITY_RTOL = 1e-11
 #: residual, in at most this many iterations (EmbeddedSolver._fresh_step).
 FRESH_RTOL = 1e-8
 FRESH_MAXITER = 50
+
+
+#: The counters of the linear steps (:attr:`NewtonSystem.stats`; the solver's driver adds those of
+#: the assemblies, the linear solver and the contact). ``solve_s`` is the time of every linear step
+#: (factorisations, Krylov solves, corrections' back-substitutions); ``krylov_s`` includes the
+#: matrix products and the preconditioner's applications (back-substitutions and the contact's
+#: correction) inside it; the ``sensitivity_`` counters are the sensitivity solves' share of the rest.
+NEWTON_STATS: dict[str, float] = {
+    "factorizations": 0,
+    "factorize_s": 0.0,
+    "fresh_steps": 0,
+    "solves": 0,
+    "solve_s": 0.0,
+    "krylov_calls": 0,
+    "krylov_failures": 0,
+    "krylov_steps": 0,
+    "krylov_iterations": 0,
+    "krylov_s": 0.0,
+    "krylov_matvecs": 0,
+    "krylov_matvec_s": 0.0,
+    "preconditioner_applications": 0,
+    "preconditioner_s": 0.0,
+    "correction_applications": 0,
+    "correction_apply_s": 0.0,
+    "sensitivity_solves": 0,
+    "sensitivity_columns": 0,
+    "sensitivity_s": 0.0,
+    "sensitivity_factorizations": 0,
+    "sensitivity_krylov_iterations": 0,
+}
 
 
 @dataclass
@@ -139,7 +169,8 @@ class NewtonSystem:
     contact : TangentContact
         The contact in use (what the factorisation leaves out).
     stats : dict
-        Counts and times of assemblies, factorisations, solves and Krylov iterations.
+        Counts and times of assemblies, factorisations, solves and Krylov iterations
+        (``NEWTON_STATS``, the linear solver's ``LINEAR_STATS`` and the contact's).
     force_scale : float
         A force below which residuals count as zero, mN.
     want_sensitivities : bool
@@ -239,15 +270,27 @@ class NewtonSystem:
         """
         t = time.perf_counter()
 
+        stats = self.stats
+
         def matvec(x: np.ndarray) -> np.ndarray:
+            t_mv = time.perf_counter()
             y = K @ np.where(cmask, 0.0, x)
             y[cmask] = x[cmask]
+            stats["krylov_matvecs"] += 1
+            stats["krylov_matvec_s"] += time.perf_counter() - t_mv
+            return y
+
+        def preconditioner(r: np.ndarray) -> np.ndarray:
+            t_pc = time.perf_counter()
+            y = self.precondition(r, cmask, correction)
+            stats["preconditioner_applications"] += 1
+            stats["preconditioner_s"] += time.perf_counter() - t_pc
             return y
 
         n = self.n_dofs
         A = spla.LinearOperator((n, n), matvec=matvec, dtype=float)
         correction = self.contact.correction(cmask)
-        M = spla.LinearOperator((n, n), matvec=lambda r: self.precondition(r, cmask, correction), dtype=float)
+        M = spla.LinearOperator((n, n), matvec=preconditioner, dtype=float)
         its = [0]
 
         def count(_x: np.ndarray) -> None:
@@ -260,10 +303,12 @@ class NewtonSystem:
                 A, rhs, rtol=rtol, restart=maxiter, maxiter=1, M=M, callback=count, callback_type="pr_norm"
             )
         dt = time.perf_counter() - t
+        self.stats["krylov_calls"] += 1
         self.stats["krylov_iterations"] += its[0]
         self.stats["krylov_s"] += dt
         self.stats["solve_s"] += dt
         if info != 0 or not np.all(np.isfinite(x)):
+            self.stats["krylov_failures"] += 1
             return None
         self.stats["krylov_steps"] += 1
         return np.where(cmask, 0.0, x)
@@ -319,6 +364,7 @@ class NewtonSystem:
         -------
         ndarray, shape (3n,)
         """
+        self.stats["fresh_steps"] += 1
         self.factorize(K, cmask)
         if self.contact.symmetric:
             return self.solve(rhs, cmask)
@@ -366,8 +412,11 @@ class NewtonSystem:
         y = self.linear.solve_constrained(r, cmask)
         if correction is None:
             return y
+        t = time.perf_counter()
         y = correction.apply(y)
         y[cmask] = 0.0
+        self.stats["correction_applications"] += 1
+        self.stats["correction_apply_s"] += time.perf_counter() - t
         return y
 
     def sensitivity_solve(self, K: sp.csr_matrix, cmask: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -395,6 +444,8 @@ class NewtonSystem:
         LinearSolveError
             A solve that does not converge even with a fresh factorisation.
         """
+        t = time.perf_counter()
+        before = {k: self.stats[k] for k in ("factorizations", "krylov_iterations")}
         x, lu = np.zeros_like(b), None
         for k in range(b.shape[1]):
             col = (
@@ -414,6 +465,11 @@ class NewtonSystem:
             if col is None:
                 raise LinearSolveError("the sensitivity solve did not converge")
             x[:, k] = col
+        self.stats["sensitivity_solves"] += 1
+        self.stats["sensitivity_columns"] += int(b.shape[1])
+        self.stats["sensitivity_s"] += time.perf_counter() - t
+        for key, was in before.items():
+            self.stats["sensitivity_" + key] += self.stats[key] - was
         return x
 
     def equilibrate(self, u0: np.ndarray, cmask: np.ndarray, target: np.ndarray) -> Equilibrium:

@@ -15,6 +15,7 @@ since (points in or out, slip) are put back by a low-rank update (:meth:`Penalty
 from __future__ import annotations
 
 import logging
+import time
 
 import numpy as np
 import scipy.sparse as sp
@@ -34,7 +35,7 @@ from .newton import (
     NewtonSystem,
 )
 
-__all__ = ["PenaltyContact"]
+__all__ = ["CONTACT_STATS", "PenaltyContact"]
 
 log = logging.getLogger(__name__)
 
@@ -68,6 +69,24 @@ STICK_STEP_LIMIT = 0.2
 TURNING_ROUNDS = 4
 
 
+#: The contact's counters in its solver's ``stats``: its forces and tangent blocks evaluated
+#: (``contact_updates``: one per assembly in an increment, within ``assembly_s``), the low-rank
+#: corrections made (their inverse columns' back-substitutions within), the statuses checked within
+#: Newton solves and changed, the turning points' re-solves, the damped steps' trial states and halvings.
+CONTACT_STATS: dict[str, float] = {
+    "contact_updates": 0,
+    "contact_update_s": 0.0,
+    "contact_corrections": 0,
+    "contact_correction_s": 0.0,
+    "status_checks": 0,
+    "status_changes": 0,
+    "status_s": 0.0,
+    "turning_rounds": 0,
+    "step_trials": 0,
+    "step_halvings": 0,
+}
+
+
 class PenaltyContact(IndenterContact):
     """Stick or Coulomb friction by a penalty at contact points (module docstring).
 
@@ -81,6 +100,8 @@ class PenaltyContact(IndenterContact):
     def __init__(self, solver: NewtonSystem) -> None:
         super().__init__(solver)
         spec = solver.spec.contact
+        for key, zero in CONTACT_STATS.items():
+            solver.stats.setdefault(key, zero)
         #: Coulomb's mu, or None for stick (mu = inf)
         self.friction = spec.friction
         self.parameters = ("c1", "c5") if spec.friction is None else ("c1", "c5", "mu")
@@ -119,12 +140,15 @@ class PenaltyContact(IndenterContact):
     def add_to_system(self, u: np.ndarray, R: np.ndarray, K: sp.csr_matrix | None) -> None:
         if self._state is None:
             return
+        t = time.perf_counter()
         s, pts = self.solver, self._points
         resp = self._state.response(pts.to_points(u[s.top]), self._depth)
         R.reshape(-1, 3)[s.top] -= pts.to_nodes(resp.force)
         self._contact_blocks = -pts.cell_blocks(resp.df_dr)
         if K is not None:
             K.data += self.scatter_cells(self._contact_blocks)
+        s.stats["contact_updates"] += 1
+        s.stats["contact_update_s"] += time.perf_counter() - t
 
     def for_factorisation(self, K: sp.csr_matrix) -> sp.csr_matrix:
         if self._contact_blocks is None:
@@ -190,8 +214,11 @@ class PenaltyContact(IndenterContact):
         made = self._correction  # the same blocks and factorisation: the same correction
         if made is not None and made[0] is self._contact_blocks and made[1] == s.stats["factorizations"]:
             return made[2]
+        t = time.perf_counter()
         update = self._update(cmask)
         self._correction = (self._contact_blocks, s.stats["factorizations"], update)
+        s.stats["contact_corrections"] += int(update is not None)
+        s.stats["contact_correction_s"] += time.perf_counter() - t
         return update
 
     def _update(self, cmask: np.ndarray) -> LowRankUpdate | None:
@@ -343,6 +370,7 @@ class PenaltyContact(IndenterContact):
             if not turning.any():
                 break
             stuck |= turning
+            s.stats["turning_rounds"] += 1
             log.debug("  %d slipping points turn round: their stick predicted", int(stuck.sum()))
             c.stuck = stuck
             try:
@@ -363,6 +391,7 @@ class PenaltyContact(IndenterContact):
         """Within a Newton solve, hold the contact statuses the state ``u`` calls for (a
         semi-smooth Newton step on the active set); whether they changed."""
         s = self.solver
+        t = time.perf_counter()
         c = self._state
         top = u.reshape(-1, 3)[s.top]
         wanted = c.settled_status(
@@ -370,9 +399,12 @@ class PenaltyContact(IndenterContact):
         )
         if self._holding:
             wanted = np.maximum(wanted, c.status)
+        s.stats["status_checks"] += 1
+        s.stats["status_s"] += time.perf_counter() - t
         if np.array_equal(wanted, c.status):
             return False
         c.status = wanted
+        s.stats["status_changes"] += 1
         return True
 
     def _damped_step(
@@ -392,7 +424,9 @@ class PenaltyContact(IndenterContact):
         if self._step_limit is not None and longest > self._step_limit:
             du = du * (self._step_limit / longest)
         alpha, best = 1.0, None
-        for _ in range(MAX_HALVINGS + 2 if halve else 1):
+        for trial_no in range(MAX_HALVINGS + 2 if halve else 1):
+            s.stats["step_trials"] += 1
+            s.stats["step_halvings"] += int(trial_no > 0)
             trial = u - alpha * du
             try:
                 R_try, _, _ = s.assemble(trial.reshape(-1, 3), tangent=False)

@@ -34,7 +34,7 @@ from .hex8_mean_dilatation import ReferenceGeometry
 from .indenter_contact import IndenterContact
 from .linear_solver import ConstrainedSymmetricSolver
 from .mesh import BlockMesh, build_mesh
-from .newton import IncrementFailed, NewtonSystem
+from .newton import NEWTON_STATS, IncrementFailed, NewtonSystem
 from .node_stick import NodeStickContact
 from .penalty_contact import PenaltyContact
 from .result import SYMMETRY_FACTOR, SimulationResult
@@ -85,6 +85,10 @@ CUTBACK_BUDGET = 4
 #: depend on the thread count up to Newton's tolerance (1 against 2 threads on FEBio's mesh:
 #: 1.1e-8 mm stick, 1.6e-5 mm with mu = 0.3, against 1e-14 in double; docs/validation/solver-and-speed.md).
 SINGLE_PRECISION_DOFS = 20_000
+
+#: Counters of :attr:`EmbeddedSolver.stats` also recorded per step in the result's convergence
+#: record (with the step's failed increments).
+STEP_COUNTERS = ("assemblies", "factorizations", "krylov_iterations", "back_substitutions")
 
 _STRUCTURES: dict[bytes, tuple[ReferenceGeometry, SparsePattern]] = {}
 
@@ -154,11 +158,19 @@ class EmbeddedSolver(NewtonSystem):
         self.bc_fixed = fixed
         #: Coulomb's mu, or None for stick
         self.friction = spec.contact.friction
+        self.stats = {
+            "assemblies": 0,
+            "tangent_assemblies": 0,
+            "parameter_assemblies": 0,
+            "assembly_s": 0.0,
+            **NEWTON_STATS,
+        }
         self.linear = ConstrainedSymmetricSolver(
             self.pattern,
             linear_solver,
             permanent=fixed.ravel(),
             single_precision=self.n_dofs >= SINGLE_PRECISION_DOFS,
+            stats=self.stats,  # its counters of factorisations and back-substitutions join the run's
             # with friction the factorisation is of the tangent's symmetric part; the contact
             # blocks' changes since (slip, points in or out) are put back by the contact's correction
         )
@@ -174,18 +186,6 @@ class EmbeddedSolver(NewtonSystem):
         h = np.sort(np.unique(np.round(top_xy[:, 0], 9)))
         self.force_scale = c1 * float(h[1] - h[0]) ** 2 if h.size > 1 else c1
         self.want_sensitivities = False
-        self.stats = {
-            "assemblies": 0,
-            "tangent_assemblies": 0,
-            "assembly_s": 0.0,
-            "factorizations": 0,
-            "factorize_s": 0.0,
-            "solves": 0,
-            "solve_s": 0.0,
-            "krylov_steps": 0,
-            "krylov_iterations": 0,
-            "krylov_s": 0.0,
-        }
         #: the indenter's contact (forward.indenter_contact): exact node-wise stick, or a penalty
         self.contact: IndenterContact = (
             PenaltyContact(self) if spec.contact.penalised else NodeStickContact(self)
@@ -235,6 +235,7 @@ class EmbeddedSolver(NewtonSystem):
         self.contact.add_to_system(u, R, K)
         self.stats["assemblies"] += 1
         self.stats["tangent_assemblies"] += int(tangent)
+        self.stats["parameter_assemblies"] += int(parameter_derivatives)
         self.stats["assembly_s"] += time.perf_counter() - t
         return R, K, dR
 
@@ -370,6 +371,7 @@ class EmbeddedSolver(NewtonSystem):
                 if k <= steps_done:
                     continue
                 t_step = time.perf_counter()
+                counted = {key: self.stats[key] for key in STEP_COUNTERS}
                 rec = dict.fromkeys(("newton_iterations", "increments", "cutbacks", "contact_passes"), 0)
                 inc = nominal
                 eq = None
@@ -429,6 +431,8 @@ class EmbeddedSolver(NewtonSystem):
                 self._status.append(attached.astype(np.int8) + slipping)
                 if "mu" in self.contact.parameters:
                     conv.setdefault("slipping_nodes", [0]).append(int(slipping.sum()))
+                for key, was in counted.items():  # (a checkpoint of before they were kept: 0 before)
+                    conv.setdefault(key, [0] * len(conv["wall_s"])).append(self.stats[key] - was)
                 conv["wall_s"].append(time.perf_counter() - t_step)
                 if checkpoint is not None:
                     self._write_checkpoint(
