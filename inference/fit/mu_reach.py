@@ -67,7 +67,7 @@ def mu_reach_by_model_error(mu: float, model_pct: float | None, mu_range) -> dic
     Examples
     --------
     >>> from indentation_studio.inference.fit.mu_reach import mu_reach_by_model_error
-    >>> mu_reach_by_model_error(1.59, 1107.0, (0.1, 3.0))
+    >>> mu_reach_by_model_error(1.59, 1500.0, (0.1, 3.0))
     {'lower': True, 'upper': True}
     >>> mu_reach_by_model_error(0.5, 20.0, (0.1, 3.0))
     {'lower': False, 'upper': False}
