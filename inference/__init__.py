@@ -62,6 +62,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
             "resolve_model",
         ],
         "budgets.verification_study": ["VerificationStudy", "parameter_bias", "run_verification_study"],
+        "preparation": ["CostEstimate", "PreparedTest", "TestRecipe", "estimate_cost", "prepare_test"],
         "budgets.study_budget": [
             "ReferenceCorrection",
             "finest_reference_budget",

@@ -117,6 +117,7 @@ def confirm(
     say: Callable[[str], None] | None = None,
     friction: float | None = None,
     reading: str = "fit",
+    tests: str | Path | None = None,
 ) -> Confirmation:
     """Run the surrogate's FE model at ``theta`` and compare it with the surrogate (FE confirmation).
 
@@ -146,6 +147,9 @@ def confirm(
     reading : str, default "fit"
         The objective (eq. 4's reading): the fit's (DIC from 1.5 R) or ``paper``; as the fit's.
 
+    tests : str or pathlib.Path, optional
+        A prepared test's folder (``indent-studio test prepare``) read before the shipped surrogates
+        (:func:`~indentation_studio.surrogate.shipped.find_test`).
     Returns
     -------
     Confirmation
@@ -157,7 +161,7 @@ def confirm(
         If theta is not (c1, c5), mu is negative or missing for a surrogate over mu, friction is
         combined with a mesh check, or a mesh check is asked of FEBio.
     """
-    inputs = prepare_fit(experiment, surrogate, weights, exclude_steps, reading=reading)
+    inputs = prepare_fit(experiment, surrogate, weights, exclude_steps, reading=reading, tests=tests)
     if surrogate is None and say is not None:
         say(f"surrogate: {inputs.sources['surrogate']}")
     theta = np.asarray(theta, float).reshape(-1)

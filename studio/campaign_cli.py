@@ -20,6 +20,7 @@ from .options import (
     JSON,
     MODEL_FLAGS,
     RUNS_DIR,
+    SCHEDULER,
     SOLVER,
     ModelOptions,
     SolverName,
@@ -94,9 +95,6 @@ GRID = Annotated[
         help="paper | FILE.csv | c1=LO:HI:N,c5=LO:HI:N | lhs:N[:SEED] | sobol:N[:SEED]; "
         "mu=LO:HI:N[:log] adds friction as a third axis (:log spaces it in log)"
     ),
-]
-SCHEDULER = Annotated[
-    str | None, typer.Option(help="dask.distributed scheduler address, e.g. tcp://10.0.0.1:8786")
 ]
 TIMEOUT = Annotated[float | None, typer.Option(help="per-point timeout, s")]
 RETRY_FAILED = Annotated[bool, typer.Option(help="solve the failed points again")]

@@ -41,6 +41,7 @@ from .options import (
     model_options,
     say,
 )
+from .own_test_cli import own_test_app
 from .progress import step_progress
 from .surrogate_cli import surrogate_app
 from .verification_cli import register as register_verification
@@ -117,6 +118,7 @@ app.add_typer(campaign_app, name="campaign")
 app.add_typer(composite_app, name="composite")
 app.add_typer(design_app, name="design")
 app.add_typer(surrogate_app, name="surrogate")
+app.add_typer(own_test_app, name="test")
 register_inference(app)
 register_import(app)
 register_verification(app)

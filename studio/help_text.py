@@ -23,6 +23,7 @@ GUIDE_PAGES = {
     "export-feb": "febio",
     "mesh-study": "simulate",
     "demo": "demo",
+    "test": "own-test",
     "campaign": "campaign",
     "composite": "composite",
     "design": "design",
@@ -36,7 +37,7 @@ _SUB_PAGES = {("import", "febio"): "febio"}
 #: after one, the models and campaigns under both, and the tools.
 COMMAND_PANELS = {
     "Start here": ("demo",),
-    "Before a test": ("design",),
+    "Before a test": ("design", "test"),
     "After a test": ("import", "check", "fit", "posterior", "confirm"),
     "Models and campaigns": (
         "simulate",

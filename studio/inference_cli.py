@@ -22,6 +22,13 @@ SURROGATE = Annotated[
         "experiment's test (the paper's R = 4.77 and 8 mm, 28 x 0.5 mm), checked against its sha256"
     ),
 ]
+TESTS = Annotated[
+    Path | None,
+    typer.Option(
+        help="a prepared test's folder (indent-studio test prepare), read before the shipped surrogates; "
+        "INDENTATION_STUDIO_TESTS names more (os.pathsep-separated); files that do not match its manifest are refused"
+    ),
+]
 OUT = Annotated[Path | None, typer.Option(help="folder for the result files (default: <experiment>/results)")]
 EXCLUDE = Annotated[
     str, typer.Option(help="steps (1..N, comma-separated) to leave out beside those experiment.json excludes")
@@ -133,6 +140,7 @@ def fit(
     dic_noise: DECLARED_DIC_NOISE = None,
     registration_mm: REGISTRATION = REGISTRATION_DEFAULT_MM,
     out: OUT = None,
+    tests: TESTS = None,
     as_json: JSON = False,
 ) -> None:
     """Inverse fit (2.8.2): Levenberg-Marquardt from {6, 300} kPa on the surrogate, then the FE
@@ -159,6 +167,7 @@ def fit(
             dic_noise=dic_noise,
             fe_stage=fe_stage,
             registration_mm=registration_mm,
+            tests=tests,
         )
         path = result.save(out or Path(experiment) / "results")
     except (ValueError, OSError, RuntimeError) as exc:
@@ -325,6 +334,7 @@ def posterior(
     friction: POSTERIOR_FRICTION = None,
     registration_mm: REGISTRATION = REGISTRATION_DEFAULT_MM,
     out: OUT = None,
+    tests: TESTS = None,
     as_json: JSON = False,
 ) -> None:
     """Posterior of (c1, c5) with emcee on the surrogate: log L = -F / (2 sigma^2), sigma^2 =
@@ -346,6 +356,7 @@ def posterior(
             say=say,
             friction=friction,
             registration_mm=registration_mm,
+            tests=tests,
         )
         fit_ = result.fit
         corner = studio.corner_figure(
@@ -409,6 +420,7 @@ def confirm(
     exclude_steps: EXCLUDE = "",
     friction: CONFIRM_FRICTION = None,
     out: OUT = None,
+    tests: TESTS = None,
     as_json: JSON = False,
 ) -> None:
     """FE confirmation of a fit: F(theta_hat) from an FE run, and how far the surrogate's prediction
@@ -426,6 +438,7 @@ def confirm(
             exclude_steps=_steps(exclude_steps),
             say=say,
             friction=friction,
+            tests=tests,
         )
         path = result.save(out or Path(experiment) / "results")
     except (ValueError, OSError, RuntimeError) as exc:

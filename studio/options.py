@@ -263,6 +263,9 @@ JSON = Annotated[bool, typer.Option("--json", help="print one JSON object on std
 RUNS_DIR = Annotated[Path, typer.Option(help="where campaigns live")]
 SEED = Annotated[int, typer.Option(help="random seed")]
 JOBS = Annotated[int, typer.Option(help="parallel processes (0: all cores)")]
+SCHEDULER = Annotated[
+    str | None, typer.Option(help="dask.distributed scheduler address, e.g. tcp://10.0.0.1:8786")
+]
 SOLVER = Annotated[SolverName, typer.Option(help="FE solver")]
 WEIGHTS = Annotated[str, typer.Option(help="eta = force,ux,uy,uz on the simplex")]
 RADII = Annotated[str, typer.Option(help="indenter radii, mm")]

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 from dataclasses import dataclass, field
 from importlib.resources import files
 from pathlib import Path
@@ -28,14 +29,17 @@ from .safe_file import SurrogateFileError
 
 __all__ = [
     "MANIFEST_NAME",
+    "TESTS_ENV",
     "ShippedSurrogate",
     "add_to_manifest",
     "file_sha256",
+    "find_test",
     "load_shipped",
     "recipe_for_test",
     "shipped_for_test",
     "shipped_surrogates",
     "shipped_surrogates_folder",
+    "test_folders",
 ]
 
 #: The manifest's file name in the shipped folder.
@@ -214,6 +218,63 @@ def shipped_surrogates(folder: str | Path | None = None) -> list[ShippedSurrogat
         return [_entry(folder, item) for item in payload["surrogates"]]
     except (ValueError, KeyError, TypeError) as exc:
         raise SurrogateFileError(f"{manifest}: not a shipped-surrogates manifest ({exc})") from exc
+
+
+#: Folders of prepared tests (``indent-studio test prepare``), os.pathsep-separated, that a fit looks
+#: in before the shipped surrogates.
+TESTS_ENV = "INDENTATION_STUDIO_TESTS"
+
+
+def test_folders(tests: str | Path | None = None) -> list[Path]:
+    """Where a fit looks for its test's surrogate: ``tests``, then :data:`TESTS_ENV`'s, then the shipped.
+
+    Parameters
+    ----------
+    tests : str or pathlib.Path, optional
+        A folder of prepared tests (a prepared test's own folder, with its ``manifest.json``).
+
+    Returns
+    -------
+    list of pathlib.Path
+        The folders in the order they are read.
+    """
+    named = [Path(tests)] if tests is not None else []
+    named += [Path(p) for p in os.environ.get(TESTS_ENV, "").split(os.pathsep) if p]
+    return [*named, shipped_surrogates_folder()]
+
+
+def find_test(radius: float, depths, *, tests: str | Path | None = None) -> ShippedSurrogate | None:
+    """The prepared or shipped surrogate of a test, read in :func:`test_folders`' order.
+
+    Parameters
+    ----------
+    radius : float
+        The indenter radius, mm.
+    depths : array_like
+        (steps,) the depth of each step, mm.
+    tests : str or pathlib.Path, optional
+        A folder of prepared tests, read first.
+
+    Returns
+    -------
+    ShippedSurrogate or None
+        The first that matches; its file is checked against its manifest when it is loaded
+        (:func:`load_shipped`).
+
+    Raises
+    ------
+    SurrogateFileError
+        If a named folder has no manifest (a folder that is not a prepared test).
+    """
+    for folder in test_folders(tests):
+        if folder != shipped_surrogates_folder() and not (folder / MANIFEST_NAME).is_file():
+            raise SurrogateFileError(
+                f"{folder}: no {MANIFEST_NAME} (a prepared test's folder holds one: indent-studio test prepare)"
+            )
+        entry = shipped_for_test(radius, depths, folder=folder)
+        if entry is not None:
+            return entry
+    return None
 
 
 def shipped_for_test(radius: float, depths, *, folder: str | Path | None = None) -> ShippedSurrogate | None:

@@ -13,7 +13,7 @@ from ...forward.predictor import FESolverPredictor
 from ...forward.spec import ModelSpec
 from ...surrogate.base import FieldSurrogate
 from ...surrogate.persistence import load_surrogate
-from ...surrogate.shipped import load_shipped, recipe_for_test, shipped_for_test
+from ...surrogate.shipped import find_test, load_shipped, recipe_for_test
 from ..budgets.model_error import has_high_fidelity_level
 from ..experiment.data import ExperimentData, load_experiment
 from ..experiment.processing import RegisteredDIC, experiment_objective
@@ -146,6 +146,7 @@ def prepare_fit(
     exclude_steps=(),
     *,
     reading: str = "fit",
+    tests: str | Path | None = None,
 ) -> FitInputs:
     """Load the experiment and the surrogate, check they describe the same test, build the objective.
 
@@ -158,7 +159,9 @@ def prepare_fit(
         The experiment (folder or loaded).
     surrogate : str, pathlib.Path, FieldSurrogate or None
         The surrogate (file or loaded); None: the one shipped for the experiment's test
-        (:func:`~indentation_studio.surrogate.shipped.shipped_for_test`, checked against its sha256).
+        or prepared for the experiment's test (:func:`~indentation_studio.surrogate.shipped.find_test`:
+        ``tests``, the folders of ``INDENTATION_STUDIO_TESTS``, then the shipped ones), checked
+        against its manifest's sha256.
     weights : array_like, default PAPER_WEIGHTS
         eta = (force, ux, uy, uz) on the simplex (eq. 5).
     exclude_steps : sequence of int, default ()
@@ -166,6 +169,8 @@ def prepare_fit(
     reading : str, default "fit"
         How eq. 4 is read (:class:`~indentation_studio.design.objective.Objective`): the fit's
         objective, DIC from 1.5 R; ``paper`` for the paper's, from 1 R.
+    tests : str or pathlib.Path, optional
+        A prepared test's folder (``indent-studio test prepare``) read before the shipped surrogates.
 
     Returns
     -------
@@ -180,7 +185,7 @@ def prepare_fit(
     """
     eta = check_weights(weights)
     exp = experiment if isinstance(experiment, ExperimentData) else load_experiment(experiment)
-    model, label = _surrogate_for(exp, surrogate)
+    model, label = _surrogate_for(exp, surrogate, tests)
     campaign = model.meta.get("campaign") or {}
     if "model" not in campaign:
         raise ValueError(f"{label}: the surrogate does not record the model it was trained on")
@@ -202,14 +207,14 @@ def prepare_fit(
 
 
 def _surrogate_for(
-    exp: ExperimentData, surrogate: str | Path | FieldSurrogate | None
+    exp: ExperimentData, surrogate: str | Path | FieldSurrogate | None, tests: str | Path | None = None
 ) -> tuple[FieldSurrogate, str]:
     """The surrogate a fit of ``exp`` runs on and how it is named in its provenance."""
     if isinstance(surrogate, FieldSurrogate):
         return surrogate, f"{surrogate.kind} surrogate (in memory)"
     if surrogate is not None:
         return load_surrogate(surrogate), str(surrogate)
-    entry = shipped_for_test(exp.radius, exp.depths)
+    entry = find_test(exp.radius, exp.depths, tests=tests)
     if entry is None:
         raise ValueError(f"{exp.root}: {recipe_for_test(exp.radius, exp.depths)}")
     return load_shipped(entry), entry.describe()

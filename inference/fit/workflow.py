@@ -51,6 +51,7 @@ def fit_experiment(
     fe_stage: str = "auto",
     reading: str = "fit",
     registration_mm: float = REGISTRATION_MM,
+    tests: str | Path | None = None,
 ) -> ExperimentFit:
     """Fit (c1, c5) to a measured experiment: on the surrogate, then on its FE model (paper 2.8.2).
 
@@ -101,6 +102,9 @@ def fit_experiment(
         true one, mm: the bounds carry its effect and that of the DIC-points-to-nodes planes,
         measured at the fit (``inference.experiment.processing_error``).
 
+    tests : str or pathlib.Path, optional
+        A prepared test's folder (``indent-studio test prepare``) read before the shipped surrogates
+        (:func:`~indentation_studio.surrogate.shipped.find_test`).
     Returns
     -------
     ExperimentFit
@@ -119,7 +123,7 @@ def fit_experiment(
     >>> fit.fit.theta, fit.fit.bounds_pct  # doctest: +SKIP
     """
     say = say or (lambda message: None)
-    inputs = prepare_fit(experiment, surrogate, weights, exclude_steps, reading=reading)
+    inputs = prepare_fit(experiment, surrogate, weights, exclude_steps, reading=reading, tests=tests)
     if surrogate is None:
         say(f"surrogate: {inputs.sources['surrogate']}")
     stage = resolved_fe_stage(fe_stage, inputs.surrogate, refine=refine)

@@ -238,6 +238,7 @@ def sample_posterior_for(
     friction: FrictionTreatment | str | float | None = None,
     reading: str = "fit",
     registration_mm: float = REGISTRATION_MM,
+    tests: str | Path | None = None,
 ) -> ExperimentPosterior:
     """Sample the posterior of (c1, c5) of an experiment on the surrogate with emcee.
 
@@ -280,6 +281,9 @@ def sample_posterior_for(
         The indentation point's uncertainty, mm: the samples are spread by the processing's part
         as the fit's bounds carry it (``inference.experiment.processing_error``).
 
+    tests : str or pathlib.Path, optional
+        A prepared test's folder (``indent-studio test prepare``) read before the shipped surrogates
+        (:func:`~indentation_studio.surrogate.shipped.find_test`).
     Returns
     -------
     ExperimentPosterior
@@ -292,7 +296,7 @@ def sample_posterior_for(
         or friction is combined with a mesh check (made with the perfect stick).
     """
     say = say or (lambda message: None)
-    inputs = prepare_fit(experiment, surrogate, weights, exclude_steps, reading=reading)
+    inputs = prepare_fit(experiment, surrogate, weights, exclude_steps, reading=reading, tests=tests)
     if surrogate is None:
         say(f"surrogate: {inputs.sources['surrogate']}")
     model = inputs.surrogate
