@@ -6,7 +6,7 @@ Runs the paper's protocol (or its first ``--steps`` steps) at {10, 350} kPa (or 
 surface-integrated contact (each surface contact at every ``--penalties`` value), and prints wall
 time, Newton iterations, contact passes, factorisations, Krylov iterations and the split between
 assembly and linear solves (``EmbeddedSolver.stats``). ``--save DIR`` keeps each run (for
-``benchmarks/fitted_parameters.py``: what the penalty does to the fitted parameters);
+``benchmarks/probes/fitted_parameters.py``: what the penalty does to the fitted parameters);
 ``--no-sensitivities`` runs each once, without.
 
     .venv/bin/python benchmarks/contact_cost.py --mesh fine --steps 8

@@ -2,7 +2,7 @@
 whatever the lead-in (at the contact with and without a preload, an approach through air of 10 or
 300 s), the rate (1 to 1,000 Hz) and the protocol's length, with a drifting load cell; holds that
 do not fit the protocol from the contact found are refused with what was found and the option
-that sets the contact (--contact-position). The records are benchmarks/contact_detection_table.py's."""
+that sets the contact (--contact-position). The records are docs/figures/guide_import_and_check_detection.py's."""
 
 from __future__ import annotations
 
@@ -12,8 +12,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from contact_detection_table import POSITION0, STEP_SIZE, as_record, detect, hertz, synthetic_record
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "docs" / "figures"))
+from guide_import_and_check_detection import POSITION0, STEP_SIZE, as_record, detect, hertz, synthetic_record
 
 from indentation_studio.inference.experiment.data import ExperimentDataError
 from indentation_studio.inference.lab.contact_onset import power_law_onset

@@ -15,8 +15,8 @@ import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from contact_detection_table import synthetic_record
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "docs" / "figures"))
+from guide_import_and_check_detection import synthetic_record
 
 from indentation_studio.inference.experiment.data import ExperimentDataError, load_experiment
 from indentation_studio.inference.lab.csv_text import csv_reading

@@ -1,4 +1,4 @@
-"""The shipped lab example (``examples/lab-matchid``, made by ``benchmarks/make_lab_example.py``
+"""The shipped lab example (``examples/lab-matchid``, made by ``tools/make_lab_example.py``
 with the studio's own model at (c1, c5) = (12, 250) kPa): a MatchID export in camera coordinates,
 a 100 Hz Instron-style load-frame record with holds, drift and a load-cell spike, the indenter's
 points and the images' time stamps on a clock 23.6 s ahead. The three commands of the quick
