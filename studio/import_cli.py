@@ -29,6 +29,7 @@ from .options import (
     err,
     fail,
     option_group,
+    specimen_geometry,
 )
 
 import_app = typer.Typer(help="Import a lab's files (DIC export, load-frame record) as an experiment folder.")
@@ -107,6 +108,12 @@ def _offset(text: str) -> float | None:
         raise ValueError(f"--time-offset: {text!r} is neither a number of seconds nor 'auto'") from exc
 
 
+def _specimen_mm(text: str) -> dict[str, float]:
+    """``--specimen WIDTHxDEPTHxTHICKNESS`` as experiment.json's ``specimen_mm``."""
+    g = specimen_geometry(text)
+    return {"width": 2.0 * g.half_x, "depth": 2.0 * g.half_y, "thickness": g.height}
+
+
 def _steps(text: str) -> tuple[int, ...]:
     try:
         return tuple(sorted({int(v) for v in text.split(",") if v.strip()}))
@@ -145,6 +152,7 @@ class LabOptions:
     encoding: str | None = None
     delimiter: str | None = None
     decimal: str | None = None
+    specimen: str | None = None
 
     def csv_reading(self):
         """The block in which CSV files are read with ``encoding``, ``delimiter`` and ``decimal``
@@ -160,6 +168,7 @@ class LabOptions:
             self.fiber_angle,
             self.description,
             _steps(self.exclude_steps),
+            None if self.specimen is None else _specimen_mm(self.specimen),
         )
 
     def force(self) -> inference.lab.ForceSource:
@@ -204,8 +213,17 @@ class LabOptions:
 
 
 #: The flag of each :class:`LabOptions` field.
+SPECIMEN_MM = Annotated[
+    str | None,
+    typer.Option(
+        "--specimen",
+        help="the specimen's size WIDTHxDEPTHxTHICKNESS, mm (experiment.json's specimen_mm: a fit then looks for "
+        "a surrogate of that specimen)",
+    ),
+]
 LAB_FLAGS = {
     "radius": RADIUS,
+    "specimen": SPECIMEN_MM,
     "step_size": STEP_SIZE,
     "steps": STEPS,
     "indenter": INDENTER,

@@ -101,6 +101,8 @@ class ShippedSurrogate:
         The command that remakes it.
     provenance : dict
         The rest of its manifest entry (campaigns, held-out errors, version, commit).
+    block : dict or None
+        Its specimen's quarter (``half_x``, ``half_y``, ``height``, mm), where the manifest says.
     """
 
     name: str
@@ -111,13 +113,14 @@ class ShippedSurrogate:
     depths: np.ndarray
     recipe: str
     provenance: dict[str, Any] = field(default_factory=dict)
+    block: dict[str, float] | None = None
 
     @property
     def test(self) -> str:
         """The test in words: ``R = 8 mm, 28 x 0.5 mm``."""
         return _test_words(self.radius, self.depths)
 
-    def matches(self, radius: float, depths) -> bool:
+    def matches(self, radius: float, depths, block: dict[str, float] | None = None) -> bool:
         """Whether an experiment with this indenter radius and these step depths is its test.
 
         Parameters
@@ -126,17 +129,28 @@ class ShippedSurrogate:
             The indenter radius, mm.
         depths : array_like
             (steps,) the depth of each step, mm.
+        block : dict, optional
+            The specimen's quarter (``half_x``, ``half_y``, ``height``, mm); None: not compared.
 
         Returns
         -------
         bool
-            Radius and every depth within 1e-6 mm.
+            Radius, every depth and (where both are known) the specimen within 1e-6 mm.
         """
         depths = np.asarray(depths, float)
+        same_block = (
+            block is None
+            or self.block is None
+            or all(
+                abs(float(self.block[k]) - float(block[k])) <= _TOLERANCE_MM
+                for k in ("half_x", "half_y", "height")
+            )
+        )
         return (
             abs(self.radius - float(radius)) <= _TOLERANCE_MM
             and depths.shape == self.depths.shape
             and bool(np.allclose(depths, self.depths, rtol=0.0, atol=_TOLERANCE_MM))
+            and same_block
         )
 
     def verified_path(self) -> Path:
@@ -186,6 +200,7 @@ def _entry(folder: Path, item: dict[str, Any]) -> ShippedSurrogate:
         depths=depths,
         recipe=str(item["recipe"]),
         provenance={k: v for k, v in item.items() if k not in known},
+        block=test.get("block_mm"),
     )
 
 
@@ -243,7 +258,9 @@ def test_folders(tests: str | Path | None = None) -> list[Path]:
     return [*named, shipped_surrogates_folder()]
 
 
-def find_test(radius: float, depths, *, tests: str | Path | None = None) -> ShippedSurrogate | None:
+def find_test(
+    radius: float, depths, *, tests: str | Path | None = None, block: dict[str, float] | None = None
+) -> ShippedSurrogate | None:
     """The prepared or shipped surrogate of a test, read in :func:`test_folders`' order.
 
     Parameters
@@ -254,6 +271,8 @@ def find_test(radius: float, depths, *, tests: str | Path | None = None) -> Ship
         (steps,) the depth of each step, mm.
     tests : str or pathlib.Path, optional
         A folder of prepared tests, read first.
+    block : dict, optional
+        The specimen's quarter (``half_x``, ``half_y``, ``height``, mm); None: not compared.
 
     Returns
     -------
@@ -271,9 +290,9 @@ def find_test(radius: float, depths, *, tests: str | Path | None = None) -> Ship
             raise SurrogateFileError(
                 f"{folder}: no {MANIFEST_NAME} (a prepared test's folder holds one: indent-studio test prepare)"
             )
-        entry = shipped_for_test(radius, depths, folder=folder)
-        if entry is not None:
-            return entry
+        for entry in shipped_surrogates(folder):
+            if entry.matches(radius, depths, block):
+                return entry
     return None
 
 

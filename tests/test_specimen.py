@@ -53,3 +53,38 @@ def test_the_specimen_reaches_the_febio_file(tmp_path):
     np.testing.assert_allclose(block.max(axis=0), [30.0, 30.0, 30.0], rtol=1e-9)
     bad = CliRunner().invoke(app, ["export-feb", "--out", str(out), "--specimen", "60x60"])
     assert bad.exit_code != 0 and "WIDTHxDEPTHxTHICKNESS" in bad.output
+
+
+def test_an_experiments_specimen_is_read_and_picks_its_test(tmp_path):
+    import json
+    import shutil
+    from pathlib import Path
+
+    from indentation_studio.inference.experiment.data import ExperimentDataError, load_experiment
+    from indentation_studio.surrogate.shipped import find_test
+
+    example = Path(__file__).resolve().parents[1] / "examples" / "synthetic-12-250"
+    folder = shutil.copytree(example, tmp_path / "exp")
+    meta = json.loads((folder / "experiment.json").read_text())
+    exp = load_experiment(folder)
+    assert exp.specimen_mm is None and exp.block is None  # unsaid: the test is the indenter and protocol
+    found = find_test(exp.radius, exp.depths, block=exp.block)
+    assert found is not None and found.name == "paper-test-R4.77"
+    (folder / "experiment.json").write_text(
+        json.dumps(meta | {"specimen_mm": {"width": 100, "depth": 100, "thickness": 60}})
+    )
+    paper = load_experiment(folder)
+    assert paper.block == {"half_x": 50.0, "half_y": 50.0, "height": 60.0}
+    assert find_test(paper.radius, paper.depths, block=paper.block).name == "paper-test-R4.77"
+    (folder / "experiment.json").write_text(
+        json.dumps(meta | {"specimen_mm": {"width": 60, "depth": 60, "thickness": 30}})
+    )
+    small = load_experiment(folder)
+    assert (
+        find_test(small.radius, small.depths, block=small.block) is None
+    )  # no shipped test of that specimen
+    (folder / "experiment.json").write_text(
+        json.dumps(meta | {"specimen_mm": {"width": 60, "depth": -1, "thickness": 30}})
+    )
+    with pytest.raises(ExperimentDataError, match=r"experiment\.json: specimen_mm .* positive"):
+        load_experiment(folder)

@@ -8,6 +8,9 @@ An experiment is a folder:
     the DIC frame, counter-clockwise from x (null: estimate it from the strain field);
     ``excluded_steps`` (optional) are steps left out of the fit (a hold with a load-cell spike, a
     slipped step, a lost DIC frame): their readings may be missing or wrong and are not checked.
+    ``specimen_mm`` (optional) ``{"width": 100, "depth": 100, "thickness": 60}``: the specimen's
+    full widths across and along the fibers and its thickness; a fit then looks for a surrogate
+    of that specimen (absent: the test is read from the indenter and the protocol alone).
 ``force.csv``
     The indenter force readings during each step's hold: columns ``step`` (1..N), ``time_s``
     (from the start of that step's hold), ``force_mN``.
@@ -97,6 +100,15 @@ class ExperimentData:
     missing_steps: tuple[int, ...] = ()  # of those, the ones left out for lack of data (exclude_missing)
     synthetic: dict[str, Any] = field(default_factory=dict)  # experiment.json's 'synthetic' block
     imported: dict[str, Any] = field(default_factory=dict)  # experiment.json's 'imported' block
+    specimen_mm: dict[str, float] | None = None  # width, depth, thickness (experiment.json's specimen_mm)
+
+    @property
+    def block(self) -> dict[str, float] | None:
+        """The quarter model's geometry of the stated specimen (``half_x``, ``half_y``, ``height``), or None."""
+        if self.specimen_mm is None:
+            return None
+        s = self.specimen_mm
+        return {"half_x": s["width"] / 2.0, "half_y": s["depth"] / 2.0, "height": s["thickness"]}
 
     @property
     def used_steps(self) -> np.ndarray:
@@ -315,4 +327,22 @@ def load_experiment(root: str | Path, exclude_missing: bool = False) -> Experime
         missing_steps=tuple(missing),
         synthetic=dict(meta.get("synthetic") or {}),
         imported=dict(meta.get("imported") or {}),
+        specimen_mm=_specimen(meta.get("specimen_mm"), root),
     )
+
+
+def _specimen(value: Any, root: Path) -> dict[str, float] | None:
+    """experiment.json's ``specimen_mm``, checked: three positive numbers (width, depth, thickness)."""
+    if value is None:
+        return None
+    try:
+        out = {k: float(value[k]) for k in ("width", "depth", "thickness")}
+    except (KeyError, TypeError, ValueError):
+        raise ExperimentDataError(
+            f"{root / 'experiment.json'}: specimen_mm must be {{'width': W, 'depth': D, 'thickness': T}} in mm, got {value!r}"
+        ) from None
+    if not all(np.isfinite(v) and v > 0 for v in out.values()):
+        raise ExperimentDataError(
+            f"{root / 'experiment.json'}: specimen_mm {value!r}: sizes must be positive numbers"
+        )
+    return out

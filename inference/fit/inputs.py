@@ -199,6 +199,12 @@ def prepare_fit(
             f"the experiment (R = {exp.radius:g} mm, {exp.steps} x {exp.step_size:g} mm) does not match the "
             f"surrogate's model (R = {spec.indenter.radius:g} mm, {len(model.depth)} steps to {model.depth[-1]:g} mm)"
         )
+    stated, modelled = exp.block, spec.to_dict()["geometry"]
+    if stated is not None and any(abs(stated[k] - float(modelled[k])) > 1e-6 for k in stated):
+        raise ValueError(
+            f"the experiment's specimen ({exp.specimen_mm}) is not the surrogate's model's "
+            f"({2 * modelled['half_x']:g} x {2 * modelled['half_y']:g} x {modelled['height']:g} mm)"
+        )
     objective, dic = experiment_objective(exp, model.top_xyz, reading=reading, excluded_steps=exclude_steps)
     sources = {"experiment": str(exp.root), "surrogate": label}
     if "shipped" in model.meta:
@@ -214,7 +220,7 @@ def _surrogate_for(
         return surrogate, f"{surrogate.kind} surrogate (in memory)"
     if surrogate is not None:
         return load_surrogate(surrogate), str(surrogate)
-    entry = find_test(exp.radius, exp.depths, tests=tests)
+    entry = find_test(exp.radius, exp.depths, tests=tests, block=exp.block)
     if entry is None:
         raise ValueError(f"{exp.root}: {recipe_for_test(exp.radius, exp.depths)}")
     return load_shipped(entry), entry.describe()

@@ -40,6 +40,7 @@ class ProtocolInfo:
     fiber_angle_deg: float | None = None
     description: str = ""
     excluded_steps: tuple[int, ...] = ()
+    specimen_mm: dict[str, float] | None = None  # width, depth, thickness: experiment.json's specimen_mm
 
 
 @dataclass(frozen=True)
@@ -281,6 +282,7 @@ def import_experiment(
         "fiber_angle_deg": protocol.fiber_angle_deg,
         "excluded_steps": sorted(protocol.excluded_steps),
         "description": protocol.description,
+        **({} if protocol.specimen_mm is None else {"specimen_mm": dict(protocol.specimen_mm)}),
         "imported": {
             "format": source_format,
             "dic_source": dic.source,

@@ -317,7 +317,8 @@ def prepare_test(
             "date": datetime.now(UTC).isoformat(timespec="seconds"),
             "versions": versions(),
         },
-        "recipe": recipe.to_dict() | {"command": f"indent-studio test prepare --folder {root}"},
+        "recipe": "indent-studio test prepare (the plan: this entry's 'plan')",
+        "plan": recipe.to_dict(),
     }
     add_to_manifest(root, entry)
     wall = time.perf_counter() - t0
