@@ -28,6 +28,7 @@ from ...forward.result import SimulationResult
 from ...forward.simulation_run import run_simulation
 from ...forward.solver import EmbeddedSolver
 from ...forward.spec import Contact, Indenter, Material, MeshChoice, ModelSpec, Protocol
+from .folder import refuse_existing_experiment
 from .synthetic import LAB_RECORDING, Recording, write_experiment_from_model
 
 __all__ = [
@@ -125,8 +126,7 @@ def composite_indentation(
         If the run fails.
     """
     out = Path(out_dir)
-    if (out / "experiment.json").exists() and not experiment_options.get("overwrite", False):
-        raise FileExistsError(f"{out}: an experiment is already there (overwrite=True replaces it)")
+    refuse_existing_experiment(out, overwrite=bool(experiment_options.get("overwrite", False)))
     out.mkdir(parents=True, exist_ok=True)
     spec = composite_spec(radius, preset, steps, step_size, friction, contact=contact)
     run = run_simulation(spec, out / RESULT_FILE, progress=progress, say=say)
@@ -277,8 +277,7 @@ def experiment_from_composite(
     if "composite" not in result.spec:
         raise ValueError("not a composite phantom's result (its spec has no composite materials)")
     out = Path(out_dir)
-    if (out / "experiment.json").exists() and not overwrite:
-        raise FileExistsError(f"{out}: an experiment is already there (overwrite=True replaces it)")
+    refuse_existing_experiment(out, overwrite=overwrite)
     spec = ModelSpec.from_dict(result.spec)
     if not np.all(np.isfinite(result.force)):
         raise ValueError("the composite result has non-finite forces")

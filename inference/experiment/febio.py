@@ -19,6 +19,7 @@ from ...forward.febio.readback import logged_block_material, read_febio_run
 from ...forward.predictor import Prediction, as_theta
 from ...forward.spec import Indenter, Material, MeshChoice, ModelSpec, Protocol
 from .data import load_experiment
+from .folder import refuse_existing_experiment
 from .synthetic import LAB_RECORDING, Recording, write_synthetic_experiment
 
 __all__ = ["RecordedRun", "experiment_from_febio_run", "febio_contact", "febio_experiment_summary"]
@@ -171,10 +172,7 @@ def experiment_from_febio_run(
     FileExistsError
         If an experiment folder is already there (unless ``overwrite``).
     """
-    if (Path(out_dir) / "experiment.json").exists() and not overwrite:
-        raise FileExistsError(
-            f"{out_dir}: an experiment is already there (overwrite=True, or --overwrite, replaces it)"
-        )
+    refuse_existing_experiment(out_dir, overwrite=overwrite)
     log_path = Path(log_path)
     feb = Path(feb_file) if feb_file is not None else log_path.with_suffix(".feb")
     if not feb.is_file():

@@ -14,7 +14,28 @@ import pandas as pd
 from ...atomic_write import atomic_write, atomic_write_json, atomic_write_npz
 from .data import ExperimentDataError, load_experiment
 
-__all__ = ["write_experiment_folder"]
+__all__ = ["refuse_existing_experiment", "write_experiment_folder"]
+
+
+def refuse_existing_experiment(out_dir: str | Path, *, overwrite: bool) -> None:
+    """Refuse, before anything is solved, to make an experiment where one is already.
+
+    Parameters
+    ----------
+    out_dir : str or pathlib.Path
+        The experiment folder to be.
+    overwrite : bool
+        Replace it (nothing is refused).
+
+    Raises
+    ------
+    FileExistsError
+        If ``out_dir`` holds an experiment.json and not ``overwrite``.
+    """
+    if (Path(out_dir) / "experiment.json").exists() and not overwrite:
+        raise FileExistsError(
+            f"{out_dir}: an experiment is already there (overwrite=True, or --overwrite, replaces it)"
+        )
 
 
 def write_experiment_folder(
