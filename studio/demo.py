@@ -128,29 +128,13 @@ def run_demo(
     out = runs_dir / name / "report"
     spec = spec or ModelSpec()  # the paper's baseline: R = 4.77 mm, 28 x 0.5 mm, default mesh
     grid = grid or ("paper" if full else "c1=1:21:9,c5=82.5:578:9")
-    summary = run_named_campaign(
-        name, grid, spec, runs_dir=runs_dir, jobs=jobs, progress=_progress(name, say)
-    )
-    run_named_campaign(
-        f"{name}-test", test_grid, spec, runs_dir=runs_dir, jobs=jobs, progress=_progress(f"{name}-test", say)
-    )
-    if summary["failed"]:
-        say(
-            f"campaign {name}: {summary['failed']} points failed (see {summary['root']}/index.parquet); going on"
-        )
-    data, test = load_campaign(name, runs_dir), load_campaign(f"{name}-test", runs_dir)
+    summary, data, test = _campaigns(name, grid, test_grid, spec, runs_dir, jobs, say)
     clock.done("campaigns")
     models = _surrogates(data, test, runs_dir / name, out, say)
     clock.done("surrogates")
-    study = fe_design_study(spec, THETA_STAR, method="exact")
-    rows = compare_with_paper(study.term_hessians, 0.05)
-    omap = campaign_objective_map(data, THETA_STAR, ETA, 0.05, study=study)
-    title = f"F over {data.n} simulations (eq. 5, weights eq. 13)"
-    figures.save_figure(figures.objective_map_figure(omap, title), out / "figure8.png")
+    rows, omap = _table1_and_figure8(spec, data, out)
     clock.done("Table 1 and Fig. 8")
-    designs = compare_designs(spec, candidate_grid(radii=(4.77, 8.0), depths=design_depths), THETA_STAR)
-    atomic_write(out / "design-comparison.csv", designs.to_csv(index=False))
-    figures.save_figure(figures.design_comparison_figure(designs), out / "design-comparison.png")
+    _design_comparison(spec, design_depths, out)
     clock.done("design comparison")
     example = _example(experiment, models["mlp"], posterior_steps, out, spec, say)
     clock.done("fit, posterior, confirmation")
@@ -174,6 +158,40 @@ def run_demo(
     atomic_write_json(out / "results.json", results)
     line = f"{data.n} simulations over c1 in [1, 21] kPa, c5 in [82.5, 578] kPa ({grid}); {summary['failed']} failed."
     return write_report(out, results, [("campaign", line), *SECTIONS])
+
+
+def _campaigns(
+    name: str, grid: str, test_grid: str, spec: ModelSpec, runs_dir: Path, jobs: int, say
+) -> tuple:
+    """The training and held-out campaigns run (or resumed) and loaded: (summary, data, test)."""
+    summary = run_named_campaign(
+        name, grid, spec, runs_dir=runs_dir, jobs=jobs, progress=_progress(name, say)
+    )
+    run_named_campaign(
+        f"{name}-test", test_grid, spec, runs_dir=runs_dir, jobs=jobs, progress=_progress(f"{name}-test", say)
+    )
+    if summary["failed"]:
+        say(
+            f"campaign {name}: {summary['failed']} points failed (see {summary['root']}/index.parquet); going on"
+        )
+    return summary, load_campaign(name, runs_dir), load_campaign(f"{name}-test", runs_dir)
+
+
+def _table1_and_figure8(spec: ModelSpec, data, out: Path) -> tuple:
+    """Table 1's rows beside the paper's, and Fig. 8 over the campaign: (rows, objective map)."""
+    study = fe_design_study(spec, THETA_STAR, method="exact")
+    rows = compare_with_paper(study.term_hessians, 0.05)
+    omap = campaign_objective_map(data, THETA_STAR, ETA, 0.05, study=study)
+    title = f"F over {data.n} simulations (eq. 5, weights eq. 13)"
+    figures.save_figure(figures.objective_map_figure(omap, title), out / "figure8.png")
+    return rows, omap
+
+
+def _design_comparison(spec: ModelSpec, depths: tuple[float, ...], out: Path) -> None:
+    """The candidate tests at both radii and ``depths``, as a CSV and a figure."""
+    designs = compare_designs(spec, candidate_grid(radii=(4.77, 8.0), depths=depths), THETA_STAR)
+    atomic_write(out / "design-comparison.csv", designs.to_csv(index=False))
+    figures.save_figure(figures.design_comparison_figure(designs), out / "design-comparison.png")
 
 
 def _progress(campaign: str, say: Callable[[str], None]) -> Callable[[int, int, dict], None]:
