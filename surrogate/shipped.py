@@ -177,8 +177,10 @@ class ShippedSurrogate:
         return self.path
 
     def describe(self) -> str:
-        """One line: its name, test and file."""
-        return f"the shipped surrogate {self.name} ({self.test}; {self.path.name}, {self.bytes / 1e6:.1f} MB)"
+        """One line: its name, test and file (a prepared test's: its folder)."""
+        shipped = self.path.parent.resolve() == shipped_surrogates_folder().resolve()
+        kind = "the shipped surrogate" if shipped else f"the prepared test {self.path.parent} ->"
+        return f"{kind} {self.name} ({self.test}; {self.path.name}, {self.bytes / 1e6:.1f} MB)"
 
 
 def _test_words(radius: float, depths: np.ndarray) -> str:
@@ -344,9 +346,9 @@ def recipe_for_test(radius: float, depths, *, folder: str | Path | None = None) 
     step = depths[0] if depths.size else 0.5
     return (
         f"no shipped surrogate matches this test ({_test_words(radius, depths)}; shipped: {have}). "
-        f"Build one for it and pass it with --surrogate: "
-        f"`python benchmarks/ship_surrogates.py --radius {radius:g} --steps {depths.size} --step {step:g} "
-        f"--out runs/my-surrogates` (docs/guide/surrogates.md, 'The shipped surrogates, and a surrogate for your test')"
+        f"Prepare it (its surrogates and error budget; the cost is said first) and fit with --tests: "
+        f"`indent-studio test prepare --radius {radius:g} --steps {depths.size} --step-size {step:g} "
+        f"--folder tests/R{radius:g}` (add --specimen WxDxT for another specimen; docs/guide/own-test.md)"
     )
 
 

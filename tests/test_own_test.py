@@ -79,7 +79,7 @@ def test_a_fit_finds_the_prepared_test_and_refuses_a_changed_file(prepared, tmp_
     fe = FESolverPredictor(SMALL.model(SMALL.high_mesh))
     exp = write_synthetic_experiment(fe, truth, tmp_path / "exp", radius=4.77, step_size=0.5, seed=3)
     fit = fit_experiment(exp, tests=done.folder, friction="marginalise", fe_stage="none")
-    assert fit.inputs.sources["surrogate"].startswith(f"the shipped surrogate {SMALL.name}")
+    assert fit.inputs.sources["surrogate"].startswith(f"the prepared test {done.folder} -> {SMALL.name}")
     assert np.all(np.abs(fit.theta / truth - 1) * 100 <= np.maximum(fit.bounds_pct, 1e-9)), (
         fit.theta,
         fit.bounds_pct,

@@ -109,7 +109,7 @@ def test_a_fit_given_no_surrogate_takes_the_shipped_one_for_its_test_and_refuses
         match=r"no shipped surrogate matches this test \(R = 8 mm, 3 x 0.5 mm; shipped: R = 4\.77 mm, 3 x 0\.5 mm\)",
     ) as info:
         prepare_fit(experiments["radius"])
-    assert "ship_surrogates.py --radius 8 --steps 3 --step 0.5" in str(info.value)
+    assert "indent-studio test prepare --radius 8 --steps 3 --step-size 0.5" in str(info.value)
     with pytest.raises(
         ValueError, match=r"no shipped surrogate matches this test \(R = 4\.77 mm, 3 x 0\.6 mm"
     ):
