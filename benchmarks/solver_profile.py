@@ -19,11 +19,15 @@ All run the paper's 0.5 mm steps, 28 of them unless ``--steps`` says fewer (the 
 an hour or more: their first steps only). Each case's inputs, the code's version (commit, and
 whether the tree differs from it), the counters, the per-step records and the forces are written to
 ``--json`` (one file per case: ``PATH`` with the case's name inserted before the suffix when more
-than one case runs); ``--table`` prints the table of JSON files written before.
+than one case runs); ``--table`` prints the table of JSON files written before. ``--candidate``
+runs with a cure candidate patched into this process (not in the solver), ``--compare`` compares
+two runs' forces and force sensitivities step by step.
 
     .venv/bin/python benchmarks/solver_profile.py --case c --json runs/profile/c.json --py-spy
     .venv/bin/python benchmarks/solver_profile.py --case a --steps 2 --json runs/profile/a.json --py-spy
     .venv/bin/python benchmarks/solver_profile.py --table runs/profile/{a,b,c,d}.json
+    .venv/bin/python benchmarks/solver_profile.py --case d --json runs/profile/d-cure.json --candidate sensitivity-factorises-first
+    .venv/bin/python benchmarks/solver_profile.py --compare runs/profile/d.json runs/profile/d-cure.json
 """
 
 from __future__ import annotations
@@ -74,6 +78,53 @@ PYSPY_RULES: list[tuple[str, tuple[tuple[str, str], ...]]] = [
     ("Krylov (scipy, rest)", (("krylov", "newton.py"),)),
     ("contact (rest)", (("penalty_contact.py",),)),
 ]
+
+
+def sensitivity_factorises_first() -> None:
+    """Cure candidate (issue 58, not in the solver): the sensitivity solve factorises the converged
+    tangent at once where the factorisation in hand is the one the previous sensitivity solve left
+    (the CG to 1e-11 preconditioned with it, a step old, mostly fails after ``krylov_maxiter()``
+    iterations and factorises then). Patches :meth:`NewtonSystem.sensitivity_solve` in this process."""
+    from indentation_studio.forward.newton import NewtonSystem
+
+    today = NewtonSystem.sensitivity_solve
+
+    def sensitivity_solve(self, K, cmask, b):
+        if self.stats["factorizations"] == getattr(self, "_factorizations_at_sensitivity", -1):
+            self.factorize(K, cmask)
+            self.stats["sensitivity_factorizations"] += 1
+        x = today(self, K, cmask, b)
+        self._factorizations_at_sensitivity = self.stats["factorizations"]
+        return x
+
+    NewtonSystem.sensitivity_solve = sensitivity_solve
+
+
+#: Cure candidates ``--candidate`` applies to this process before the run.
+CANDIDATES = {"sensitivity-factorises-first": sensitivity_factorises_first}
+
+
+def compare(today: dict, other: dict) -> str:
+    """Forces (and force sensitivities) of two runs of a case compared step by step."""
+    fa, fb = np.asarray(today["force_mN"])[1:], np.asarray(other["force_mN"])[1:]
+    n = min(fa.size, fb.size)
+    rel = np.abs(fb[:n] - fa[:n]) / np.maximum(np.abs(fa[:n]), 1e-300)
+    differ = np.flatnonzero(rel > 0)
+    lines = [
+        f"forces: largest relative difference {rel.max():.3g} (step {rel.argmax() + 1}); "
+        + (f"equal to the last bit up to step {differ[0]}" if differ.size else "equal at every step"),
+        "relative difference by step: " + ", ".join(f"{x:.2g}" for x in rel),
+    ]
+    if today.get("force_sensitivity") and other.get("force_sensitivity"):
+        sa = np.asarray(today["force_sensitivity"])[1 : n + 1]
+        sb = np.asarray(other["force_sensitivity"])[1 : n + 1]
+        rs = np.abs(sb - sa) / np.abs(sa).max(axis=0)
+        lines.append(f"force sensitivities: largest difference {rs.max():.3g} of each parameter's largest")
+    for key in ("wall_s", "cpu_s"):
+        lines.append(f"{key}: {today[key]:.1f} -> {other[key]:.1f}")
+    for key in ("factorizations", "krylov_iterations", "back_substitutions", "sensitivity_s"):
+        lines.append(f"{key}: {today['stats'][key]:.6g} -> {other['stats'][key]:.6g}")
+    return "\n".join(lines)
 
 
 def code_version() -> dict:
@@ -167,7 +218,13 @@ def pyspy_shares(raw: Path) -> dict:
 
 
 def run_case(
-    name: str, steps: int, threads: int, pyspy: Path | None, rate: int, mesh: str | None = None
+    name: str,
+    steps: int,
+    threads: int,
+    pyspy: Path | None,
+    rate: int,
+    mesh: str | None = None,
+    candidate: str | None = None,
 ) -> dict:
     """Run one case (on ``mesh`` instead of its own if given) and collect its counters."""
     case = {**CASES[name], **({"mesh": mesh} if mesh else {})}
@@ -199,9 +256,12 @@ def run_case(
         "wall_s": wall,
         "cpu_s": cpu,
         "error": error,
+        "candidate": candidate,
         "stats": {k: (float(v) if isinstance(v, float) else int(v)) for k, v in solver.stats.items()},
     }
     if result is not None:
+        if result.force_sensitivity is not None:
+            out["force_sensitivity"] = np.asarray(result.force_sensitivity).tolist()
         out["convergence"] = {k: np.asarray(v).tolist() for k, v in result.convergence.items()}
         out["force_mN"] = np.asarray(result.force).tolist()
         out["depth_mm"] = np.asarray(result.depth).tolist()
@@ -309,19 +369,30 @@ def main() -> None:
         "--py-spy", action="store_true", help="also sample the run with py-spy (raw file beside the JSON)"
     )
     ap.add_argument("--rate", type=int, default=20, help="py-spy's samples per second")
+    ap.add_argument(
+        "--candidate", choices=sorted(CANDIDATES), help="run with a cure candidate (not in the solver)"
+    )
+    ap.add_argument(
+        "--compare", nargs=2, type=Path, metavar=("TODAY", "OTHER"), help="compare two runs' JSONs"
+    )
     ap.add_argument("--table", nargs="*", type=Path, default=None, help="print the table of these JSON files")
     args = ap.parse_args()
+    if args.compare:
+        print(compare(*(json.loads(p.read_text()) for p in args.compare)))
+        return
     if args.table is not None:
         print(table([json.loads(p.read_text()) for p in args.table]))
         return
     if not args.case or args.json is None:
         ap.error("give --case and --json (or --table FILES)")
+    if args.candidate:
+        CANDIDATES[args.candidate]()
     runs = []
     for name in args.case:
         path = args.json if len(args.case) == 1 else args.json.with_stem(f"{args.json.stem}-{name}")
         path.parent.mkdir(parents=True, exist_ok=True)
         raw = path.with_suffix(".pyspy.txt") if args.py_spy else None
-        r = run_case(name, args.steps, args.threads, raw, args.rate, args.mesh)
+        r = run_case(name, args.steps, args.threads, raw, args.rate, args.mesh, args.candidate)
         path.write_text(json.dumps(r, indent=1))
         runs.append(r)
         print(f"case {name}: {r['wall_s']:.1f} s, written {path}", file=sys.stderr)
