@@ -254,14 +254,15 @@ def _example(experiment, mlp, posterior_steps: int, out: Path, spec: ModelSpec, 
             "bounds_pct": result.bounds_pct.tolist(),  # statistical and, where known, model error
             "statistical_pct": fit.bounds_pct.tolist(),
             "model_error": None if result.model_error is None else result.model_error.to_dict(),
-            "bounds_include": model_error_scope(
-                result.model_error, contact=result.inputs.spec.contact.describe()
-            ),
+            "bounds_include": model_error_scope(result.model_error, contact=result.contact),
             "F": fit.F,
             "s": fit.s,
             "surrogate_theta": result.surrogate_fit.theta.tolist(),
             "truth": truth,
             "adequacy": result.to_dict()["adequacy"],
+            "fe_stage": "an LM fit on the FE model"
+            if result.refined
+            else ("one confirming FE run" if result.confirmation is not None else "none"),
             "error_budget": result.to_dict()["error_budget"],
         },
         "posterior": post.posterior.summary()

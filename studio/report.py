@@ -237,7 +237,7 @@ def write_report(out: Path, results: dict, sections: list[tuple[str, str]]) -> P
     parts.append(_h2(out, "The example experiment"))
     parts.append(fit_warnings_html(fit))
     parts.append(
-        f"<p>Fit (surrogate, then FE with exact sensitivities): c1 = {fit['theta'][0]:.3f} kPa +- "
+        f"<p>Fit (on the surrogate, then its FE stage: {fit.get('fe_stage', 'a confirming FE run')}): c1 = {fit['theta'][0]:.3f} kPa +- "
         f"{fit['bounds_pct'][0]:.2f} %, c5 = {fit['theta'][1]:.1f} kPa +- {fit['bounds_pct'][1]:.2f} % (95 %; "
         f"statistical part eq. 6 with s = {fit['s']:.3g} from eq. 8: +- {_fmt(fit.get('statistical_pct', fit['bounds_pct']))} %). "
         f"{bounds_sentence(fit)} "
