@@ -176,3 +176,23 @@ def test_a_fit_on_an_objective_not_smooth_stops_at_its_best_point(target, fe, mo
     s2 = fit.s**2
     assert min(Fs[-3:]) >= min(Fs[:-3]) - 10.0 * s2  # F had not fallen by 10 s^2 since
     np.testing.assert_allclose(fit.theta, TRUE, rtol=0.05)
+
+
+def test_a_trial_step_that_overflows_is_refused_and_the_fit_goes_on(target, monkeypatch):
+    # Levenberg-Marquardt in log theta with no upper limit once stepped to z = 800 (an FE stage at a
+    # surrogate box's edge did: "parameters must be positive and finite" after 30 min): that trial
+    # is answered as a failed simulation, refused, and the fit goes on from its last good point
+    import indentation_studio.inference.fit.inverse_fit as module
+
+    real = module.least_squares
+
+    def with_a_wild_trial(fun, x0, *args, **kwargs):
+        fun(x0)
+        fun(x0 + 800.0)  # exp(806) overflows
+        return real(fun, x0, *args, **kwargs)
+
+    monkeypatch.setattr(module, "least_squares", with_a_wild_trial)
+    objective = Objective.from_prediction(target, radius=4.77)
+    fit = fit_parameters(objective, FESolverPredictor(SPEC), ETA)
+    np.testing.assert_allclose(fit.theta, TRUE, rtol=1e-4)
+    assert "leaves the positive numbers" in fit.message and np.isinf(fit.history[1][1])

@@ -175,19 +175,25 @@ def fit_parameters(
     def evaluate(z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if "z" not in last or not np.array_equal(last["z"], z):
             try:
-                r, J = residuals_at(objective, predictor, eta, np.exp(z), keep=seen)
+                with np.errstate(over="ignore"):
+                    trial = np.exp(z)
+                if not np.all(np.isfinite(trial) & (trial > 0)):  # a step that overflowed in log theta
+                    raise SimulationError(
+                        f"a trial step to {trial.tolist()} leaves the positive numbers", 0.0
+                    )
+                r, J = residuals_at(objective, predictor, eta, trial, keep=seen)
             except SimulationError as exc:
                 if not good:  # nowhere to step back to
                     raise
                 # a trial point whose simulation failed (an FE model that does not converge there):
                 # answered as ten times worse than the last good point, so that the step is refused
                 # and the trust region shrinks, instead of the fit and all it computed being lost
-                failed.append(f"{np.round(np.exp(z), 4).tolist()}: {exc}")
+                failed.append(f"{np.round(trial, 4).tolist()}: {exc}")
                 failed_at.add(z.tobytes())
                 last.update(z=z.copy(), r=np.sqrt(10.0) * good["r"], J=good["J"], pred=None)
-                history.append((np.exp(z).tolist(), float("inf")))
+                history.append((trial.tolist(), float("inf")))
                 if progress is not None:
-                    progress(len(history), np.exp(z), float("inf"))
+                    progress(len(history), trial, float("inf"))
                 return last["r"], last["J"]
             last.update(z=z.copy(), r=r, J=J, pred=seen.get("prediction"))
             good.update(z=z.copy(), r=r, J=J)
