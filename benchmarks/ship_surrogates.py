@@ -28,7 +28,6 @@ surrogates").
 from __future__ import annotations
 
 import argparse
-import json
 import shutil
 import subprocess
 import sys
@@ -38,6 +37,7 @@ from pathlib import Path
 import pandas as pd
 
 from indentation_studio import __version__
+from indentation_studio.campaign.loader import campaign_record
 from indentation_studio.surrogate.persistence import load_surrogate
 from indentation_studio.surrogate.shipped import add_to_manifest, file_sha256
 
@@ -109,22 +109,6 @@ def slip_errors_by_mu(model) -> list[dict] | None:
     """The slip surrogate's held-out errors (its k-fold) within bands of mu."""
     error = model.emulation_error
     return None if error is None else error.describe_bands(model.parameters.index("mu"), MU_BANDS)
-
-
-def campaign_record(runs_dir: Path, name: str) -> dict:
-    """What the manifest says of a campaign: its grid, mesh, points, failures and solver time."""
-    spec = json.loads((runs_dir / name / "campaign.json").read_text())
-    index = pd.read_parquet(runs_dir / name / "index.parquet")
-    return {
-        "name": name,
-        "grid": spec["design"]["description"],
-        "mesh": spec["model"]["mesh"]["preset"],
-        "contact": spec["model"].get("contact"),
-        "points": len(index),
-        "done": int((index["status"] == "done").sum()),
-        "failed": int((index["status"] == "failed").sum()),
-        "solver_wall_s": round(float(index["wall_s"].fillna(0).sum()), 1),
-    }
 
 
 def commit() -> str:

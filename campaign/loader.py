@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -345,3 +346,33 @@ def force_table(store: CampaignStore) -> pd.DataFrame:
     if not rows:
         return pd.DataFrame(columns=["point", *names, "step", "depth_mm", "force_mN"])
     return pd.concat(rows, ignore_index=True)
+
+
+def campaign_record(runs_dir: str | Path, name: str) -> dict[str, Any]:
+    """What a manifest says of a campaign: its grid, mesh, contact, points, failures and solver time.
+
+    Parameters
+    ----------
+    runs_dir : str or pathlib.Path
+        Where campaigns live.
+    name : str
+        The campaign's name.
+
+    Returns
+    -------
+    dict
+        ``name``, ``grid``, ``mesh``, ``contact``, ``points``, ``done``, ``failed``, ``solver_wall_s``.
+    """
+    root = Path(runs_dir) / name
+    spec = json.loads((root / "campaign.json").read_text())
+    index = pd.read_parquet(root / "index.parquet")
+    return {
+        "name": name,
+        "grid": spec["design"]["description"],
+        "mesh": spec["model"]["mesh"]["preset"],
+        "contact": spec["model"].get("contact"),
+        "points": len(index),
+        "done": int((index["status"] == "done").sum()),
+        "failed": int((index["status"] == "failed").sum()),
+        "solver_wall_s": round(float(index["wall_s"].fillna(0).sum()), 1),
+    }

@@ -292,13 +292,15 @@ def find_test(
             raise SurrogateFileError(
                 f"{folder}: no {MANIFEST_NAME} (a prepared test's folder holds one: indent-studio test prepare)"
             )
-        for entry in shipped_surrogates(folder):
-            if entry.matches(radius, depths, block):
-                return entry
+        entry = shipped_for_test(radius, depths, folder=folder, block=block)
+        if entry is not None:
+            return entry
     return None
 
 
-def shipped_for_test(radius: float, depths, *, folder: str | Path | None = None) -> ShippedSurrogate | None:
+def shipped_for_test(
+    radius: float, depths, *, folder: str | Path | None = None, block: dict[str, float] | None = None
+) -> ShippedSurrogate | None:
     """The shipped surrogate whose test is an indenter of ``radius`` pushed to ``depths``, if any.
 
     Parameters
@@ -309,14 +311,16 @@ def shipped_for_test(radius: float, depths, *, folder: str | Path | None = None)
         (steps,) the depth of each step, mm.
     folder : str or pathlib.Path, optional
         Where to look; default :func:`shipped_surrogates_folder`.
+    block : dict, optional
+        The specimen's quarter (``half_x``, ``half_y``, ``height``, mm); None: not compared.
 
     Returns
     -------
     ShippedSurrogate or None
-        The first that matches (radius and every depth within 1e-6 mm).
+        The first that matches (radius, every depth and a stated specimen within 1e-6 mm).
     """
     for entry in shipped_surrogates(folder):
-        if entry.matches(radius, depths):
+        if entry.matches(radius, depths, block):
             return entry
     return None
 

@@ -18,10 +18,9 @@ from dataclasses import asdict, dataclass, replace
 from datetime import UTC, datetime
 from pathlib import Path
 
-import pandas as pd
-
 from ... import __version__
 from ...atomic_write import atomic_write_json
+from ...campaign.loader import campaign_record
 from ...campaign.runner import run_named_campaign
 from ...forward.convergence.mesh_family import contact_family
 from ...forward.spec import Indenter
@@ -127,22 +126,6 @@ def _made_from(target: Path, *inputs: Path) -> None:
         target.with_name(target.name + ".inputs.json"),
         {f"{p.parent.name}/{p.name}": _stamp(p) for p in inputs},
     )
-
-
-def _campaign_record(runs: Path, name: str) -> dict:
-    """What the manifest says of a campaign (as the shipped manifest does)."""
-    spec = json.loads((runs / name / "campaign.json").read_text())
-    index = pd.read_parquet(runs / name / "index.parquet")
-    return {
-        "name": name,
-        "grid": spec["design"]["description"],
-        "mesh": spec["model"]["mesh"]["preset"],
-        "contact": spec["model"].get("contact"),
-        "points": len(index),
-        "done": int((index["status"] == "done").sum()),
-        "failed": int((index["status"] == "failed").sum()),
-        "solver_wall_s": round(float(index["wall_s"].fillna(0).sum()), 1),
-    }
 
 
 def prepare_test(
@@ -302,7 +285,7 @@ def prepare_test(
         "kind": model.kind,
         "parameters": list(model.parameters),
         "models": {"low": recipe.low_mesh, "high": recipe.high_mesh},
-        "campaigns": [_campaign_record(runs, name) for name in names.values()],
+        "campaigns": [campaign_record(runs, name) for name in names.values()],
         "held_out": {
             "slip": load_surrogate(slip).meta.get("emulation_error"),
             "discrepancy_kfold": model.meta.get("discrepancy_kfold"),
