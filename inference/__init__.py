@@ -63,12 +63,11 @@ __getattr__, __dir__, __all__ = lazy.attach(
         ],
         "budgets.verification_study": ["VerificationStudy", "parameter_bias", "run_verification_study"],
         "preparation": ["CostEstimate", "PreparedTest", "TestRecipe", "estimate_cost", "prepare_test"],
-        "budgets.study_budget": [
+        "budgets.study_budget": ["reference_uncertainty_pct", "study_error_budget"],
+        "budgets.finest_reference": [
             "ReferenceCorrection",
             "finest_reference_budget",
             "reference_correction",
-            "reference_uncertainty_pct",
-            "study_error_budget",
             "with_finest_reference",
         ],
         "experiment.febio": [

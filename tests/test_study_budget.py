@@ -17,14 +17,13 @@ from indentation_studio.forward.predictor import CachedPredictor, FESolverPredic
 from indentation_studio.forward.result import SimulationResult
 from indentation_studio.forward.spec import Contact, Indenter, MeshChoice, ModelSpec, Protocol
 from indentation_studio.inference.budgets.error_budget import compute_error_budget
+from indentation_studio.inference.budgets.finest_reference import reference_correction, with_finest_reference
 from indentation_studio.inference.budgets.model_error import ModelError
 from indentation_studio.inference.budgets.study_budget import (
     FS_ASYMPTOTIC,
     FS_OUTSIDE,
-    reference_correction,
     reference_uncertainty_pct,
     study_error_budget,
-    with_finest_reference,
 )
 from indentation_studio.inference.budgets.verification_study import run_verification_study
 from indentation_studio.surrogate.error_budgets import (
