@@ -18,6 +18,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
             "mesh_figure",
             "objective_map_figure",
             "parity_figure",
+            "posterior_corner_figure",
             "save_figure",
             "verification_figure",
         ],

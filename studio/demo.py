@@ -275,15 +275,7 @@ def _example(experiment, mlp, posterior_steps: int, out: Path, spec: ModelSpec, 
 def _example_figures(out: Path, result, post, check, truth, spec: ModelSpec) -> None:
     """The example's corner plot, force against depth and displacement maps at the fit."""
     fit = result.fit
-    corner = figures.corner_figure(
-        post.posterior,
-        post.marker,
-        fit.hessian,
-        fit.s,
-        truth=truth,
-        bounds=post.fit_bounds,
-        not_identified=post.not_identified,
-    )
+    corner = figures.posterior_corner_figure(post, fit=fit, truth=truth)
     figures.save_figure(corner, out / "corner.png", 120)
     f_inf, f_std = static_forces(result.inputs.experiment)
     curves = {

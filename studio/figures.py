@@ -235,6 +235,36 @@ def corner_figure(
     return fig
 
 
+def posterior_corner_figure(post, *, fit=None, truth=None) -> Figure:
+    """The corner plot of an experiment's posterior: its samples, the fit, its bounds and ellipse.
+
+    Parameters
+    ----------
+    post : ExperimentPosterior
+        The posterior (:func:`inference.posterior.workflow.sample_posterior_for`).
+    fit : FitResult, optional
+        The fit whose Hessian and s draw the eq. 6 ellipse; default the fit the posterior was
+        sampled on (``post.fit``).
+    truth : array_like, optional
+        The truth of a synthetic experiment, when known.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The corner plot (:func:`corner_figure`).
+    """
+    fit = post.fit if fit is None else fit
+    return corner_figure(
+        post.posterior,
+        post.marker,
+        fit.hessian,
+        fit.s,
+        truth=truth,
+        bounds=post.fit_bounds,
+        not_identified=post.not_identified,
+    )
+
+
 def force_depth_figure(depth, curves: dict, errors=None, title: str = "") -> Figure:
     """Force against depth: the first curve as measured points, the rest as lines.
 

@@ -358,15 +358,7 @@ def posterior(
             registration_mm=registration_mm,
             tests=tests,
         )
-        fit_ = result.fit
-        corner = studio.corner_figure(
-            result.posterior,
-            result.marker,
-            fit_.hessian,
-            fit_.s,
-            bounds=result.fit_bounds,
-            not_identified=result.not_identified,
-        )
+        corner = studio.posterior_corner_figure(result)
         png = studio.save_figure(corner, folder / "corner.png", 120)
         result.save(folder, corner_png=str(png))
     except (ValueError, OSError, RuntimeError) as exc:

@@ -69,6 +69,8 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
 SHARED = Path(__file__).resolve().parents[2] / "shared"
 #: The real FEBio 4 run of the paper's baseline (tests that need it skip, naming it, when absent).
 FEBIO_BASELINE = SHARED / "febio" / "baseline"
+#: Its input, log and result files.
+FEBIO_FEB, FEBIO_LOG, FEBIO_NPZ = (FEBIO_BASELINE / f"baseline.{ext}" for ext in ("feb", "log", "npz"))
 
 
 @pytest.fixture(scope="session")

@@ -11,7 +11,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import FEBIO_BASELINE
+from conftest import FEBIO_FEB as FEB
+from conftest import FEBIO_LOG as LOG
+from conftest import FEBIO_NPZ as NPZ
 from typer.testing import CliRunner
 
 from indentation_studio.forward.contact_quadrature import top_faces
@@ -27,8 +29,6 @@ from indentation_studio.forward.mesh import preset_mesh
 from indentation_studio.forward.spec import MeshChoice, ModelSpec
 from indentation_studio.studio.cli import app
 
-BASE = FEBIO_BASELINE
-FEB, LOG, NPZ = BASE / "baseline.feb", BASE / "baseline.log", BASE / "baseline.npz"
 pytestmark = pytest.mark.skipif(not FEB.is_file(), reason="../shared/febio/baseline not beside the clone")
 
 

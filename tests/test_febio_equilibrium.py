@@ -16,7 +16,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import FEBIO_BASELINE
+from conftest import FEBIO_FEB as FEB
+from conftest import FEBIO_LOG as LOG
+from conftest import FEBIO_NPZ as NPZ
 from typer.testing import CliRunner
 
 from indentation_studio.campaign.designs import Design
@@ -39,8 +41,6 @@ from indentation_studio.forward.result import SimulationResult
 from indentation_studio.forward.spec import MeshChoice, ModelSpec
 from indentation_studio.studio.cli import app
 
-BASE = FEBIO_BASELINE
-FEB, LOG, NPZ = BASE / "baseline.feb", BASE / "baseline.log", BASE / "baseline.npz"
 needs_baseline = pytest.mark.skipif(
     not LOG.is_file(), reason="../shared/febio/baseline (FEBio's real run) is not beside the clone"
 )
