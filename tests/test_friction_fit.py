@@ -93,6 +93,17 @@ def test_bounds_with_mu_are_the_schur_complement_and_the_prior_sits_between():
 #: cells outweighs the 0.002 mm noise these tests use (measured: c5 3.5 % off with the fit's
 #: objective against a 3.2 % bound, 1.4 % against 3.1 % with the paper's).
 READING = "paper"
+#: The synthetic experiment of the fits with mu: (c1, c5, mu) made, then found again.
+MU_TRUTH = np.array([9.0, 330.0, 0.35])
+
+
+def _mu_experiment(model, folder):
+    """The synthetic experiment of :data:`MU_TRUTH` on ``model`` (a surrogate with mu, or the FE model)."""
+    from indentation_studio.inference.experiment.synthetic import write_synthetic_experiment
+
+    return write_synthetic_experiment(
+        model, MU_TRUTH, folder, radius=4.77, step_size=0.5, u_noise_mm=0.002, f_noise=0.002, seed=1
+    )
 
 
 def test_a_surrogate_with_mu_is_a_three_parameter_predictor(mu_surrogate):
@@ -117,14 +128,11 @@ def test_a_surrogate_with_mu_is_a_three_parameter_predictor(mu_surrogate):
 
 
 def test_fit_identifies_mu_with_c1_c5_on_a_surrogate_with_mu(mu_surrogate, tmp_path):
-    from indentation_studio.inference.experiment.synthetic import write_synthetic_experiment
     from indentation_studio.inference.fit.workflow import fit_experiment
 
     model = mu_surrogate
-    truth = np.array([9.0, 330.0, 0.35])
-    exp = write_synthetic_experiment(
-        model, truth, tmp_path / "e", radius=4.77, step_size=0.5, u_noise_mm=0.002, f_noise=0.002, seed=1
-    )
+    truth = MU_TRUTH
+    exp = _mu_experiment(model, tmp_path / "e")
     default = fit_experiment(
         exp, model, refine=False, reading=READING
     )  # not told: mu marginalised on a surrogate with mu
@@ -196,14 +204,11 @@ def test_fit_identifies_mu_with_c1_c5_on_a_surrogate_with_mu(mu_surrogate, tmp_p
 
 
 def test_posterior_marginalises_mu_with_its_log_uniform_prior(mu_surrogate, tmp_path):
-    from indentation_studio.inference.experiment.synthetic import write_synthetic_experiment
     from indentation_studio.inference.posterior.workflow import sample_posterior_for
 
     model = mu_surrogate
-    truth = np.array([9.0, 330.0, 0.35])
-    exp = write_synthetic_experiment(
-        model, truth, tmp_path / "e", radius=4.77, step_size=0.5, u_noise_mm=0.002, f_noise=0.002, seed=1
-    )
+    truth = MU_TRUTH
+    exp = _mu_experiment(model, tmp_path / "e")
     marg = sample_posterior_for(
         exp, model, walkers=16, steps=1500, seed=2, reading=READING
     )  # not told: marginalised
@@ -299,15 +304,12 @@ def test_the_fe_stage_identifies_mu_on_data_of_the_fe_model(mu_surrogate, tmp_pa
     interval from the FE profile at the range's ends (one Gauss-Newton step each)."""
     from indentation_studio.forward.predictor import FESolverPredictor
     from indentation_studio.forward.spec import ModelSpec
-    from indentation_studio.inference.experiment.synthetic import write_synthetic_experiment
     from indentation_studio.inference.fit.workflow import fit_experiment
 
     spec = ModelSpec.from_dict(mu_surrogate.meta["campaign"]["model"])  # the model it emulates
     fe = FESolverPredictor(spec, parameters=("c1", "c5", "mu"))
-    truth = np.array([9.0, 330.0, 0.35])
-    exp = write_synthetic_experiment(
-        fe, truth, tmp_path / "e", radius=4.77, step_size=0.5, u_noise_mm=0.002, f_noise=0.002, seed=1
-    )
+    truth = MU_TRUTH
+    exp = _mu_experiment(fe, tmp_path / "e")
     said: list[str] = []
     fit = fit_experiment(exp, mu_surrogate, friction="identify", say=said.append, fe_stage="fit")
     d = fit.to_dict()

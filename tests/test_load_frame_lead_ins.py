@@ -33,6 +33,17 @@ GRID = [(lead, rate, steps) for lead in LEAD_INS for rate in (1, 10, 100) for st
 EUROPEAN = [("air-300s", 100, 10), ("air-10s", 10, 40)]
 
 
+def _record(frame) -> LoadFrameRecord:
+    """A load frame's record (force in mN) of a table with the columns of :func:`lead_in_record`."""
+    return LoadFrameRecord(
+        Path("record.csv"),
+        frame["Time [s]"].to_numpy(),
+        frame["Position [mm]"].to_numpy(),
+        frame["Force [N]"].to_numpy() * 1e3,
+        {"time": "Time [s]", "position": "Position [mm]", "force": "Force [N]"},
+    )
+
+
 def hertz(depth: np.ndarray) -> np.ndarray:
     """Hertz's force (mN) of the sphere at ``depth`` (mm)."""
     return 16.0 / 3.0 * MU_KPA * np.sqrt(RADIUS_MM) * np.clip(depth, 0.0, None) ** 1.5
@@ -109,13 +120,7 @@ def cut(
         out = import_load_frame(path, folder / "force.csv", ProtocolInfo(RADIUS_MM, STEP_MM, steps))
         depths = np.array([h["depth_mm"] for h in out["holds"]])
         return depths, out["contact_position_mm"] - CONTACT_MM, out["contact_from"]
-    record = LoadFrameRecord(
-        Path("record.csv"),
-        frame["Time [s]"].to_numpy(),
-        frame["Position [mm]"].to_numpy(),
-        frame["Force [N]"].to_numpy() * 1e3,
-        {"time": "Time [s]", "position": "Position [mm]", "force": "Force [N]"},
-    )
+    record = _record(frame)
     search = find_holds(record, STEP_MM, steps, RADIUS_MM)
     assert [h.step for h in search.holds] == list(range(1, steps + 1))
     depths = np.array([h.depth_mm for h in search.holds])
@@ -152,13 +157,7 @@ def test_long_approach_from_above_counts_steps_into_the_specimen():
 
 def test_contact_off_the_steps_refused_naming_the_option():
     frame = lead_in_record("air-300s", 10, 10)
-    record = LoadFrameRecord(
-        Path("record.csv"),
-        frame["Time [s]"].to_numpy(),
-        frame["Position [mm]"].to_numpy(),
-        frame["Force [N]"].to_numpy() * 1e3,
-        {"time": "Time [s]", "position": "Position [mm]", "force": "Force [N]"},
-    )
+    record = _record(frame)
     with pytest.raises(ExperimentDataError, match=r"a contact at 37.5 mm fits them.*--contact-position MM"):
         find_holds(record, STEP_MM, 10, RADIUS_MM, contact_position_mm=CONTACT_MM + 0.2)
 

@@ -93,6 +93,10 @@ def test_a_family_with_a_core_keeps_its_cells_uniform_there_and_refines_systemat
         MeshFamily(core_xy=45.0, core_fraction=0.5).mesh(0)
 
 
+#: The small study's point, radius and substeps (its family and levels: :func:`small_study`).
+SMALL_STUDY = dict(points=[(10.0, 350.0)], radii=[4.77], substeps=(1,))
+
+
 @pytest.fixture(scope="module")
 def small_study(tmp_path_factory):
     from indentation_studio.forward.spec import ModelSpec, Protocol
@@ -105,9 +109,7 @@ def small_study(tmp_path_factory):
         spec,
         family,
         [0, 1, 2],
-        points=[(10.0, 350.0)],
-        radii=[4.77],
-        substeps=(1,),
+        **SMALL_STUDY,
         out_dir=out,
         reading="paper",
     )
@@ -142,9 +144,7 @@ def test_the_study_resumes_from_its_runs(small_study):
         spec,
         family,
         [0, 1, 2],
-        points=[(10.0, 350.0)],
-        radii=[4.77],
-        substeps=(1,),
+        **SMALL_STUDY,
         out_dir=out,
         say=said.append,
         reading="paper",
@@ -162,9 +162,7 @@ def test_the_study_resumes_from_its_runs(small_study):
         spec,
         family,
         [0, 1, 2],
-        points=[(10.0, 350.0)],
-        radii=[4.77],
-        substeps=(1,),
+        **SMALL_STUDY,
         out_dir=out,
         say=said.append,
     )
@@ -211,7 +209,7 @@ def test_a_coarser_fitting_level_spares_the_finest_its_sensitivities(small_study
     from indentation_studio.inference.budgets.verification_study import run_verification_study
 
     study, out, spec, family = small_study
-    kwargs = dict(points=[(10.0, 350.0)], radii=[4.77], substeps=(1,), out_dir=out, reading="paper")
+    kwargs = dict(SMALL_STUDY, out_dir=out, reading="paper")
     by_middle = run_verification_study(spec, family, [0, 1, 2], fitting_level=1, **kwargs)
     c5 = by_middle.cases[0]["quantities"]["fit c5"]["values"]
     finest = study.cases[0]["quantities"]["fit c5"]["values"]
