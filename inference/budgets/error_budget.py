@@ -15,137 +15,35 @@ for a third (:data:`CONVERGED_FRACTION`). For a surrogate the bias is split into
 discretisation part (the FE model it emulates, fitted the same way) and a surrogate part (the
 rest). FE models are fitted by Gauss-Newton from theta_t (with their exact
 sensitivities, at most ``fe_steps``: each one simulation); surrogates by Levenberg-Marquardt to
-convergence.
-"""
+convergence."""
 
 from __future__ import annotations
 
-import json
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field, replace
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from ...atomic_write import atomic_write_json
-from ...campaign.loader import load_point, open_campaign, require_sound
 from ...design.certainty import bounds_pct, s_from_data
 from ...design.objective import PAPER_WEIGHTS, Objective, check_weights
 from ...forward.convergence.richardson import RichardsonPredictor
 from ...forward.mesh import build_mesh
-from ...forward.mesh_presets import CONTACT_MESH_LEVELS, MESH_PRESETS
 from ...forward.predictor import CachedPredictor, FESolverPredictor, Prediction
 from ...forward.result import SimulationResult
-from ...forward.spec import MeshChoice, ModelSpec
-from ...surrogate.persistence import load_surrogate
 from ..fit.inverse_fit import fit_parameters
+from .budget_models import resolve_model
+from .budget_table import CONVERGED_FRACTION, ErrorBudget
 from .mesh_check import prediction_at_nodes
 
 __all__ = [
     "CONVERGED_FRACTION",
     "ErrorBudget",
-    "campaign_error_budget",
     "compute_error_budget",
+    "model_top_xyz",
     "noise_objective_value",
+    "reference_prediction",
     "resolve_model",
 ]
-
-#: A model is good enough for a test when its bias is below this fraction of the test's half-width.
-CONVERGED_FRACTION = 1.0 / 3.0
-
-
-@dataclass
-class ErrorBudget:
-    """Bias of each model at each test point (percent of the truth) and the typical half-width.
-
-    Attributes
-    ----------
-    table : pandas.DataFrame
-        One row per (model, test point): ``c1_bias_pct``, ``c5_bias_pct``,
-        ``c1_half_width_pct``, ``c5_half_width_pct``, ...
-    weights : numpy.ndarray
-        (4,) the weights of eq. 5.
-    force_noise : float
-        Relative force noise per step.
-    dic_noise : float
-        DIC noise, mm.
-    reference : dict
-        Where the reference came from (provenance); ``"extrapolated": true`` when its responses are
-        extrapolated values (a verification study's), which lets a fit interpolate the budget
-        between its points (``surrogate.error_budgets.budget_at``).
-    fov_mm : float or None
-        The field of view measured, mm (None: the whole top).
-    fe_steps : int or None
-        Gauss-Newton steps of the FE models' fits.
-    reading : str
-        The objective's reading (:class:`~indentation_studio.design.objective.Objective`): ``fit``
-        (DIC from 1.5 R, the studio's fits) unless the budget was made for another.
-    """
-
-    table: pd.DataFrame  # one row per (model, test point)
-    weights: np.ndarray
-    force_noise: float
-    dic_noise: float
-    reference: dict = field(default_factory=dict)  # where the reference came from (provenance)
-    fov_mm: float | None = 25.0
-    fe_steps: int | None = None  # Gauss-Newton steps of the FE models' fits
-    reading: str = "fit"
-
-    def summary(self) -> pd.DataFrame:
-        """The budget per model: largest bias, median half-width, their ratio, whether converged.
-
-        Returns
-        -------
-        pandas.DataFrame
-            Per model: the largest |bias| of c1 and c5, the median half-width, their ratio, and
-            whether the model is converged for the test (every point's bias below
-            ``CONVERGED_FRACTION`` of its half-width).
-        """
-        rows = []
-        for model, t in self.table.groupby("model", sort=False):
-            row = {"model": model, "points": len(t)}
-            ok = True
-            for p in ("c1", "c5"):
-                bias = t[f"{p}_bias_pct"].abs()
-                half = t[f"{p}_half_width_pct"]
-                row[f"{p}_max_bias_pct"] = float(bias.max())
-                row[f"{p}_median_half_width_pct"] = float(half.median())
-                row[f"{p}_max_bias_over_half_width"] = float((bias / half).max())
-                ok &= bool(np.all(bias <= CONVERGED_FRACTION * half))
-            row["converged"] = ok
-            rows.append(row)
-        return pd.DataFrame(rows)
-
-    def to_dict(self, complete: bool = True) -> dict:
-        """The JSON of error-budget.json.
-
-        Parameters
-        ----------
-        complete : bool, default True
-            False while rows are still to come.
-
-        Returns
-        -------
-        dict
-            The weights, noise levels, field of view, converged fraction, what the half-width
-            includes, the reference, the rows, the summary, ``fe_steps`` and ``complete``.
-        """
-        return {
-            "weights": self.weights.tolist(),
-            "force_noise": self.force_noise,
-            "dic_noise_mm": self.dic_noise,
-            "field_of_view_mm": self.fov_mm,
-            "reading": self.reading,
-            "converged_fraction": CONVERGED_FRACTION,
-            "half_width_include": "eq. 6 to 8 of a typical experiment: measurement noise only "
-            f"({100 * self.force_noise:g} % force, {self.dic_noise:g} mm DIC)",
-            "reference": self.reference,
-            "rows": self.table.to_dict(orient="records"),
-            "summary": self.summary().to_dict(orient="records"),
-            "fe_steps": self.fe_steps,
-            "complete": complete,
-        }
 
 
 def noise_objective_value(objective: Objective, eta, force_noise: float, dic_noise: float) -> float:
@@ -358,202 +256,3 @@ def compute_error_budget(
 def _row_key(model: str | None, theta_t) -> tuple:
     """A (model, test point) pair, the unit an interrupted budget resumes by."""
     return (str(model), *(round(float(t), 9) for t in theta_t))
-
-
-def resolve_model(name: str, reference_spec, fe_cache: dict | None = None) -> tuple[object, object | None]:
-    """The model a name on the command line gives, for an error budget.
-
-    Parameters
-    ----------
-    name : str
-        A mesh preset (the reference's model on that mesh), a FEBio .feb file's hex8 mesh,
-        ``richardson:FINE,COARSE[,ORDER]`` (two presets extrapolated, :mod:`forward.convergence.richardson`)
-        or a surrogate file; ``@stick`` or ``@mu=VALUE`` after a mesh or a .feb gives the model
-        another contact (the bias a contact model causes: a stick model fitted to frictional
-        data).
-    reference_spec : ModelSpec
-        The reference's model.
-    fe_cache : dict, optional
-        Mesh -> Predictor: FE models shared so that a mesh is solved once per test point whatever
-        uses it.
-
-    Returns
-    -------
-    predictor : Predictor
-        The model.
-    fe : Predictor or None
-        The FE Predictor a surrogate emulates; None for an FE model.
-
-    Raises
-    ------
-    ValueError
-        If the contact suffix or the Richardson form is not understood, or the model is not of
-        the reference's test.
-
-    Examples
-    --------
-    >>> import indentation_studio as ins
-    >>> stick, fe = ins.inference.resolve_model("coarse@stick", ins.ModelSpec().with_friction(0.3))
-    >>> stick.spec.contact.friction is None, fe is None
-    (True, True)
-    """
-
-    cache = {} if fe_cache is None else fe_cache
-    name, _, contact = name.partition("@")
-    if contact:  # the same model with another contact: PRESET@stick or PRESET@mu=0.3
-        if contact == "stick":
-            reference_spec = reference_spec.with_friction(None)
-        elif contact.startswith("mu="):
-            try:
-                reference_spec = reference_spec.with_friction(float(contact[3:]))
-            except ValueError as exc:
-                raise ValueError(f"model {name}@{contact}: {exc}") from exc
-        else:
-            raise ValueError(f"model {name}@{contact}: the contact is @stick or @mu=VALUE")
-
-    def fe(spec) -> CachedPredictor:
-        key = json_key(spec.to_dict())
-        if key not in cache:
-            cache[key] = CachedPredictor(FESolverPredictor(spec))
-        return cache[key]
-
-    presets = {**MESH_PRESETS, **CONTACT_MESH_LEVELS}
-    if name in presets:
-        return fe(replace(reference_spec, mesh=MeshChoice(name))), None
-    if name.startswith("richardson:"):
-        parts = name.split(":", 1)[1].split(",")
-        if len(parts) not in (2, 3) or not all(m in presets for m in parts[:2]):
-            raise ValueError(f"model {name!r}: use richardson:FINE,COARSE[,ORDER] with mesh presets")
-        fine, coarse = (fe(replace(reference_spec, mesh=MeshChoice(m))) for m in parts[:2])
-        return RichardsonPredictor(fine, coarse, float(parts[2]) if len(parts) == 3 else 1.0), None
-    path = Path(name)
-    if path.suffix == ".feb":
-        return fe(replace(reference_spec, mesh=MeshChoice(feb_file=str(path)))), None
-    if not path.is_file():
-        raise ValueError(
-            f"model {name!r}: not a mesh preset ({', '.join(presets)}), richardson:FINE,COARSE, "
-            ".feb file or surrogate file"
-        )
-    surrogate = load_surrogate(path)
-    model = (surrogate.meta.get("campaign") or {}).get("model")
-    return surrogate, (fe(ModelSpec.from_dict(model)) if model else None)
-
-
-def json_key(payload: dict) -> str:
-    return json.dumps(payload, sort_keys=True)
-
-
-def campaign_error_budget(
-    reference: str,
-    models: Sequence[str],
-    *,
-    weights=PAPER_WEIGHTS,
-    force_noise: float = 0.02,
-    dic_noise: float = 0.02,
-    fe_steps: int = 3,
-    runs_dir="runs",
-    progress: Callable[[str], None] | None = None,
-    fov_mm: float | None = 25.0,
-    out=None,
-    reading: str = "fit",
-) -> ErrorBudget:
-    """:func:`compute_error_budget` with the reference given as a campaign and the models by name.
-
-    Parameters
-    ----------
-    reference : str
-        The reference campaign (name or folder): its done points are the test points.
-    models : sequence of str
-        The models, by name (:func:`resolve_model`).
-    weights : array_like, default PAPER_WEIGHTS
-        The weights of eq. 5.
-    force_noise : float, default 0.02
-        Relative force noise per step.
-    dic_noise : float, default 0.02
-        DIC noise, mm.
-    fe_steps : int, default 3
-        Gauss-Newton steps of the FE models' fits.
-    runs_dir : str or pathlib.Path, default "runs"
-        Where named campaigns live.
-    progress : callable, optional
-        Told of every fit.
-    fov_mm : float or None, default 25.0
-        The field of view measured, mm (None: the whole top).
-    out : str or pathlib.Path, optional
-        A JSON path: the budget is saved after every row (``"complete": false`` until the end),
-        and a budget stopped before its end resumes from that file when run again with the same
-        reference and settings: finished rows are not fitted again.
-    reading : str, default "fit"
-        How eq. 4 is read (:func:`compute_error_budget`).
-
-    Returns
-    -------
-    ErrorBudget
-        The table of biases and half-widths.
-
-    Raises
-    ------
-    ValueError
-        If the reference campaign has no finished points (or as :func:`compute_error_budget`).
-    """
-
-    store = open_campaign(reference, runs_dir)
-    require_sound(store)  # a point file that fails its check is named, not read
-    done = store.points_with("done")
-    if len(done) == 0:
-        raise ValueError(f"reference campaign {store.spec.name!r} has no finished points")
-    results = [load_point(store, i) for i in done]
-    predictors, fe_models, fe_names, cache = {}, {}, {}, {}
-    for name in models:
-        predictors[name], fe = resolve_model(name, store.spec.model, cache)
-        if fe is not None:
-            fe_models[name] = fe
-            mesh = fe.spec.mesh
-            fe_names[name] = mesh.preset or str(mesh.feb_file)
-    source = {"campaign": str(store.root), "points": len(results), "model": store.spec.model.to_dict()}
-    settings = {"weights": check_weights(weights).tolist(), "force_noise": force_noise}
-    settings |= {
-        "dic_noise_mm": dic_noise,
-        "field_of_view_mm": fov_mm,
-        "fe_steps": fe_steps,
-        "reading": reading,
-    }
-    done_rows = _resumable_rows(out, source, settings) if out is not None else []
-    if done_rows and progress is not None:
-        progress(f"resuming {out}: {len(done_rows)} rows kept")
-
-    def save(partial: ErrorBudget, complete: bool = False) -> None:
-
-        atomic_write_json(out, partial.to_dict(complete))
-
-    budget = compute_error_budget(
-        results,
-        predictors,
-        fe_models=fe_models,
-        weights=weights,
-        force_noise=force_noise,
-        dic_noise=dic_noise,
-        reference_source=source,
-        fe_steps=fe_steps,
-        progress=progress,
-        fov_mm=fov_mm,
-        done_rows=done_rows,
-        on_row=save if out is not None else None,
-        fe_names=fe_names,
-        reading=reading,
-    )
-    if out is not None:
-        save(budget, complete=True)
-    return budget
-
-
-def _resumable_rows(out, source: dict, settings: dict) -> list[dict]:
-    """Rows of an earlier budget at ``out`` made with the same reference and settings (none if
-    the file is absent, unreadable, or was made otherwise)."""
-    try:
-        payload = json.loads(Path(out).read_text())
-    except (OSError, ValueError):
-        return []
-    same = payload.get("reference") == json.loads(json.dumps(source))
-    same &= all(payload.get(k) == json.loads(json.dumps(v)) for k, v in settings.items())
-    return list(payload.get("rows", [])) if same else []
