@@ -5,7 +5,7 @@ The package data folder ``indentation_studio/surrogates`` holds one safetensors 
 ``manifest.json`` that lists, for each file, its sha256 and size, the test it emulates (indenter
 radius, steps, depth per step), the campaigns it was trained on (grid, points, failures, wall time),
 its held-out errors, the package version and commit that made it and the one command that remakes it
-(``benchmarks/ship_surrogates.py``). A fit or a posterior given no surrogate takes the one whose test
+(``tools/ship_surrogates.py``). A fit or a posterior given no surrogate takes the one whose test
 matches the experiment's (:func:`shipped_for_test`) and says so; a test none matches gets the command
 to build one (:func:`recipe_for_test`).
 """

@@ -28,7 +28,7 @@ def _entry(path, radius, depths):
         "sha256": shipped.file_sha256(path),
         "bytes": path.stat().st_size,
         "test": {"radius_mm": radius, "depths_mm": list(depths)},
-        "recipe": f"python benchmarks/ship_surrogates.py --radius {radius:g}",
+        "recipe": f"python tools/ship_surrogates.py --radius {radius:g}",
     }
 
 
@@ -142,7 +142,7 @@ def test_the_package_ships_a_surrogate_with_mu_for_each_paper_test_and_each_matc
     paper_depths = 0.5 * np.arange(1, 29)
     assert sorted(e.radius for e in entries) == [4.77, 8.0]
     for entry in entries:
-        assert entry.matches(entry.radius, paper_depths) and entry.recipe.startswith("python benchmarks/")
+        assert entry.matches(entry.radius, paper_depths) and entry.recipe.startswith("python tools/")
         path = entry.verified_path()  # size and sha256 against the manifest
         assert shipped.file_sha256(path) == entry.sha256 and path.stat().st_size == entry.bytes
         model = load_surrogate(path)

@@ -18,7 +18,7 @@ without the DIC rings under 1.5 R):
 Every step is one ``indent-studio`` command, printed before it runs; campaigns resume where they
 stopped, and a campaign already complete under its name is used as it is. One command:
 
-    .venv/bin/python benchmarks/ship_surrogates.py --radius 8 --runs-dir runs/ship \\
+    .venv/bin/python tools/ship_surrogates.py --radius 8 --runs-dir runs/ship \\
         --out indentation_studio/surrogates
 
 A few hours of CPU per radius on 2 cores (the campaigns: docs/validation/surrogates.md, "The shipped
@@ -216,7 +216,7 @@ def main() -> None:
             "versions": meta.get("versions"),
         },
         "recipe": (
-            f"python benchmarks/ship_surrogates.py --radius {args.radius:g} --steps {args.steps} "
+            f"python tools/ship_surrogates.py --radius {args.radius:g} --steps {args.steps} "
             f"--step {args.step:g}"
         ),
     }
