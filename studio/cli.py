@@ -22,6 +22,7 @@ from typer.core import TyperGroup
 from .. import forward  # lazy: a command imports what it runs
 from ..atomic_write import strict_json
 from ..forward.spec import SpecError
+from .budget_cli import register_budget_commands
 from .campaign_cli import campaign_app
 from .composite_cli import composite_app
 from .design_cli import design_app
@@ -116,6 +117,7 @@ def _headless() -> None:
 
 app.add_typer(campaign_app, name="campaign")
 app.add_typer(composite_app, name="composite")
+register_budget_commands(design_app)
 app.add_typer(design_app, name="design")
 app.add_typer(surrogate_app, name="surrogate")
 app.add_typer(own_test_app, name="test")

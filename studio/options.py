@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import dataclasses
-import functools
-import inspect
 from collections.abc import Callable
 from dataclasses import dataclass
 from enum import StrEnum
@@ -29,6 +27,8 @@ from ..forward.spec import (
     SolverOptions,
     SpecError,
 )
+from .option_group import REQUIRED as REQUIRED  # a command's required flag, imported from here too
+from .option_group import option_group
 
 err = Console(stderr=True)
 
@@ -48,6 +48,14 @@ def fail(message: str, as_json: bool, code: int = 1) -> None:
         print(strict_json({"error": message}))
     err.print(f"[bold red]error:[/] {message}", soft_wrap=True, highlight=False)
     raise typer.Exit(code)
+
+
+def number_list(text: str, option: str = "") -> list[float]:
+    """The numbers of a comma-separated option (``"4.77,8"``); a ValueError naming ``option``."""
+    try:
+        return [float(v) for v in text.split(",") if v.strip()]
+    except ValueError as exc:
+        raise ValueError(f"{option + ' ' if option else ''}{text!r}: use comma-separated numbers") from exc
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -295,87 +303,6 @@ MODEL_FLAGS = {
     "fiber_stretch": FIBER_STRETCH,
     "specimen": SPECIMEN,
 }
-
-
-#: The default of a flag a command requires (:func:`option_group`'s ``values``).
-REQUIRED = inspect.Parameter.empty
-
-
-def option_group(
-    options: type,
-    flags: dict[str, Any],
-    parameter: str,
-    names: tuple[str, ...] = (),
-    values: dict | None = None,
-) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
-    """Give a command the flags of a frozen dataclass of options in place of its parameter
-    ``parameter`` (annotated with that dataclass).
-
-    Typer sees the flags where ``parameter`` stands in the command's signature (keyword-only, so
-    that a flag without a default may follow one with it); the command gets one ``options``
-    instance built from them.
-
-    Parameters
-    ----------
-    options : type
-        The dataclass (e.g. :class:`ModelOptions`).
-    flags : dict
-        Field name -> its flag's ``Annotated`` type, for every field that can be a flag.
-    parameter : str
-        The command's parameter the options replace.
-    names : tuple of str
-        The fields the command has flags for; empty: every field of ``flags``.
-    values : dict, optional
-        A flag's default (a field in ``names``; :data:`REQUIRED`: the flag is required), or the
-        value of a field without a flag; other fields keep the dataclass's defaults (a field
-        without one: a required flag).
-
-    Returns
-    -------
-    Callable
-        The decorator.
-    """
-    names = names or tuple(flags)
-    values = values or {}
-    unknown = sorted(set(names) - set(flags))
-    if unknown:
-        raise TypeError(f"{options.__name__}: no flag for {', '.join(unknown)}")
-    fixed = {k: v for k, v in values.items() if k not in names}
-    defaults = {
-        f.name: REQUIRED if f.default is dataclasses.MISSING else f.default
-        for f in dataclasses.fields(options)
-    }
-
-    def decorate(command: Callable[..., Any]) -> Callable[..., Any]:
-        signature = inspect.signature(command, eval_str=True)
-        params = list(signature.parameters.values())
-        at = [p.name for p in params].index(parameter)
-        taken = sorted({p.name for p in params} & set(names))
-        if taken:
-            raise TypeError(
-                f"{command.__name__}: parameter(s) {', '.join(taken)} are {options.__name__} flags"
-            )
-        added = [
-            inspect.Parameter(
-                n, inspect.Parameter.KEYWORD_ONLY, default=values.get(n, defaults[n]), annotation=flags[n]
-            )
-            for n in names
-        ]
-
-        @functools.wraps(command)
-        def run(*args: Any, **kwargs: Any) -> Any:
-            group = options(**fixed, **{n: kwargs.pop(n) for n in names})
-            return command(*args, **{parameter: group}, **kwargs)
-
-        new = params[:at] + added + params[at + 1 :]
-        run.__signature__ = signature.replace(
-            parameters=[p.replace(kind=inspect.Parameter.KEYWORD_ONLY) for p in new]
-        )
-        run.__annotations__ = {p.name: p.annotation for p in new}
-        del run.__wrapped__  # typer reads the signature above, not the command's
-        return run
-
-    return decorate
 
 
 def model_options(*flags: str, **values: Any) -> Callable[[Callable[..., Any]], Callable[..., Any]]:

@@ -15,7 +15,7 @@ from rich.table import Table
 from .. import forward, inference, studio  # lazy packages: a command imports what it runs
 from ..atomic_write import strict_json
 from ..forward.spec import SpecError
-from .options import JSON, RADII, ModelOptions, err, fail, model_options, say
+from .options import JSON, RADII, ModelOptions, err, fail, model_options, number_list, say
 from .progress import step_progress
 
 
@@ -47,13 +47,6 @@ def parse_points(text: str) -> list[tuple[float, float]]:
         return [(float(a), float(b)) for a, b in (p.split(":") for p in text.split(",") if p.strip())]
     except ValueError as exc:
         raise ValueError(f"--points {text!r}: use c1:c5 pairs, e.g. 3:540,11:330 ({exc})") from exc
-
-
-def _floats(text: str, option: str) -> list[float]:
-    try:
-        return [float(v) for v in text.split(",") if v.strip()]
-    except ValueError as exc:
-        raise ValueError(f"{option} {text!r}: use comma-separated numbers") from exc
 
 
 FAMILY = Annotated[
@@ -100,9 +93,9 @@ def verification_study(
     back, a run stopped part way goes on from its last step)."""
     try:
         fam = parse_family(family)
-        level_list = [int(v) for v in _floats(levels, "--levels")]
-        sub = [int(v) for v in _floats(substeps, "--substeps")]
-        pts, rad = parse_points(points), _floats(radii, "--radii")
+        level_list = [int(v) for v in number_list(levels, "--levels")]
+        sub = [int(v) for v in number_list(substeps, "--substeps")]
+        pts, rad = parse_points(points), number_list(radii, "--radii")
         spec = model.replace(radius=rad[0] if rad else model.radius).spec()
         total = len(pts) * len(rad) * model.steps * (len(level_list) + (len(sub) - 1) * substep_levels)
         with step_progress(err, "verification study", total) as bar:
