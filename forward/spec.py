@@ -17,36 +17,15 @@ from typing import Any
 
 from .mesh_presets import COMPOSITE_MESH_PRESETS
 from .spec_checks import SpecError
-from .spec_material import (
-    BULK_TO_SHEAR,
-    PHANTOM_FIBERS,
-    PHANTOM_MATRIX,
-    CompositeMaterial,
-    Constituent,
-    Material,
-)
-from .spec_numerics import DEFAULT_CONTACT_PENALTY, Contact, MeshChoice, SolverOptions
-from .spec_test import INDENTER_PRESETS, MAX_DEPTH_FRACTION, Geometry, Indenter, Protocol
-
-__all__ = [
-    "BULK_TO_SHEAR",
-    "DEFAULT_CONTACT_PENALTY",
-    "INDENTER_PRESETS",
-    "MAX_DEPTH_FRACTION",
-    "PHANTOM_FIBERS",
-    "PHANTOM_MATRIX",
-    "CompositeMaterial",
-    "Constituent",
-    "Contact",
-    "Geometry",
-    "Indenter",
-    "Material",
-    "MeshChoice",
-    "ModelSpec",
-    "Protocol",
-    "SolverOptions",
-    "SpecError",
-]
+from .spec_material import BULK_TO_SHEAR as BULK_TO_SHEAR  # X as X: re-exported, as every part's name
+from .spec_material import PHANTOM_FIBERS as PHANTOM_FIBERS
+from .spec_material import PHANTOM_MATRIX as PHANTOM_MATRIX
+from .spec_material import CompositeMaterial, Material
+from .spec_material import Constituent as Constituent
+from .spec_numerics import DEFAULT_CONTACT_PENALTY as DEFAULT_CONTACT_PENALTY
+from .spec_numerics import Contact, MeshChoice, SolverOptions
+from .spec_test import INDENTER_PRESETS as INDENTER_PRESETS
+from .spec_test import MAX_DEPTH_FRACTION, Geometry, Indenter, Protocol
 
 
 @dataclass(frozen=True)

@@ -4,11 +4,7 @@ from __future__ import annotations
 
 import math
 
-__all__ = [
-    "SpecError",
-    "finite",
-    "finite_positive",
-]
+__all__ = ["SpecError", "finite", "finite_positive"]
 
 
 class SpecError(ValueError):

@@ -9,12 +9,7 @@ from dataclasses import dataclass, replace
 from .mesh_presets import COMPOSITE_MESH_PRESETS, CONTACT_MESH_LEVELS, MESH_PRESETS
 from .spec_checks import SpecError, finite_positive
 
-__all__ = [
-    "DEFAULT_CONTACT_PENALTY",
-    "Contact",
-    "MeshChoice",
-    "SolverOptions",
-]
+__all__ = ["DEFAULT_CONTACT_PENALTY", "Contact", "MeshChoice", "SolverOptions"]
 
 
 @dataclass(frozen=True)

@@ -7,13 +7,7 @@ from dataclasses import dataclass, fields
 
 from .spec_checks import SpecError, finite_positive
 
-__all__ = [
-    "INDENTER_PRESETS",
-    "MAX_DEPTH_FRACTION",
-    "Geometry",
-    "Indenter",
-    "Protocol",
-]
+__all__ = ["INDENTER_PRESETS", "MAX_DEPTH_FRACTION", "Geometry", "Indenter", "Protocol"]
 
 
 #: Indenter radii of the paper's two spheres (9.5 mm and 16 mm diameter), mm.

@@ -220,6 +220,10 @@ def _print_budget(budget: inference.ErrorBudget, reference: str) -> None:
 
 def register_budget_commands(app: typer.Typer) -> None:
     """Add the budget commands to ``indent-studio design`` (after its design commands)."""
-    app.command("error-budget")(error_budget_cmd)
-    app.command("study-budget")(study_budget_cmd)
-    app.command("budget-reference")(budget_reference_cmd)
+    commands = {
+        "error-budget": error_budget_cmd,
+        "study-budget": study_budget_cmd,
+        "budget-reference": budget_reference_cmd,
+    }
+    for name, command in commands.items():
+        app.command(name)(command)

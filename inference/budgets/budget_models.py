@@ -14,10 +14,7 @@ from ...forward.predictor import CachedPredictor, FESolverPredictor
 from ...forward.spec import MeshChoice, ModelSpec
 from ...surrogate.persistence import load_surrogate
 
-__all__ = [
-    "json_key",
-    "resolve_model",
-]
+__all__ = ["json_key", "resolve_model"]
 
 
 def json_key(payload: dict) -> str:

@@ -9,10 +9,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-__all__ = [
-    "CONVERGED_FRACTION",
-    "ErrorBudget",
-]
+__all__ = ["CONVERGED_FRACTION", "ErrorBudget"]
 
 
 #: A model is good enough for a test when its bias is below this fraction of the test's half-width.

@@ -15,9 +15,7 @@ from .budget_models import resolve_model
 from .budget_table import ErrorBudget
 from .error_budget import compute_error_budget
 
-__all__ = [
-    "campaign_error_budget",
-]
+__all__ = ["campaign_error_budget"]
 
 
 def campaign_error_budget(

@@ -10,12 +10,7 @@ import numpy as np
 
 from ..experiment.processing_error import ProcessingError
 
-__all__ = [
-    "Z95",
-    "ModelError",
-    "combined_pct",
-    "model_error_scope",
-]
+__all__ = ["Z95", "ModelError", "combined_pct", "model_error_scope"]
 
 
 Z95 = 1.959963984540054
