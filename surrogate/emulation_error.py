@@ -21,12 +21,15 @@ import numpy as np
 
 from .base import FieldSurrogate, TrainingData
 
-__all__ = ["EMULATION_ENERGY", "EmulationError", "held_out_errors"]
+__all__ = ["DISCREPANCY_PREFIX", "EMULATION_ENERGY", "EmulationError", "held_out_errors"]
 
 #: Share of the held-out errors' sum of squares the kept SVD directions hold.
 EMULATION_ENERGY = 0.9999
 
 _PREFIX = "emulation_error."
+#: The array names' prefix of a multi-fidelity surrogate's discrepancy errors (its k-fold held-out
+#: errors at the high-fidelity points), kept beside its low level's own.
+DISCREPANCY_PREFIX = "discrepancy_error."
 
 
 def held_out_errors(surrogate: FieldSurrogate, data: TrainingData) -> np.ndarray:
@@ -229,20 +232,32 @@ class EmulationError:
             )
         return out
 
-    def to_arrays(self) -> dict[str, np.ndarray]:
-        """The named arrays a surrogate file keeps (meta keeps :meth:`describe`)."""
+    def to_arrays(self, prefix: str = _PREFIX) -> dict[str, np.ndarray]:
+        """The named arrays a surrogate file keeps (meta keeps :meth:`describe`).
+
+        Parameters
+        ----------
+        prefix : str, optional
+            The names' prefix (:data:`DISCREPANCY_PREFIX` for a discrepancy's errors).
+
+        Returns
+        -------
+        dict of str to numpy.ndarray
+        """
         return {
-            f"{_PREFIX}theta": self.theta,
-            f"{_PREFIX}scores": self.scores,
+            f"{prefix}theta": self.theta,
+            f"{prefix}scores": self.scores,
             # half precision: a direction's entries are kept to 1 part in 2,000, far finer than a
             # spread of errors needs, in half the bytes (most of a shipped file)
-            f"{_PREFIX}directions": self.directions.astype(np.float16),
-            f"{_PREFIX}steps": np.array([self.steps]),
-            f"{_PREFIX}energy": np.array([self.energy]),
+            f"{prefix}directions": self.directions.astype(np.float16),
+            f"{prefix}steps": np.array([self.steps]),
+            f"{prefix}energy": np.array([self.energy]),
         }
 
     @classmethod
-    def from_arrays(cls, arrays: dict[str, np.ndarray], source: str) -> EmulationError | None:
+    def from_arrays(
+        cls, arrays: dict[str, np.ndarray], source: str, *, prefix: str = _PREFIX
+    ) -> EmulationError | None:
         """The errors a file kept, or None when it kept none.
 
         Parameters
@@ -251,19 +266,21 @@ class EmulationError:
             The file's named arrays (:meth:`to_arrays`'s among them).
         source : str
             Where the held-out points came from (the file's ``meta['emulation_error']``).
+        prefix : str, optional
+            The names' prefix they were kept under.
 
         Returns
         -------
         EmulationError or None
             The errors, or None.
         """
-        if f"{_PREFIX}scores" not in arrays:
+        if f"{prefix}scores" not in arrays:
             return None
         return cls(
-            theta=np.asarray(arrays[f"{_PREFIX}theta"], float),
-            scores=np.asarray(arrays[f"{_PREFIX}scores"]),
-            directions=np.asarray(arrays[f"{_PREFIX}directions"], np.float32),
-            steps=int(arrays[f"{_PREFIX}steps"][0]),
+            theta=np.asarray(arrays[f"{prefix}theta"], float),
+            scores=np.asarray(arrays[f"{prefix}scores"]),
+            directions=np.asarray(arrays[f"{prefix}directions"], np.float32),
+            steps=int(arrays[f"{prefix}steps"][0]),
             source=source,
-            energy=float(arrays[f"{_PREFIX}energy"][0]),
+            energy=float(arrays[f"{prefix}energy"][0]),
         )

@@ -42,6 +42,7 @@ from sklearn.model_selection import KFold
 from ..forward.convergence.mesh_study import top_field_interpolator
 from ..forward.predictor import Prediction, ReducedBasis
 from .base import FieldSurrogate, InputScaler, TrainingData, padded_jacobian
+from .emulation_error import EmulationError
 from .gaussian_process import GaussianProcessSurrogate
 from .slip_surrogate import SlipSurrogate
 from .two_level import TwoLevelSurrogate, model_differences
@@ -287,6 +288,7 @@ class MultiFidelitySurrogate(TwoLevelSurrogate):
         model.parameters = tuple(self.discrepancy.parameters)
         model.depth, model.top_xyz = self.depth, self.top_xyz
         model.n_steps, model.n_nodes = self.n_steps, self.n_nodes
+        model.discrepancy_error = self.discrepancy_error
         model._set_box()
         return model
 
@@ -330,6 +332,7 @@ class MultiFidelitySurrogate(TwoLevelSurrogate):
             self.scaler.lo[: len(params)], self.scaler.hi[: len(params)], self.scaler.scale
         )
         model._meta = self.meta
+        model.discrepancy_error = self.discrepancy_error
         return model
 
     def _truncation_errors(self, D: TrainingData) -> dict[str, float]:
@@ -356,6 +359,17 @@ class MultiFidelitySurrogate(TwoLevelSurrogate):
             du.append(pred.displacement - D.displacement[test])
         rel_f = np.expm1(np.concatenate(df))
         err_u = np.concatenate(du)
+        order = np.concatenate(
+            [test for _, test in KFold(folds, shuffle=True, random_state=seed).split(D.theta)]
+        )
+        # the multi-fidelity prediction's errors there (the FE response minus the prediction), as a
+        # low surrogate's held-out errors are kept: what a fit pushes through to a fitted mu
+        self.discrepancy_error = EmulationError.from_errors(
+            D.theta[order],
+            -np.hstack([np.concatenate(df), err_u.reshape(len(order), -1)]),
+            steps=self.n_steps,
+            source=f"{folds}-fold cross-validation of the discrepancy at {D.n} high-fidelity points",
+        )
         return {
             "folds": folds,
             "points": int(D.n),
@@ -369,6 +383,10 @@ class MultiFidelitySurrogate(TwoLevelSurrogate):
     #: The low level's held-out errors on its own top nodes: what the file keeps (a few times fewer
     #: numbers than on the high nodes), moved to the high nodes when it is read.
     low_emulation_error = None
+    #: The discrepancy's own held-out errors (:meth:`_k_fold_errors`: the multi-fidelity
+    #: prediction's errors at the high-fidelity points, an EmulationError on the high top nodes);
+    #: None where it was trained without folds or read from a file made before they were kept.
+    discrepancy_error = None
 
     def kept_emulation_error(self):
         """The held-out errors its file keeps: the low level's, on the low top nodes.

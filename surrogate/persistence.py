@@ -26,7 +26,7 @@ import numpy as np
 
 from .. import __version__
 from .base import FieldSurrogate
-from .emulation_error import EmulationError
+from .emulation_error import DISCREPANCY_PREFIX, EmulationError
 from .registry import surrogate_class
 from .safe_file import FORMAT, SurrogateFileError, json_header_field, read_container, write_container
 
@@ -118,6 +118,10 @@ def save_surrogate(surrogate: FieldSurrogate, path: str | Path) -> Path:
     if emulation is not None:
         surrogate.meta["emulation_error"] = emulation.describe()
         arrays = {**arrays, **surrogate.kept_emulation_error().to_arrays()}
+    discrepancy = getattr(surrogate, "discrepancy_error", None)
+    if discrepancy is not None:
+        surrogate.meta["discrepancy_error"] = discrepancy.describe()
+        arrays = {**arrays, **discrepancy.to_arrays(DISCREPANCY_PREFIX)}
     check = _self_check_arrays(surrogate, _self_check_points(surrogate))
     header = {
         "format": FORMAT,
@@ -197,4 +201,9 @@ def load_surrogate(path: str | Path) -> FieldSurrogate:
     model.restore_emulation_error(
         EmulationError.from_arrays(arrays, (kept or {}).get("source", "held-out points"))
     )
+    if hasattr(model, "discrepancy_error"):
+        kept = meta.get("discrepancy_error") if isinstance(meta, dict) else None
+        model.discrepancy_error = EmulationError.from_arrays(
+            arrays, (kept or {}).get("source", "held-out points"), prefix=DISCREPANCY_PREFIX
+        )
     return model

@@ -14,6 +14,7 @@ from indentation_studio.design.reduced_objective import FieldObjective, ReducedO
 from indentation_studio.forward.convergence.mesh_study import top_field_interpolator
 from indentation_studio.forward.predictor import Prediction
 from indentation_studio.inference.experiment.synthetic import write_synthetic_experiment
+from indentation_studio.inference.fit.held_out_refits import HeldOutRefits, held_out_refits
 from indentation_studio.inference.fit.inverse_fit import fit_parameters
 from indentation_studio.inference.fit.workflow import fit_experiment
 from indentation_studio.surrogate.base import FieldSurrogate, TrainingData
@@ -414,3 +415,43 @@ def test_a_fit_with_mu_carries_the_discrepancy_into_its_bounds(mf3, tmp_path):
     assert len(error["discrepancy_pct"]) == 2 and min(error["discrepancy_pct"]) > 0  # measured 0.03, 0.06 %
     assert "Coulomb friction, mu marginalised" in error["includes"]
     assert d["friction"]["treatment"] == "marginalise"
+
+
+def test_the_discrepancys_held_out_errors_are_kept_and_read_back(mf, tmp_path):
+    """The k-fold errors of the discrepancy are kept as error vectors (issue 57): one per high point,
+    as large as meta's k-fold summary says, and a file keeps them."""
+    kept = mf.discrepancy_error
+    assert kept is not None and kept.points == len(HIGH_THETA) == 20
+    assert kept.width(len(HIGH_XYZ)) == kept.directions.shape[1]
+    # meta's field RMS is over the same error vectors (the SVD keeps 99.99 % of their squares)
+    assert kept.describe()["field_rms_mm"] == pytest.approx(
+        mf.meta["discrepancy_kfold"]["field_rms_mm"], rel=1e-3
+    )
+    again = load_surrogate(save_surrogate(mf, tmp_path / "mf-errors.safetensors"))
+    scale = np.abs(kept.errors()).max()
+    np.testing.assert_allclose(again.discrepancy_error.errors(), kept.errors(), atol=2e-3 * scale)
+    assert again.meta["discrepancy_error"]["points"] == 20
+
+
+def test_a_refit_with_a_held_out_error_lands_where_that_error_points(mf):
+    """Data of the surrogate at theta_b; an error vector that is the surrogate's change from theta_a
+    to theta_b: the fit made again with it lands on theta_a; with a zero error on theta_b."""
+    theta_a, theta_b = np.array([6.0, 220.0]), np.array([9.0, 300.0])
+    a, b = mf.predict(theta_a[None]), mf.predict(theta_b[None])
+    objective = Objective.from_prediction(b, radius=RADIUS)
+    error = np.hstack(
+        [np.log(b.force[0]) - np.log(a.force[0]), (b.displacement[0] - a.displacement[0]).ravel()]
+    )
+    errors = EmulationError.from_errors(
+        np.stack([theta_a, theta_b]), np.stack([error, 0.0 * error]), steps=len(DEPTH), source="two"
+    )
+    refits = held_out_refits(objective, ETA, mf, theta_b, (mf.scaler.lo, mf.scaler.hi), errors)
+    np.testing.assert_allclose(refits.refits[0], theta_a, rtol=1e-3)
+    np.testing.assert_allclose(refits.refits[1], theta_b, rtol=1e-6)
+    moved = np.log(theta_a / theta_b)
+    assert refits.half_width_pct(1) == pytest.approx(
+        100 * np.expm1(abs(moved[1])), rel=1e-2
+    )  # 2 refits: the largest
+    assert refits.reaches(0) == {"lower": False, "upper": False}
+    ends = HeldOutRefits(theta_b, np.array([[2.01, 300.0], [9.0, 300.0]]), (LO, HI), "two")
+    assert ends.reaches(0) == {"lower": True, "upper": False}

@@ -21,9 +21,10 @@ from ..budgets.model_error import (
     with_processing_error,
 )
 from ..experiment.processing_error import REGISTRATION_MM, processing_error_at
+from .held_out_refits import HeldOutRefits, held_out_refits
 from .inputs import FitInputs
 
-__all__ = ["model_error_with_mu", "mu_model_error_pct"]
+__all__ = ["model_error_with_mu", "mu_held_out_refits", "mu_model_error_pct"]
 
 
 def model_error_with_mu(
@@ -81,16 +82,48 @@ def model_error_with_mu(
     return _with_processing(error, inputs, at, contact, registration_mm, say, free=2)
 
 
-def mu_model_error_pct(inputs: FitInputs, theta: np.ndarray, *, on_surrogate: bool) -> float | None:
+def mu_held_out_refits(inputs: FitInputs, theta: np.ndarray) -> HeldOutRefits | None:
+    """The fit made again on its surrogate with each of the discrepancy's held-out errors.
+
+    A multi-fidelity surrogate's ``discrepancy_error`` (its k-fold errors at the high-fidelity
+    points; :func:`~indentation_studio.inference.fit.held_out_refits.held_out_refits`), the fit
+    held in the surrogate's training box.
+
+    Parameters
+    ----------
+    inputs : FitInputs
+        The experiment, surrogate (with mu) and objective.
+    theta : numpy.ndarray
+        (c1, c5, mu) the fit.
+
+    Returns
+    -------
+    HeldOutRefits or None
+        None where the surrogate keeps no such errors.
+    """
+    model = inputs.surrogate
+    errors = getattr(model, "discrepancy_error", None)
+    if errors is None:
+        return None
+    box = (np.asarray(model.scaler.lo, float), np.asarray(model.scaler.hi, float))
+    inside = np.clip(np.asarray(theta, float), box[0], box[1])
+    return held_out_refits(inputs.objective, inputs.eta, model, inside, box, errors)
+
+
+def mu_model_error_pct(
+    inputs: FitInputs, theta: np.ndarray, *, on_surrogate: bool, refits: HeldOutRefits | None = None
+) -> float | None:
     """What the model's own errors leave on a fitted mu: a 95 % half-width, percent of mu.
 
     Every parameter free (mu's certainty is what is asked): the surrogate's held-out errors pushed
     through the fit where its final stage is on it
     (:func:`~indentation_studio.inference.budgets.model_error.emulation_error_pct`), and, on a
     multi-fidelity surrogate with mu inside its range, the discrepancy's uncertainty pushed the same
-    way (:func:`~indentation_studio.inference.budgets.model_error.model_error_at` over all three), root sum of
-    squares. A model error that moves mu by its whole range is what makes data with no slip in them
-    look as if they held a mu.
+    way (:func:`~indentation_studio.inference.budgets.model_error.model_error_at` over all three)
+    and its held-out errors at the high-fidelity points (``refits``: the fit made again with each,
+    :func:`mu_held_out_refits`, not linearised), root sum of squares. A model error that moves mu by its whole range is
+    what makes data with no slip in them look as if they held a mu: the discrepancy's predictive
+    uncertainty alone is what it believes of itself, its held-out errors what it gets wrong.
 
     Parameters
     ----------
@@ -100,11 +133,13 @@ def mu_model_error_pct(inputs: FitInputs, theta: np.ndarray, *, on_surrogate: bo
         (c1, c5, mu) the fit.
     on_surrogate : bool
         The final stage is on the surrogate.
+    refits : HeldOutRefits, optional
+        :func:`mu_held_out_refits` at ``theta``, where made.
 
     Returns
     -------
     float or None
-        The half-width; None where neither part is known.
+        The half-width; None where no part is known.
     """
     model, obj, eta = inputs.surrogate, inputs.objective, inputs.eta
     parts = []
@@ -120,6 +155,8 @@ def mu_model_error_pct(inputs: FitInputs, theta: np.ndarray, *, on_surrogate: bo
             error = None
         if error is not None and np.isfinite(error.discrepancy_pct[2]):
             parts.append(float(error.discrepancy_pct[2]))
+    if refits is not None:
+        parts.append(refits.half_width_pct(2))
     return float(np.hypot.reduce(parts)) if parts else None
 
 

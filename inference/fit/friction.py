@@ -14,7 +14,13 @@ from ...forward.solver import SimulationError
 from ..adequacy.of_fit import training_box_ends
 from ..budgets.model_error import has_high_fidelity_level
 from ..experiment.processing_error import REGISTRATION_MM
-from .error_parts import _stick_mesh_budget, _with_processing, model_error_with_mu, mu_model_error_pct
+from .error_parts import (
+    _stick_mesh_budget,
+    _with_processing,
+    model_error_with_mu,
+    mu_held_out_refits,
+    mu_model_error_pct,
+)
 from .inputs import FitInputs
 from .inverse_fit import PAPER_START, FitResult, _told, fit_parameters
 from .mu_reach import _mu_reach
@@ -256,7 +262,13 @@ def _fit_with_friction(
         fit.model_error = _with_processing(error, inputs, final.theta[:2], fit.contact, registration_mm, say)
     fit.mu_reach, fit.mu_reach_notes, fit.restarts = reach, notes, restarts
     if with_mu and treatment.fits_mu:
-        fit.mu_model_pct = mu_model_error_pct(inputs, final.theta, on_surrogate=not refine)
+        refits = mu_held_out_refits(inputs, final.theta)
+        if refits is not None:
+            say(
+                f"mu made again with each of the discrepancy's held-out errors: {refits.refits.shape[0]} refits ..."
+            )
+        fit.mu_refits = refits
+        fit.mu_model_pct = mu_model_error_pct(inputs, final.theta, on_surrogate=not refine, refits=refits)
     if stage == "confirm":
         say(f"confirming on the FE solver at {np.round(final.theta, 3).tolist()} ...")
         if treatment.mode == "known":

@@ -16,6 +16,7 @@ from ..budgets.check import budget_status
 from ..budgets.mesh_check import MeshCheck
 from ..budgets.model_error import ModelError, combined_pct, model_error_scope
 from .confirm_stage import FitConfirmation, confirm_fit
+from .held_out_refits import HeldOutRefits
 from .inputs import FitInputs
 from .inverse_fit import FitResult
 from .mu_reach import mu_is_identified, mu_reach_by_model_error
@@ -76,6 +77,9 @@ class ExperimentFit:
     # the model's own errors as a part of mu's 95 % half-width, percent (mu_model_error_pct: the
     # surrogate's held-out errors, the discrepancy's uncertainty): they can move mu far more than (c1, c5)
     mu_model_pct: float | None = None
+    # the fit made again with each of the discrepancy's held-out errors (fit.held_out_refits): an
+    # end one of them reaches is one the model's own error reaches
+    mu_refits: HeldOutRefits | None = None
     adequacy: object | None = None  # inference.adequacy.chi_square.Adequacy: can the model explain the data
     adequacy_note: str | None = None  # why the adequacy test was not made
     confirmation: FitConfirmation | None = None  # fe_stage "confirm": one FE run at the surrogate's fit
@@ -291,6 +295,9 @@ class ExperimentFit:
             half = mu * mu_pct / 100.0
             laplace = [max(mu - half, lo), min(mu + half, hi)]  # nothing is known outside the range
             by_model = mu_reach_by_model_error(mu, self.mu_model_pct, (lo, hi))
+            if self.mu_refits is not None:
+                refit_reach = self.mu_refits.reaches(2)
+                by_model = {side: by_model[side] or refit_reach[side] for side in by_model}
             reach = {
                 side: bool((self.mu_reach or {}).get(side) or by_model[side]) for side in ("lower", "upper")
             }
@@ -304,6 +311,7 @@ class ExperimentFit:
                 "mu_reaches_range_end": reach,
                 "mu_reaches_range_end_by_model_error": by_model,
                 "mu_reach_notes": self.mu_reach_notes,
+                "mu_held_out_refits": None if self.mu_refits is None else self.mu_refits.describe(2),
                 "restarts": self.restarts,
                 "mu_identified": mu_is_identified(reach, mu_pct, interval, (lo, hi)),
                 "mu_range": [lo, hi],

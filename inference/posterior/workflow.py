@@ -26,8 +26,9 @@ from ..budgets.model_error import (
 )
 from ..experiment.data import ExperimentData
 from ..experiment.processing_error import REGISTRATION_MM
-from ..fit.error_parts import _with_processing, model_error_with_mu, mu_model_error_pct
+from ..fit.error_parts import _with_processing, model_error_with_mu, mu_held_out_refits, mu_model_error_pct
 from ..fit.friction import _mu_range, fit_on_surrogate_with_mu, surrogate_with_mu
+from ..fit.held_out_refits import HeldOutRefits
 from ..fit.inputs import FitInputs, prepare_fit
 from ..fit.inverse_fit import FitResult, fit_parameters
 from .sampling import Posterior, carried_to_finer_mesh, sample_posterior
@@ -68,6 +69,7 @@ class ExperimentPosterior:
     friction: FrictionTreatment = field(default_factory=FrictionTreatment)
     mu_range: tuple[float, float] | None = None  # the prior's range when mu is sampled
     mu_model_pct: float | None = None  # the model's own errors on mu spread into its samples
+    mu_refits: HeldOutRefits | None = None  # the fit made again with the discrepancy's held-out errors
 
     @property
     def mu_identified(self) -> bool | None:
@@ -75,10 +77,14 @@ class ExperimentPosterior:
 
         mu's 95 % interval reaches neither end of its prior's range: an end within
         :data:`PRIOR_END_FRACTION` of the range (in log mu) counts as reached, since a marginal that
-        the data do not bound there runs to the prior's end.
+        the data do not bound there runs to the prior's end. Nor where a fit made again with one of
+        the discrepancy's held-out errors ends on an end (:attr:`mu_refits`): the fit then does not
+        claim mu either, and the posterior says what the fit says.
         """
         if self.mu_range is None or "mu" not in self.posterior.parameters:
             return None
+        if self.mu_refits is not None and any(self.mu_refits.reaches(2).values()):
+            return False
         k = self.posterior.parameters.index("mu")
         return not any(interval_reaches_prior_end(self.posterior.interval(0.95)[k], self.mu_range).values())
 
@@ -119,6 +125,7 @@ class ExperimentPosterior:
                 "mu_ci95": self.posterior.interval(0.95)[k].tolist(),
                 "mu_model_pct": self.mu_model_pct,
                 "mu_identified": self.mu_identified,
+                "mu_held_out_refits": None if self.mu_refits is None else self.mu_refits.describe(2),
                 "mu_reaches_prior_end": interval_reaches_prior_end(
                     self.posterior.interval(0.95)[k], self.mu_range
                 ),
@@ -343,7 +350,7 @@ def sample_posterior_for(
         seed=seed,
         log_uniform=log_uniform,
     )
-    mu_model_pct = None
+    mu_model_pct, refits = None, None
     if "mu" in model.parameters:  # the parts the fit carries (fit.error_parts.model_error_with_mu)
         model_error = model_error_with_mu(
             inputs,
@@ -355,7 +362,8 @@ def sample_posterior_for(
             say=say,
         )
         if fit.theta.size == 3 and model_error is not None:  # mu sampled: its own model error beside
-            mu_model_pct = mu_model_error_pct(inputs, fit.theta, on_surrogate=True)
+            refits = mu_held_out_refits(inputs, fit.theta)
+            mu_model_pct = mu_model_error_pct(inputs, fit.theta, on_surrogate=True, refits=refits)
             model_error = model_error.with_mu(mu_model_pct)
     else:
         model_error = model_error_at(inputs.objective, inputs.eta, model, fit.theta)
@@ -381,4 +389,5 @@ def sample_posterior_for(
         friction=treatment,
         mu_range=mu_range,
         mu_model_pct=mu_model_pct,
+        mu_refits=refits,
     )
