@@ -217,12 +217,8 @@ class LeaseFiles:
 
         Parameters
         ----------
-        candidates : iterable of int
-            The points to try, in order.
-        run : RunIdentity
-            The claiming run.
-        lease_timeout_s : float
-            A lease not renewed for this long belongs to a dead run and is taken over, s.
+        candidates, run, lease_timeout_s
+            As :meth:`~indentation_studio.campaign.claims.StoreClaims.claim_next` takes them.
         finished : collection of int
             Points already finished (skipped before their lease is read).
         solved_meanwhile : callable
@@ -232,8 +228,7 @@ class LeaseFiles:
         Returns
         -------
         ClaimOutcome
-            The point claimed (or None), the candidates tried and found finished, and those
-            another live run holds.
+            What was claimed, found finished, held elsewhere.
         """
         done: set[int] = set()
         held: dict[int, dict[str, Any]] = {}
@@ -254,16 +249,8 @@ class LeaseFiles:
         return ClaimOutcome(None, done, held)
 
     def release(self, point: int, run: RunIdentity) -> None:
-        """Remove ``run``'s lease on ``point`` (call under the store's lock; another run's lease
-        is left alone).
-
-        Parameters
-        ----------
-        point : int
-            The point.
-        run : RunIdentity
-            The run giving up its claim.
-        """
+        """Remove ``run``'s lease on ``point``, another run's left alone (call under the store's
+        lock: :meth:`~indentation_studio.campaign.claims.StoreClaims.release`)."""
         if self.held_by(point, run):
             self.path(point).unlink(missing_ok=True)
 
@@ -284,18 +271,8 @@ class LeaseFiles:
         return lost
 
     def holders(self, lease_timeout_s: float = DEFAULT_LEASE_TIMEOUT_S) -> list[dict[str, Any]]:
-        """The claims and whether each holding run is alive.
-
-        Parameters
-        ----------
-        lease_timeout_s : float, default 120
-            A claim whose heartbeat is older is expired (taken over by the next run), s.
-
-        Returns
-        -------
-        list of dict
-            Per claim: point, host, pid, start time of the holding run, heartbeat age, alive.
-        """
+        """The claims and whether each holding run is alive
+        (:meth:`~indentation_studio.campaign.claims.StoreClaims.holders`)."""
         now = time.time()
         out = []
         for i, lease in sorted(self.all().items()):

@@ -245,7 +245,7 @@ class _Heartbeat(threading.Thread):
                 points = sorted(self.held)
             if points:
                 try:
-                    lost = self.store.renew(points, self.run_id)
+                    lost = self.store.claims.renew(points, self.run_id)
                 except Exception:  # a lock not had this time: the next beat tries again
                     continue
                 with self.guard:
@@ -336,7 +336,7 @@ def run_campaign(
             while remaining or claimed:
                 # claim and submit up to the executor's capacity
                 while executor.in_flight() < executor.capacity() and remaining:
-                    outcome = store.claim_next(
+                    outcome = store.claims.claim_next(
                         [i for i in remaining if i not in claimed], run, lease_timeout_s, attempts_at_start
                     )
                     for i in outcome.finished_elsewhere:
@@ -370,7 +370,7 @@ def run_campaign(
             beat.stop.set()
             executor.close()
             for i in list(claimed):
-                store.release(i, run)  # interrupted: the points go back to the pool
+                store.claims.release(i, run)  # interrupted: the points go back to the pool
             store.refresh()
             held = {
                 i: lease
@@ -410,13 +410,13 @@ def _finish(
     row.pop("point", None)
     result, partial = row.pop("result", None), row.pop("partial", None)
     with store.locked():
-        if lost or not store.holds(i, run):
+        if lost or not store.claims.holds(i, run):
             store.refresh()
             if str(store.index.loc[i, "status"]) == "done":  # another run took it over and finished
                 return 0
     store.save_point(i, result, partial, row)
     store.write_index()
-    store.release(i, run)
+    store.claims.release(i, run)
     return 1
 
 

@@ -8,8 +8,12 @@ backend's interface apart from each backend:
   the check of a point file, setting a failed one aside, and a full disk named as such;
 - :mod:`~indentation_studio.campaign.index`: ``index.parquet``, one row per point, checked
   against the design and merged with what other runs wrote;
-- :mod:`~indentation_studio.campaign.leases`: claims on points and their leases (claiming,
-  renewing, releasing); the store calls them under its lock.
+- :mod:`~indentation_studio.campaign.store_index`: the index as a run holds it, updated under the
+  store's lock;
+- :mod:`~indentation_studio.campaign.store_checks`: every point file checked against the index,
+  and repaired;
+- :mod:`~indentation_studio.campaign.leases` and :mod:`~indentation_studio.campaign.claims`: the
+  lease files, and the claims on points made with them under the store's lock (``store.claims``).
 
 Nothing is trusted blindly (:meth:`CampaignStore.verify`): opening a store for a run checks
 every point file against its recorded sha256 and size (a file of an older store, without them,
@@ -19,7 +23,7 @@ unreadable, or has a row missing, repeated or of another point, is rebuilt from 
 ``campaign.json`` is checked against its sha256. ``campaign status`` makes the same checks and
 only reports.
 
-Nothing is done twice (:meth:`CampaignStore.claim_next`): a run claims a point before solving it
+Nothing is done twice (``store.claims.claim_next``): a run claims a point before solving it
 by writing a lease under a short file lock on the store, and other runs of the same campaign (on
 this machine or others sharing the folder) skip the points held by a live lease. Every index
 update is made under the lock and merged with what other runs wrote.
@@ -33,56 +37,34 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import pandas as pd
 from filelock import FileLock
 
 from .. import __version__
 from ..forward.mesh import build_mesh
 from ..forward.result import SimulationResult
-from .checksums import (
-    Problem,
-    check_point_file,
-    file_digest,
-    full_disk_as_error,
-    read_spec,
-    set_aside,
-    write_checked,
-    write_spec,
-)
+from .checksums import Problem, file_digest, full_disk_as_error, read_spec, write_checked, write_spec
+from .claims import StoreClaims
 from .errors import CampaignError
-from .index import (
-    PENDING_ROW,
-    STATUSES,
-    as_int,
-    fresh_index,
-    is_missing,
-    merge_rows,
-    read_index,
-    result_row,
-    with_check_columns,
-)
+from .index import as_int, fresh_index, read_index
 from .layout import StoreLayout
-from .leases import (
-    DEFAULT_LEASE_TIMEOUT_S,
-    LOCK_TIMEOUT_S,
-    ClaimOutcome,
-    LeaseFiles,
-    RunIdentity,
-    StoreLock,
-)
+from .leases import DEFAULT_LEASE_TIMEOUT_S, LOCK_TIMEOUT_S
 from .spec import CampaignSpec
+from .store_checks import clean_temporaries, verify_points
+from .store_index import StoreIndex
 
 __all__ = ["CampaignStore"]
 
 
-class CampaignStore(StoreLayout):
+class CampaignStore(StoreIndex):
     """One campaign folder: its spec, its index of points and their result files.
 
     Make one with :meth:`create_or_open` (which refuses a spec that differs from the stored one)
     or :meth:`open`. ``open(root, repair=True)`` (what a run does) repairs what its checks find;
     with ``repair=False`` (``campaign status``, the loaders) nothing is written and
-    :attr:`problems` lists what failed.
+    :attr:`problems` lists what failed. The index's upkeep (``record``, ``write_index``,
+    ``refresh``, ``counts``, ``points_with``) is :class:`~.store_index.StoreIndex`'s; the claims on
+    points are :attr:`claims` (:class:`~.claims.StoreClaims`).
 
     Parameters
     ----------
@@ -96,21 +78,8 @@ class CampaignStore(StoreLayout):
     """
 
     def __init__(self, root: Path, spec: CampaignSpec, index: pd.DataFrame) -> None:
-        super().__init__(root)
-        self.spec = spec
-        self.index = with_check_columns(index)
-        self.problems: list[Problem] = []
-        self.hashed_now: list[int] = []  # files of an older store hashed (after loading) by this open
-        self._dirty: set[int] = set()
-        self.lock = FileLock(self.lock_path, timeout=LOCK_TIMEOUT_S)
-        self._leases = LeaseFiles(self)
-
-    def locked(self) -> StoreLock:
-        """The store's lock, as a context (short critical sections only).
-
-        A lock not had in ``LOCK_TIMEOUT_S`` is a clear error.
-        """
-        return StoreLock(self.lock, self.root)
+        super().__init__(root, spec, index)
+        self.claims = StoreClaims(self)
 
     # ------------------------------------------------------------ open/create
     @classmethod
@@ -212,236 +181,32 @@ class CampaignStore(StoreLayout):
 
     # ------------------------------------------------------------ the checks
     def verify(self, repair: bool = True) -> list[Problem]:
-        """Check every point file against its row (module docstring).
-
-        Call under the lock when repairing.
+        """Check every point file against its row (module docstring; call under the lock when
+        repairing): :func:`~.store_checks.verify_points` on this store.
 
         Parameters
         ----------
         repair : bool, default True
-            A file that fails is moved to ``damaged/`` and its point made pending, a file with no
-            row or hash (an older store, a run killed between writing the file and the index) is
-            checked to load, hashed and recorded done.
+            Set a failed file aside and make its point pending; hash and record a file of an
+            older store.
 
         Returns
         -------
         list of Problem
             The problems (also added to :attr:`problems`).
         """
-        found: list[Problem] = []
-        present = {int(p.stem) for p in self.points_dir.glob("[0-9]*.npz") if p.stem.isdigit()}
-        status = self.index["status"].astype(str).to_numpy()
-        for i in range(len(self.index)):
-            path, row, done = self.result_path(i), self.index.loc[i], status[i] == "done"
-            if i not in present:
-                if done:
-                    found.append(Problem(str(path), "missing (the index says done)", i, "solve again"))
-                    if repair:
-                        self.record(i, PENDING_ROW, write=False)
-                continue
-            hashed = done and not is_missing(row["sha256"])
-            check = check_point_file(path, (row["sha256"], int(row["bytes"])) if hashed else None)
-            if check.reason is not None:
-                found.append(Problem(str(path), check.reason, i, "solve again"))
-                if repair:
-                    set_aside(path, self.damaged_dir)
-                    self.record(i, PENDING_ROW, write=False)
-            elif repair and check.digest is not None:  # loaded (no hash recorded): hashed now
-                self.hashed_now.append(i)
-                update: dict[str, Any] = {"sha256": check.digest[0], "bytes": check.digest[1]}
-                if not done:
-                    update |= result_row(check.result) | {"status": "done", "error": None}
-                    update["attempts"] = max(int(as_int(row["attempts"]) or 0), 1)
-                self.record(i, update, write=False)
-        if not repair:
-            for p in found:
-                p.action = "reported: `campaign run` solves it again"
-        self.problems += found
-        return found
+        return verify_points(self, repair)
 
     def _clean_temporaries(self) -> None:
-        """Temporary files of writes cut short by a kill (never renamed), except those of points
-        a live run holds (it may be writing them now)."""
-        held = self._leases.alive_points(DEFAULT_LEASE_TIMEOUT_S)
-        for stale in self.points_dir.glob("*.tmp"):
-            head = stale.name.split(".", 1)[0]
-            if head.isdigit() and int(head) in held:
-                continue
-            stale.unlink(missing_ok=True)
+        """Temporary files of writes cut short by a kill, except those of points a live run holds."""
+        clean_temporaries(self, self.claims.files.alive_points(DEFAULT_LEASE_TIMEOUT_S))
 
-    # ------------------------------------------------------------ index upkeep
     def reconcile(self) -> int:
         """Check the files and repair (what ``open`` does); returns how many problems were found."""
         with self.locked():
             found = self.verify(repair=True)
             self.write_index()
         return len(found)
-
-    def record(self, point: int, row: dict[str, Any], write: bool = True) -> None:
-        """Set fields of a point's index row.
-
-        Parameters
-        ----------
-        point : int
-            The point.
-        row : dict
-            Column -> value.
-        write : bool, default True
-            Write the index now (:meth:`write_index`).
-        """
-        for k, v in row.items():
-            self.index.loc[point, k] = v
-        self._dirty.add(int(point))
-        if write:
-            self.write_index()
-
-    def write_index(self) -> None:
-        """Write this run's changed rows into the index on disk, merged with what other runs wrote.
-
-        Made under the lock; ``self.index`` becomes the merged table.
-        """
-        path = self.index_path
-        with self.locked():
-            merged = self._merged()
-            write_checked(path, lambda tmp: merged.to_parquet(tmp, index=False))
-            self.index = merged
-            self._dirty.clear()
-
-    def refresh(self) -> None:
-        """Read what other runs recorded (this run's unwritten rows kept)."""
-        with self.locked():
-            self.index = self._merged()
-
-    def _merged(self) -> pd.DataFrame:
-        """The index on disk with this run's changed rows merged in (call under the lock)."""
-        disk, problems = read_index(self.index_path, self.spec)
-        if problems:  # unreadable or damaged on disk: ours is the checked one
-            disk = self.index.copy()
-        return merge_rows(disk, self.index, sorted(self._dirty))
-
-    # ---------------------------------------------------------------- claims
-    def leases(self) -> dict[int, dict[str, Any]]:
-        """Every lease file, by point (an unreadable one as an expired lease)."""
-        return self._leases.all()
-
-    def claim_next(
-        self,
-        candidates: list[int],
-        run: RunIdentity,
-        lease_timeout_s: float = DEFAULT_LEASE_TIMEOUT_S,
-        attempts_at_start: dict[int, int] | None = None,
-    ) -> ClaimOutcome:
-        """Claim the first of ``candidates`` that no live run holds and no run has finished since.
-
-        Made under the lock: two runs never claim the same point.
-
-        Parameters
-        ----------
-        candidates : list of int
-            The points to try, in order.
-        run : RunIdentity
-            The claiming run.
-        lease_timeout_s : float, default 120
-            A lease not renewed for this long belongs to a dead run and is taken over, s.
-        attempts_at_start : dict of int to int, optional
-            Each point's attempts when this run started: a point another run attempted since is
-            not claimed again.
-
-        Returns
-        -------
-        ClaimOutcome
-            The point claimed (or None), the candidates finished elsewhere meanwhile, and those
-            another live run holds.
-        """
-        with self.locked():
-            self.index = self._merged()
-            attempts = self.index["attempts"].map(lambda a: int(as_int(a) or 0)).to_numpy()
-            status = self.index["status"].astype(str).to_numpy()
-            finished = {
-                i
-                for i in candidates
-                if status[i] == "done"
-                or (attempts_at_start is not None and attempts[i] > attempts_at_start.get(i, 0))
-            }
-            return self._leases.claim_first(
-                candidates, run, lease_timeout_s, finished, self._recorded_from_its_file
-            )
-
-    def _recorded_from_its_file(self, point: int) -> bool:
-        """Whether ``point``'s result file, left by a run that died before its index row, passes
-        its check and is now recorded done (call under the lock)."""
-        if not self.result_path(point).is_file():
-            return False
-        before = len(self.problems)
-        self.verify(repair=True)
-        self.write_index()
-        if str(self.index.loc[point, "status"]) == "done":
-            return True
-        del self.problems[before:]
-        return False
-
-    def renew(self, points: list[int], run: RunIdentity) -> set[int]:
-        """Renew this run's leases (their heartbeat).
-
-        Parameters
-        ----------
-        points : list of int
-            The points the run holds.
-        run : RunIdentity
-            The run.
-
-        Returns
-        -------
-        set of int
-            The points whose lease another run took over.
-        """
-        with self.locked():
-            return self._leases.renew(points, run)
-
-    def holds(self, point: int, run: RunIdentity) -> bool:
-        """Whether ``run`` holds the lease of ``point``.
-
-        Parameters
-        ----------
-        point : int
-            The point.
-        run : RunIdentity
-            The run.
-
-        Returns
-        -------
-        bool
-            True when the point's lease names the run.
-        """
-        return self._leases.held_by(point, run)
-
-    def release(self, point: int, run: RunIdentity) -> None:
-        """Give up ``run``'s claim on ``point`` (its lease file removed, under the lock).
-
-        Parameters
-        ----------
-        point : int
-            The point.
-        run : RunIdentity
-            The run; a lease another run holds is left alone.
-        """
-        with self.locked():
-            self._leases.release(point, run)
-
-    def holders(self, lease_timeout_s: float = DEFAULT_LEASE_TIMEOUT_S) -> list[dict[str, Any]]:
-        """The claims on the store and whether each holding run is alive.
-
-        Parameters
-        ----------
-        lease_timeout_s : float, default 120
-            A claim whose heartbeat is older is expired (taken over by the next run), s.
-
-        Returns
-        -------
-        list of dict
-            Per claim: point, host, pid, start time of the holding run, heartbeat age, alive.
-        """
-        return self._leases.holders(lease_timeout_s)
 
     # ---------------------------------------------------------------- results
     def save_point(
@@ -481,40 +246,13 @@ class CampaignStore(StoreLayout):
         update["attempts"] = int(as_int(self.index.loc[point, "attempts"]) or 0) + 1
         self.record(point, update, write=False)
 
-    # ---------------------------------------------------------------- queries
-    def counts(self) -> dict[str, int]:
-        """The number of points of each status.
-
-        Returns
-        -------
-        dict of str to int
-            Status (``pending``, ``done``, ``failed``) -> count.
-        """
-        c = self.index["status"].astype(str).value_counts()
-        return {s: int(c.get(s, 0)) for s in STATUSES}
-
-    def points_with(self, *statuses: str) -> np.ndarray:
-        """The points whose status is one of ``statuses``.
-
-        Parameters
-        ----------
-        *statuses : str
-            Statuses, e.g. ``"done"``, ``"pending"``, ``"failed"``.
-
-        Returns
-        -------
-        numpy.ndarray
-            Their point numbers, ascending.
-        """
-        return self.index.loc[self.index["status"].astype(str).isin(statuses), "point"].to_numpy(int)
-
     def summary(self, lease_timeout_s: float = DEFAULT_LEASE_TIMEOUT_S) -> dict[str, Any]:
         """The store's state, as ``campaign status`` prints it.
 
         Parameters
         ----------
         lease_timeout_s : float, default 120
-            Claims with an older heartbeat are reported expired (:meth:`holders`), s.
+            Claims with an older heartbeat are reported expired (:meth:`~.claims.StoreClaims.holders`), s.
 
         Returns
         -------
@@ -557,6 +295,6 @@ class CampaignStore(StoreLayout):
             ],
             "problems": [p.to_dict() for p in self.problems],
             "hashed_now": len(self.hashed_now),
-            "claims": self.holders(lease_timeout_s),
+            "claims": self.claims.holders(lease_timeout_s),
             "store_bytes": sum(p.stat().st_size for p in self.root.rglob("*") if p.is_file()),
         }
