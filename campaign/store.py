@@ -62,7 +62,7 @@ class CampaignStore(StoreIndex):
     Make one with :meth:`create_or_open` (which refuses a spec that differs from the stored one)
     or :meth:`open`. ``open(root, repair=True)`` (what a run does) repairs what its checks find;
     with ``repair=False`` (``campaign status``, the loaders) nothing is written and
-    :attr:`problems` lists what failed. The index's upkeep (``record``, ``write_index``,
+    ``problems`` lists what failed. The index's upkeep (``record``, ``write_index``,
     ``refresh``, ``counts``, ``points_with``) is :class:`~.store_index.StoreIndex`'s; the claims on
     points are :attr:`claims` (:class:`~.claims.StoreClaims`).
 
@@ -151,7 +151,7 @@ class CampaignStore(StoreIndex):
             The campaign folder.
         repair : bool, default True
             Fix what fails (a run); else nothing is written and the failures are only listed in
-            :attr:`problems` (status, loaders).
+            ``problems`` (status, loaders).
 
         Returns
         -------
@@ -193,7 +193,7 @@ class CampaignStore(StoreIndex):
         Returns
         -------
         list of Problem
-            The problems (also added to :attr:`problems`).
+            The problems (also added to ``problems``).
         """
         return verify_points(self, repair)
 
