@@ -181,8 +181,9 @@ class CampaignStore(StoreIndex):
 
     # ------------------------------------------------------------ the checks
     def verify(self, repair: bool = True) -> list[Problem]:
-        """Check every point file against its row (module docstring; call under the lock when
-        repairing): :func:`~.store_checks.verify_points` on this store.
+        """Check every point file against its row (module docstring).
+
+        :func:`~.store_checks.verify_points` on this store; call under the lock when repairing.
 
         Parameters
         ----------
