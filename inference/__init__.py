@@ -71,14 +71,16 @@ __getattr__, __dir__, __all__ = lazy.attach(
             "febio_experiment_summary",
         ],
         "experiment.composite": [
-            "CompositeComparison",
             "CompositeExperiment",
-            "compare_with_fit",
-            "compare_with_homogeneous",
             "composite_indentation",
             "experiment_from_composite",
-            "fitted_model",
             "write_composite_experiment",
+        ],
+        "experiment.composite_comparison": [
+            "CompositeComparison",
+            "compare_with_fit",
+            "compare_with_homogeneous",
+            "fitted_model",
         ],
     },
 )

@@ -59,7 +59,7 @@ def composite_comparison_figure(comparison, within_mm: float = 20.0, title: str 
     uz and in-plane |u| at the last step over the full field (quarter mirrored); (d) uz of the
     composite minus the homogeneous model's. The top layer's fibers (along y) are drawn as
     dashed bands: they imprint the surface. ``comparison`` is an
-    :class:`inference.experiment.composite.CompositeComparison`."""
+    :class:`inference.experiment.composite_comparison.CompositeComparison`."""
     c = comparison
     xy = c.top_xyz[:, :2]
     keep = np.all(np.abs(xy) <= within_mm, axis=1)
