@@ -67,7 +67,7 @@ def test_a_campaign_worker_solves_on_one_thread(monkeypatch):
         seen.append(kwargs.get("threads"))
         return original(self, *args, **kwargs)
 
-    monkeypatch.setattr(runner.EmbeddedSolver, "run", run)
+    monkeypatch.setattr(EmbeddedSolver, "run", run)
     spec = ModelSpec(mesh=MeshChoice("coarse"), protocol=Protocol(step_size=0.5, steps=2))
     row = runner.solve_point(0, spec.to_dict(), "embedded", ("c1", "c5"), [10.0, 350.0], None)
     assert row["status"] == "done" and seen == [1]
