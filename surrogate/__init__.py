@@ -7,7 +7,8 @@ import lazy_loader as lazy
 __getattr__, __dir__, __all__ = lazy.attach(
     __name__,
     submod_attrs={
-        "base": ["FieldSurrogate", "TrainingData"],
+        "base": ["FieldSurrogate"],
+        "training_data": ["TrainingData"],
         "gaussian_process": ["GaussianProcessSurrogate"],
         "mlp": ["MLPSurrogate"],
         "multi_fidelity": ["MultiFidelitySurrogate"],

@@ -1,6 +1,9 @@
-"""What the Gaussian-process and the MLP emulators share: input scaling, the PCA reduction of the
-force curves and of the displacement field, the reconstruction, the chain rule for Jacobians, and
-the Predictor seam (docs/architecture.md, "The Predictor seam").
+"""What the Gaussian-process and the MLP emulators share (:class:`FieldSurrogate`): input scaling,
+the PCA reduction of the force curves and of the displacement field (their pieces:
+:mod:`~indentation_studio.surrogate.scaling`), the reconstruction, the chain rule for Jacobians,
+and the Predictor seam (docs/architecture.md, "The Predictor seam"). What a surrogate is trained on
+is :mod:`~indentation_studio.surrogate.training_data`'s (``TrainingData``, importable from here
+too).
 
 Inputs: theta scaled to [0, 1] over the training box, in log (default) or linearly (``input_scale``);
 log serves better because the response changes fastest at small c1 (README, "Surrogates").
@@ -15,171 +18,22 @@ from __future__ import annotations
 import time
 from abc import ABC, abstractmethod
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 from scipy.spatial import cKDTree
-from sklearn.decomposition import PCA
 
-from ..campaign.loader import fill_missing_steps
 from ..forward.predictor import Prediction, ReducedBasis
+from .scaling import INPUT_SCALES as INPUT_SCALES  # X as X: re-exported
+from .scaling import InputScaler, pca_reduction
+from .scaling import padded_jacobian as padded_jacobian
 from .sklearn_state import estimator_from_state, estimator_state
-
-INPUT_SCALES = ("linear", "log")
+from .training_data import TrainingData
 
 #: A point whose nearest training point lies more than this many median training spacings away
 #: (:meth:`FieldSurrogate.training_gap`) lies in a region without training points. Inside a
 #: space-filling design every point of the box lies within about 1 of them.
 SPARSE_GAP = 2.0
-
-
-@dataclass
-class TrainingData:
-    """Parameter points and their responses: what a surrogate is trained on.
-
-    Usually a campaign (:meth:`from_campaign`, see ``campaign.loader.CampaignData``).
-
-    Attributes
-    ----------
-    theta : numpy.ndarray
-        (n, p) parameters, kPa.
-    force : numpy.ndarray
-        (n, steps) indentation force, mN (missing steps filled).
-    displacement : numpy.ndarray
-        (n, steps, nodes, 3) top-surface displacements, mm.
-    depth : numpy.ndarray
-        (steps,) indentation depth, mm.
-    top_xyz : numpy.ndarray
-        (nodes, 3) reference coordinates of the top-surface nodes, mm.
-    parameters : tuple of str, default ("c1", "c5")
-        The parameter of each column of ``theta``.
-    source : dict
-        Where the data came from (recorded in the surrogate's meta).
-    missing : numpy.ndarray or None
-        (n, steps) True at forces the campaign does not have (FEBio steps flagged off
-        equilibrium), filled in ``force``; validation errors leave them out.
-    """
-
-    theta: np.ndarray  # (n, p) kPa
-    force: np.ndarray  # (n, steps) mN
-    displacement: np.ndarray  # (n, steps, nodes, 3) mm
-    depth: np.ndarray  # (steps,) mm
-    top_xyz: np.ndarray  # (nodes, 3) mm
-    parameters: tuple[str, ...] = ("c1", "c5")
-    source: dict[str, Any] = field(default_factory=dict)
-    # (n, steps) bool: forces the campaign does not have (FEBio steps flagged off equilibrium),
-    # filled in ``force`` by :func:`campaign.loader.fill_missing_steps`; validation errors leave them out
-    missing: np.ndarray | None = None
-
-    @classmethod
-    def from_campaign(cls, data) -> TrainingData:
-        """A campaign's done points as training data, missing forces filled.
-
-        A step without a force (a FEBio step flagged off equilibrium) is filled from the same
-        point's finite steps (:func:`campaign.loader.fill_missing_steps`) and marked in
-        ``missing``.
-
-        Parameters
-        ----------
-        data : CampaignData
-            The loaded campaign.
-
-        Returns
-        -------
-        TrainingData
-            The points, their responses and the campaign as ``source``.
-        """
-        force, missing = fill_missing_steps(data.force, data.depth)
-        return cls(
-            data.theta,
-            force,
-            displacement=data.displacement,
-            depth=data.depth,
-            top_xyz=data.top_xyz,
-            parameters=data.parameters,
-            source=data.spec,
-            missing=missing if missing.any() else None,
-        )
-
-    def subset(self, rows: np.ndarray) -> TrainingData:
-        """The data at some of the points.
-
-        Parameters
-        ----------
-        rows : numpy.ndarray
-            Indices (or a mask) of the points kept.
-
-        Returns
-        -------
-        TrainingData
-            Those points, the same depths and nodes.
-        """
-        return TrainingData(
-            self.theta[rows],
-            self.force[rows],
-            displacement=self.displacement[rows],
-            depth=self.depth,
-            top_xyz=self.top_xyz,
-            parameters=self.parameters,
-            source=self.source,
-            missing=None if self.missing is None else self.missing[rows],
-        )
-
-    @property
-    def n(self) -> int:
-        """The number of points."""
-        return len(self.theta)
-
-
-def padded_jacobian(jacobian: np.ndarray, parameters: int) -> np.ndarray:
-    """A Jacobian over the leading parameters extended with zero columns to ``parameters`` (the
-    derivative of a part that does not depend on the trailing ones, e.g. mu: last axis)."""
-    missing = parameters - jacobian.shape[-1]
-    return np.pad(jacobian, [(0, 0)] * (jacobian.ndim - 1) + [(0, missing)])
-
-
-class InputScaler:
-    """theta -> x in [0, 1]^p over the box [lo, hi], linearly or in log(theta)."""
-
-    def __init__(self, lo: np.ndarray, hi: np.ndarray, scale: str = "linear") -> None:
-        if scale not in INPUT_SCALES:
-            raise ValueError(f"input scale {scale!r}: use one of {', '.join(INPUT_SCALES)}")
-        self.lo, self.hi, self.scale = np.asarray(lo, float), np.asarray(hi, float), scale
-        if np.any(self.hi <= self.lo) or (scale == "log" and np.any(self.lo <= 0)):
-            raise ValueError(
-                f"training box {self.lo.tolist()} .. {self.hi.tolist()} cannot be scaled ({scale})"
-            )
-
-    def _t(self, theta: np.ndarray) -> np.ndarray:
-        return np.log(theta) if self.scale == "log" else theta
-
-    def __call__(self, theta: np.ndarray) -> np.ndarray:
-        a, b = self._t(self.lo), self._t(self.hi)
-        return (self._t(np.asarray(theta, float)) - a) / (b - a)
-
-    def derivative(self, theta: np.ndarray) -> np.ndarray:
-        """dx/dtheta (n, p), diagonal."""
-        a, b = self._t(self.lo), self._t(self.hi)
-        theta = np.asarray(theta, float)
-        d = 1.0 / theta if self.scale == "log" else np.ones_like(theta)
-        return d / (b - a)
-
-
-def _reduce(Y: np.ndarray, scale: np.ndarray, tol: float, max_components: int) -> PCA:
-    """The smallest PCA whose reconstruction error, divided by ``scale`` (per column), stays
-    under ``tol`` (max over the training rows of the RMS error)."""
-    n_max = int(min(max_components, Y.shape[0] - 1, Y.shape[1]))
-    full = PCA(n_components=n_max, svd_solver="full").fit(Y)
-    scores = full.transform(Y)
-    for k in range(1, n_max + 1):
-        recon = scores[:, :k] @ full.components_[:k] + full.mean_
-        err = np.sqrt(np.mean(((recon - Y) / scale) ** 2, axis=1)).max()
-        if err <= tol:
-            break
-    pca = PCA(n_components=k, svd_solver="full").fit(Y)
-    pca.reconstruction_error_ = float(err)
-    return pca
 
 
 class FieldSurrogate(ABC):
@@ -268,8 +122,8 @@ class FieldSurrogate(ABC):
         U = data.displacement.reshape(data.n, -1)
         u_max = np.abs(data.displacement).max(axis=(0, 1, 2))  # per direction
         u_scale = np.broadcast_to(np.maximum(u_max, 1e-12), data.displacement.shape[1:]).reshape(-1)
-        self.force_pca = _reduce(logf, np.ones(logf.shape[1]), self.pca_tol, self.max_components)
-        self.field_pca = _reduce(U, u_scale, self.pca_tol, self.max_components)
+        self.force_pca = pca_reduction(logf, np.ones(logf.shape[1]), self.pca_tol, self.max_components)
+        self.field_pca = pca_reduction(U, u_scale, self.pca_tol, self.max_components)
         scores = np.hstack([self.force_pca.transform(logf), self.field_pca.transform(U)])
         self.score_mean, self.score_std = scores.mean(axis=0), scores.std(axis=0) + 1e-300
         self.k_force = self.force_pca.n_components_

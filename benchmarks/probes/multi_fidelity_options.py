@@ -33,10 +33,11 @@ import numpy as np
 
 from indentation_studio.atomic_write import atomic_write_json
 from indentation_studio.campaign.loader import load_campaign
-from indentation_studio.surrogate.base import InputScaler, TrainingData, _reduce
+from indentation_studio.surrogate.base import InputScaler, TrainingData
 from indentation_studio.surrogate.gaussian_process import GaussianProcessSurrogate
 from indentation_studio.surrogate.multi_fidelity import MultiFidelitySurrogate, interpolation_matrix
 from indentation_studio.surrogate.persistence import load_surrogate, save_surrogate
+from indentation_studio.surrogate.scaling import pca_reduction
 from indentation_studio.surrogate.training import make_surrogate, train_surrogate
 
 
@@ -138,7 +139,7 @@ def score_space(data, low_data, W):
             ).reshape(-1),
         ),
     ]
-    pcas = [_reduce(Y, scale, 1e-3, 8) for Y, _, scale in blocks]
+    pcas = [pca_reduction(Y, scale, 1e-3, 8) for Y, _, scale in blocks]
     S_hi = np.hstack([p.transform(Y) for p, (Y, _, _) in zip(pcas, blocks, strict=True)])
     S_lo = np.hstack([p.transform(Y) for p, (_, Y, _) in zip(pcas, blocks, strict=True)])
     mean, std = S_hi.mean(axis=0), S_hi.std(axis=0)
