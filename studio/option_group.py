@@ -1,6 +1,6 @@
 """A frozen dataclass of options given to a command as its flags (:func:`option_group`): typer sees
 one flag a field, the command gets one instance (``studio.options.ModelOptions``,
-``studio.import_cli.LabOptions``)."""
+``studio.lab_options.LabOptions``)."""
 
 from __future__ import annotations
 
