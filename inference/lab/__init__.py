@@ -1,7 +1,7 @@
 """A lab's files read into the studio's experiment folder: DIC exports (MatchID, DuoDIC, CSV
 columns), load-frame records (vendor layouts, units, holds at any sampling rate, the contact
 point, drift), the clocks of the two, and the importer that brings them together
-(``experiment_import``). The folder's format and its writer are :mod:`inference.experiment.data`
+(``experiment_import``; what it is told, ``import_sources``). The folder's format and its writer are :mod:`inference.experiment.data`
 and :mod:`inference.experiment.folder`."""
 
 import lazy_loader as lazy
@@ -10,17 +10,13 @@ __getattr__, __dir__, __all__ = lazy.attach(
     __name__,
     submod_attrs={
         "experiment_import": [
-            "ForceSource",
-            "FrameChoice",
-            "IndenterSource",
-            "ProtocolInfo",
             "import_dic_csv",
             "import_duodic",
             "import_experiment",
             "import_load_frame",
             "import_matchid",
-            "parse_frames",
         ],
+        "import_sources": ["ForceSource", "FrameChoice", "IndenterSource", "ProtocolInfo", "parse_frames"],
         "dic_series": ["DICSeries"],
         "load_frame": ["LoadFrameColumns", "find_holds", "read_load_frame"],
         "import_csv": ["CSVMapping"],
