@@ -101,20 +101,7 @@ class StoreClaims:
             return self.files.renew(points, run)
 
     def holds(self, point: int, run: RunIdentity) -> bool:
-        """Whether ``run`` holds the lease of ``point``.
-
-        Parameters
-        ----------
-        point : int
-            The point.
-        run : RunIdentity
-            The run.
-
-        Returns
-        -------
-        bool
-            True when the point's lease names the run.
-        """
+        """Whether ``run`` holds the lease of ``point`` (True when the point's lease names it)."""
         return self.files.held_by(point, run)
 
     def release(self, point: int, run: RunIdentity) -> None:

@@ -23,18 +23,8 @@ __all__ = ["StoreIndex"]
 
 
 class StoreIndex(StoreLayout):
-    """A store's spec and index, and the lock its updates are made under.
-
-    Parameters
-    ----------
-    root : pathlib.Path
-        The campaign folder (``runs/<name>/``).
-    spec : CampaignSpec
-        What the campaign computes.
-    index : pandas.DataFrame
-        One row per point: its parameters, ``status``, ``wall_s``, ``newton_iterations``,
-        ``error``, ``finished`` and the file checks.
-    """
+    """A store's spec and index, and the lock its updates are made under (built with the
+    folder, the spec and the index :class:`~.store.CampaignStore` takes)."""
 
     def __init__(self, root: Path, spec: CampaignSpec, index: pd.DataFrame) -> None:
         super().__init__(root)

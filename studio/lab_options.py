@@ -37,13 +37,11 @@ FRAME_TIMES = Annotated[
     Path | None,
     typer.Option(help="CSV of frame and time: frames matched to the holds by time (the last in each)"),
 ]
-TIME_OFFSET = Annotated[
-    str,
-    typer.Option(
-        help="added to the DIC frame times to reach the load frame's clock, s; 'auto': found from the data "
-        "(the frames' indentation against the stage's depth)"
-    ),
-]
+_TIME_OFFSET_HELP = (
+    "added to the DIC frame times to reach the load frame's clock, s; 'auto': found from the data "
+    "(the frames' indentation against the stage's depth)"
+)
+TIME_OFFSET = Annotated[str, typer.Option(help=_TIME_OFFSET_HELP)]
 TIME_COL = Annotated[str | None, typer.Option(help="record: time column (default: found by name)")]
 POSITION_COL = Annotated[str | None, typer.Option(help="record: position column")]
 FORCE_COL = Annotated[str | None, typer.Option(help="record: force column")]
