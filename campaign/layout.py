@@ -60,46 +60,13 @@ class StoreLayout:
         return self.root / "leases"
 
     def result_path(self, point: int) -> Path:
-        """The result file of a point, ``points/<point>.npz``.
-
-        Parameters
-        ----------
-        point : int
-            The point.
-
-        Returns
-        -------
-        pathlib.Path
-            The file.
-        """
+        """The result file of ``point``, ``points/<point>.npz``."""
         return self.points_dir / f"{point:05d}.npz"
 
     def partial_path(self, point: int) -> Path:
-        """The file of a failed point's finished steps, ``points/<point>.partial.npz``.
-
-        Parameters
-        ----------
-        point : int
-            The point.
-
-        Returns
-        -------
-        pathlib.Path
-            The file.
-        """
+        """The file of failed ``point``'s finished steps, ``points/<point>.partial.npz``."""
         return self.points_dir / f"{point:05d}.partial.npz"
 
     def lease_path(self, point: int) -> Path:
-        """The lease file of a point, ``leases/<point>.json``.
-
-        Parameters
-        ----------
-        point : int
-            The point.
-
-        Returns
-        -------
-        pathlib.Path
-            The file.
-        """
+        """The lease file of ``point``, ``leases/<point>.json``."""
         return self.leases_dir / f"{point:05d}.json"
