@@ -253,6 +253,8 @@ def _print_fit(result: inference.ExperimentFit, payload: dict, check_mesh: str |
         for side, note in fr["mu_reach_notes"].items():
             if note.startswith("taken as reached"):
                 Console().print(f"  mu's {side} end {note}")
+        if fr.get("mu_model_unmeasured"):
+            Console().print(f"  mu not claimed: {fr['mu_model_unmeasured']}")
     Console().print(f"  bounds: {payload['bounds_include']}")
     confirmation = payload["fe_confirmation"]
     if confirmation is not None and confirmation["error"] is None:
@@ -380,6 +382,10 @@ def _print_posterior(result: inference.ExperimentPosterior, payload: dict, png: 
                 f"prior's end {list(result.mu_range)} (the model's own errors on it counted: "
                 f"+- {payload['friction'].get('mu_model_pct') or 0:.3g} %)"
             )
+            if payload["friction"].get("mu_model_unmeasured"):
+                Console().print(
+                    f"  its samples are its prior's: {payload['friction']['mu_model_unmeasured']}"
+                )
             continue
         fit_lo, fit_hi = payload["fit_bounds"][k]
         Console().print(

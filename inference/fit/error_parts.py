@@ -24,7 +24,7 @@ from ..experiment.processing_error import REGISTRATION_MM, processing_error_at
 from .held_out_refits import HeldOutRefits, held_out_refits
 from .inputs import FitInputs
 
-__all__ = ["model_error_with_mu", "mu_held_out_refits", "mu_model_error_pct"]
+__all__ = ["model_error_with_mu", "mu_held_out_refits", "mu_model_error_pct", "mu_model_error_unmeasured"]
 
 
 def model_error_with_mu(
@@ -80,6 +80,37 @@ def model_error_with_mu(
             error = with_emulation_error(error, obj, eta, model, at, free=2)
     error = None if error is None else replace(error, contact=contact)
     return _with_processing(error, inputs, at, contact, registration_mm, say, free=2)
+
+
+def mu_model_error_unmeasured(inputs: FitInputs) -> str | None:
+    """Why the model's error on mu is not measured at the high fidelity, or None where it is.
+
+    A multi-fidelity surrogate whose discrepancy was learned at the stick (``learned_at_stick``)
+    corrects (c1, c5) toward the high fidelity but takes mu's effect from the low level's friction
+    alone: no high-fidelity run with friction ever entered it, so nothing says how far the high
+    fidelity's mu lies from the low level's. Measured (issue 57): data made on contact-L3 at
+    R = 8 mm, {6, 380} kPa, mu = 0.5, recorded as a lab would, fitted on the R = 8 mm box surrogate
+    gave mu = 1.12 with 95 % in (0.61, 1.64) while (c1, c5) were within 0.2 and 0.7 %. A fit on such
+    a surrogate therefore does not claim mu: its interval is mu's whole range.
+
+    Parameters
+    ----------
+    inputs : FitInputs
+        The experiment, surrogate (with mu) and objective.
+
+    Returns
+    -------
+    str or None
+        The reason, in words; None for a surrogate without a high-fidelity level (its own budget
+        counts) or whose discrepancy was learned over mu.
+    """
+    model = inputs.surrogate
+    if has_high_fidelity_level(model) and getattr(model, "learned_at_stick", False):
+        return (
+            "mu's model error at the high fidelity is not measured: the discrepancy was learned at the stick "
+            "(no high-fidelity run with friction), so mu rests on the low level's friction alone"
+        )
+    return None
 
 
 def mu_held_out_refits(inputs: FitInputs, theta: np.ndarray) -> HeldOutRefits | None:

@@ -20,6 +20,7 @@ from .error_parts import (
     model_error_with_mu,
     mu_held_out_refits,
     mu_model_error_pct,
+    mu_model_error_unmeasured,
 )
 from .inputs import FitInputs
 from .inverse_fit import PAPER_START, FitResult, _told, fit_parameters
@@ -268,6 +269,7 @@ def _fit_with_friction(
                 f"mu made again with each of the discrepancy's held-out errors: {refits.refits.shape[0]} refits ..."
             )
         fit.mu_refits = refits
+        fit.mu_unmeasured = mu_model_error_unmeasured(inputs)
         fit.mu_model_pct = mu_model_error_pct(inputs, final.theta, on_surrogate=not refine, refits=refits)
     if stage == "confirm":
         say(f"confirming on the FE solver at {np.round(final.theta, 3).tolist()} ...")

@@ -80,6 +80,9 @@ class ExperimentFit:
     # the fit made again with each of the discrepancy's held-out errors (fit.held_out_refits): an
     # end one of them reaches is one the model's own error reaches
     mu_refits: HeldOutRefits | None = None
+    # why mu's model error at the high fidelity is not measured (fit.error_parts.mu_model_error_unmeasured):
+    # then mu is not claimed, its interval the whole range
+    mu_unmeasured: str | None = None
     adequacy: object | None = None  # inference.adequacy.chi_square.Adequacy: can the model explain the data
     adequacy_note: str | None = None  # why the adequacy test was not made
     confirmation: FitConfirmation | None = None  # fe_stage "confirm": one FE run at the surrogate's fit
@@ -298,6 +301,8 @@ class ExperimentFit:
             if self.mu_refits is not None:
                 refit_reach = self.mu_refits.reaches(2)
                 by_model = {side: by_model[side] or refit_reach[side] for side in by_model}
+            if self.mu_unmeasured is not None:
+                by_model = {"lower": True, "upper": True}
             reach = {
                 side: bool((self.mu_reach or {}).get(side) or by_model[side]) for side in ("lower", "upper")
             }
@@ -311,6 +316,7 @@ class ExperimentFit:
                 "mu_reaches_range_end": reach,
                 "mu_reaches_range_end_by_model_error": by_model,
                 "mu_reach_notes": self.mu_reach_notes,
+                "mu_model_unmeasured": self.mu_unmeasured,
                 "mu_held_out_refits": None if self.mu_refits is None else self.mu_refits.describe(2),
                 "restarts": self.restarts,
                 "mu_identified": mu_is_identified(reach, mu_pct, interval, (lo, hi)),

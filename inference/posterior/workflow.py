@@ -26,7 +26,13 @@ from ..budgets.model_error import (
 )
 from ..experiment.data import ExperimentData
 from ..experiment.processing_error import REGISTRATION_MM
-from ..fit.error_parts import _with_processing, model_error_with_mu, mu_held_out_refits, mu_model_error_pct
+from ..fit.error_parts import (
+    _with_processing,
+    model_error_with_mu,
+    mu_held_out_refits,
+    mu_model_error_pct,
+    mu_model_error_unmeasured,
+)
 from ..fit.friction import _mu_range, fit_on_surrogate_with_mu, surrogate_with_mu
 from ..fit.held_out_refits import HeldOutRefits
 from ..fit.inputs import FitInputs, prepare_fit
@@ -70,6 +76,8 @@ class ExperimentPosterior:
     mu_range: tuple[float, float] | None = None  # the prior's range when mu is sampled
     mu_model_pct: float | None = None  # the model's own errors on mu spread into its samples
     mu_refits: HeldOutRefits | None = None  # the fit made again with the discrepancy's held-out errors
+    # why mu's model error at the high fidelity is not measured (its samples are then the prior's)
+    mu_unmeasured: str | None = None
 
     @property
     def mu_identified(self) -> bool | None:
@@ -83,6 +91,8 @@ class ExperimentPosterior:
         """
         if self.mu_range is None or "mu" not in self.posterior.parameters:
             return None
+        if self.mu_unmeasured is not None:
+            return False
         if self.mu_refits is not None and any(self.mu_refits.reaches(2).values()):
             return False
         k = self.posterior.parameters.index("mu")
@@ -126,6 +136,7 @@ class ExperimentPosterior:
                 "mu_model_pct": self.mu_model_pct,
                 "mu_identified": self.mu_identified,
                 "mu_held_out_refits": None if self.mu_refits is None else self.mu_refits.describe(2),
+                "mu_model_unmeasured": self.mu_unmeasured,
                 "mu_reaches_prior_end": interval_reaches_prior_end(
                     self.posterior.interval(0.95)[k], self.mu_range
                 ),
@@ -373,6 +384,11 @@ def sample_posterior_for(
     if model_error is not None:  # spread by the model error, moved by a corrected budget's correction
         spread = with_model_error(post.samples, model_error, seed, box=box)
         post = replace(post, samples=model_error.corrected(spread))
+    unmeasured = mu_model_error_unmeasured(inputs) if mu_range is not None else None
+    if unmeasured is not None:  # what the data say of mu cannot be told from the model's error in it
+        post = replace(
+            post, samples=_mu_from_prior(post.samples, mu_range, log_uniform=bool(log_uniform), seed=seed)
+        )
     carried = None
     if mesh_check is not None:
         carried = load_mesh_check(mesh_check, inputs.experiment.root, fit.theta)
@@ -390,4 +406,17 @@ def sample_posterior_for(
         mu_range=mu_range,
         mu_model_pct=mu_model_pct,
         mu_refits=refits,
+        mu_unmeasured=unmeasured,
     )
+
+
+def _mu_from_prior(samples: np.ndarray, mu_range, *, log_uniform: bool, seed: int) -> np.ndarray:
+    """The samples with mu (their last column) drawn again from its prior, independently: where
+    mu's model error is not measured (:func:`~indentation_studio.inference.fit.error_parts.mu_model_error_unmeasured`)
+    the data's pull on mu cannot be told from the model's error, and the prior is what is known."""
+    rng = np.random.default_rng(seed + 1)
+    lo, hi = (float(v) for v in mu_range)
+    out = samples.copy()
+    u = rng.random(len(out))
+    out[:, -1] = np.exp(np.log(lo) + u * np.log(hi / lo)) if log_uniform else lo + u * (hi - lo)
+    return out
