@@ -51,7 +51,9 @@ def import_path(path: str):
         for attr in parts[cut:]:
             fields = getattr(obj, "__dataclass_fields__", None) or getattr(obj, "__annotations__", {})
             if not hasattr(obj, attr) and inspect.isclass(obj):
-                assigned = re.search(rf"self\.{attr}\s*[:=]", inspect.getsource(obj))
+                own = [c for c in obj.__mro__ if c.__module__.startswith("indentation_studio.")]
+                # an instance attribute may be set by a base class (CampaignStore's problems)
+                assigned = any(re.search(rf"self\.{attr}\s*[:=]", inspect.getsource(c)) for c in own)
                 if attr in fields or assigned:
                     return EXISTS  # a field or an instance attribute: exists, nothing to import
             try:
