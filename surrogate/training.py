@@ -253,7 +253,11 @@ def train_multi_fidelity(
     """
     low_model = low if isinstance(low, FieldSurrogate) else load_surrogate(low)
     if isinstance(low_model, MultiFidelitySurrogate):  # a discrepancy learned anew on its low level
+        # with the low level's held-out errors, which its file kept at the multi-fidelity level
+        kept = low_model.low_emulation_error
         low_model = low_model.low
+        if low_model.emulation_error is None and kept is not None:
+            low_model.emulation_error = kept
     data = training_data(high_campaign, runs_dir)
     model = surrogate_class("mf")(low_model, pca_tol=pca_tol, max_components=max_components, folds=folds).fit(
         data, seed=seed

@@ -259,11 +259,16 @@ def test_a_file_keeps_the_low_levels_errors_and_moves_them_to_the_high_nodes(mf,
     assert again.low_emulation_error.directions.shape[1] == steps + steps * nodes * 3 < moved.shape[1]
     np.testing.assert_allclose(again.emulation_error.errors(), moved, atol=2e-3 * np.abs(moved).max())
     assert not np.array_equal(again.emulation_error.errors(), moved)  # half precision in the file
+    # its discrepancy learned anew on a high campaign (a shipped file as --low): the low level's
+    # errors come with its low level, so the new surrogate carries them too
+    anew = train_multi_fidelity(tmp_path / "with-errors.safetensors", mf_campaign(), folds=0)
+    np.testing.assert_allclose(anew.emulation_error.errors(), again.emulation_error.errors(), atol=1e-6)
 
 
-def test_training_function_and_refusals(low, high_data, tmp_path):
-    low_file = save_surrogate(low, tmp_path / "low.safetensors")
-    campaign = CampaignData(
+def mf_campaign() -> CampaignData:
+    """The high campaign as a campaign's data (what train_multi_fidelity reads)."""
+    high_data = synthetic(HIGH_THETA, True, "high-campaign")
+    return CampaignData(
         high_data.theta,
         high_data.force,
         displacement=high_data.displacement,
@@ -274,6 +279,11 @@ def test_training_function_and_refusals(low, high_data, tmp_path):
         points=np.arange(high_data.n),
         spec=high_data.source,
     )
+
+
+def test_training_function_and_refusals(low, high_data, tmp_path):
+    low_file = save_surrogate(low, tmp_path / "low.safetensors")
+    campaign = mf_campaign()
     model = train_multi_fidelity(low_file, campaign, folds=0)
     assert model.meta["validation"]["training"]["force_max_pct"] < 0.01
     assert "discrepancy_kfold" not in model.meta and model.meta["campaign"]["name"] == "high-campaign"
