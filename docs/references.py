@@ -56,6 +56,8 @@ def import_path(path: str):
                 assigned = any(re.search(rf"self\.{attr}\s*[:=]", inspect.getsource(c)) for c in own)
                 if attr in fields or assigned:
                     return EXISTS  # a field or an instance attribute: exists, nothing to import
+            if inspect.isclass(obj) and attr in fields and getattr(obj, attr, None) is None:
+                return EXISTS  # a field whose default is None (not "no such name")
             try:
                 obj = getattr(obj, attr)
             except AttributeError:

@@ -8,7 +8,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
     __name__,
     submod_attrs={
         "base": ["FieldSurrogate"],
-        "training_data": ["TrainingData"],
+        "training_set": ["TrainingData"],
         "gaussian_process": ["GaussianProcessSurrogate"],
         "mlp": ["MLPSurrogate"],
         "multi_fidelity": ["MultiFidelitySurrogate"],

@@ -2,7 +2,7 @@
 the PCA reduction of the force curves and of the displacement field (their pieces:
 :mod:`~indentation_studio.surrogate.scaling`), the reconstruction, the chain rule for Jacobians,
 and the Predictor seam (docs/architecture.md, "The Predictor seam"). What a surrogate is trained on
-is :mod:`~indentation_studio.surrogate.training_data`'s (``TrainingData``, importable from here
+is :mod:`~indentation_studio.surrogate.training_set`'s (``TrainingData``, importable from here
 too).
 
 Inputs: theta scaled to [0, 1] over the training box, in log (default) or linearly (``input_scale``);
@@ -28,7 +28,7 @@ from .scaling import INPUT_SCALES as INPUT_SCALES  # X as X: re-exported
 from .scaling import InputScaler, pca_reduction
 from .scaling import padded_jacobian as padded_jacobian
 from .sklearn_state import estimator_from_state, estimator_state
-from .training_data import TrainingData
+from .training_set import TrainingData
 
 #: A point whose nearest training point lies more than this many median training spacings away
 #: (:meth:`FieldSurrogate.training_gap`) lies in a region without training points. Inside a
