@@ -123,6 +123,28 @@ def test_corner_figure_shows_a_truth_far_from_the_samples():
     assert len(fig.axes[2].lines) >= 4  # fit and truth cross-hairs, the ellipse
 
 
+def test_a_log_uniform_mu_not_identified_is_drawn_flat_on_a_log_axis():
+    """mu drawn from its log-uniform prior: on a log axis its histogram is flat (no bin more than
+    twice another), where a linear axis piles it at the range's low end as if the data said so."""
+    from indentation_studio.inference.posterior.sampling import Posterior
+    from indentation_studio.studio.figures import corner_figure
+
+    rng = np.random.default_rng(0)
+    mu = np.exp(rng.uniform(np.log(0.1), np.log(3.0), 8000))
+    samples = np.column_stack([rng.normal(12.0, 0.1, 8000), rng.normal(250.0, 7.0, 8000), mu])
+    post = Posterior(samples, ("c1", "c5", "mu"), np.array([20.0, 20.0, 20.0]), 0.7, True, 1.0, 0.004)
+    heights = {}
+    for scale in ((), ("mu",)):
+        fig = corner_figure(post, np.array([12.0, 250.0, 0.5]), not_identified=("mu",), log_axes=scale)
+        diag = fig.axes[8]
+        assert diag.get_xscale() == ("log" if scale else "linear")
+        bins = diag.patches[0].get_path().vertices[1::2, 1]  # corner's histogram: one step polygon
+        bins = bins[bins > 0]
+        heights[scale] = bins[1:-1]  # the end bins reach past the range (the plot's 5 % margin)
+    flat, piled = heights[("mu",)], heights[()]
+    assert flat.max() < 2 * flat.min() and piled.max() > 5 * piled.min()
+
+
 def test_the_chain_runs_on_until_emcees_rule_holds_or_says_what_it_needs(linear_target):
     from indentation_studio.inference.posterior.sampling import AUTOCORRELATION_TOL
 

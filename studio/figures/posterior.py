@@ -18,6 +18,7 @@ def corner_figure(
     *,
     bounds=None,
     not_identified: tuple[str, ...] = (),
+    log_axes: tuple[str, ...] = (),
 ) -> Figure:
     """Corner plot (corner package) of posterior samples, with the fit, its bounds and eq. 6 ellipse overlaid.
 
@@ -41,6 +42,9 @@ def corner_figure(
     not_identified : tuple of str, default ()
         Parameters the data do not identify (a marginal that reaches its prior's end): said on
         their panel, their fit line not drawn.
+    log_axes : tuple of str, default ()
+        Parameters drawn on a log axis (mu under a log-uniform prior: its prior then looks flat,
+        as it is, instead of piling at the range's low end as if the data pointed there).
 
     Returns
     -------
@@ -56,10 +60,15 @@ def corner_figure(
         known = np.array([np.nan if v is None else v for v in truth])
         # widened so that a truth far from the samples is seen, not clipped
         span = np.column_stack([np.fmin(span[:, 0], known), np.fmax(span[:, 1], known)])
+    logged = np.array([name in log_axes for name in posterior.parameters])
     pad = 0.05 * (span[:, 1] - span[:, 0])
+    ranges = np.column_stack([span[:, 0] - pad, span[:, 1] + pad])
+    ratio = (span[:, 1] / np.where(logged, span[:, 0], 1.0)) ** 0.05  # the same 5 % in log
+    ranges[logged] = np.column_stack([span[logged, 0] / ratio[logged], span[logged, 1] * ratio[logged]])
     fig = corner.corner(
         posterior.samples,
-        range=list(zip(span[:, 0] - pad, span[:, 1] + pad, strict=True)),
+        range=[tuple(r) for r in ranges],
+        axes_scale=["log" if flag else "linear" for flag in logged],
         labels=labels,
         quantiles=[0.025, 0.5, 0.975],
         show_titles=True,
@@ -150,4 +159,5 @@ def posterior_corner_figure(post, *, fit=None, truth=None) -> Figure:
         truth=truth,
         bounds=post.fit_bounds,
         not_identified=post.not_identified,
+        log_axes=("mu",) if post.friction.mode == "marginalise" else (),
     )
