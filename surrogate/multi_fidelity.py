@@ -351,17 +351,16 @@ class MultiFidelitySurrogate(TwoLevelSurrogate):
         """Held-out errors of the discrepancy model (PCA truncation and GP together), refitted on
         each fold's rest: the multi-fidelity prediction's errors at the high-fidelity points."""
         folds = min(self.folds, D.n)
-        df, du = [], []
+        df, du, held = [], [], []
         for train, test in KFold(folds, shuffle=True, random_state=seed).split(D.theta):
+            held.append(test)
             model = self._discrepancy_model().fit(D.subset(train), seed=seed)
             pred = model.predict(D.theta[test])
             df.append(np.log(pred.force) - np.log(D.force[test]))
             du.append(pred.displacement - D.displacement[test])
         rel_f = np.expm1(np.concatenate(df))
         err_u = np.concatenate(du)
-        order = np.concatenate(
-            [test for _, test in KFold(folds, shuffle=True, random_state=seed).split(D.theta)]
-        )
+        order = np.concatenate(held)
         # the multi-fidelity prediction's errors there (the FE response minus the prediction), as a
         # low surrogate's held-out errors are kept: what a fit pushes through to a fitted mu
         self.discrepancy_error = EmulationError.from_errors(

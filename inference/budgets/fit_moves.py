@@ -17,6 +17,7 @@ __all__ = [
     "emulation_error_pct",
     "fit_moves",
     "has_high_fidelity_level",
+    "moved_prediction",
     "residual_changes",
 ]
 
@@ -26,14 +27,33 @@ def has_high_fidelity_level(surrogate) -> bool:
     return callable(getattr(surrogate, "discrepancy_covariance_factor", None))
 
 
-def _perturbed(prediction: Prediction, force_log: np.ndarray, field: np.ndarray) -> Prediction:
-    """The prediction with its log force and field moved by one discrepancy direction."""
+def moved_prediction(prediction: Prediction, force_log: np.ndarray, field: np.ndarray) -> Prediction:
+    """The prediction with its log force and field moved by one output-space change.
+
+    The change is the same at every theta, so the force's Jacobian is scaled with the force and
+    the field's is unchanged.
+
+    Parameters
+    ----------
+    prediction : Prediction
+        The prediction.
+    force_log : numpy.ndarray
+        (steps,) the change of log force.
+    field : numpy.ndarray
+        (steps * nodes * 3,) the change of the field, mm.
+
+    Returns
+    -------
+    Prediction
+    """
+    factor = np.exp(force_log)
     return replace(
         prediction,
-        force=prediction.force * np.exp(force_log)[None],
+        force=prediction.force * factor[None],
         displacement=prediction.displacement + field.reshape(prediction.displacement.shape[1:])[None],
-        force_jacobian=None,
-        displacement_jacobian=None,
+        force_jacobian=None
+        if prediction.force_jacobian is None
+        else prediction.force_jacobian * factor[None, :, None],
     )
 
 
@@ -82,7 +102,10 @@ def residual_changes(objective: Objective, eta, prediction: Prediction, outputs:
     r0 = objective.residuals(prediction, e)[0]
     steps = prediction.force.shape[1]
     return np.stack(
-        [objective.residuals(_perturbed(prediction, row[:steps], row[steps:]), e)[0] - r0 for row in outputs]
+        [
+            objective.residuals(moved_prediction(prediction, row[:steps], row[steps:]), e)[0] - r0
+            for row in outputs
+        ]
     )
 
 

@@ -12,12 +12,12 @@ upper end. The refits say what the linearisation cannot: whether the model's own
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
 from ...forward.predictor import Prediction
-from ..budgets.fit_moves import FEW_HELD_OUT
+from ..budgets.fit_moves import FEW_HELD_OUT, moved_prediction
 from .inverse_fit import fit_parameters
 
 __all__ = ["END_SHARE", "MAX_REFITS", "HeldOutRefits", "held_out_refits"]
@@ -37,17 +37,12 @@ class _ShiftedPredictor:
         self.predictor = predictor
         self.parameters = predictor.parameters
         self.scaler = getattr(predictor, "scaler", None)
-        self._factor = np.exp(np.asarray(error[:steps], float))
+        self._force_log = np.asarray(error[:steps], float)
         self._field = np.asarray(error[steps:], float)
 
     def predict(self, theta, jacobian: bool = False) -> Prediction:
-        base = self.predictor.predict(theta, jacobian=jacobian)
-        f = self._factor
-        return replace(
-            base,
-            force=base.force * f[None],
-            displacement=base.displacement + self._field.reshape(base.displacement.shape[1:])[None],
-            force_jacobian=None if base.force_jacobian is None else base.force_jacobian * f[None, :, None],
+        return moved_prediction(
+            self.predictor.predict(theta, jacobian=jacobian), self._force_log, self._field
         )
 
 
