@@ -10,10 +10,10 @@ from importlib.metadata import PackageNotFoundError, version
 
 import lazy_loader as lazy
 
-from .thread_waits import sleeping_thread_waits
+from .thread_waits import brief_thread_waits
 
-# before MKL, numba or torch loads an OpenMP runtime: waiting threads sleep (thread_waits)
-sleeping_thread_waits()
+# before MKL, numba or torch loads an OpenMP runtime: waiting threads spin briefly, then sleep
+brief_thread_waits()
 
 try:
     __version__ = version("indentation-studio")

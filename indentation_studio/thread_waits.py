@@ -1,36 +1,51 @@
-"""Threads that wait for work sleep instead of spinning (``OMP_WAIT_POLICY=PASSIVE``).
+"""Threads that wait for work spin briefly, then sleep (``GOMP_SPINCOUNT=3000``).
 
 MKL's PARDISO (on GNU OpenMP with pip's wheels, ``libmkl_gnu_thread``; Intel OpenMP elsewhere),
-numba's kernels and torch keep their idle threads spinning by default, which pays where every thread has a core of its own and costs dearly where
-one does not: with another process on one of two cores, a contact-L1 run with sensitivities (the
-fit's FE confirmation) took 51.4 s with PARDISO on two threads against 6.3 s on one; with the
-waits passive, 6.7 s (docs/validation/solver-and-speed.md, "Threads that wait"). An OpenMP
-runtime reads the policy when it starts, so it is set when the package is imported, before any
-of them is loaded; a value the user set is kept.
+numba's ``omp`` layer and torch keep their idle threads spinning by default (GNU OpenMP about
+300,000 spins after each parallel region, Intel OpenMP 200 ms), which pays where every thread has
+a core of its own and costs dearly where one does not. Sleeping at once (``OMP_WAIT_POLICY=
+PASSIVE``, the package's choice until issue 58) pays the wake-ups instead: 20 to 30 % of a small
+run on an idle machine. A short spin keeps both: two threads, measured by
+``benchmarks/thread_waits.py --waits`` (docs/validation/solver-and-speed.md, "Threads that wait"),
+the paper protocol warm 0.98 s idle and 1.88 s beside a busy core with 3,000 spins, against 1.21
+and 1.65 s passive and 0.90 and 10 s with the runtime's default. Intel OpenMP, which ignores
+GNU's spin count, keeps the passive wait (``KMP_BLOCKTIME=0``).
+
+A runtime reads these when it starts, so they are set when the package is imported, before any
+of them is loaded. A wait policy or spin count the user set is kept, and then nothing is added.
 """
 
 from __future__ import annotations
 
 import os
 
-__all__ = ["WAIT_POLICY", "sleeping_thread_waits"]
+__all__ = ["WAIT_SETTINGS", "brief_thread_waits"]
 
-#: The OpenMP wait policy the package asks for unless the user set one.
-WAIT_POLICY = "PASSIVE"
+#: What the package asks of OpenMP runtimes unless the user chose: GNU's waiting threads spin
+#: 3,000 times (a few microseconds) before they sleep; Intel's sleep at once.
+WAIT_SETTINGS = {"GOMP_SPINCOUNT": "3000", "KMP_BLOCKTIME": "0"}
+
+#: The variables by which a user chooses the waits; if any is set, the package adds nothing.
+USER_CHOICES = ("OMP_WAIT_POLICY", "GOMP_SPINCOUNT", "KMP_BLOCKTIME")
 
 
-def sleeping_thread_waits() -> str:
-    """Ask the OpenMP runtimes loaded from now on to let waiting threads sleep.
+def brief_thread_waits() -> dict[str, str]:
+    """Ask the OpenMP runtimes loaded from now on to spin briefly, then sleep, when they wait.
 
     Returns
     -------
-    str
-        The policy in force: ``OMP_WAIT_POLICY`` as the user set it, else ``WAIT_POLICY``.
+    dict of str to str
+        The wait settings in force: the user's where any of ``USER_CHOICES`` is set (the
+        package then sets nothing), else ``WAIT_SETTINGS``.
 
     Examples
     --------
-    >>> from indentation_studio.thread_waits import sleeping_thread_waits
-    >>> sleeping_thread_waits() in ("PASSIVE", "ACTIVE", "passive", "active")
+    >>> from indentation_studio.thread_waits import brief_thread_waits
+    >>> isinstance(brief_thread_waits(), dict)
     True
     """
-    return os.environ.setdefault("OMP_WAIT_POLICY", WAIT_POLICY)
+    chosen = {k: os.environ[k] for k in USER_CHOICES if k in os.environ}
+    if chosen:
+        return chosen
+    os.environ.update(WAIT_SETTINGS)
+    return dict(WAIT_SETTINGS)

@@ -1,6 +1,7 @@
 """The thread policy: a lone run takes the idle cores, a fixed count is honoured, and the numbers
 do not depend on the thread count beyond round-off."""
 
+import json
 import os
 import subprocess
 import sys
@@ -73,14 +74,27 @@ def test_a_campaign_worker_solves_on_one_thread(monkeypatch):
     assert row["status"] == "done" and seen == [1]
 
 
-@pytest.mark.parametrize("preset, expected", [(None, "PASSIVE"), ("ACTIVE", "ACTIVE")])
-def test_importing_the_package_lets_waiting_openmp_threads_sleep_unless_the_user_chose(preset, expected):
-    env = {k: v for k, v in os.environ.items() if k != "OMP_WAIT_POLICY"}
-    if preset is not None:
-        env["OMP_WAIT_POLICY"] = preset
-    code = "import os, indentation_studio; print(os.environ['OMP_WAIT_POLICY'])"
-    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
-    assert out.stdout.strip() == expected
+@pytest.mark.parametrize(
+    "preset, expected",
+    [
+        ({}, {"GOMP_SPINCOUNT": "3000", "KMP_BLOCKTIME": "0", "OMP_WAIT_POLICY": None}),
+        (
+            {"OMP_WAIT_POLICY": "ACTIVE"},
+            {"GOMP_SPINCOUNT": None, "KMP_BLOCKTIME": None, "OMP_WAIT_POLICY": "ACTIVE"},
+        ),
+        ({"GOMP_SPINCOUNT": "0"}, {"GOMP_SPINCOUNT": "0", "KMP_BLOCKTIME": None, "OMP_WAIT_POLICY": None}),
+    ],
+)
+def test_importing_the_package_makes_waiting_openmp_threads_spin_briefly_unless_the_user_chose(
+    preset, expected
+):
+    env = {k: v for k, v in os.environ.items() if k not in expected}
+    env.update(preset)
+    code = "import json, os, indentation_studio; print(json.dumps({k: os.environ.get(k) for k in %r}))"
+    out = subprocess.run(
+        [sys.executable, "-c", code % sorted(expected)], env=env, capture_output=True, text=True, check=True
+    )
+    assert json.loads(out.stdout) == expected
 
 
 class _Stop(Exception):
