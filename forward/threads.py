@@ -11,7 +11,7 @@ element's share to its own slot and PARDISO's factorisation is deterministic per
 (tests/test_solver.py compares 1 and 2 threads to 1e-8 relative).
 
 Threads that wait spin by default, and a spinning thread on a core another process needs costs
-more than the thread gains: the package asks OpenMP runtimes to let waiting threads sleep
+more than the thread gains: the package asks OpenMP runtimes to spin briefly, then sleep
 (:mod:`indentation_studio.thread_waits`), and the experiment workflows (``fit_experiment``,
 ``sample_posterior_for``) keep numpy's BLAS (OpenBLAS, whose threads spin whatever the policy) on
 one thread (measured in docs/validation/solver-and-speed.md, "Threads that wait").
