@@ -39,9 +39,17 @@ __all__ = ["CONTACT_STATS", "PenaltyContact"]
 
 log = logging.getLogger(__name__)
 
-#: With Coulomb friction, each Newton solve takes at most this many damped steps
-#: (EmbeddedSolver._equilibrate_friction).
-FRICTION_NEWTON = 60
+#: Under the penalty stick, each Newton solve takes at most this many damped steps
+#: (:meth:`PenaltyContact.equilibrate`); then the increment is cut back.
+STICK_NEWTON = 60
+#: With Coulomb friction, at most this many: an increment that has not converged by then is cut
+#: back rather than driven on. At the hardest increments (many points slipping, the contact's
+#: edge turning round) a Newton solve took 50 to 60 damped steps where its two halves take 10 to
+#: 20 together: contact-L1, R = 4.77 mm, {3, 540} kPa, mu 0.3, CPU 41.5 -> 30.7 s, the forces
+#: within 6e-4 of 60's, a third of the increments' own error (2e-3 against four increments a
+#: step); nothing changes where no solve needs more (docs/validation/solver-and-speed.md,
+#: "Friction's hard increments").
+FRICTION_NEWTON = 20
 #: A top node's contact block (its 3 x 3 share of the tangent) counts as changed since the
 #: factorisation when it moved by more than this fraction of the node's penalty: a node that came
 #: into contact, left it, or slips (EmbeddedSolver._contact_correction).
@@ -262,7 +270,8 @@ class PenaltyContact(IndenterContact):
         Raises
         ------
         forward.newton.IncrementFailed
-            No convergence in ``FRICTION_NEWTON`` iterations, or an inverted element.
+            No convergence in ``STICK_NEWTON`` iterations (``FRICTION_NEWTON`` with friction), or
+            an inverted element.
 
         Notes
         -----
@@ -284,7 +293,8 @@ class PenaltyContact(IndenterContact):
         except InvertedElementError as exc:
             raise IncrementFailed(str(exc)) from exc
         last, stale_steps, fresh_step, exact = np.inf, MAX_STALE_STEPS, True, False
-        for it in range(1, FRICTION_NEWTON + 1):
+        max_steps = STICK_NEWTON if self.friction is None else FRICTION_NEWTON
+        for it in range(1, max_steps + 1):
             norm = np.linalg.norm(np.where(cmask, 0.0, R))
             ref = max(np.linalg.norm(R[cmask]), s.force_scale)
             log.debug("newton %d: residual %.3e of %.3e", it, norm, ref)
@@ -322,7 +332,7 @@ class PenaltyContact(IndenterContact):
                 # the residual with the statuses this state calls for; the next step is a Newton step
                 R, _, _ = s.assemble(u.reshape(-1, 3), tangent=False)
                 last, exact, stale_steps = np.inf, False, MAX_STALE_STEPS
-        raise IncrementFailed(f"Newton did not converge in {FRICTION_NEWTON} iterations")
+        raise IncrementFailed(f"Newton did not converge in {max_steps} iterations")
 
     def _krylov_rtol(self, norm: float, ref: float) -> float:
         """The relative residual an inexact Newton step is solved to.

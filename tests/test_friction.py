@@ -316,3 +316,31 @@ def test_turning_points_predicted_to_stick_save_newton_iterations_not_accuracy(m
     n_cut = int(cut.convergence["newton_iterations"].sum())
     assert n_predicted < 0.85 * n_cut
     np.testing.assert_allclose(predicted.force[1:], cut.force[1:], rtol=2e-5)
+
+
+@pytest.mark.slow
+def test_a_friction_increment_that_newton_cannot_finish_in_twenty_steps_is_cut_back(monkeypatch):
+    """contact-L0, R = 4.77 mm, {3, 540} kPa, mu = 0.3, 28 x 0.5 mm (measured 2026-11-29): with
+    the cap of 60 damped steps two increments take 31 and 61 (one cut back after 60); with 20
+    they are cut back early, 289 -> 234 Newton iterations, and the forces move by at most 4e-4
+    relative, under the increments' own error (1.05e-3 against four increments a step, the same
+    for both caps). Under the stick the cap stays 60."""
+    import indentation_studio.forward.penalty_contact as penalty_contact
+
+    assert penalty_contact.FRICTION_NEWTON == 20 and penalty_contact.STICK_NEWTON == 60
+    spec = (
+        ModelSpec(mesh=MeshChoice("contact-L0"), protocol=Protocol(step_size=0.5, steps=28))
+        .with_material(c1=3.0, c5=540.0)
+        .with_friction(0.3)
+    )
+    early = EmbeddedSolver(spec).run(threads=1)
+    monkeypatch.setattr(penalty_contact, "FRICTION_NEWTON", 60)
+    late = EmbeddedSolver(spec).run(threads=1)
+    assert early.convergence["cutbacks"].sum() > late.convergence["cutbacks"].sum()
+    assert (
+        early.convergence["newton_iterations"].max()
+        <= 2 * 20 + 1
+        < late.convergence["newton_iterations"].max()
+    )
+    assert early.convergence["newton_iterations"].sum() < 0.9 * late.convergence["newton_iterations"].sum()
+    np.testing.assert_allclose(early.force[1:], late.force[1:], rtol=1e-3)
