@@ -81,7 +81,9 @@ PYSPY_RULES: list[tuple[str, tuple[tuple[str, str], ...]]] = [
 
 
 def sensitivity_factorises_first() -> None:
-    """Cure candidate (issue 58, not in the solver): the sensitivity solve factorises the converged
+    """Cure candidate (issue 58; landed since in ``NewtonSystem.sensitivity_solve``, so a no-op on
+    today's solver, kept to make the measurement again on the commits before): the sensitivity
+    solve factorises the converged
     tangent at once where the factorisation in hand is the one the previous sensitivity solve left
     (the CG to 1e-11 preconditioned with it, a step old, mostly fails after ``krylov_maxiter()``
     iterations and factorises then). Patches :meth:`NewtonSystem.sensitivity_solve` in this process."""

@@ -189,6 +189,8 @@ class NewtonSystem:
     sphere: RigidSphere
     force_scale: float
     want_sensitivities: bool
+    #: the factorisation count the last sensitivity solve ended with (-1: none yet)
+    _sensitivity_factorisation: int = -1
 
     def assemble(
         self, u: np.ndarray, tangent: bool = True, parameter_derivatives: bool = False
@@ -424,7 +426,12 @@ class NewtonSystem:
 
         Krylov on the exact converged tangent, preconditioned with the factorisation in hand
         (with the contact's correction) when it covers the constraints; where it does not get
-        there, K is factorised and the solve repeated.
+        there, K is factorised and the solve repeated. Where the factorisation in hand is the one
+        the previous sensitivity solve ended with (no Newton step of this increment made a newer
+        one), K is factorised first: CG to ``SENSITIVITY_RTOL`` on an increment-old factorisation
+        failed in 24 of 28 steps of contact-L3 {10, 350} kPa and cost more than the factorisation
+        (162 -> 135 s CPU in all, forces within 1.4e-6; docs/validation/solver-and-speed.md,
+        "Where the time goes"). The factorisation made here preconditions the next increment.
 
         Parameters
         ----------
@@ -447,6 +454,8 @@ class NewtonSystem:
         t = time.perf_counter()
         before = {k: self.stats[k] for k in ("factorizations", "krylov_iterations")}
         x, lu = np.zeros_like(b), None
+        if self.stats["factorizations"] == self._sensitivity_factorisation and self.linear.covers(cmask):
+            self.factorize(K, cmask)
         for k in range(b.shape[1]):
             col = (
                 self.krylov(K, cmask, b[:, k], SENSITIVITY_RTOL, self.krylov_maxiter())
@@ -465,6 +474,7 @@ class NewtonSystem:
             if col is None:
                 raise LinearSolveError("the sensitivity solve did not converge")
             x[:, k] = col
+        self._sensitivity_factorisation = self.stats["factorizations"]
         self.stats["sensitivity_solves"] += 1
         self.stats["sensitivity_columns"] += int(b.shape[1])
         self.stats["sensitivity_s"] += time.perf_counter() - t
