@@ -20,12 +20,14 @@ settings alternate ``--repeats`` times so that the machine's drift falls on all 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import statistics
 import subprocess
 import sys
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 #: (label, numba threads, MKL threads, extra environment)
@@ -96,16 +98,26 @@ def run_code(code: str, extra: dict[str, str]) -> float:
     return float(out.stdout.strip().splitlines()[-1])
 
 
+@contextlib.contextmanager
+def machine_in(state: str) -> Iterator[None]:
+    """Nothing for ``"idle"``; otherwise a busy loop on one core for the block's length."""
+    busy = None
+    if state != "idle":
+        busy = subprocess.Popen([sys.executable, "-c", "while True: pass"])
+        time.sleep(1.0)
+    try:
+        yield
+    finally:
+        if busy is not None:
+            busy.kill()
+
+
 def compare_waits(repeats: int) -> dict[str, dict[str, list[float]]]:
     """The paper protocol warm and the FE confirmation's run on two threads under each wait
     setting, idle and beside a busy loop, the settings alternating ``repeats`` times."""
     rows: dict[str, dict[str, list[float]]] = {}
     for state in ("idle", "one core busy"):
-        busy = None
-        if state != "idle":
-            busy = subprocess.Popen([sys.executable, "-c", "while True: pass"])
-            time.sleep(1.0)
-        try:
+        with machine_in(state):
             for _ in range(repeats):
                 for label, extra in WAIT_SETTINGS:
                     cell = rows.setdefault(label, {})
@@ -118,25 +130,13 @@ def compare_waits(repeats: int) -> dict[str, dict[str, list[float]]]:
                         file=sys.stderr,
                         flush=True,
                     )
-        finally:
-            if busy is not None:
-                busy.kill()
     return rows
 
 
 def one_run(nb: int, mkl: int, extra: dict[str, str]) -> float:
     """The wall time of one run in a fresh process, s."""
-    env = {k: v for k, v in os.environ.items() if k not in ("OMP_WAIT_POLICY", "KMP_BLOCKTIME")}
-    env["OMP_WAIT_POLICY"] = "ACTIVE"  # the runtimes' default, which the package would otherwise change
-    env.update(extra)
-    out = subprocess.run(
-        [sys.executable, "-c", RUN.format(nb=nb, mkl=mkl)],
-        env=env,
-        capture_output=True,
-        text=True,
-        check=True,
-    )
-    return float(out.stdout.strip().splitlines()[-1])
+    # the runtimes' default, which the package would otherwise change
+    return run_code(RUN.format(nb=nb, mkl=mkl), {"OMP_WAIT_POLICY": "ACTIVE", **extra})
 
 
 def main() -> None:
@@ -157,18 +157,11 @@ def main() -> None:
         return
     rows = {}
     for state in ("idle", "one core busy"):
-        busy = None
-        if state != "idle":
-            busy = subprocess.Popen([sys.executable, "-c", "while True: pass"])
-            time.sleep(1.0)
-        try:
+        with machine_in(state):
             for label, nb, mkl, extra in CONFIGS:
                 times = [one_run(nb, mkl, extra) for _ in range(args.repeats)]
                 rows.setdefault(label, {})[state] = statistics.median(times)
                 print(f"{state}: {label}: {rows[label][state]:.1f} s", file=sys.stderr, flush=True)
-        finally:
-            if busy is not None:
-                busy.kill()
     print("| the FE confirmation's run | idle | one core busy |\n| --- | --- | --- |")
     for label, t in rows.items():
         print(f"| {label} | {t['idle']:.1f} s | {t['one core busy']:.1f} s |")
