@@ -107,7 +107,10 @@ def test_the_default_fit_is_confirmed_by_one_fe_run_recorded_in_fit_json(
     free = gauss_newton_step(r, J, theta)  # no range: the normal equations
     np.testing.assert_allclose(free, np.linalg.solve(J.T @ J, -J.T @ r), rtol=1e-8)
     shift = np.abs(c["gauss_newton_shift_pct"])
-    half = np.array([np.inf if b is None else b for b in c["statistical_pct"]])
+    half = np.array([np.inf if b is None else b for b in c["allowed_pct"]])
+    stat = np.array([np.inf if b is None else b for b in c["statistical_pct"]])
+    own = np.array([np.inf if b is None else b for b in c["surrogate_pct"]])
+    np.testing.assert_allclose(half, np.hypot(stat, own), rtol=1e-12)
     beyond = [k for k, s, b in zip(("c1", "c5", "mu"), shift, half, strict=True) if s > b]
     assert c["shift_beyond_bound"] == beyond
     assert any("FE confirmation disagrees" in w for w in d["warnings"]) == bool(beyond)
@@ -127,9 +130,25 @@ def test_a_shift_beyond_the_bound_is_a_warning_and_a_failed_run_keeps_the_fit(mu
     tight = confirm_fit(obj, fe, eta, theta, F_surrogate=fit.fit.F, statistical_pct=[1e-6, 1e-6])
     assert tight.shift_beyond_bound == ["c1", "c5"]
     (warning,) = tight.warnings
-    assert f"c1 {tight.shift_pct[0]:+.2f} % (bound +- 0.00 %)" in warning and "--fe-stage fit" in warning
+    assert (
+        f"c1 {tight.shift_pct[0]:+.2f} % (bound +- 0.00 %, statistical)" in warning
+        and "--fe-stage fit" in warning
+    )
     loose = confirm_fit(obj, fe, eta, theta, F_surrogate=fit.fit.F, statistical_pct=[1e6, 1e6])
     assert loose.warnings == [] and loose.F_fe == tight.F_fe
+    # the surrogate's own error is the part of the bound that holds its miss: a shift inside the
+    # two combined is no warning; beyond them it is, naming both
+    shift = np.abs(tight.shift_pct[:2])
+    held = confirm_fit(
+        obj, fe, eta, theta, F_surrogate=fit.fit.F, statistical_pct=0.6 * shift, surrogate_pct=0.9 * shift
+    )
+    assert held.shift_beyond_bound == [] and held.warnings == []
+    np.testing.assert_allclose(held.allowed_pct, np.hypot(0.6, 0.9) * shift, rtol=1e-12)
+    short = confirm_fit(
+        obj, fe, eta, theta, F_surrogate=fit.fit.F, statistical_pct=0.6 * shift, surrogate_pct=0.7 * shift
+    )
+    assert short.shift_beyond_bound == ["c1", "c5"]
+    assert "statistical and the surrogate's own error" in short.warnings[0]
 
     class Diverges:
         parameters = fe.parameters

@@ -1,12 +1,14 @@
 """The FE confirmation that ends a fit on a surrogate (paper 2.8.2 runs the inverse fit on the FE
 model itself; here the FE model confirms the surrogate's fit, as in 3.4): one FE run with its exact
 sensitivities at the fitted theta, the objective there, and how far one Gauss-Newton step from that
-run would move each parameter, against the fit's statistical bound.
+run would move each parameter, against the part of the fit's bound that is there to hold it: the
+statistical half-width (eq. 6) combined in quadrature with the surrogate's own error (its held-out
+errors pushed through the fit), where the fit carries that part.
 
-A step inside the bound says the surrogate's minimum is the FE model's to within what the data
-resolve; a step beyond it is a warning with numbers (the surrogate misses the FE model there, and a
-fit on the FE stage, ``fe_stage="fit"``, is worth its minutes). A run that fails is said, and the
-surrogate's fit is kept.
+A step inside that bound says the surrogate's minimum is the FE model's to within what the data
+resolve and the surrogate's measured error; a step beyond it is a warning with numbers (the
+surrogate misses the FE model there by more than its bounds carry, and a fit on the FE stage,
+``fe_stage="fit"``, is worth its minutes). A run that fails is said, and the surrogate's fit is kept.
 """
 
 from __future__ import annotations
@@ -55,6 +57,9 @@ class FitConfirmation:
         Their Jacobian with respect to log theta.
     prediction : Prediction or None
         The FE run's response.
+    surrogate_pct : numpy.ndarray or None
+        The surrogate's own error in the fit's bound, per parameter, percent (infinite for a
+        parameter whose reported interval is its whole range); None: not carried.
     """
 
     theta: np.ndarray
@@ -68,18 +73,25 @@ class FitConfirmation:
     residuals: np.ndarray | None = field(default=None, repr=False)
     jacobian: np.ndarray | None = field(default=None, repr=False)
     prediction: Prediction | None = field(default=None, repr=False)
+    surrogate_pct: np.ndarray | None = None
+
+    @property
+    def allowed_pct(self) -> np.ndarray:
+        """The half-widths a Gauss-Newton shift is held to, percent: the statistical bound combined
+        in quadrature with the surrogate's own error where carried."""
+        if self.surrogate_pct is None:
+            return self.statistical_pct
+        return np.hypot(self.statistical_pct, self.surrogate_pct[: len(self.statistical_pct)])
 
     @property
     def shift_beyond_bound(self) -> list[str]:
-        """The parameters whose Gauss-Newton shift exceeds their statistical bound."""
+        """The parameters whose Gauss-Newton shift exceeds :attr:`allowed_pct`."""
         if self.shift_pct is None:
             return []
         n = len(self.statistical_pct)
         return [
             k
-            for k, shift, half in zip(
-                self.parameters[:n], self.shift_pct[:n], self.statistical_pct, strict=True
-            )
+            for k, shift, half in zip(self.parameters[:n], self.shift_pct[:n], self.allowed_pct, strict=True)
             if abs(shift) > half
         ]
 
@@ -94,15 +106,19 @@ class FitConfirmation:
         beyond = self.shift_beyond_bound
         if not beyond:
             return []
+        held = (
+            "statistical and the surrogate's own error" if self.surrogate_pct is not None else "statistical"
+        )
         moves = ", ".join(
-            f"{k} {self.shift_pct[j]:+.2f} % (bound +- {self.statistical_pct[j]:.2f} %)"
+            f"{k} {self.shift_pct[j]:+.2f} % (bound +- {self.allowed_pct[j]:.2f} %, {held})"
             for j, k in enumerate(self.parameters[: len(self.statistical_pct)])
             if k in beyond
         )
         return [
             f"the FE confirmation disagrees with the surrogate's fit: one Gauss-Newton step from the FE run "
             f"moves {moves}, F = {self.F_fe:.4g} on the FE model against {self.F_surrogate:.4g} on the "
-            "surrogate; the surrogate misses the FE model here: fit with --fe-stage fit"
+            "surrogate; the surrogate misses the FE model here by more than the bounds carry: fit with "
+            "--fe-stage fit"
         ]
 
     def to_dict(self) -> dict:
@@ -114,6 +130,10 @@ class FitConfirmation:
             "F_surrogate": self.F_surrogate,
             "gauss_newton_shift_pct": None if self.shift_pct is None else self.shift_pct.tolist(),
             "statistical_pct": [float(v) if np.isfinite(v) else None for v in self.statistical_pct],
+            "surrogate_pct": None
+            if self.surrogate_pct is None
+            else [float(v) if np.isfinite(v) else None for v in self.surrogate_pct],
+            "allowed_pct": [float(v) if np.isfinite(v) else None for v in self.allowed_pct],
             "shift_beyond_bound": self.shift_beyond_bound,
             "wall_s": self.wall_s,
             "error": self.error,
@@ -129,6 +149,7 @@ def confirm_fit(
     F_surrogate: float,
     statistical_pct,
     box: tuple[np.ndarray, np.ndarray] | None = None,
+    surrogate_pct=None,
 ) -> FitConfirmation:
     """Run the FE model once at a surrogate's fit and measure the Gauss-Newton step from there.
 
@@ -153,6 +174,10 @@ def confirm_fit(
         The fit's statistical 95 % half-widths of (c1, c5), percent, and of mu when fitted.
     box : tuple of numpy.ndarray, optional
         (lo, hi) of theta in the fit.
+    surrogate_pct : array_like, optional
+        The surrogate's own error in the fit's bound, per parameter, percent (infinite where the
+        reported interval is the parameter's whole range); the shift is held to it and the
+        statistical bound combined.
 
     Returns
     -------
@@ -163,6 +188,8 @@ def confirm_fit(
     out = FitConfirmation(
         theta, tuple(fe.parameters), float(F_surrogate), np.asarray(statistical_pct, float)[: theta.size]
     )
+    if surrogate_pct is not None:
+        out.surrogate_pct = np.asarray(surrogate_pct, float)[: theta.size]
     t0 = time.perf_counter()
     seen: dict = {}
     try:

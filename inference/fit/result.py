@@ -345,12 +345,18 @@ class ExperimentFit:
 
 def _confirm(fit: ExperimentFit, fe, box) -> FitConfirmation:
     """The FE confirmation of a fit that ended on the surrogate (:func:`confirm_fit`); with mu fitted,
-    mu's own bound (eq. 6) beside those of (c1, c5)."""
+    mu's own bound (eq. 6) beside those of (c1, c5). The shift is held to the statistical bound
+    and the surrogate's own error: (c1, c5)'s from the model error's surrogate part, mu's from its
+    model error (infinite where mu is not claimed: its interval is then its whole range)."""
     inputs = fit.inputs
     bounds = fit.statistical_pct
+    me = fit.model_error
+    own = np.zeros(2) if me is None or me.surrogate_pct is None else np.asarray(me.surrogate_pct, float)[:2]
     fb = fit.friction_bounds
     if fb is not None and fit.fit.theta.size == 3:
         bounds = np.append(bounds, fb["mu_pct"] if np.isfinite(fb["mu_pct"]) else np.inf)
+        mu_own = np.inf if fit.mu_unmeasured else (fit.mu_model_pct or 0.0)
+        own = np.append(own, mu_own)
     return confirm_fit(
         inputs.objective,
         fe,
@@ -359,6 +365,7 @@ def _confirm(fit: ExperimentFit, fe, box) -> FitConfirmation:
         F_surrogate=fit.fit.F,
         statistical_pct=bounds,
         box=box,
+        surrogate_pct=own,
     )
 
 
