@@ -344,3 +344,23 @@ def test_a_friction_increment_that_newton_cannot_finish_in_twenty_steps_is_cut_b
     )
     assert early.convergence["newton_iterations"].sum() < 0.9 * late.convergence["newton_iterations"].sum()
     np.testing.assert_allclose(early.force[1:], late.force[1:], rtol=1e-3)
+
+
+@pytest.mark.parametrize("friction", [None, 3.0])
+def test_the_friction_cap_leaves_runs_it_does_not_reach_as_they_were(monkeypatch, friction):
+    """contact-L0, {3, 540} kPa, 28 x 0.5 mm, with sensitivities: with mu = 3 no Newton solve needs
+    more than 12 damped steps (measured), and the stick keeps its own cap of 60, so the results are
+    those of the cap of 60 to the last bit."""
+    import indentation_studio.forward.penalty_contact as penalty_contact
+
+    spec = (
+        ModelSpec(mesh=MeshChoice("contact-L0"), protocol=Protocol(step_size=0.5, steps=28))
+        .with_material(c1=3.0, c5=540.0)
+        .with_friction(friction)
+    )
+    now = EmbeddedSolver(spec).run(threads=1, sensitivities=True)
+    monkeypatch.setattr(penalty_contact, "FRICTION_NEWTON", 60)
+    before = EmbeddedSolver(spec).run(threads=1, sensitivities=True)
+    np.testing.assert_array_equal(now.force, before.force)
+    np.testing.assert_array_equal(now.force_sensitivity, before.force_sensitivity)
+    assert now.convergence["newton_iterations"].max() <= 20

@@ -173,16 +173,20 @@ def test_the_stick_solves_newton_steps_to_a_constant_relative_tolerance(monkeypa
     assert EmbeddedSolver(friction).contact._krylov_rtol(1e3, 1.0) == pytest.approx(newton.KRYLOV_RTOL * 1e-3)
 
 
-def test_a_sensitivity_solve_on_the_last_ones_factorisation_factorises_first(monkeypatch):
-    """contact-L1, {10, 350} kPa, stick, 8 steps with sensitivities (measured 2026-11-29): where
-    no Newton step of the increment factorised, the sensitivity solve factorises the converged
-    tangent before its CG instead of after the CG fails on the previous one: the same
+@pytest.mark.parametrize("friction", [None, 0.3, 3.0])
+def test_a_sensitivity_solve_on_the_last_ones_factorisation_factorises_first(monkeypatch, friction):
+    """contact-L1, {10, 350} kPa, 8 steps with sensitivities (measured 2026-11-29): where no Newton
+    step of the increment factorised, the sensitivity solve factorises the converged tangent before
+    its CG instead of after the CG fails on the previous one. With the stick: the same
     factorisations (8 for sensitivities), the sensitivity CG 80 -> 24 iterations and failed Krylov
-    solves 10 -> 3, forces and sensitivities the same."""
+    solves 10 -> 3. With friction (mu 0.3, 3) every increment's Newton factorises, so nothing
+    changes. Forces and sensitivities the same in all three."""
     from indentation_studio.forward.newton import NewtonSystem
 
-    spec = ModelSpec(mesh=MeshChoice("contact-L1"), protocol=Protocol(step_size=0.5, steps=8)).with_material(
-        c1=10.0, c5=350.0
+    spec = (
+        ModelSpec(mesh=MeshChoice("contact-L1"), protocol=Protocol(step_size=0.5, steps=8))
+        .with_material(c1=10.0, c5=350.0)
+        .with_friction(friction)
     )
     first = EmbeddedSolver(spec).run(threads=1, sensitivities=True)
     today = NewtonSystem.sensitivity_solve
@@ -194,8 +198,13 @@ def test_a_sensitivity_solve_on_the_last_ones_factorisation_factorises_first(mon
     monkeypatch.setattr(NewtonSystem, "sensitivity_solve", cg_first)
     before = EmbeddedSolver(spec).run(threads=1, sensitivities=True)
     new, old = first.solver["stats"], before.solver["stats"]
-    assert new["sensitivity_factorizations"] == old["sensitivity_factorizations"] >= 4
-    assert new["sensitivity_krylov_iterations"] < 0.5 * old["sensitivity_krylov_iterations"]
-    assert new["krylov_failures"] < old["krylov_failures"]
+    assert new["sensitivity_factorizations"] == old["sensitivity_factorizations"] >= 3
+    assert new["sensitivity_krylov_iterations"] <= old["sensitivity_krylov_iterations"]
+    if friction is None:
+        assert new["sensitivity_krylov_iterations"] < 0.5 * old["sensitivity_krylov_iterations"]
+        assert new["krylov_failures"] < old["krylov_failures"]
     np.testing.assert_allclose(first.force, before.force, rtol=1e-9)
-    np.testing.assert_allclose(first.force_sensitivity, before.force_sensitivity, rtol=1e-7, atol=1e-9)
+    scale = np.abs(before.force_sensitivity).max(axis=0)
+    np.testing.assert_allclose(
+        first.force_sensitivity, before.force_sensitivity, rtol=0, atol=1e-7 * scale.max()
+    )
