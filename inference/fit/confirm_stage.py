@@ -77,8 +77,15 @@ class FitConfirmation:
 
     @property
     def allowed_pct(self) -> np.ndarray:
-        """The half-widths a Gauss-Newton shift is held to, percent: the statistical bound combined
-        in quadrature with the surrogate's own error where carried."""
+        """The half-widths a Gauss-Newton shift is held to, percent.
+
+        The statistical bound combined in quadrature with the surrogate's own error where carried.
+
+        Returns
+        -------
+        numpy.ndarray
+            One per entry of ``statistical_pct``.
+        """
         if self.surrogate_pct is None:
             return self.statistical_pct
         return np.hypot(self.statistical_pct, self.surrogate_pct[: len(self.statistical_pct)])

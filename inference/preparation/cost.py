@@ -93,7 +93,7 @@ def estimate_cost(recipe: TestRecipe, *, cores: int = 2) -> CostEstimate:
     >>> from indentation_studio.inference.preparation import TestRecipe, estimate_cost
     >>> cost = estimate_cost(TestRecipe())
     >>> cost.stages["mu campaign"]
-    (512, 15360.0)
+    (512, 6988.8)
     """
     scale = recipe.spec.protocol.steps / 28.0
     low, high = CONTACT_MESH_LEVELS[recipe.low_mesh], CONTACT_MESH_LEVELS[recipe.high_mesh]
