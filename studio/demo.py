@@ -264,6 +264,7 @@ def _example(experiment, mlp, posterior_steps: int, out: Path, spec: ModelSpec, 
             if result.refined
             else ("one confirming FE run" if result.confirmation is not None else "none"),
             "error_budget": result.to_dict()["error_budget"],
+            "friction": result.to_dict().get("friction"),
         },
         "posterior": post.posterior.summary()
         | {"fit_bounds": post.fit_bounds.tolist(), "not_identified": list(post.not_identified)},

@@ -71,6 +71,24 @@ def bounds_sentence(fit: dict) -> str:
     return f"These bounds hold: {holds}."
 
 
+def fit_mu_sentence(fit: dict) -> str:
+    """What the fit says of mu, in one sentence of HTML (empty without mu): its value and interval
+    where identified, else that it is not, and why mu is not claimed where its model error is not
+    measured (fit.json's ``friction``)."""
+    fr = fit.get("friction")
+    if not fr or fr.get("mu") is None:
+        return ""
+    lo, hi = fr.get("mu_interval") or fr.get("mu_range") or (float("nan"), float("nan"))
+    if fr.get("mu_identified"):
+        return f"mu = {fr['mu']:.3g}, 95 % [{lo:.3g}, {hi:.3g}] (the fit)."
+    why = fr.get("mu_model_unmeasured")
+    reason = f" mu not claimed: {html.escape(why)}." if why else ""
+    return (
+        f"mu not identified by the fit: its 95 % interval [{lo:.3g}, {hi:.3g}] reaches its range's end "
+        f"(the fit at {fr['mu']:.3g}).{reason}"
+    )
+
+
 def posterior_html(post: dict) -> str:
     """The posterior's paragraph: its intervals beside the fit's bounds, mu's identification, the chain.
 
@@ -240,7 +258,7 @@ def write_report(out: Path, results: dict, sections: list[tuple[str, str]]) -> P
         f"<p>Fit (on the surrogate, then its FE stage: {fit.get('fe_stage', 'a confirming FE run')}): c1 = {fit['theta'][0]:.3f} kPa +- "
         f"{fit['bounds_pct'][0]:.2f} %, c5 = {fit['theta'][1]:.1f} kPa +- {fit['bounds_pct'][1]:.2f} % (95 %; "
         f"statistical part eq. 6 with s = {fit['s']:.3g} from eq. 8: +- {_fmt(fit.get('statistical_pct', fit['bounds_pct']))} %). "
-        f"{bounds_sentence(fit)} "
+        f"{bounds_sentence(fit)} {fit_mu_sentence(fit)} "
         f"F = {fit['F']:.3g}. Synthetic truth: {_fmt(fit['truth'])}.</p>"
         + posterior_html(post)
         + f"<p>FE confirmation: F(theta_hat) = {results['confirmation']['F_fe']:.3g}.</p>"

@@ -3,6 +3,7 @@ each section linked to the docs page that explains it."""
 
 from __future__ import annotations
 
+import html
 import re
 
 import pandas as pd
@@ -74,3 +75,26 @@ def test_a_flagged_fit_never_says_its_bounds_hold(tmp_path):
     page = write_report(tmp_path / "flagged", results, []).read_text()
     assert "Model inadequate" in page and "These bounds hold" not in page
     assert "These bounds do not hold the truth's distance from this fit" in page
+
+
+def test_the_reports_fit_says_what_it_found_of_mu():
+    """The example's paragraph states the fit's mu beside the posterior's (issue 57): not identified
+    where its interval reaches the range's end, with the reason it is not claimed; identified with
+    its interval; nothing without mu."""
+    from indentation_studio.studio.report import fit_mu_sentence
+
+    unmeasured = "mu's model error at the high fidelity is not measured"
+    fit = {
+        "friction": {
+            "mu": 1.58,
+            "mu_interval": [0.1004, 2.996],
+            "mu_identified": False,
+            "mu_model_unmeasured": unmeasured,
+        }
+    }
+    text = fit_mu_sentence(fit)
+    assert text.startswith("mu not identified by the fit: its 95 % interval [0.1, 3]")
+    assert "(the fit at 1.58)" in text and f"mu not claimed: {html.escape(unmeasured)}." in text
+    fit["friction"].update(mu_identified=True, mu_interval=[0.41, 0.62], mu=0.5, mu_model_unmeasured=None)
+    assert fit_mu_sentence(fit) == "mu = 0.5, 95 % [0.41, 0.62] (the fit)."
+    assert fit_mu_sentence({"friction": None}) == "" and fit_mu_sentence({}) == ""
