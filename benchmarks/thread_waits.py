@@ -30,6 +30,8 @@ import time
 from collections.abc import Iterator
 from pathlib import Path
 
+from indentation_studio.thread_waits import USER_CHOICES
+
 #: (label, numba threads, MKL threads, extra environment)
 CONFIGS = [
     ("numba 1, PARDISO 1", 1, 1, {}),
@@ -90,9 +92,7 @@ print(statistics.median(times[1:]))
 
 def run_code(code: str, extra: dict[str, str]) -> float:
     """The number a snippet prints last, run in a fresh process with ``extra`` in its environment."""
-    env = {
-        k: v for k, v in os.environ.items() if k not in ("OMP_WAIT_POLICY", "KMP_BLOCKTIME", "GOMP_SPINCOUNT")
-    }
+    env = {k: v for k, v in os.environ.items() if k not in USER_CHOICES}
     env.update(extra)
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
     return float(out.stdout.strip().splitlines()[-1])

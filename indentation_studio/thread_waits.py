@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import os
 
-__all__ = ["WAIT_SETTINGS", "brief_thread_waits"]
+__all__ = ["USER_CHOICES", "WAIT_SETTINGS", "brief_thread_waits"]
 
 #: What the package asks of OpenMP runtimes unless the user chose: GNU's waiting threads spin
 #: 3,000 times (a few microseconds) before they sleep; Intel's sleep at once.

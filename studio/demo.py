@@ -245,6 +245,7 @@ def _example(experiment, mlp, posterior_steps: int, out: Path, spec: ModelSpec, 
     mu = float(fit.theta[2]) if len(fit.theta) > 2 else None
     check = confirm(experiment, surrogate, fit.theta[:2], weights=ETA, friction=mu)
     _example_figures(out, result, post, check, truth, spec)
+    record = result.to_dict()
     return {
         "fit": {
             "theta": np.append(
@@ -259,12 +260,12 @@ def _example(experiment, mlp, posterior_steps: int, out: Path, spec: ModelSpec, 
             "s": fit.s,
             "surrogate_theta": result.surrogate_fit.theta.tolist(),
             "truth": truth,
-            "adequacy": result.to_dict()["adequacy"],
+            "adequacy": record["adequacy"],
             "fe_stage": "an LM fit on the FE model"
             if result.refined
             else ("one confirming FE run" if result.confirmation is not None else "none"),
-            "error_budget": result.to_dict()["error_budget"],
-            "friction": result.to_dict().get("friction"),
+            "error_budget": record["error_budget"],
+            "friction": record.get("friction"),
         },
         "posterior": post.posterior.summary()
         | {"fit_bounds": post.fit_bounds.tolist(), "not_identified": list(post.not_identified)},
