@@ -13,6 +13,7 @@ from rich.panel import Panel
 
 from .. import inference, studio  # lazy: a command imports what it runs
 from ..atomic_write import strict_json
+from .mu_wording import mu_statement
 from .options import CHAIN_STEPS, EXPERIMENT, JSON, SEED, WEIGHTS, err, fail, say
 
 SURROGATE = Annotated[
@@ -220,31 +221,8 @@ def _print_fit(result: inference.ExperimentFit, payload: dict, check_mesh: str |
         err.print(f"[yellow]warning:[/yellow] {warning}")
     fr = payload["friction"]
     if "mu_pct" in fr:
-        limit = f" (on its range's {fr['mu_at_limit']} limit)" if fr["mu_at_limit"] else ""
         share = fr["mu_share_pct"]
-        lo, hi = fr["mu_interval"]
-        ends = [side for side, reached in fr["mu_reaches_range_end"].items() if reached]
-        open_ = (
-            f"; the data, with the model's own errors on mu, do not bound it at the range's {' and '.join(ends)} end"
-            if ends
-            else ""
-        )
-        sur = fr.get("mu_model_pct")
-        parts = (
-            f" (statistical +- {fr['mu_statistical_pct']:.3g} %, model +- {sur:.3g} %)"
-            if sur is not None
-            else ""
-        )
-        if inference.interval_is_whole_range((lo, hi), fr["mu_range"]):
-            said = f"  mu is not identified by these data: its 95 % interval{parts} is its whole range"
-            said += f" [{lo:.3g}, {hi:.3g}] (the fit at {fr['mu']:.3g}{limit})"
-        elif not fr["mu_identified"]:
-            said = (
-                f"  mu is not identified by these data: its 95 % interval{parts} [{lo:.3g}, {hi:.3g}] reaches "
-                f"its range's end (the fit at {fr['mu']:.3g}{limit}{open_})"
-            )
-        else:
-            said = f"  mu = {fr['mu']:.3g}{limit}, 95 % within [{lo:.3g}, {hi:.3g}]{parts}{open_}"
+        said = "  " + mu_statement(fr)
         Console().print(
             f"{said}; mu's share of the bounds "
             f"+- {share[0]:.2f} % / {share[1]:.2f} % (with mu known: +- {fr['conditional_pct'][0]:.2f} % / "

@@ -11,6 +11,7 @@ import pandas as pd
 
 from .. import __version__
 from ..atomic_write import atomic_write
+from .mu_wording import mu_statement
 
 STYLE = """
 body { font-family: system-ui, sans-serif; max-width: 1100px; margin: 2em auto; color: #222; }
@@ -72,21 +73,15 @@ def bounds_sentence(fit: dict) -> str:
 
 
 def fit_mu_sentence(fit: dict) -> str:
-    """What the fit says of mu, in one sentence of HTML (empty without mu): its value and interval
-    where identified, else that it is not, and why mu is not claimed where its model error is not
-    measured (fit.json's ``friction``)."""
+    """What the fit says of mu, in one sentence of HTML (empty without mu): the fit command's words
+    (:func:`studio.mu_wording.mu_statement`), and why mu is not claimed where its model error is
+    not measured (fit.json's ``friction``)."""
     fr = fit.get("friction")
     if not fr or fr.get("mu") is None:
         return ""
-    lo, hi = fr.get("mu_interval") or fr.get("mu_range") or (float("nan"), float("nan"))
-    if fr.get("mu_identified"):
-        return f"mu = {fr['mu']:.3g}, 95 % [{lo:.3g}, {hi:.3g}] (the fit)."
     why = fr.get("mu_model_unmeasured")
-    reason = f" mu not claimed: {html.escape(why)}." if why else ""
-    return (
-        f"mu not identified by the fit: its 95 % interval [{lo:.3g}, {hi:.3g}] reaches its range's end "
-        f"(the fit at {fr['mu']:.3g}).{reason}"
-    )
+    reason = f" mu not claimed: {why}." if why else ""
+    return html.escape(f"The fit: {mu_statement(fr)}.{reason}")
 
 
 def posterior_html(post: dict) -> str:

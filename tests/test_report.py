@@ -93,8 +93,8 @@ def test_the_reports_fit_says_what_it_found_of_mu():
         }
     }
     text = fit_mu_sentence(fit)
-    assert text.startswith("mu not identified by the fit: its 95 % interval [0.1, 3]")
+    assert text.startswith("The fit: mu is not identified by these data: its 95 % interval [0.1, 3]")
     assert "(the fit at 1.58)" in text and f"mu not claimed: {html.escape(unmeasured)}." in text
     fit["friction"].update(mu_identified=True, mu_interval=[0.41, 0.62], mu=0.5, mu_model_unmeasured=None)
-    assert fit_mu_sentence(fit) == "mu = 0.5, 95 % [0.41, 0.62] (the fit)."
+    assert fit_mu_sentence(fit) == "The fit: mu = 0.5, 95 % within [0.41, 0.62]."
     assert fit_mu_sentence({"friction": None}) == "" and fit_mu_sentence({}) == ""
