@@ -140,3 +140,57 @@ def test_simulate_restart_deletes_its_checkpoint_once_the_result_is_written(tmp_
     assert not (tmp_path / "run.checkpoint.pkl").exists()
     with pytest.raises(ValueError, match="--restart need the embedded solver"):
         run_simulation(SPEC, tmp_path / "f.npz", solver="febio", restart=True)
+
+
+def test_a_run_stopped_inside_a_step_resumes_from_its_last_converged_increment(tmp_path, monkeypatch):
+    """With two increments a step and a checkpoint after every converged increment
+    (``MID_STEP_CHECKPOINT_S`` = 0), a run stopped in the second increment of step 3 resumes at
+    1.25 mm: step 3 solves only its second increment (one call), steps 4 and 5 two each; the
+    forces end where an uninterrupted run's do, and step 3's record counts both increments."""
+    from indentation_studio.forward import solver as solver_module
+
+    spec = dataclasses.replace(SPEC, solver=dataclasses.replace(SPEC.solver, substeps=2))
+    whole = EmbeddedSolver(spec).run()
+    monkeypatch.setattr(solver_module, "MID_STEP_CHECKPOINT_S", 0.0)
+    original = NodeStickContact.increment
+    calls = {"n": 0, "stop_at": 6, "depths": []}
+
+    def increment(self, u, u_pred, d0, d1, *args, **kwargs):
+        calls["n"] += 1
+        calls["depths"].append(d1)
+        if calls["n"] == calls["stop_at"]:
+            raise KeyboardInterrupt
+        return original(self, u, u_pred, d0, d1, *args, **kwargs)
+
+    monkeypatch.setattr(NodeStickContact, "increment", increment)
+    restart = tmp_path / "run.checkpoint.pkl"
+    with pytest.raises(KeyboardInterrupt):
+        EmbeddedSolver(spec).run(checkpoint=restart)
+    calls.update(n=0, stop_at=0, depths=[])
+    steps = []
+    resumed = EmbeddedSolver(spec).run(checkpoint=restart, progress=lambda k, n, f: steps.append(k))
+    assert steps == [3, 4, 5]
+    np.testing.assert_allclose(calls["depths"], [1.5, 1.75, 2.0, 2.25, 2.5])
+    np.testing.assert_allclose(resumed.force, whole.force, rtol=1e-4)
+    np.testing.assert_array_equal(resumed.convergence["increments"], whole.convergence["increments"])
+
+
+def test_a_checkpoint_of_whole_steps_only_from_before_is_still_read(tmp_path):
+    """A checkpoint of format 1 (whole steps, no ``mid_step``) resumes as it did."""
+    import pickle
+
+    restart = tmp_path / "run.checkpoint.pkl"
+
+    def stop_after_two(k, n, force):
+        if k == 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        EmbeddedSolver(SPEC).run(progress=stop_after_two, checkpoint=restart)
+    saved = pickle.loads(restart.read_bytes())
+    saved["identity"]["format"] = 1
+    del saved["state"]["mid_step"]
+    restart.write_bytes(pickle.dumps(saved))
+    steps = []
+    EmbeddedSolver(SPEC).run(checkpoint=restart, progress=lambda k, n, f: steps.append(k))
+    assert steps == [3, 4, 5]
