@@ -20,8 +20,6 @@ from __future__ import annotations
 
 import hashlib
 import logging
-import os
-import pickle
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -29,6 +27,8 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
+from . import checkpoint as checkpoint_file
+from .checkpoint import CheckpointMismatch, read_checkpoint, run_identity, write_checkpoint
 from .element_moduli import element_moduli
 from .hex8_mean_dilatation import ReferenceGeometry
 from .indenter_contact import IndenterContact
@@ -44,7 +44,6 @@ from .stick_contact import RigidSphere
 from .threads import solver_threads, thread_limits
 
 __all__ = [
-    "CHECKPOINT_FORMAT",
     "CUTBACK_BUDGET",
     "CheckpointMismatch",
     "EmbeddedSolver",
@@ -91,26 +90,6 @@ SINGLE_PRECISION_DOFS = 20_000
 STEP_COUNTERS = ("assemblies", "factorizations", "krylov_iterations", "back_substitutions")
 
 _STRUCTURES: dict[bytes, tuple[ReferenceGeometry, SparsePattern]] = {}
-
-
-#: the layout of a run's checkpoint (:meth:`EmbeddedSolver.run`); a file of another is refused.
-#: 2: it may hold a step's converged increments (``mid_step``); a file of format 1 (whole steps
-#: only) is read as one of format 2 without them.
-CHECKPOINT_FORMAT = 2
-READABLE_CHECKPOINT_FORMATS = (1, 2)
-#: Within a step cut into increments, a run with a checkpoint writes one after a converged
-#: increment at most this often (seconds): a fine level's hard step can take hours of cut-back
-#: increments (contact-L4, R = 4.77 mm, {2.5, 460} kPa: step 28 over an hour in sixteenths), and a
-#: stop then loses only the increment under way, not the step.
-MID_STEP_CHECKPOINT_S = 120.0
-
-
-class CheckpointMismatch(ValueError):
-    """A checkpoint file that is not this run's.
-
-    Another spec, mesh, sensitivity setting, version or layout, or a file cut short (the message
-    names which). Delete it to start the run from the beginning.
-    """
 
 
 def mesh_structures(mesh: BlockMesh) -> tuple[ReferenceGeometry, SparsePattern]:
@@ -349,7 +328,7 @@ class EmbeddedSolver(NewtonSystem):
         last_dinc = np.zeros((n, 3, n_p)) if sensitivities else None
         steps_done, d, mid_step = 0, 0.0, None
         if checkpoint is not None and checkpoint.is_file():
-            saved = self._read_checkpoint(checkpoint, sensitivities, full_field)
+            saved = read_checkpoint(checkpoint, self._checkpoint_identity(sensitivities, full_field))
             u, last_inc, last_dd, contact = saved["u"], saved["last_inc"], saved["last_dd"], saved["contact"]
             du_dtheta, last_dinc = saved["du_dtheta"], saved["last_dinc"]
             depths, forces, disp, f_sens, u_sens = (
@@ -458,10 +437,11 @@ class EmbeddedSolver(NewtonSystem):
                     if (
                         checkpoint is not None
                         and d < d_target - 1e-12
-                        and time.perf_counter() - written >= MID_STEP_CHECKPOINT_S
+                        and time.perf_counter() - written >= checkpoint_file.MID_STEP_CHECKPOINT_S
                     ):
-                        self._write_checkpoint(
+                        write_checkpoint(
                             checkpoint,
+                            self._checkpoint_identity(sensitivities, full_field),
                             checkpoint_state(
                                 {
                                     "depth": d,
@@ -471,8 +451,6 @@ class EmbeddedSolver(NewtonSystem):
                                     "step_s": time.perf_counter() - t_step,
                                 }
                             ),
-                            sensitivities,
-                            full_field,
                         )
                         written = time.perf_counter()
                 assert eq is not None
@@ -498,7 +476,11 @@ class EmbeddedSolver(NewtonSystem):
                     conv.setdefault(key, [0] * len(conv["wall_s"])).append(self.stats[key] - was)
                 conv["wall_s"].append(time.perf_counter() - t_step)
                 if checkpoint is not None:
-                    self._write_checkpoint(checkpoint, checkpoint_state(None), sensitivities, full_field)
+                    write_checkpoint(
+                        checkpoint,
+                        self._checkpoint_identity(sensitivities, full_field),
+                        checkpoint_state(None),
+                    )
                     written = time.perf_counter()
                 if progress is not None:
                     progress(k, proto.steps, forces[-1])
@@ -514,43 +496,12 @@ class EmbeddedSolver(NewtonSystem):
 
     def _checkpoint_identity(self, sensitivities: bool, full_field: bool) -> dict:
         mesh = self.mesh
-        return {
-            "format": CHECKPOINT_FORMAT,
-            "version": __version__,
-            "spec": self.spec.to_dict(),
-            "mesh": {"source": mesh.source, "nodes": mesh.n_nodes, "elements": mesh.n_elements},
-            "sensitivities": bool(sensitivities),
-            "full_field": bool(full_field),
-        }
-
-    def _write_checkpoint(self, path: Path, state: dict, sensitivities: bool, full_field: bool) -> None:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(path.name + ".tmp")
-        with open(tmp, "wb") as fh:
-            pickle.dump(
-                {"identity": self._checkpoint_identity(sensitivities, full_field), "state": state},
-                fh,
-                protocol=pickle.HIGHEST_PROTOCOL,
-            )
-        os.replace(tmp, path)  # a run stopped while writing leaves the last whole checkpoint
-
-    def _read_checkpoint(self, path: Path, sensitivities: bool, full_field: bool) -> dict:
-        try:
-            with open(path, "rb") as fh:
-                saved = pickle.load(fh)
-            identity, state = saved["identity"], saved["state"]
-        except Exception as exc:  # a truncated or foreign file: say which, never resume from it
-            raise CheckpointMismatch(f"{path} is not a readable checkpoint ({exc!r}); delete it") from exc
-        want = self._checkpoint_identity(sensitivities, full_field)
-        differ = [key for key in want if key != "format" and identity.get(key) != want[key]]
-        if identity.get("format") not in READABLE_CHECKPOINT_FORMATS:
-            differ.insert(0, "format")
-        if differ:
-            raise CheckpointMismatch(
-                f"{path} holds another run's state (its {', '.join(differ)} differ); delete it "
-                "to start this run from the beginning"
-            )
-        return state
+        return run_identity(
+            self.spec.to_dict(),
+            {"source": mesh.source, "nodes": mesh.n_nodes, "elements": mesh.n_elements},
+            sensitivities=sensitivities,
+            full_field=full_field,
+        )
 
     def _result(self, depths, forces, disp, conv, f_sens, u_sens, sensitivities, t_start) -> SimulationResult:
         mesh = self.mesh

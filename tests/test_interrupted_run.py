@@ -9,10 +9,12 @@ import signal
 import numpy as np
 import pytest
 
+from indentation_studio.forward import checkpoint as checkpoint_file
+from indentation_studio.forward.checkpoint import CheckpointMismatch
 from indentation_studio.forward.node_stick import NodeStickContact
 from indentation_studio.forward.result import SimulationResult
 from indentation_studio.forward.simulation_run import run_simulation
-from indentation_studio.forward.solver import CheckpointMismatch, EmbeddedSolver
+from indentation_studio.forward.solver import EmbeddedSolver
 from indentation_studio.forward.spec import Contact, Material, MeshChoice, ModelSpec, Protocol
 
 SPEC = ModelSpec(mesh=MeshChoice("coarse"), protocol=Protocol(steps=5))
@@ -147,11 +149,9 @@ def test_a_run_stopped_inside_a_step_resumes_from_its_last_converged_increment(t
     (``MID_STEP_CHECKPOINT_S`` = 0), a run stopped in the second increment of step 3 resumes at
     1.25 mm: step 3 solves only its second increment (one call), steps 4 and 5 two each; the
     forces end where an uninterrupted run's do, and step 3's record counts both increments."""
-    from indentation_studio.forward import solver as solver_module
-
     spec = dataclasses.replace(SPEC, solver=dataclasses.replace(SPEC.solver, substeps=2))
     whole = EmbeddedSolver(spec).run()
-    monkeypatch.setattr(solver_module, "MID_STEP_CHECKPOINT_S", 0.0)
+    monkeypatch.setattr(checkpoint_file, "MID_STEP_CHECKPOINT_S", 0.0)
     original = NodeStickContact.increment
     calls = {"n": 0, "stop_at": 6, "depths": []}
 
