@@ -19,6 +19,9 @@ __all__ = ["PER_RUN_S", "CostEstimate", "estimate_cost"]
 #: surrogates' campaigns; the verification study at R = 8 mm,
 #: docs/validation/data/verification-contact-L4-R8.json: levels 0 to 4 2.0, 8.4, 51, 994 and
 #: 4,178 s at {3, 120} kPa, the soft corner; about a quarter of that at c1 = 11 kPa).
+#: The soft corner costs far more at the fine levels: contact-L3 over the paper's box at R = 4.77 mm
+#: (docs/validation/data/campaigns/high-box-R4.77, 2026-11-29) took 3,300 to 6,900 s a run at
+#: c1 = 1 kPa and 90 to 200 s at c1 >= 4.6 kPa (the printout says so; not in the estimate).
 PER_RUN_S = {0: 2.0, 1: 6.5, 2: 51.0, 3: 550.0, 4: 2500.0}
 #: A run with friction against the stick at the same level: contact-L1, the same 24 points with
 #: their mu (0.1 to 3, log-uniform), 13.0 s a point against 6.2 s (2026-11-29; 1.5 times at the
@@ -60,7 +63,7 @@ class CostEstimate:
         return (
             f"estimated cost: {self.cpu_s / 3600:.1f} CPU hours ({parts}); about {self.wall_s / 3600:.1f} h of wall "
             f"time on {self.cores} cores (from measured per-run costs at the paper's test, scaled by the steps; "
-            "soft materials cost up to four times the average)"
+            "a soft material's run costs more: at level 3, c1 = 1 kPa 6 to 13 times the average)"
         )
 
     def to_dict(self) -> dict:
