@@ -327,8 +327,9 @@ class EmbeddedSolver(NewtonSystem):
         du_dtheta = np.zeros((n, 3, n_p)) if sensitivities else None
         last_dinc = np.zeros((n, 3, n_p)) if sensitivities else None
         steps_done, d, mid_step = 0, 0.0, None
+        identity = self._checkpoint_identity(sensitivities, full_field) if checkpoint is not None else None
         if checkpoint is not None and checkpoint.is_file():
-            saved = read_checkpoint(checkpoint, self._checkpoint_identity(sensitivities, full_field))
+            saved = read_checkpoint(checkpoint, identity)
             u, last_inc, last_dd, contact = saved["u"], saved["last_inc"], saved["last_dd"], saved["contact"]
             du_dtheta, last_dinc = saved["du_dtheta"], saved["last_dinc"]
             depths, forces, disp, f_sens, u_sens = (
@@ -441,7 +442,7 @@ class EmbeddedSolver(NewtonSystem):
                     ):
                         write_checkpoint(
                             checkpoint,
-                            self._checkpoint_identity(sensitivities, full_field),
+                            identity,
                             checkpoint_state(
                                 {
                                     "depth": d,
@@ -478,7 +479,7 @@ class EmbeddedSolver(NewtonSystem):
                 if checkpoint is not None:
                     write_checkpoint(
                         checkpoint,
-                        self._checkpoint_identity(sensitivities, full_field),
+                        identity,
                         checkpoint_state(None),
                     )
                     written = time.perf_counter()

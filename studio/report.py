@@ -77,11 +77,12 @@ def fit_mu_sentence(fit: dict) -> str:
     (:func:`studio.mu_wording.mu_statement`), and why mu is not claimed where its model error is
     not measured (fit.json's ``friction``)."""
     fr = fit.get("friction")
-    if not fr or fr.get("mu") is None:
+    said = mu_statement(fr)
+    if not said:
         return ""
     why = fr.get("mu_model_unmeasured")
     reason = f" mu not claimed: {why}." if why else ""
-    return html.escape(f"The fit: {mu_statement(fr)}.{reason}")
+    return html.escape(f"The fit: {said}.{reason}")
 
 
 def posterior_html(post: dict) -> str:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
+import pickle
 import signal
 
 import numpy as np
@@ -177,8 +178,6 @@ def test_a_run_stopped_inside_a_step_resumes_from_its_last_converged_increment(t
 
 def test_a_checkpoint_of_whole_steps_only_from_before_is_still_read(tmp_path):
     """A checkpoint of format 1 (whole steps, no ``mid_step``) resumes as it did."""
-    import pickle
-
     restart = tmp_path / "run.checkpoint.pkl"
 
     def stop_after_two(k, n, force):
