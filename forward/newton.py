@@ -57,6 +57,16 @@ SENSITIVITY_RTOL = 1e-11
 #: residual, in at most this many iterations (EmbeddedSolver._fresh_step).
 FRESH_RTOL = 1e-8
 FRESH_MAXITER = 50
+#: On a factorisation just made (a fresh step, a sensitivity solve that factorised), GMRES
+#: (friction's unsymmetric tangent) runs at most this many cycles of its iterations. scipy's GMRES
+#: ends a cycle when the preconditioned residual meets the tolerance and only then checks the true
+#: one, so that a solve of one cycle whose true residual was not yet there counted as failed and
+#: its step was thrown away for the factorisation's own, of the tangent's symmetric part, which
+#: need not lower the residual: contact-L3, R = 8 mm, {20, 560} kPa, mu 0.3, Newton stalled in
+#: step 26 for 2,440 s, 26 s with three cycles (docs/validation/solver-and-speed.md, "GMRES's
+#: second cycle"). A Newton step on an older factorisation keeps one cycle: where it fails, a
+#: factorisation is made, which on small meshes costs less than more cycles.
+GMRES_CYCLES = 3
 
 
 #: The counters of the linear steps (:attr:`NewtonSystem.stats`; the solver's driver adds those of
@@ -245,7 +255,15 @@ class NewtonSystem:
         return int(np.clip(self.n_dofs // KRYLOV_DOFS_PER_ITERATION, KRYLOV_MAXITER, KRYLOV_MAXITER_LARGE))
 
     def krylov(
-        self, K: sp.csr_matrix, cmask: np.ndarray, rhs: np.ndarray, rtol: float, maxiter: int
+        self,
+        K: sp.csr_matrix,
+        cmask: np.ndarray,
+        rhs: np.ndarray,
+        rtol: float,
+        maxiter: int,
+        *,
+        cycles: int = 1,
+        unfinished: bool = False,
     ) -> np.ndarray | None:
         """CG (GMRES when the tangent is unsymmetric) preconditioned with the factorisation in hand.
 
@@ -263,12 +281,17 @@ class NewtonSystem:
         rtol : float
             Relative residual to reach.
         maxiter : int
-            Iterations at most.
+            Iterations at most (CG); with GMRES, iterations a cycle.
+        cycles : int, optional
+            GMRES's cycles at most (``GMRES_CYCLES`` on a factorisation just made).
+        unfinished : bool, optional
+            Return the last iterate also where it does not reach ``rtol`` (still counted as a
+            failure), None only where it is not finite.
 
         Returns
         -------
         ndarray or None
-            The solution, or None when it does not reach ``rtol`` in ``maxiter`` iterations.
+            The solution, or None when it does not reach ``rtol`` within those iterations.
         """
         t = time.perf_counter()
 
@@ -302,7 +325,14 @@ class NewtonSystem:
             x, info = spla.cg(A, rhs, rtol=rtol, maxiter=maxiter, M=M, callback=count)
         else:
             x, info = spla.gmres(
-                A, rhs, rtol=rtol, restart=maxiter, maxiter=1, M=M, callback=count, callback_type="pr_norm"
+                A,
+                rhs,
+                rtol=rtol,
+                restart=maxiter,
+                maxiter=cycles,
+                M=M,
+                callback=count,
+                callback_type="pr_norm",
             )
         dt = time.perf_counter() - t
         self.stats["krylov_calls"] += 1
@@ -311,7 +341,7 @@ class NewtonSystem:
         self.stats["solve_s"] += dt
         if info != 0 or not np.all(np.isfinite(x)):
             self.stats["krylov_failures"] += 1
-            return None
+            return np.where(cmask, 0.0, x) if unfinished and np.all(np.isfinite(x)) else None
         self.stats["krylov_steps"] += 1
         return np.where(cmask, 0.0, x)
 
@@ -350,8 +380,9 @@ class NewtonSystem:
         """Solve K x = rhs with a factorisation of K made here.
 
         One back-substitution; with friction GMRES on K itself, preconditioned with it, to
-        ``FRESH_RTOL`` (the factorisation is of K's symmetric part, the contact blocks put back by
-        the contact's correction), else that factorisation's own step.
+        ``FRESH_RTOL`` in at most ``GMRES_CYCLES`` cycles (the factorisation is of K's symmetric
+        part, the contact blocks put back by the contact's correction), else the better by the
+        true residual of GMRES's last iterate and that factorisation's own step.
 
         Parameters
         ----------
@@ -370,10 +401,18 @@ class NewtonSystem:
         self.factorize(K, cmask)
         if self.contact.symmetric:
             return self.solve(rhs, cmask)
-        x = self.krylov(K, cmask, rhs, FRESH_RTOL, FRESH_MAXITER)
+        x = self.krylov(K, cmask, rhs, FRESH_RTOL, FRESH_MAXITER, cycles=GMRES_CYCLES, unfinished=True)
+        if x is not None:
+            miss = np.linalg.norm(np.where(cmask, 0.0, K @ x - rhs))
+            if miss <= FRESH_RTOL * np.linalg.norm(rhs):
+                return x
         # where GMRES does not get there (a correction capped far below the contact set), the
-        # factorisation's own step, checked by the damped Newton's residual like any other
-        return x if x is not None else self.solve(rhs, cmask)
+        # better by the true residual of its last iterate and the factorisation's own step (of
+        # the tangent's symmetric part), checked by the damped Newton's residual like any other
+        own = self.solve(rhs, cmask)
+        if x is None or np.linalg.norm(np.where(cmask, 0.0, K @ own - rhs)) < miss:
+            return own
+        return x
 
     def solve(self, rhs: np.ndarray, cmask: np.ndarray) -> np.ndarray:
         """One back-substitution with the factorisation in hand.
@@ -464,7 +503,7 @@ class NewtonSystem:
             )
             if col is None:  # that factorisation is too far from this tangent: factorise it
                 self.factorize(K, cmask)
-                col = self.krylov(K, cmask, b[:, k], SENSITIVITY_RTOL, 100)
+                col = self.krylov(K, cmask, b[:, k], SENSITIVITY_RTOL, 100, cycles=GMRES_CYCLES)
             if col is None and not self.contact.symmetric:
                 # with friction the factorisation is of K's symmetric part; where slip makes the
                 # rest too large for GMRES to bridge, K itself is factorised (once for all columns)

@@ -176,8 +176,10 @@ def test_sensitivities_where_gmres_cannot_bridge_the_slip_come_from_the_tangents
     r = EmbeddedSolver(spec).run(sensitivities=True)
     krylov = newton.NewtonSystem.krylov
 
-    def no_sensitivity_krylov(self, K, cmask, rhs, rtol, maxiter):
-        return None if rtol == newton.SENSITIVITY_RTOL else krylov(self, K, cmask, rhs, rtol, maxiter)
+    def no_sensitivity_krylov(self, K, cmask, rhs, rtol, maxiter, **options):
+        return (
+            None if rtol == newton.SENSITIVITY_RTOL else krylov(self, K, cmask, rhs, rtol, maxiter, **options)
+        )
 
     monkeypatch.setattr(newton.NewtonSystem, "krylov", no_sensitivity_krylov)
     lu = EmbeddedSolver(spec).run(sensitivities=True)
@@ -364,3 +366,64 @@ def test_the_friction_cap_leaves_runs_it_does_not_reach_as_they_were(monkeypatch
     np.testing.assert_array_equal(now.force, before.force)
     np.testing.assert_array_equal(now.force_sensitivity, before.force_sensitivity)
     assert now.convergence["newton_iterations"].max() <= 20
+
+
+def test_gmres_on_a_factorisation_just_made_goes_on_past_its_first_cycle():
+    """scipy's GMRES ends a cycle when the preconditioned residual meets the tolerance and only
+    then checks the true one: on the solver's own factorisation (contact-L0's tangent) of a tangent
+    with a slip-like skew part on the top's tangential dofs, one cycle stops after a few
+    iterations short of 1e-8 and counts as failed; the fresh step's ``GMRES_CYCLES`` get there
+    (issue 58: a fresh step then took the symmetric part's step and Newton stalled)."""
+    import scipy.sparse as sp
+
+    from indentation_studio.forward import newton
+
+    spec = (
+        ModelSpec(mesh=MeshChoice("contact-L0"), protocol=Protocol(step_size=0.5, steps=2))
+        .with_material(c1=3.0, c5=540.0)
+        .with_friction(0.3)
+    )
+    solver = EmbeddedSolver(spec)
+    _, K, _ = solver.assemble(np.zeros((solver.mesh.n_nodes, 3)))
+    cmask = solver.bc_fixed.ravel()
+    solver.factorize(K, cmask)
+    dofs = (3 * solver.top[:, None] + np.array([0, 1])).ravel()
+    m = len(dofs)
+    B = sp.random(m, m, density=0.05, random_state=2)
+    put = sp.csr_matrix((np.ones(m), (dofs, np.arange(m))), shape=(K.shape[0], m))
+    rhs = np.where(cmask, 0.0, np.random.default_rng(1).standard_normal(K.shape[0]))
+    try:
+        for share, one_cycle_stops_at in ((1e-3, 10), (3e-2, 45)):
+            A = (K + put @ ((B - B.T) * share * K.diagonal()[dofs].mean()) @ put.T).tocsr()
+            before = solver.stats["krylov_iterations"]
+            assert solver.krylov(A, cmask, rhs, newton.FRESH_RTOL, newton.FRESH_MAXITER) is None
+            assert solver.stats["krylov_iterations"] - before < one_cycle_stops_at  # ended early
+            x = solver.krylov(
+                A, cmask, rhs, newton.FRESH_RTOL, newton.FRESH_MAXITER, cycles=newton.GMRES_CYCLES
+            )
+            assert x is not None
+            residual = np.linalg.norm(np.where(cmask, 0.0, A @ x - rhs)) / np.linalg.norm(rhs)
+            assert residual <= newton.FRESH_RTOL
+    finally:
+        solver.linear.release()
+
+
+def test_gmres_cycles_leave_runs_whose_first_cycles_get_there_as_they_were(monkeypatch):
+    """contact-L0, {3, 540} kPa, mu = 0.3, 28 x 0.5 mm with sensitivities (measured 2026-11-29):
+    every fresh step's GMRES meets its tolerance in its first cycle there, so the forces with one
+    cycle and with ``GMRES_CYCLES`` are the same to the last bit; a sensitivity solve whose GMRES
+    now ends in a second cycle instead of on the tangent's own LU moves the sensitivities by 1e-9
+    relative (both solve to ``SENSITIVITY_RTOL``)."""
+    from indentation_studio.forward import newton
+
+    assert newton.GMRES_CYCLES == 3
+    spec = (
+        ModelSpec(mesh=MeshChoice("contact-L0"), protocol=Protocol(step_size=0.5, steps=28))
+        .with_material(c1=3.0, c5=540.0)
+        .with_friction(0.3)
+    )
+    now = EmbeddedSolver(spec).run(threads=1, sensitivities=True)
+    monkeypatch.setattr(newton, "GMRES_CYCLES", 1)
+    before = EmbeddedSolver(spec).run(threads=1, sensitivities=True)
+    np.testing.assert_array_equal(now.force, before.force)
+    np.testing.assert_allclose(now.force_sensitivity, before.force_sensitivity, rtol=1e-7, atol=1e-9)
