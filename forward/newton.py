@@ -63,9 +63,10 @@ FRESH_MAXITER = 50
 #: one, so that a solve of one cycle whose true residual was not yet there counted as failed and
 #: its step was thrown away for the factorisation's own, of the tangent's symmetric part, which
 #: need not lower the residual: contact-L3, R = 8 mm, {20, 560} kPa, mu 0.3, Newton stalled in
-#: step 26 for 2,440 s, 26 s with three cycles (docs/validation/solver-and-speed.md, "GMRES's
-#: second cycle"). A Newton step on an older factorisation keeps one cycle: where it fails, a
-#: factorisation is made, which on small meshes costs less than more cycles.
+#: step 26 for 2,440 s, 74 s with three cycles beside four other jobs (docs/validation/
+#: solver-and-speed.md, "GMRES's second cycle"). A Newton step on an older factorisation keeps one
+#: cycle: where it fails, a factorisation is made, which on small meshes costs less than more
+#: cycles (contact-L0 {3, 540} mu 0.3: 5.9 -> 8.1 s CPU with three for every solve).
 GMRES_CYCLES = 3
 
 
