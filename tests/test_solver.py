@@ -128,12 +128,19 @@ def test_sensitivities_match_central_differences_of_whole_simulations():
         assert np.all(err < 1e-4 * np.abs(u_fd[1:]).max(axis=(1, 2)))
 
 
-def test_failure_names_the_depth_and_keeps_finished_steps():
+@pytest.mark.parametrize("friction", [None, 0.3])
+def test_failure_names_the_depth_and_keeps_finished_steps(monkeypatch, friction):
+    """A run that cannot converge stops with the depth named and the finished steps kept, with the
+    stick and with friction (whose fresh steps' GMRES may run several cycles; its Newton solves
+    are held to one damped step here, since it accepts a residual at round-off)."""
+    from indentation_studio.forward import penalty_contact
+
+    monkeypatch.setattr(penalty_contact, "FRICTION_NEWTON", 1)
     spec = ModelSpec(
         mesh=MeshChoice("coarse"),
         protocol=Protocol(step_size=0.5, steps=3),
         solver=SolverOptions(max_newton=1, max_cutbacks=1, residual_tol=1e-14),
-    )
+    ).with_friction(friction)
     with pytest.raises(SimulationError, match=r"failed at depth") as info:
         EmbeddedSolver(spec).run()
     assert info.value.depth_reached == 0.0
