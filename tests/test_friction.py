@@ -348,6 +348,19 @@ def test_a_friction_increment_that_newton_cannot_finish_in_twenty_steps_is_cut_b
     np.testing.assert_allclose(early.force[1:], late.force[1:], rtol=1e-3)
 
 
+def _soft_corner_runs_now_and_with(monkeypatch, friction, module, name, value):
+    """contact-L0, {3, 540} kPa, 28 x 0.5 mm with sensitivities, as the solver runs it now and with
+    ``module.name`` set to ``value`` (a setting before a change)."""
+    spec = (
+        ModelSpec(mesh=MeshChoice("contact-L0"), protocol=Protocol(step_size=0.5, steps=28))
+        .with_material(c1=3.0, c5=540.0)
+        .with_friction(friction)
+    )
+    now = EmbeddedSolver(spec).run(threads=1, sensitivities=True)
+    monkeypatch.setattr(module, name, value)
+    return now, EmbeddedSolver(spec).run(threads=1, sensitivities=True)
+
+
 @pytest.mark.parametrize("friction", [None, 3.0])
 def test_the_friction_cap_leaves_runs_it_does_not_reach_as_they_were(monkeypatch, friction):
     """contact-L0, {3, 540} kPa, 28 x 0.5 mm, with sensitivities: with mu = 3 no Newton solve needs
@@ -355,14 +368,9 @@ def test_the_friction_cap_leaves_runs_it_does_not_reach_as_they_were(monkeypatch
     those of the cap of 60 to the last bit."""
     import indentation_studio.forward.penalty_contact as penalty_contact
 
-    spec = (
-        ModelSpec(mesh=MeshChoice("contact-L0"), protocol=Protocol(step_size=0.5, steps=28))
-        .with_material(c1=3.0, c5=540.0)
-        .with_friction(friction)
+    now, before = _soft_corner_runs_now_and_with(
+        monkeypatch, friction, penalty_contact, "FRICTION_NEWTON", 60
     )
-    now = EmbeddedSolver(spec).run(threads=1, sensitivities=True)
-    monkeypatch.setattr(penalty_contact, "FRICTION_NEWTON", 60)
-    before = EmbeddedSolver(spec).run(threads=1, sensitivities=True)
     np.testing.assert_array_equal(now.force, before.force)
     np.testing.assert_array_equal(now.force_sensitivity, before.force_sensitivity)
     assert now.convergence["newton_iterations"].max() <= 20
@@ -421,14 +429,7 @@ def test_gmres_cycles_leave_runs_whose_first_cycles_get_there_as_they_were(monke
     from indentation_studio.forward import newton
 
     assert newton.GMRES_CYCLES == 3
-    spec = (
-        ModelSpec(mesh=MeshChoice("contact-L0"), protocol=Protocol(step_size=0.5, steps=28))
-        .with_material(c1=3.0, c5=540.0)
-        .with_friction(friction)
-    )
-    now = EmbeddedSolver(spec).run(threads=1, sensitivities=True)
-    monkeypatch.setattr(newton, "GMRES_CYCLES", 1)
-    before = EmbeddedSolver(spec).run(threads=1, sensitivities=True)
+    now, before = _soft_corner_runs_now_and_with(monkeypatch, friction, newton, "GMRES_CYCLES", 1)
     same = 26 if friction == 3.0 else len(now.force)  # the steps before the paths part
     np.testing.assert_array_equal(now.force[:same], before.force[:same])
     np.testing.assert_allclose(now.force, before.force, rtol=1e-5)
