@@ -63,33 +63,39 @@ CASES: dict[str, dict] = {
 #: in a sample's stack (function name, file) names it.
 PYSPY_RULES: list[tuple[str, tuple[tuple[str, str], ...]]] = [
     ("PARDISO factorisation", (("_factorize_pardiso", "linear_solver.py"),)),
-    ("back-subst.: sensitivity CG", (("sensitivity_solve", "newton.py"), ("solve", "linear_solver.py"))),
+    (
+        "back-subst.: sensitivity CG",
+        (("sensitivity_solve", "linear_steps.py"), ("solve", "linear_solver.py")),
+    ),
     (
         "back-subst.: inverse columns",
         (("inverse_columns", "linear_solver.py"), ("solve", "linear_solver.py")),
     ),
-    ("back-subst.: CG preconditioner", (("preconditioner", "newton.py"), ("solve", "linear_solver.py"))),
+    (
+        "back-subst.: CG preconditioner",
+        (("preconditioner", "linear_steps.py"), ("solve", "linear_solver.py")),
+    ),
     ("back-subst.: Newton corrections", (("solve", "linear_solver.py"),)),
     ("contact correction (W D S^-1)", (("apply", "linear_solver.py"),)),
-    ("CG matvecs", (("matvec", "newton.py"),)),
+    ("CG matvecs", (("matvec", "linear_steps.py"),)),
     ("assembly: contact", (("add_to_system", "penalty_contact.py"),)),
     ("assembly: elements", (("assemble", "solver.py"),)),
     ("contact statuses", (("_statuses_follow", "penalty_contact.py"),)),
-    ("Krylov (scipy, rest)", (("krylov", "newton.py"),)),
+    ("Krylov (scipy, rest)", (("krylov", "linear_steps.py"),)),
     ("contact (rest)", (("penalty_contact.py",),)),
 ]
 
 
 def sensitivity_factorises_first() -> None:
-    """Cure candidate (issue 58; landed since in ``NewtonSystem.sensitivity_solve``, so a no-op on
+    """Cure candidate (issue 58; landed since in ``LinearSteps.sensitivity_solve``, so a no-op on
     today's solver, kept to make the measurement again on the commits before): the sensitivity
     solve factorises the converged
     tangent at once where the factorisation in hand is the one the previous sensitivity solve left
     (the CG to 1e-11 preconditioned with it, a step old, mostly fails after ``krylov_maxiter()``
-    iterations and factorises then). Patches :meth:`NewtonSystem.sensitivity_solve` in this process."""
-    from indentation_studio.forward.newton import NewtonSystem
+    iterations and factorises then). Patches :meth:`LinearSteps.sensitivity_solve` in this process."""
+    from indentation_studio.forward.linear_steps import LinearSteps
 
-    today = NewtonSystem.sensitivity_solve
+    today = LinearSteps.sensitivity_solve
 
     def sensitivity_solve(self, K, cmask, b):
         if self.stats["factorizations"] == getattr(self, "_factorizations_at_sensitivity", -1):
@@ -99,7 +105,7 @@ def sensitivity_factorises_first() -> None:
         self._factorizations_at_sensitivity = self.stats["factorizations"]
         return x
 
-    NewtonSystem.sensitivity_solve = sensitivity_solve
+    LinearSteps.sensitivity_solve = sensitivity_solve
 
 
 #: Cure candidates ``--candidate`` applies to this process before the run.

@@ -1,35 +1,38 @@
-"""Newton-Raphson for the embedded solver: the linear steps (factorisations, Krylov solves
-preconditioned with the factorisation in hand, back-substitutions) and the Newton solve with
-prescribed dofs, shared by every contact (:mod:`forward.indenter_contact`).
+"""Newton-Raphson for the embedded solver: the constrained Newton solve with prescribed dofs,
+shared by every contact (:mod:`forward.indenter_contact`), on the linear steps of
+:mod:`forward.linear_steps` (docs/architecture.md, "forward").
 
-:class:`NewtonSystem` is the base of :class:`forward.solver.EmbeddedSolver`: it holds the linear
-solver and the statistics, and asks the contact in use (``self.contact``) what the tangent's
-factorisation leaves out (:meth:`IndenterContact.for_factorisation`,
-:meth:`IndenterContact.correction`) and whether the tangent is symmetric.
+:class:`NewtonSystem` is the base of :class:`forward.solver.EmbeddedSolver`, which provides
+:meth:`NewtonSystem.assemble`.
 """
 
 from __future__ import annotations
 
 import logging
-import time
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
-from .linear_solver import LinearSolveError, LowRankUpdate
+from .linear_solver import LinearSolveError
+from .linear_steps import LinearSteps
 from .material import InvertedElementError
 
 if TYPE_CHECKING:
     from .block_mesh import BlockMesh
-    from .linear_solver import ConstrainedSymmetricSolver
     from .sparse_assembly import SparsePattern
     from .spec import ModelSpec
     from .stick_contact import RigidSphere
 
-__all__ = ["NEWTON_STATS", "Equilibrium", "IncrementFailed", "NewtonSystem", "TangentContact"]
+__all__ = [
+    "MAX_HALVINGS",
+    "MAX_STALE_STEPS",
+    "REFACTOR_RATIO",
+    "Equilibrium",
+    "IncrementFailed",
+    "NewtonSystem",
+]
 
 log = logging.getLogger(__name__)
 
@@ -44,60 +47,6 @@ REFACTOR_RATIO = 0.3
 MAX_STALE_STEPS = 6
 #: A Newton step that inverts an element is halved at most this many times.
 MAX_HALVINGS = 6
-#: Newton steps are solved by CG preconditioned with the factorisation in hand to this relative
-#: residual, in at most this many iterations, before a new factorisation is made.
-KRYLOV_RTOL = 1e-2
-KRYLOV_MAXITER = 8
-#: ... or more where a factorisation costs many back-substitutions (large meshes).
-KRYLOV_MAXITER_LARGE = 30
-KRYLOV_DOFS_PER_ITERATION = 3000
-#: Relative residual of the sensitivity solves (their CG runs on the exact converged tangent).
-SENSITIVITY_RTOL = 1e-11
-#: With friction, a step made with a fresh factorisation is GMRES on the tangent to this relative
-#: residual, in at most this many iterations (EmbeddedSolver._fresh_step).
-FRESH_RTOL = 1e-8
-FRESH_MAXITER = 50
-#: On a factorisation just made (a fresh step, a sensitivity solve that factorised), GMRES
-#: (friction's unsymmetric tangent) runs at most this many cycles of its iterations. scipy's GMRES
-#: ends a cycle when the preconditioned residual meets the tolerance and only then checks the true
-#: one, so that a solve of one cycle whose true residual was not yet there counted as failed and
-#: its step was thrown away for the factorisation's own, of the tangent's symmetric part, which
-#: need not lower the residual: contact-L3, R = 8 mm, {20, 560} kPa, mu 0.3, Newton stalled in
-#: step 26 for 2,440 s, 74 s with three cycles beside four other jobs (docs/validation/
-#: solver-and-speed.md, "GMRES's second cycle"). A Newton step on an older factorisation keeps one
-#: cycle: where it fails, a factorisation is made, which on small meshes costs less than more
-#: cycles (contact-L0 {3, 540} mu 0.3: 5.9 -> 8.1 s CPU with three for every solve).
-GMRES_CYCLES = 3
-
-
-#: The counters of the linear steps (:attr:`NewtonSystem.stats`; the solver's driver adds those of
-#: the assemblies, the linear solver and the contact). ``solve_s`` is the time of every linear step
-#: (factorisations, Krylov solves, corrections' back-substitutions); ``krylov_s`` includes the
-#: matrix products and the preconditioner's applications (back-substitutions and the contact's
-#: correction) inside it; the ``sensitivity_`` counters are the sensitivity solves' share of the rest.
-NEWTON_STATS: dict[str, float] = {
-    "factorizations": 0,
-    "factorize_s": 0.0,
-    "fresh_steps": 0,
-    "solves": 0,
-    "solve_s": 0.0,
-    "krylov_calls": 0,
-    "krylov_failures": 0,
-    "krylov_steps": 0,
-    "krylov_iterations": 0,
-    "krylov_s": 0.0,
-    "krylov_matvecs": 0,
-    "krylov_matvec_s": 0.0,
-    "preconditioner_applications": 0,
-    "preconditioner_s": 0.0,
-    "correction_applications": 0,
-    "correction_apply_s": 0.0,
-    "sensitivity_solves": 0,
-    "sensitivity_columns": 0,
-    "sensitivity_s": 0.0,
-    "sensitivity_factorizations": 0,
-    "sensitivity_krylov_iterations": 0,
-}
 
 
 @dataclass
@@ -125,63 +74,16 @@ class Equilibrium:
     dR: np.ndarray | None = None  # (3n, p): d(internal force)/d(theta) at u
 
 
-class TangentContact(Protocol):
-    """What the linear steps ask of the contact in use (forward.indenter_contact.IndenterContact)."""
+class NewtonSystem(LinearSteps):
+    """The constrained Newton solve of the embedded solver, on its linear steps.
 
-    symmetric: bool
-
-    def for_factorisation(self, K: sp.csr_matrix) -> sp.csr_matrix: ...
-
-    def correction(self, cmask: np.ndarray) -> LowRankUpdate | None: ...
-
-
-def unsymmetric_factorisation(K: sp.csr_matrix, cmask: np.ndarray) -> spla.SuperLU:
-    """An LU factorisation (SuperLU) of K with the dofs in ``cmask`` eliminated.
-
-    The tangent with friction is not symmetric; the Newton solve factorises its symmetric part and
-    lets GMRES bridge the rest. Where it cannot, this is K's own factorisation.
-
-    Parameters
-    ----------
-    K : scipy.sparse.csr_matrix
-        The tangent.
-    cmask : ndarray of bool, shape (3n,)
-        The dofs held (their solution 0).
-
-    Returns
-    -------
-    scipy.sparse.linalg.SuperLU
-        Its ``solve`` takes and returns vectors over the free dofs.
-
-    Raises
-    ------
-    LinearSolveError
-        If K is singular on the free dofs.
-    """
-    free = np.flatnonzero(~cmask)
-    try:
-        return spla.splu(K[free][:, free].tocsc())
-    except RuntimeError as exc:  # SuperLU: "Factor is exactly singular"
-        raise LinearSolveError(f"the tangent is singular ({exc})") from exc
-
-
-class NewtonSystem:
-    """The linear steps and the constrained Newton solve of the embedded solver.
-
-    Subclasses (forward.solver.EmbeddedSolver) set the attributes below and provide
-    :meth:`assemble` (module docstring).
+    Subclasses (forward.solver.EmbeddedSolver) set the attributes below and those of
+    :class:`forward.linear_steps.LinearSteps`, and provide :meth:`assemble`.
 
     Attributes
     ----------
     spec : ModelSpec
         The model (its solver options).
-    linear : ConstrainedSymmetricSolver
-        The linear solver (factorisations and back-substitutions).
-    contact : TangentContact
-        The contact in use (what the factorisation leaves out).
-    stats : dict
-        Counts and times of assemblies, factorisations, solves and Krylov iterations
-        (``NEWTON_STATS``, the linear solver's ``LINEAR_STATS`` and the contact's).
     force_scale : float
         A force below which residuals count as zero, mN.
     want_sensitivities : bool
@@ -191,17 +93,11 @@ class NewtonSystem:
     spec: ModelSpec
     mesh: BlockMesh
     pattern: SparsePattern
-    linear: ConstrainedSymmetricSolver
-    contact: TangentContact
-    stats: dict
-    n_dofs: int
     top: np.ndarray
     bc_fixed: np.ndarray
     sphere: RigidSphere
     force_scale: float
     want_sensitivities: bool
-    #: the factorisation count the last sensitivity solve ended with (-1: none yet)
-    _sensitivity_factorisation: int = -1
 
     def assemble(
         self, u: np.ndarray, tangent: bool = True, parameter_derivatives: bool = False
@@ -223,304 +119,6 @@ class NewtonSystem:
             R (3n,), K (CSR or None), dR (3n, 2) or None.
         """
         raise NotImplementedError
-
-    def factorize(self, K: sp.csr_matrix, constrained: np.ndarray) -> None:
-        """Factorise a tangent (with friction, its symmetric part: :meth:`IndenterContact.for_factorisation`).
-
-        Parameters
-        ----------
-        K : scipy.sparse.csr_matrix
-            The tangent.
-        constrained : ndarray of bool, shape (3n,)
-            The dofs eliminated.
-        """
-        t = time.perf_counter()
-        self.linear.factorize(self.contact.for_factorisation(K), constrained)
-        dt = time.perf_counter() - t
-        self.stats["factorizations"] += 1
-        self.stats["factorize_s"] += dt
-        self.stats["solve_s"] += dt
-
-    def krylov_maxiter(self) -> int:
-        """How many CG iterations are worth trying before a factorisation.
-
-        A factorisation's cost grows faster than a back-substitution's with the mesh, so larger
-        meshes try more: one iteration per ``KRYLOV_DOFS_PER_ITERATION`` dofs, within
-        ``KRYLOV_MAXITER`` .. ``KRYLOV_MAXITER_LARGE`` (a fixed rule, not a timing, so that a run is
-        reproducible to the last digit).
-
-        Returns
-        -------
-        int
-        """
-        return int(np.clip(self.n_dofs // KRYLOV_DOFS_PER_ITERATION, KRYLOV_MAXITER, KRYLOV_MAXITER_LARGE))
-
-    def krylov(
-        self,
-        K: sp.csr_matrix,
-        cmask: np.ndarray,
-        rhs: np.ndarray,
-        rtol: float,
-        maxiter: int,
-        *,
-        cycles: int = 1,
-        unfinished: bool = False,
-    ) -> np.ndarray | None:
-        """CG (GMRES when the tangent is unsymmetric) preconditioned with the factorisation in hand.
-
-        The dofs in ``cmask`` are eliminated (the factorisation's extra constraints by its Schur
-        complement) and the contact's :meth:`IndenterContact.correction` is applied.
-
-        Parameters
-        ----------
-        K : scipy.sparse.csr_matrix
-            The tangent.
-        cmask : ndarray of bool, shape (3n,)
-            The dofs held (eliminated, their solution 0).
-        rhs : ndarray, shape (3n,)
-            The right-hand side.
-        rtol : float
-            Relative residual to reach.
-        maxiter : int
-            Iterations at most (CG); with GMRES, iterations a cycle.
-        cycles : int, optional
-            GMRES's cycles at most (``GMRES_CYCLES`` on a factorisation just made).
-        unfinished : bool, optional
-            Return the last iterate also where it does not reach ``rtol`` (still counted as a
-            failure), None only where it is not finite.
-
-        Returns
-        -------
-        ndarray or None
-            The solution, or None when it does not reach ``rtol`` within those iterations.
-        """
-        t = time.perf_counter()
-
-        stats = self.stats
-
-        def matvec(x: np.ndarray) -> np.ndarray:
-            t_mv = time.perf_counter()
-            y = K @ np.where(cmask, 0.0, x)
-            y[cmask] = x[cmask]
-            stats["krylov_matvecs"] += 1
-            stats["krylov_matvec_s"] += time.perf_counter() - t_mv
-            return y
-
-        def preconditioner(r: np.ndarray) -> np.ndarray:
-            t_pc = time.perf_counter()
-            y = self.precondition(r, cmask, correction)
-            stats["preconditioner_applications"] += 1
-            stats["preconditioner_s"] += time.perf_counter() - t_pc
-            return y
-
-        n = self.n_dofs
-        A = spla.LinearOperator((n, n), matvec=matvec, dtype=float)
-        correction = self.contact.correction(cmask)
-        M = spla.LinearOperator((n, n), matvec=preconditioner, dtype=float)
-        its = [0]
-
-        def count(_x: np.ndarray) -> None:
-            its[0] += 1
-
-        if self.contact.symmetric:
-            x, info = spla.cg(A, rhs, rtol=rtol, maxiter=maxiter, M=M, callback=count)
-        else:
-            x, info = spla.gmres(
-                A,
-                rhs,
-                rtol=rtol,
-                restart=maxiter,
-                maxiter=cycles,
-                M=M,
-                callback=count,
-                callback_type="pr_norm",
-            )
-        dt = time.perf_counter() - t
-        self.stats["krylov_calls"] += 1
-        self.stats["krylov_iterations"] += its[0]
-        self.stats["krylov_s"] += dt
-        self.stats["solve_s"] += dt
-        if info != 0 or not np.all(np.isfinite(x)):
-            self.stats["krylov_failures"] += 1
-            return np.where(cmask, 0.0, x) if unfinished and np.all(np.isfinite(x)) else None
-        self.stats["krylov_steps"] += 1
-        return np.where(cmask, 0.0, x)
-
-    def newton_step(
-        self, K: sp.csr_matrix, cmask: np.ndarray, rhs: np.ndarray, rtol: float = KRYLOV_RTOL
-    ) -> np.ndarray:
-        """Solve K x = rhs, the dofs in ``cmask`` eliminated, as cheaply as the factorisation in hand allows.
-
-        By CG (GMRES with friction) preconditioned with the factorisation in hand (to ``rtol``: a
-        tangent assembly and a few back-substitutions instead of a factorisation) when that
-        factorisation covers the constraints (:meth:`ConstrainedSymmetricSolver.covers`), else,
-        or when it does not get there, by factorising K (:meth:`fresh_step`).
-
-        Parameters
-        ----------
-        K : scipy.sparse.csr_matrix
-            The tangent.
-        cmask : ndarray of bool, shape (3n,)
-            The dofs held (eliminated, their solution 0).
-        rhs : ndarray, shape (3n,)
-            The right-hand side.
-        rtol : float, optional
-            The Krylov solve's relative residual.
-
-        Returns
-        -------
-        ndarray, shape (3n,)
-        """
-        if self.linear.covers(cmask):
-            x = self.krylov(K, cmask, rhs, rtol, self.krylov_maxiter())
-            if x is not None:
-                return x
-        return self.fresh_step(K, cmask, rhs)
-
-    def fresh_step(self, K: sp.csr_matrix, cmask: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-        """Solve K x = rhs with a factorisation of K made here.
-
-        One back-substitution; with friction GMRES on K itself, preconditioned with it, to
-        ``FRESH_RTOL`` in at most ``GMRES_CYCLES`` cycles (the factorisation is of K's symmetric
-        part, the contact blocks put back by the contact's correction), else the better by the
-        true residual of GMRES's last iterate and that factorisation's own step.
-
-        Parameters
-        ----------
-        K : scipy.sparse.csr_matrix
-            The tangent.
-        cmask : ndarray of bool, shape (3n,)
-            The dofs held (eliminated, their solution 0).
-        rhs : ndarray, shape (3n,)
-            The right-hand side.
-
-        Returns
-        -------
-        ndarray, shape (3n,)
-        """
-        self.stats["fresh_steps"] += 1
-        self.factorize(K, cmask)
-        if self.contact.symmetric:
-            return self.solve(rhs, cmask)
-        x = self.krylov(K, cmask, rhs, FRESH_RTOL, FRESH_MAXITER, cycles=GMRES_CYCLES, unfinished=True)
-        if x is not None:
-            miss = np.linalg.norm(np.where(cmask, 0.0, K @ x - rhs))
-            if miss <= FRESH_RTOL * np.linalg.norm(rhs):
-                return x
-        # where GMRES does not get there (a correction capped far below the contact set), the
-        # better by the true residual of its last iterate and the factorisation's own step (of
-        # the tangent's symmetric part), checked by the damped Newton's residual like any other
-        own = self.solve(rhs, cmask)
-        if x is None or np.linalg.norm(np.where(cmask, 0.0, K @ own - rhs)) < miss:
-            return own
-        return x
-
-    def solve(self, rhs: np.ndarray, cmask: np.ndarray) -> np.ndarray:
-        """One back-substitution with the factorisation in hand.
-
-        Parameters
-        ----------
-        rhs : ndarray, shape (3n,)
-            The right-hand side.
-        cmask : ndarray of bool, shape (3n,)
-            The dofs held (eliminated, their solution 0).
-
-        Returns
-        -------
-        ndarray, shape (3n,)
-        """
-        t = time.perf_counter()
-        x = self.precondition(rhs, cmask, self.contact.correction(cmask))
-        self.stats["solves"] += 1
-        self.stats["solve_s"] += time.perf_counter() - t
-        return x
-
-    def precondition(self, r: np.ndarray, cmask: np.ndarray, correction: LowRankUpdate | None) -> np.ndarray:
-        """The factorisation in hand applied to a vector, with the contact's correction.
-
-        Parameters
-        ----------
-        r : ndarray, shape (3n,)
-            The vector.
-        cmask : ndarray of bool, shape (3n,)
-            The dofs held (eliminated, their solution 0).
-        correction : LowRankUpdate or None
-            The contact blocks' correction (:meth:`IndenterContact.correction`).
-
-        Returns
-        -------
-        ndarray, shape (3n,)
-        """
-        y = self.linear.solve_constrained(r, cmask)
-        if correction is None:
-            return y
-        t = time.perf_counter()
-        y = correction.apply(y)
-        y[cmask] = 0.0
-        self.stats["correction_applications"] += 1
-        self.stats["correction_apply_s"] += time.perf_counter() - t
-        return y
-
-    def sensitivity_solve(self, K: sp.csr_matrix, cmask: np.ndarray, b: np.ndarray) -> np.ndarray:
-        """Solve the sensitivity equations K x = b, column by column, to ``SENSITIVITY_RTOL``.
-
-        Krylov on the exact converged tangent, preconditioned with the factorisation in hand
-        (with the contact's correction) when it covers the constraints; where it does not get
-        there, K is factorised and the solve repeated. Where the factorisation in hand is the one
-        the previous sensitivity solve ended with (no Newton step of this increment made a newer
-        one), K is factorised first: CG to ``SENSITIVITY_RTOL`` on an increment-old factorisation
-        failed in 24 of 28 steps of contact-L3 {10, 350} kPa and cost more than the factorisation
-        (162 -> 135 s CPU in all, forces within 1.4e-6; docs/validation/solver-and-speed.md,
-        "Where the time goes"). The factorisation made here preconditions the next increment.
-
-        Parameters
-        ----------
-        K : scipy.sparse.csr_matrix
-            The converged tangent.
-        cmask : ndarray of bool, shape (3n,)
-            The dofs held (their solution 0).
-        b : ndarray, shape (3n, p)
-            The right-hand sides, one per parameter.
-
-        Returns
-        -------
-        ndarray, shape (3n, p)
-
-        Raises
-        ------
-        LinearSolveError
-            A solve that does not converge even with a fresh factorisation.
-        """
-        t = time.perf_counter()
-        before = {k: self.stats[k] for k in ("factorizations", "krylov_iterations")}
-        x, lu = np.zeros_like(b), None
-        if self.stats["factorizations"] == self._sensitivity_factorisation and self.linear.covers(cmask):
-            self.factorize(K, cmask)
-        for k in range(b.shape[1]):
-            col = (
-                self.krylov(K, cmask, b[:, k], SENSITIVITY_RTOL, self.krylov_maxiter())
-                if self.linear.covers(cmask)
-                else None
-            )
-            if col is None:  # that factorisation is too far from this tangent: factorise it
-                self.factorize(K, cmask)
-                col = self.krylov(K, cmask, b[:, k], SENSITIVITY_RTOL, 100, cycles=GMRES_CYCLES)
-            if col is None and not self.contact.symmetric:
-                # with friction the factorisation is of K's symmetric part; where slip makes the
-                # rest too large for GMRES to bridge, K itself is factorised (once for all columns)
-                lu = lu or unsymmetric_factorisation(K, cmask)
-                col = np.zeros(len(cmask))
-                col[~cmask] = lu.solve(b[~cmask, k])
-            if col is None:
-                raise LinearSolveError("the sensitivity solve did not converge")
-            x[:, k] = col
-        self._sensitivity_factorisation = self.stats["factorizations"]
-        self.stats["sensitivity_solves"] += 1
-        self.stats["sensitivity_columns"] += int(b.shape[1])
-        self.stats["sensitivity_s"] += time.perf_counter() - t
-        for key, was in before.items():
-            self.stats["sensitivity_" + key] += self.stats[key] - was
-        return x
 
     def equilibrate(self, u0: np.ndarray, cmask: np.ndarray, target: np.ndarray) -> Equilibrium:
         """Newton-Raphson to equilibrium with the dofs in ``cmask`` prescribed to ``target``.

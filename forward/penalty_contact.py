@@ -24,9 +24,9 @@ from .contact_quadrature import contact_points
 from .coulomb_contact import FREE, FrictionContactState
 from .indenter_contact import IndenterContact
 from .linear_solver import LinearSolveError, LowRankUpdate
+from .linear_steps import KRYLOV_RTOL
 from .material import InvertedElementError
 from .newton import (
-    KRYLOV_RTOL,
     MAX_HALVINGS,
     MAX_STALE_STEPS,
     REFACTOR_RATIO,
@@ -279,7 +279,7 @@ class PenaltyContact(IndenterContact):
         (the supports in ``cmask`` held at zero), damped. As in :meth:`NewtonSystem.equilibrate`, corrections
         reuse the factorisation in hand while the residual contracts by at least
         ``REFACTOR_RATIO`` (``MAX_STALE_STEPS`` in a row at most), and take a Newton step with
-        the tangent at the current state otherwise (:meth:`NewtonSystem.newton_step`). Every step is
+        the tangent at the current state otherwise (:meth:`LinearSteps.newton_step`). Every step is
         shortened so that no slipping node passes its anchor
         (:meth:`FrictionContactState.step_fraction`); a Newton step is then halved until the
         residual falls (a full step can overshoot where a node slides along the indenter, with

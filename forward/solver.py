@@ -33,8 +33,9 @@ from .element_moduli import element_moduli
 from .hex8_mean_dilatation import ReferenceGeometry
 from .indenter_contact import IndenterContact
 from .linear_solver import ConstrainedSymmetricSolver
+from .linear_steps import LINEAR_STEP_STATS
 from .mesh import BlockMesh, build_mesh
-from .newton import NEWTON_STATS, IncrementFailed, NewtonSystem
+from .newton import IncrementFailed, NewtonSystem
 from .node_stick import NodeStickContact
 from .penalty_contact import PenaltyContact
 from .result import SYMMETRY_FACTOR, SimulationResult
@@ -150,7 +151,7 @@ class EmbeddedSolver(NewtonSystem):
             "tangent_assemblies": 0,
             "parameter_assemblies": 0,
             "assembly_s": 0.0,
-            **NEWTON_STATS,
+            **LINEAR_STEP_STATS,
         }
         self.linear = ConstrainedSymmetricSolver(
             self.pattern,

@@ -170,18 +170,20 @@ def test_sensitivities_where_gmres_cannot_bridge_the_slip_come_from_the_tangents
     """Where slip makes the tangent too far from its symmetric part for GMRES (the fit issue's
     FE confirmation at R = 8 mm, mu = 0.78, contact-L1), K itself is factorised: the same
     sensitivities as GMRES gives where it converges."""
-    from indentation_studio.forward import newton
+    from indentation_studio.forward import linear_steps
 
     spec = ModelSpec(mesh=MeshChoice("coarse"), protocol=Protocol(step_size=0.5, steps=3)).with_friction(1.0)
     r = EmbeddedSolver(spec).run(sensitivities=True)
-    krylov = newton.NewtonSystem.krylov
+    krylov = linear_steps.LinearSteps.krylov
 
     def no_sensitivity_krylov(self, K, cmask, rhs, rtol, maxiter, **options):
         return (
-            None if rtol == newton.SENSITIVITY_RTOL else krylov(self, K, cmask, rhs, rtol, maxiter, **options)
+            None
+            if rtol == linear_steps.SENSITIVITY_RTOL
+            else krylov(self, K, cmask, rhs, rtol, maxiter, **options)
         )
 
-    monkeypatch.setattr(newton.NewtonSystem, "krylov", no_sensitivity_krylov)
+    monkeypatch.setattr(linear_steps.LinearSteps, "krylov", no_sensitivity_krylov)
     lu = EmbeddedSolver(spec).run(sensitivities=True)
     assert np.array_equal(lu.convergence["increments"], r.convergence["increments"])
     assert r.convergence["slipping_nodes"].max() > 0
@@ -384,7 +386,7 @@ def test_gmres_on_a_factorisation_just_made_goes_on_past_its_first_cycle():
     (issue 58: a fresh step then took the symmetric part's step and Newton stalled)."""
     import scipy.sparse as sp
 
-    from indentation_studio.forward import newton
+    from indentation_studio.forward import linear_steps
 
     spec = (
         ModelSpec(mesh=MeshChoice("contact-L0"), protocol=Protocol(step_size=0.5, steps=2))
@@ -404,14 +406,19 @@ def test_gmres_on_a_factorisation_just_made_goes_on_past_its_first_cycle():
         for share, one_cycle_stops_at in ((1e-3, 10), (3e-2, 45)):
             A = (K + put @ ((B - B.T) * share * K.diagonal()[dofs].mean()) @ put.T).tocsr()
             before = solver.stats["krylov_iterations"]
-            assert solver.krylov(A, cmask, rhs, newton.FRESH_RTOL, newton.FRESH_MAXITER) is None
+            assert solver.krylov(A, cmask, rhs, linear_steps.FRESH_RTOL, linear_steps.FRESH_MAXITER) is None
             assert solver.stats["krylov_iterations"] - before < one_cycle_stops_at  # ended early
             x = solver.krylov(
-                A, cmask, rhs, newton.FRESH_RTOL, newton.FRESH_MAXITER, cycles=newton.GMRES_CYCLES
+                A,
+                cmask,
+                rhs,
+                linear_steps.FRESH_RTOL,
+                linear_steps.FRESH_MAXITER,
+                cycles=linear_steps.GMRES_CYCLES,
             )
             assert x is not None
             residual = np.linalg.norm(np.where(cmask, 0.0, A @ x - rhs)) / np.linalg.norm(rhs)
-            assert residual <= newton.FRESH_RTOL
+            assert residual <= linear_steps.FRESH_RTOL
     finally:
         solver.linear.release()
 
@@ -426,10 +433,10 @@ def test_gmres_cycles_leave_runs_whose_first_cycles_get_there_as_they_were(monke
     factorisation in hand for the next increment's Newton steps, whose path then moves the last
     three steps' forces by 1.4e-6 and their sensitivities by 5e-5, within Newton's own tolerance
     (``residual_tol`` 1e-4 of the reactions). The stick's CG has no cycles: the same run."""
-    from indentation_studio.forward import newton
+    from indentation_studio.forward import linear_steps
 
-    assert newton.GMRES_CYCLES == 3
-    now, before = _soft_corner_runs_now_and_with(monkeypatch, friction, newton, "GMRES_CYCLES", 1)
+    assert linear_steps.GMRES_CYCLES == 3
+    now, before = _soft_corner_runs_now_and_with(monkeypatch, friction, linear_steps, "GMRES_CYCLES", 1)
     same = 26 if friction == 3.0 else len(now.force)  # the steps before the paths part
     np.testing.assert_array_equal(now.force[:same], before.force[:same])
     np.testing.assert_allclose(now.force, before.force, rtol=1e-5)

@@ -153,7 +153,7 @@ def test_the_stick_solves_newton_steps_to_a_constant_relative_tolerance(monkeypa
     Krylov solves fail and factorise again; contact-L3 {3, 120} kPa 76 -> 24 factorisations). The
     forces and sensitivities are those of the tightened path within Newton's tolerance; friction
     keeps its tightened steps."""
-    from indentation_studio.forward import newton, penalty_contact
+    from indentation_studio.forward import linear_steps, penalty_contact
     from indentation_studio.forward.spec import Contact, Indenter
 
     def run():
@@ -168,8 +168,8 @@ def test_the_stick_solves_newton_steps_to_a_constant_relative_tolerance(monkeypa
         return solver, solver.run(sensitivities=True, threads=1)
 
     solver, now = run()
-    assert solver.contact._krylov_rtol(1e6, 1.0) == newton.KRYLOV_RTOL  # constant under the stick
-    tightened = lambda self, norm, ref: newton.KRYLOV_RTOL * min(1.0, ref / norm)  # noqa: E731
+    assert solver.contact._krylov_rtol(1e6, 1.0) == linear_steps.KRYLOV_RTOL  # constant under the stick
+    tightened = lambda self, norm, ref: linear_steps.KRYLOV_RTOL * min(1.0, ref / norm)  # noqa: E731
     monkeypatch.setattr(penalty_contact.PenaltyContact, "_krylov_rtol", tightened)
     _, before = run()
     np.testing.assert_allclose(now.force[1:], before.force[1:], rtol=1e-5)
@@ -177,7 +177,9 @@ def test_the_stick_solves_newton_steps_to_a_constant_relative_tolerance(monkeypa
     assert np.all(np.abs(now.force_sensitivity - before.force_sensitivity) <= 1e-4 * scale)
     monkeypatch.undo()
     friction = ModelSpec(mesh=MeshChoice("contact-L0"), contact=Contact(friction=0.3))
-    assert EmbeddedSolver(friction).contact._krylov_rtol(1e3, 1.0) == pytest.approx(newton.KRYLOV_RTOL * 1e-3)
+    assert EmbeddedSolver(friction).contact._krylov_rtol(1e3, 1.0) == pytest.approx(
+        linear_steps.KRYLOV_RTOL * 1e-3
+    )
 
 
 @pytest.mark.parametrize("friction", [None, 0.3, 3.0])
@@ -188,7 +190,7 @@ def test_a_sensitivity_solve_on_the_last_ones_factorisation_factorises_first(mon
     factorisations (8 for sensitivities), the sensitivity CG 80 -> 24 iterations and failed Krylov
     solves 10 -> 3. With friction (mu 0.3, 3) every increment's Newton factorises, so nothing
     changes. Forces and sensitivities the same in all three."""
-    from indentation_studio.forward.newton import NewtonSystem
+    from indentation_studio.forward.linear_steps import LinearSteps
 
     spec = (
         ModelSpec(mesh=MeshChoice("contact-L1"), protocol=Protocol(step_size=0.5, steps=8))
@@ -196,13 +198,13 @@ def test_a_sensitivity_solve_on_the_last_ones_factorisation_factorises_first(mon
         .with_friction(friction)
     )
     first = EmbeddedSolver(spec).run(threads=1, sensitivities=True)
-    today = NewtonSystem.sensitivity_solve
+    today = LinearSteps.sensitivity_solve
 
     def cg_first(self, K, cmask, b):
         self._sensitivity_factorisation = -1  # never "the last one's": CG first, as before
         return today(self, K, cmask, b)
 
-    monkeypatch.setattr(NewtonSystem, "sensitivity_solve", cg_first)
+    monkeypatch.setattr(LinearSteps, "sensitivity_solve", cg_first)
     before = EmbeddedSolver(spec).run(threads=1, sensitivities=True)
     new, old = first.solver["stats"], before.solver["stats"]
     assert new["sensitivity_factorizations"] == old["sensitivity_factorizations"] >= 3
