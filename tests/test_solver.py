@@ -183,10 +183,11 @@ def test_the_stick_solves_newton_steps_to_a_constant_relative_tolerance(monkeypa
 
 
 def test_a_contact_edge_that_toggles_is_held_from_the_second_pass(monkeypatch):
-    """contact-L1, R = 4.77 mm, {10, 350} kPa, the stick, 28 x 0.5 mm with sensitivities (measured
-    2026-11-29): a point at the contact's edge leaves at the end of a pass and comes back within the
-    next. Held from the second pass on (``HOLDING_PASS`` 2), the run needs fewer passes and Newton
-    iterations than with 4, and ends with the same point kept: forces and sensitivities within 1e-9."""
+    """contact-L1, R = 4.77 mm, {10, 350} kPa, the stick, 28 x 0.5 mm (measured 2026-11-29): in the
+    last step a point at the contact's edge leaves at the end of a pass and comes back within the
+    next. Held from the second pass on (``HOLDING_PASS`` 2), that step takes 2 passes and 20 Newton
+    iterations against 4 and 40 with 4, and ends with the same point kept: forces within 1e-9 (the
+    other steps to the last bit)."""
     from indentation_studio.forward import penalty_contact
 
     assert penalty_contact.HOLDING_PASS == 2
@@ -194,14 +195,13 @@ def test_a_contact_edge_that_toggles_is_held_from_the_second_pass(monkeypatch):
         c1=10.0, c5=350.0
     )
     assert spec.indenter.radius == 4.77
-    now = EmbeddedSolver(spec).run(threads=1, sensitivities=True)
+    now = EmbeddedSolver(spec).run(threads=1)
     monkeypatch.setattr(penalty_contact, "HOLDING_PASS", 4)
-    before = EmbeddedSolver(spec).run(threads=1, sensitivities=True)
-    assert now.convergence["contact_passes"].sum() < before.convergence["contact_passes"].sum()
-    assert now.convergence["newton_iterations"].sum() < before.convergence["newton_iterations"].sum()
-    np.testing.assert_allclose(now.force[1:], before.force[1:], rtol=1e-9)
-    scale = np.abs(before.force_sensitivity).max(axis=0)
-    assert np.all(np.abs(now.force_sensitivity - before.force_sensitivity) <= 1e-9 * scale)
+    before = EmbeddedSolver(spec).run(threads=1)
+    assert now.convergence["contact_passes"][-1] == 2 < before.convergence["contact_passes"][-1]
+    assert now.convergence["newton_iterations"][-1] < before.convergence["newton_iterations"][-1]
+    np.testing.assert_array_equal(now.force[:-1], before.force[:-1])
+    np.testing.assert_allclose(now.force[-1], before.force[-1], rtol=1e-9)
 
 
 @pytest.mark.parametrize("friction", [None, 0.3, 3.0])
