@@ -499,7 +499,7 @@ class PenaltyContact(IndenterContact):
         tol = 1e-9 * s.sphere.radius
         c.status = c.settled_status(at_points(u_pred[top]), d1, tol)
         cmask = s.bc_fixed.ravel()
-        trial, iters, seen = u_pred, 0, set()
+        trial, iters = u_pred, 0
         self._state, self._depth, self._holding = c, d1, False
         self._step_limit = STICK_STEP_LIMIT * abs(d1 - d0) if self.friction is None else None
         try:
@@ -516,11 +516,10 @@ class PenaltyContact(IndenterContact):
                 )
                 if np.array_equal(wanted, c.status):
                     break
-                seen.add(c.status.tobytes())
-                self._holding = passes >= HOLDING_PASS  # the set wanders: from now on nothing leaves
-                if (
-                    wanted.tobytes() in seen or self._holding
-                ):  # the statuses cycle: keep every node in contact
+                # the set wanders or cycles (a set seen before can only come back from the second
+                # pass, where HOLDING_PASS starts): from now on nothing leaves
+                self._holding = passes >= HOLDING_PASS
+                if self._holding:
                     wanted = np.maximum(wanted, c.status)
                     if np.array_equal(wanted, c.status):
                         log.debug("friction pass %d: contact set cycles; kept the nodes it holds", passes)
