@@ -30,6 +30,7 @@ __all__ = [
     "KRYLOV_RTOL",
     "LINEAR_STEP_STATS",
     "SENSITIVITY_RTOL",
+    "WORN_KRYLOV",
     "LinearSteps",
     "TangentContact",
     "unsymmetric_factorisation",
@@ -42,6 +43,13 @@ KRYLOV_MAXITER = 8
 #: ... or more where a factorisation costs many back-substitutions (large meshes).
 KRYLOV_MAXITER_LARGE = 30
 KRYLOV_DOFS_PER_ITERATION = 3000
+#: A factorisation is worn once a CG solve on it (the stick's symmetric tangent) took more than this fraction of
+#: :meth:`LinearSteps.krylov_maxiter`: the next Newton step factorises instead of trying it again.
+#: On a large mesh CG on an old factorisation often takes 10 to 20 iterations for many Newton
+#: steps in a row before one fails, while a factorisation costs about 25 of them: contact-L3
+#: {10, 350} kPa 150.3 -> 117.8 s, contact-L4 R = 8 mm {14, 200} (6 steps) 268.0 -> 251.5 s, the
+#: small meshes unchanged within noise (docs/validation/solver-and-speed.md, "a worn factorisation").
+WORN_KRYLOV = 0.5
 #: Relative residual of the sensitivity solves (their CG runs on the exact converged tangent).
 SENSITIVITY_RTOL = 1e-11
 #: With friction, a step made with a fresh factorisation is GMRES on the tangent to this relative
@@ -155,6 +163,9 @@ class LinearSteps:
     n_dofs: int
     #: the factorisation count the last sensitivity solve ended with (-1: none yet)
     _sensitivity_factorisation: int = -1
+    #: whether a Krylov solve on the factorisation in hand took more than ``WORN_KRYLOV`` of its
+    #: iterations (the next Newton step factorises)
+    _worn: bool = False
 
     def factorize(self, K: sp.csr_matrix, constrained: np.ndarray) -> None:
         """Factorise a tangent (with friction, its symmetric part: :meth:`IndenterContact.for_factorisation`).
@@ -168,6 +179,7 @@ class LinearSteps:
         """
         t = time.perf_counter()
         self.linear.factorize(self.contact.for_factorisation(K), constrained)
+        self._worn = False
         dt = time.perf_counter() - t
         self.stats["factorizations"] += 1
         self.stats["factorize_s"] += dt
@@ -286,7 +298,9 @@ class LinearSteps:
         By CG (GMRES with friction) preconditioned with the factorisation in hand (to ``rtol``: a
         tangent assembly and a few back-substitutions instead of a factorisation) when that
         factorisation covers the constraints (:meth:`ConstrainedSymmetricSolver.covers`), else,
-        or when it does not get there, by factorising K (:meth:`fresh_step`).
+        or when it does not get there, by factorising K (:meth:`fresh_step`). A factorisation on
+        which CG took more than ``WORN_KRYLOV`` of its iterations is worn: the next step
+        factorises at once.
 
         Parameters
         ----------
@@ -303,8 +317,14 @@ class LinearSteps:
         -------
         ndarray, shape (3n,)
         """
-        if self.linear.covers(cmask):
-            x = self.krylov(K, cmask, rhs, rtol, self.krylov_maxiter())
+        if self.linear.covers(cmask) and not self._worn:
+            maxiter = self.krylov_maxiter()
+            before = self.stats["krylov_iterations"]
+            x = self.krylov(K, cmask, rhs, rtol, maxiter)
+            # with friction the failed solves follow the fibers' kink, not wear (the speed page):
+            # its GMRES keeps trying until one fails
+            worn = self.stats["krylov_iterations"] - before > WORN_KRYLOV * maxiter
+            self._worn = worn and self.contact.symmetric
             if x is not None:
                 return x
         return self.fresh_step(K, cmask, rhs)

@@ -1,6 +1,9 @@
 """The embedded solver against closed forms (one element, Hertz), real FEBio 4 (../shared/febio)
 and its own finite differences; failures are named and keep what was computed."""
 
+import dataclasses
+import itertools
+
 import numpy as np
 import pytest
 from scipy.optimize import brentq
@@ -204,6 +207,54 @@ def test_a_contact_edge_that_toggles_is_held_from_the_second_pass(monkeypatch):
     np.testing.assert_allclose(now.force[-1], before.force[-1], rtol=1e-9)
 
 
+def test_a_worn_factorisation_is_not_tried_again(monkeypatch):
+    """contact-L1, R = 4.77 mm, {10, 350} kPa, the stick, 12 x 0.5 mm (measured 2026-11-29): once CG
+    on the factorisation in hand took more than ``WORN_KRYLOV`` of ``krylov_maxiter()`` (4 of 8),
+    the next Newton step factorises instead of trying it again. Against never worn: CG iterations
+    191 -> 113, failed CG solves 7 -> 1, factorisations 8 -> 15; forces within Newton's own
+    tolerance of each other (4.2e-6 here; at contact-L2 {19, 120} both within 9e-6 of a run to
+    1e-8). With friction the rule is off (its failures follow the fibers' kink): the same run."""
+    from indentation_studio.forward import linear_steps
+    from indentation_studio.forward.linear_steps import LinearSteps
+
+    assert linear_steps.WORN_KRYLOV == 0.5
+    spec = ModelSpec(mesh=MeshChoice("contact-L1"), protocol=Protocol(step_size=0.5, steps=12)).with_material(
+        c1=10.0, c5=350.0
+    )
+    calls: list[tuple[int, int, bool]] = []  # (factorisation, CG iterations, solved) per Newton-step CG
+    assert EmbeddedSolver(spec).krylov_maxiter() == 8
+    krylov = LinearSteps.krylov
+
+    def logged(self, K, cmask, rhs, rtol, maxiter, **kw):
+        before = self.stats["krylov_iterations"]
+        x = krylov(self, K, cmask, rhs, rtol, maxiter, **kw)
+        if maxiter == self.krylov_maxiter():
+            calls.append(
+                (self.stats["factorizations"], self.stats["krylov_iterations"] - before, x is not None)
+            )
+        return x
+
+    monkeypatch.setattr(LinearSteps, "krylov", logged)
+    now = EmbeddedSolver(spec).run(threads=1)
+    worn_calls = list(calls)
+    calls.clear()
+    monkeypatch.setattr(linear_steps, "WORN_KRYLOV", np.inf)
+    before = EmbeddedSolver(spec).run(threads=1)
+    # never a CG solve again on a factorisation on which one took more than 4 iterations
+    for (fact, its, _), (nxt, _, _) in itertools.pairwise(worn_calls):
+        assert its <= 4 or nxt > fact
+    # before, some were
+    assert any(its > 4 and nxt == fact for (fact, its, _), (nxt, _, _) in itertools.pairwise(calls))
+    st_now, st_before = now.solver["stats"], before.solver["stats"]
+    assert st_now["krylov_iterations"] < 0.7 * st_before["krylov_iterations"]
+    assert st_now["krylov_failures"] < st_before["krylov_failures"]
+    np.testing.assert_allclose(now.force[1:], before.force[1:], rtol=2e-5)
+    friction = dataclasses.replace(spec, protocol=Protocol(step_size=0.5, steps=6)).with_friction(0.3)
+    never = EmbeddedSolver(friction).run(threads=1)
+    monkeypatch.setattr(linear_steps, "WORN_KRYLOV", 0.5)
+    np.testing.assert_array_equal(EmbeddedSolver(friction).run(threads=1).force, never.force)
+
+
 @pytest.mark.parametrize("friction", [None, 0.3, 3.0])
 def test_a_sensitivity_solve_on_the_last_ones_factorisation_factorises_first(monkeypatch, friction):
     """contact-L1, {10, 350} kPa, 8 steps with sensitivities (measured 2026-11-29): where no Newton
@@ -211,9 +262,13 @@ def test_a_sensitivity_solve_on_the_last_ones_factorisation_factorises_first(mon
     its CG instead of after the CG fails on the previous one. With the stick: the same
     factorisations (8 for sensitivities), the sensitivity CG 80 -> 24 iterations and failed Krylov
     solves 10 -> 3. With friction (mu 0.3, 3) every increment's Newton factorises, so nothing
-    changes. Forces and sensitivities the same in all three."""
+    changes. Forces and sensitivities the same in all three. The worn-factorisation rule is off
+    here (``WORN_KRYLOV`` infinite): with it Newton itself factorises in all but one increment of
+    this small case, and the path tested is the one the large meshes take where it does not."""
+    from indentation_studio.forward import linear_steps
     from indentation_studio.forward.linear_steps import LinearSteps
 
+    monkeypatch.setattr(linear_steps, "WORN_KRYLOV", np.inf)
     spec = (
         ModelSpec(mesh=MeshChoice("contact-L1"), protocol=Protocol(step_size=0.5, steps=8))
         .with_material(c1=10.0, c5=350.0)
