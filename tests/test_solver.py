@@ -1,7 +1,6 @@
 """The embedded solver against closed forms (one element, Hertz), real FEBio 4 (../shared/febio)
 and its own finite differences; failures are named and keep what was computed."""
 
-import dataclasses
 import itertools
 
 import numpy as np
@@ -213,7 +212,7 @@ def test_a_worn_factorisation_is_not_tried_again(monkeypatch):
     the next Newton step factorises instead of trying it again. Against never worn: CG iterations
     191 -> 113, failed CG solves 7 -> 1, factorisations 8 -> 15; forces within Newton's own
     tolerance of each other (4.2e-6 here; at contact-L2 {19, 120} both within 9e-6 of a run to
-    1e-8). With friction the rule is off (its failures follow the fibers' kink): the same run."""
+    1e-8). With friction the rule is off (its failures follow the fibers' kink): the next test."""
     from indentation_studio.forward import linear_steps
     from indentation_studio.forward.linear_steps import LinearSteps
 
@@ -249,10 +248,33 @@ def test_a_worn_factorisation_is_not_tried_again(monkeypatch):
     assert st_now["krylov_iterations"] < 0.7 * st_before["krylov_iterations"]
     assert st_now["krylov_failures"] < st_before["krylov_failures"]
     np.testing.assert_allclose(now.force[1:], before.force[1:], rtol=2e-5)
-    friction = dataclasses.replace(spec, protocol=Protocol(step_size=0.5, steps=6)).with_friction(0.3)
-    never = EmbeddedSolver(friction).run(threads=1)
-    monkeypatch.setattr(linear_steps, "WORN_KRYLOV", 0.5)
-    np.testing.assert_array_equal(EmbeddedSolver(friction).run(threads=1).force, never.force)
+
+
+@pytest.mark.parametrize("friction", [None, 0.3, 3.0])
+def test_the_worn_rule_with_sensitivities_and_friction(monkeypatch, friction):
+    """contact-L1, R = 4.77 mm, {10, 350} kPa, 6 x 0.5 mm with sensitivities (measured 2026-11-29),
+    the worn-factorisation rule against never worn: under the stick forces within 2e-5 and the
+    force sensitivities within 1e-4 of their largest (Newton's tolerance; the sensitivity solves
+    are on each converged tangent); with friction (mu 0.3, 3) the rule is off: the same runs to
+    the last bit."""
+    from indentation_studio.forward import linear_steps
+
+    spec = (
+        ModelSpec(mesh=MeshChoice("contact-L1"), protocol=Protocol(step_size=0.5, steps=6))
+        .with_material(c1=10.0, c5=350.0)
+        .with_friction(friction)
+    )
+    now = EmbeddedSolver(spec).run(threads=1, sensitivities=True)
+    monkeypatch.setattr(linear_steps, "WORN_KRYLOV", np.inf)
+    never = EmbeddedSolver(spec).run(threads=1, sensitivities=True)
+    if friction is not None:
+        np.testing.assert_array_equal(now.force, never.force)
+        np.testing.assert_array_equal(now.force_sensitivity, never.force_sensitivity)
+        return
+    assert now.solver["stats"]["krylov_iterations"] < never.solver["stats"]["krylov_iterations"]
+    np.testing.assert_allclose(now.force[1:], never.force[1:], rtol=2e-5)
+    scale = np.abs(never.force_sensitivity).max(axis=0)
+    np.testing.assert_allclose(now.force_sensitivity / scale, never.force_sensitivity / scale, atol=1e-4)
 
 
 @pytest.mark.parametrize("friction", [None, 0.3, 3.0])
