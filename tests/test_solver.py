@@ -7,11 +7,21 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
+from indentation_studio.forward import linear_steps, penalty_contact
+from indentation_studio.forward.linear_steps import LinearSteps
 from indentation_studio.forward.material import cauchy_stress, equibiaxial_stress_incompressible
 from indentation_studio.forward.mesh import BlockMesh
 from indentation_studio.forward.result import SimulationResult
 from indentation_studio.forward.solver import EmbeddedSolver, SimulationError
-from indentation_studio.forward.spec import Material, MeshChoice, ModelSpec, Protocol, SolverOptions
+from indentation_studio.forward.spec import (
+    Contact,
+    Indenter,
+    Material,
+    MeshChoice,
+    ModelSpec,
+    Protocol,
+    SolverOptions,
+)
 
 
 def _unit_cube() -> BlockMesh:
@@ -135,7 +145,6 @@ def test_failure_names_the_depth_and_keeps_finished_steps(monkeypatch, friction)
     """A run that cannot converge stops with the depth named and the finished steps kept, with the
     stick and with friction (whose fresh steps' GMRES may run several cycles; its Newton solves
     are held to one damped step here, since it accepts a residual at round-off)."""
-    from indentation_studio.forward import penalty_contact
 
     monkeypatch.setattr(penalty_contact, "FRICTION_NEWTON", 1)
     spec = ModelSpec(
@@ -155,8 +164,6 @@ def test_the_stick_solves_newton_steps_to_a_constant_relative_tolerance(monkeypa
     Krylov solves fail and factorise again; contact-L3 {3, 120} kPa 76 -> 24 factorisations). The
     forces and sensitivities are those of the tightened path within Newton's tolerance; friction
     keeps its tightened steps."""
-    from indentation_studio.forward import linear_steps, penalty_contact
-    from indentation_studio.forward.spec import Contact, Indenter
 
     def run():
         spec = ModelSpec(
@@ -190,7 +197,6 @@ def test_a_contact_edge_that_toggles_is_held_from_the_second_pass(monkeypatch):
     next. Held from the second pass on (``HOLDING_PASS`` 2), that step takes 2 passes and 20 Newton
     iterations against 4 and 40 with 4, and ends with the same point kept: forces within 1e-9 (the
     other steps to the last bit)."""
-    from indentation_studio.forward import penalty_contact
 
     assert penalty_contact.HOLDING_PASS == 2
     spec = ModelSpec(mesh=MeshChoice("contact-L1"), protocol=Protocol(step_size=0.5, steps=28)).with_material(
@@ -213,8 +219,6 @@ def test_a_worn_factorisation_is_not_tried_again(monkeypatch):
     125 -> 72, failed CG solves 4 -> 1, factorisations 5 -> 10; forces within Newton's own
     tolerance of each other (4.2e-6 here; at contact-L2 {19, 120} both within 9e-6 of a run to
     1e-8). With friction the rule is off (its failures follow the fibers' kink): the next test."""
-    from indentation_studio.forward import linear_steps
-    from indentation_studio.forward.linear_steps import LinearSteps
 
     assert linear_steps.WORN_KRYLOV == 0.5
     spec = ModelSpec(mesh=MeshChoice("contact-L1"), protocol=Protocol(step_size=0.5, steps=6)).with_material(
@@ -257,7 +261,6 @@ def test_the_worn_rule_with_sensitivities_and_friction(monkeypatch, friction):
     force sensitivities within 1e-4 of their largest (Newton's tolerance; the sensitivity solves
     are on each converged tangent); with friction (mu 0.3, 3) the rule is off: the same runs to
     the last bit."""
-    from indentation_studio.forward import linear_steps
 
     spec = (
         ModelSpec(
@@ -290,8 +293,6 @@ def test_a_sensitivity_solve_on_the_last_ones_factorisation_factorises_first(mon
     changes. Forces and sensitivities the same in all three. The worn-factorisation rule is off
     here (``WORN_KRYLOV`` infinite): with it Newton itself factorises in all but one increment of
     this small case, and the path tested is the one the large meshes take where it does not."""
-    from indentation_studio.forward import linear_steps
-    from indentation_studio.forward.linear_steps import LinearSteps
 
     monkeypatch.setattr(linear_steps, "WORN_KRYLOV", np.inf)
     spec = (
