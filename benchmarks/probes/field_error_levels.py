@@ -18,6 +18,14 @@ into the residual space at the fit): as one direction, and one per step and comp
     .venv/bin/python benchmarks/probes/field_error_levels.py adequacy EXPERIMENT_DIR \\
         --pair other:L3b.npz:L4b.npz
 
+``split`` parts the fine level less the coarse one on a 0.125 mm grid of the top (0 to 25 mm)
+into what the coarse level's top nodes cannot carry (the fine field less its bilinear
+interpolant from the coarse top nodes: the field inside the coarse elements) and what they carry
+wrongly (the fine field at the coarse nodes less the coarse field, interpolated alike); root mean
+square in plane and out of plane by distance from the axis at steps 10, 20 and 28.
+
+    .venv/bin/python benchmarks/probes/field_error_levels.py split COARSE.npz FINE.npz
+
 ``records`` compares two lab records of one point made with one seed from runs at two levels
 (``make_synthetic_experiment.py --from-run ... --lab``): their DIC data differ by the levels'
 field at the DIC points alone. Root mean square and largest difference by distance from the point
@@ -147,6 +155,30 @@ def records(fine_dir: str, coarse_dir: str, radius: float) -> None:
             )
 
 
+def split(coarse_path: str, fine_path: str) -> None:
+    """Print the fine less the coarse field parted into inside-element and nodal parts (docstring)."""
+    coarse, fine = SimulationResult.load(coarse_path), SimulationResult.load(fine_path)
+    grid = np.linspace(0.0, 25.0, 201)
+    p = np.stack(np.meshgrid(grid, grid, indexing="ij"), axis=-1).reshape(-1, 2)
+    r = np.hypot(p[:, 0], p[:, 1])
+    nodes = coarse.top_xyz[:, :2]
+    print(f"top nodes: coarse {len(coarse.top_xyz)}, fine {len(fine.top_xyz)}")
+    for step in (10, 20, 28):
+        at_fine = top_field_interpolator(fine.top_xyz, fine.displacement[step])
+        f = at_fine(p)
+        through_coarse_nodes = top_field_interpolator(coarse.top_xyz, at_fine(nodes))(p)
+        c = top_field_interpolator(coarse.top_xyz, coarse.displacement[step])(p)
+        parts = {"total": f - c, "inside elements": f - through_coarse_nodes, "at the nodes": through_coarse_nodes - c}
+        print(f"step {step} (in plane / out of plane, rms mm)")
+        for lo, hi in ((0, 3), (3, 5), (5, 7), (7, 10), (10, 15), (15, 25)):
+            z = (r >= lo) & (r < hi)
+            cells = "  ".join(
+                f"{name} {np.sqrt(np.mean(np.sum(d[z, :2] ** 2, axis=1))):.4f} / {_rms(d[z, 2]):.4f}"
+                for name, d in parts.items()
+            )
+            print(f"  r {lo:4.1f} to {hi:4.1f} mm: {cells}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = ap.add_subparsers(dest="what", required=True)
@@ -157,12 +189,17 @@ def main() -> None:
     ad = sub.add_parser("adequacy")
     ad.add_argument("experiment")
     ad.add_argument("--pair", action="append", required=True, help="NAME:COARSE.npz:FINE.npz")
+    sp = sub.add_parser("split")
+    sp.add_argument("coarse")
+    sp.add_argument("fine")
     rec = sub.add_parser("records")
     rec.add_argument("fine")
     rec.add_argument("coarse")
     rec.add_argument("--radius", type=float, required=True)
     args = ap.parse_args()
-    if args.what == "records":
+    if args.what == "split":
+        split(args.coarse, args.fine)
+    elif args.what == "records":
         records(args.fine, args.coarse, args.radius)
     elif args.what == "shapes":
         shapes({int(a.split(":")[0]): a.split(":", 1)[1] for a in args.run}, args.radius, args.other)
