@@ -168,7 +168,11 @@ def split(coarse_path: str, fine_path: str) -> None:
         f = at_fine(p)
         through_coarse_nodes = top_field_interpolator(coarse.top_xyz, at_fine(nodes))(p)
         c = top_field_interpolator(coarse.top_xyz, coarse.displacement[step])(p)
-        parts = {"total": f - c, "inside elements": f - through_coarse_nodes, "at the nodes": through_coarse_nodes - c}
+        parts = {
+            "total": f - c,
+            "inside elements": f - through_coarse_nodes,
+            "at the nodes": through_coarse_nodes - c,
+        }
         print(f"step {step} (in plane / out of plane, rms mm)")
         for lo, hi in ((0, 3), (3, 5), (5, 7), (7, 10), (10, 15), (15, 25)):
             z = (r >= lo) & (r < hi)
