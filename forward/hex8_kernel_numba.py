@@ -23,9 +23,11 @@ _FOUR_NINTHS = 4.0 / 9.0
 
 @njit(cache=True, nogil=True, parallel=True)
 def hex8_three_field_kernel(
-    dNdX, w, vol, ue, c1, c2, c5, kappa, a0, want_K, want_dtheta, fiber_mean, force, K, energy, dforce
+    dNdX, w, vol, ue, c1, c2, c5, kappa, a0, want_K, want_dtheta, fiber_mean, force, K, energy, dforce, taut
 ):  # pragma: no cover - compiled
-    """Fill ``force`` (ne, 24), ``K`` (ne, 24, 24), ``energy`` (ne,), ``dforce`` (ne, 2, 24).
+    """Fill ``force`` (ne, 24), ``K`` (ne, 24, 24), ``energy`` (ne,), ``dforce`` (ne, 2, 24) and
+    ``taut`` (ne, 8): 1 where the Gauss point's fiber is stretched (isochoric stretch >= 1, the
+    fibers' kink of eq. 3; with ``fiber_mean`` the element's), else 0.
 
     ``fiber_mean``: the fiber energy of eq. 3 is evaluated once per element at the element's mean
     isochoric I4~ (volume average of the Gauss points' values) instead of at every Gauss point
@@ -43,7 +45,7 @@ def hex8_three_field_kernel(
         # fmt: off
         chunk_min[ch] = _elements(
             lo, hi, dNdX, w, vol, ue, c1, c2, c5, kappa, a0,
-            want_K, want_dtheta, fiber_mean, force, K, energy, dforce,
+            want_K, want_dtheta, fiber_mean, force, K, energy, dforce, taut,
         )
         # fmt: on
     return chunk_min.min()
@@ -53,7 +55,7 @@ def hex8_three_field_kernel(
 @njit(cache=True, nogil=True)
 def _elements(
     lo, hi, dNdX, w, vol, ue, c1_e, c2_e, c5_e, kappa_e, a0,
-    want_K, want_dtheta, fiber_mean, force, K, energy, dforce,
+    want_K, want_dtheta, fiber_mean, force, K, energy, dforce, taut,
 ):  # pragma: no cover - compiled
     # fmt: on
     """Elements lo..hi-1 of :func:`hex8_three_field_kernel`; returns their smallest det F."""
@@ -114,6 +116,7 @@ def _elements(
         hm = 0.0
         dhm = 0.0
         d2hm = 0.0
+        lam_m = 0.0
         if fiber_mean:
             lam_m = math.sqrt(i4sum / vol[e])
             if lam_m >= 1.0:
@@ -160,6 +163,7 @@ def _elements(
                     I1 += Fg[i, j] * Fg[i, j]
             I4 = Fa[0] * Fa[0] + Fa[1] * Fa[1] + Fa[2] * Fa[2]
             lam = math.sqrt(m * I4)
+            taut[e, g] = 1 if (lam_m if fiber_mean else lam) >= 1.0 else 0
             hf = 0.0
             dh = 0.0
             d2h = 0.0

@@ -83,13 +83,15 @@ class ReferenceGeometry:
 @dataclass
 class ElementState:
     """Element-level results at one displacement: energy, forces (ne, 24), stiffness (ne, 24, 24),
-    forces per unit of each parameter (ne, 2, 24) when asked for."""
+    forces per unit of each parameter (ne, 2, 24) when asked for, and which Gauss points' fibers
+    are stretched (ne, 8; the compiled kernel's, None from :func:`element_state_numpy`)."""
 
     energy: float
     force: np.ndarray
     stiffness: np.ndarray | None
     dforce_dtheta: np.ndarray | None
     min_jacobian: float
+    fiber_taut: np.ndarray | None = None
 
 
 Modulus = float | np.ndarray
@@ -131,6 +133,7 @@ def element_state(
     K = np.empty((ne, 24, 24)) if tangent else np.empty((1, 24, 24))
     dforce = np.empty((ne, 2, 24)) if parameter_derivatives else np.empty((1, 2, 24))
     energy = np.empty(ne)
+    taut = np.empty((ne, 8), dtype=np.int8)
     min_j = hex8_three_field_kernel(
         geometry.dNdX,
         geometry.wdetJ0,
@@ -148,6 +151,7 @@ def element_state(
         K,
         energy,
         dforce,
+        taut,
     )
     if not np.isfinite(min_j) or min_j <= 0.0:
         raise InvertedElementError()
@@ -157,6 +161,7 @@ def element_state(
         K if tangent else None,
         dforce if parameter_derivatives else None,
         float(min_j),
+        taut.view(bool),
     )
 
 

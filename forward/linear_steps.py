@@ -27,6 +27,8 @@ __all__ = [
     "FRESH_MAXITER",
     "FRESH_RTOL",
     "GMRES_CYCLES",
+    "KINK_CROSSINGS",
+    "KINK_DOFS",
     "KRYLOV_RTOL",
     "LINEAR_STEP_STATS",
     "SENSITIVITY_RTOL",
@@ -50,6 +52,16 @@ KRYLOV_DOFS_PER_ITERATION = 3000
 #: {10, 350} kPa 150.3 -> 117.8 s, contact-L4 R = 8 mm {14, 200} (6 steps) 268.0 -> 251.5 s, the
 #: small meshes unchanged within noise (docs/validation/solver-and-speed.md, "a worn factorisation").
 WORN_KRYLOV = 0.5
+#: With friction, on a mesh of at least ``KINK_DOFS`` dofs, a Newton step factorises at once
+#: (instead of trying GMRES on the factorisation in hand) where more than ``KINK_CROSSINGS`` Gauss
+#: points' fibers crossed stretch 1 since that factorisation's tangent: the fibers' stiffness
+#: c5 / 4 (dI4 x dI4) comes or goes there at once and the old factorisation stops preconditioning
+#: the new tangent (contact-L1 R = 8 {1.5, 100} mu 0.3: of 354 solves with more than 30 crossed,
+#: 92 % failed; of 512 with none, none). contact-L3 {3, 540} mu 0.3, 4 steps, 554 -> 390 s; on
+#: smaller meshes a factorisation costs less than the tries it replaces (contact-L1 12.2 ->
+#: 15.0 s), hence the size (docs/validation/solver-and-speed.md, "across the fibers' kink").
+KINK_CROSSINGS = 30
+KINK_DOFS = 20_000
 #: Relative residual of the sensitivity solves (their CG runs on the exact converged tangent).
 SENSITIVITY_RTOL = 1e-11
 #: With friction, a step made with a fresh factorisation is GMRES on the tangent to this relative
@@ -95,6 +107,7 @@ LINEAR_STEP_STATS: dict[str, float] = {
     "sensitivity_s": 0.0,
     "sensitivity_factorizations": 0,
     "sensitivity_krylov_iterations": 0,
+    "kink_refactorisations": 0,
 }
 
 
@@ -155,6 +168,9 @@ class LinearSteps:
         (``LINEAR_STEP_STATS``, the linear solver's ``LINEAR_STATS`` and the contact's).
     n_dofs : int
         The model's degrees of freedom.
+    fiber_taut : ndarray of bool, shape (ne, 8) or None
+        Which Gauss points' fibers are stretched at the last tangent assembled (the solver sets
+        it; :data:`KINK_CROSSINGS`).
     """
 
     linear: ConstrainedSymmetricSolver
@@ -166,6 +182,9 @@ class LinearSteps:
     #: whether a Krylov solve on the factorisation in hand took more than ``WORN_KRYLOV`` of its
     #: iterations (the next Newton step factorises)
     _worn: bool = False
+    fiber_taut: np.ndarray | None = None
+    #: ``fiber_taut`` of the tangent in the factorisation in hand
+    _taut_factorised: np.ndarray | None = None
 
     def factorize(self, K: sp.csr_matrix, constrained: np.ndarray) -> None:
         """Factorise a tangent (with friction, its symmetric part: :meth:`IndenterContact.for_factorisation`).
@@ -180,6 +199,7 @@ class LinearSteps:
         t = time.perf_counter()
         self.linear.factorize(self.contact.for_factorisation(K), constrained)
         self._worn = False
+        self._taut_factorised = self.fiber_taut
         dt = time.perf_counter() - t
         self.stats["factorizations"] += 1
         self.stats["factorize_s"] += dt
@@ -300,7 +320,8 @@ class LinearSteps:
         factorisation covers the constraints (:meth:`ConstrainedSymmetricSolver.covers`), else,
         or when it does not get there, by factorising K (:meth:`fresh_step`). A factorisation on
         which CG took more than ``WORN_KRYLOV`` of its iterations is worn: the next step
-        factorises at once.
+        factorises at once; so does a step with friction on a large mesh across whose tangent
+        more than ``KINK_CROSSINGS`` fibers went taut or slack since the factorisation.
 
         Parameters
         ----------
@@ -317,7 +338,7 @@ class LinearSteps:
         -------
         ndarray, shape (3n,)
         """
-        if self.linear.covers(cmask) and not self._worn:
+        if self.linear.covers(cmask) and not self._worn and not self._across_the_kink():
             maxiter = self.krylov_maxiter()
             before = self.stats["krylov_iterations"]
             x = self.krylov(K, cmask, rhs, rtol, maxiter)
@@ -328,6 +349,18 @@ class LinearSteps:
             if x is not None:
                 return x
         return self.fresh_step(K, cmask, rhs)
+
+    def _across_the_kink(self) -> bool:
+        """Whether, with friction on a large mesh, more than ``KINK_CROSSINGS`` Gauss points'
+        fibers crossed stretch 1 since the factorisation in hand (:data:`KINK_CROSSINGS`)."""
+        if self.contact.symmetric or self.n_dofs < KINK_DOFS:
+            return False
+        now, then = self.fiber_taut, self._taut_factorised
+        if now is None or then is None or now.shape != then.shape:
+            return False
+        crossed = np.count_nonzero(now != then) > KINK_CROSSINGS
+        self.stats["kink_refactorisations"] += crossed
+        return crossed
 
     def fresh_step(self, K: sp.csr_matrix, cmask: np.ndarray, rhs: np.ndarray) -> np.ndarray:
         """Solve K x = rhs with a factorisation of K made here.

@@ -217,6 +217,8 @@ class EmbeddedSolver(NewtonSystem):
         )
         R = self.pattern.vector(st.force)
         K = self.pattern.matrix(st.stiffness) if tangent else None
+        if tangent:
+            self.fiber_taut = st.fiber_taut
         dR = None
         if parameter_derivatives:
             dR = np.stack([self.pattern.vector(st.dforce_dtheta[:, k]) for k in range(2)], axis=1)

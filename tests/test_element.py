@@ -206,3 +206,25 @@ def test_mean_fiber_stretch_equals_gauss_points_under_a_homogeneous_stretch(setu
     b = element_state(geo, ue, 10.0, **kw)
     assert b.energy > 0 and a.energy == pytest.approx(b.energy, rel=1e-12)
     assert np.abs(a.force - b.force).max() < 1e-10 * np.abs(b.force).max()
+
+
+@pytest.mark.parametrize("fiber_mean", [False, True])
+def test_the_kernel_marks_the_gauss_points_whose_fibers_are_taut(setup, fiber_mean):
+    """``fiber_taut`` is eq. 3's kink: the isochoric fiber stretch sqrt(J^-2/3 I4) at least 1.
+    A homogeneous isochoric stretch lam along y (the fiber): every point taut for lam = 1.05,
+    none for 0.95; at the random state, each Gauss point as its own F says."""
+    mesh, geo, _, u, _ = setup
+    y = np.array([0.0, 1.0, 0.0])
+    for lam, taut in ((1.05, True), (0.95, False)):
+        F = np.diag([lam**-0.5, lam, lam**-0.5])
+        ue = (mesh.nodes @ (F - np.eye(3)).T)[mesh.elements]
+        st = element_state(geo, ue, 10.0, 350.0, 1000.0, y, fiber_mean=fiber_mean)
+        assert st.fiber_taut.shape == (len(mesh.elements), 8) and np.all(st.fiber_taut == taut)
+    if fiber_mean:
+        return
+    ue = u[mesh.elements]
+    Fg = np.eye(3) + np.einsum("eai,egaj->egij", ue, geo.dNdX)
+    stretch2 = np.linalg.det(Fg) ** (-2.0 / 3.0) * np.sum((Fg @ FIBER) ** 2, axis=-1)
+    st = element_state(geo, ue, 10.0, 350.0, 1000.0, FIBER)
+    assert 0 < st.fiber_taut.sum() < st.fiber_taut.size  # both sides of the kink at this state
+    np.testing.assert_array_equal(st.fiber_taut, stretch2 >= 1.0)

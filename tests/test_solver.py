@@ -284,6 +284,39 @@ def test_the_worn_rule_with_sensitivities_and_friction(monkeypatch, friction):
 
 
 @pytest.mark.parametrize("friction", [None, 0.3, 3.0])
+def test_across_the_fibers_kink_friction_factorises_at_once(monkeypatch, friction):
+    """contact-L1, R = 8 mm, {1.5, 100} kPa, 3 x 0.5 mm with sensitivities (measured 2026-11-29),
+    the kink rule (``KINK_CROSSINGS``) put on this small mesh (``KINK_DOFS`` 0) against the size
+    rule that leaves it off here: with friction (mu 0.3, 3) Newton steps across which more than 30
+    fibers went taut or slack factorise at once, failed GMRES solves 12 -> 1 and 14 -> 2, forces
+    within 2e-7 and force sensitivities within 1e-5 of their largest (2.0e-6 measured: another
+    factorisation in hand, the same equations); under the stick the rule is off: the same run to the last bit."""
+    spec = (
+        ModelSpec(
+            mesh=MeshChoice("contact-L1"), indenter=Indenter(8.0), protocol=Protocol(step_size=0.5, steps=3)
+        )
+        .with_material(c1=1.5, c5=100.0)
+        .with_friction(friction)
+    )
+    assert linear_steps.KINK_DOFS > 6591  # contact-L1's dofs: off by size
+    off = EmbeddedSolver(spec).run(threads=1, sensitivities=True)
+    monkeypatch.setattr(linear_steps, "KINK_DOFS", 0)
+    rule = EmbeddedSolver(spec).run(threads=1, sensitivities=True)
+    st, st_off = rule.solver["stats"], off.solver["stats"]
+    if friction is None:
+        assert st["kink_refactorisations"] == 0
+        np.testing.assert_array_equal(rule.force, off.force)
+        np.testing.assert_array_equal(rule.force_sensitivity, off.force_sensitivity)
+        return
+    assert st["kink_refactorisations"] > 0 == st_off["kink_refactorisations"]
+    assert st["krylov_failures"] <= st_off["krylov_failures"] // 4
+    np.testing.assert_allclose(rule.force[1:], off.force[1:], rtol=1e-6)
+    scale = np.abs(off.force_sensitivity).max(axis=0)
+    scale[scale == 0.0] = 1.0  # mu's, where no point slips yet
+    np.testing.assert_allclose(rule.force_sensitivity / scale, off.force_sensitivity / scale, atol=1e-5)
+
+
+@pytest.mark.parametrize("friction", [None, 0.3, 3.0])
 def test_a_sensitivity_solve_on_the_last_ones_factorisation_factorises_first(monkeypatch, friction):
     """contact-L1, {10, 350} kPa, 8 steps with sensitivities (measured 2026-11-29): where no Newton
     step of the increment factorised, the sensitivity solve factorises the converged tangent before
