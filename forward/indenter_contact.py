@@ -39,10 +39,22 @@ class IndenterContact(ABC):
         The parameters its sensitivities are taken for: ("c1", "c5"), and "mu" with friction.
     symmetric : bool
         Whether the tangent stays symmetric with this contact (CG; else GMRES).
+    last_resort : bool
+        Set by the driver while it makes a step again from its start before the run fails (its
+        increments failed down to the smallest size), where the contact has a last resort
+        (:attr:`has_a_last_resort`).
     """
 
     parameters: tuple[str, ...]
     symmetric: bool
+    last_resort: bool = False
+
+    @property
+    def has_a_last_resort(self) -> bool:
+        """Whether the contact solves an increment differently as a last resort (a limit it keeps
+        for speed, lifted: :class:`forward.penalty_contact.PenaltyContact` with friction); none
+        here."""
+        return False
 
     def __init__(self, solver: NewtonSystem) -> None:
         self.solver = solver

@@ -401,6 +401,8 @@ class EmbeddedSolver(NewtonSystem):
                     t_step -= mid_step["step_s"]
                     mid_step = None
                 eq = None
+                self.contact.last_resort, tried = False, 0
+                step_start = (d, u, contact, du_dtheta, last_inc, last_dd, last_dinc)
                 while d < d_target - 1e-12:
                     dd = min(inc, d_target - d)
                     if d_target - (d + dd) < 1e-9 * proto.step_size:
@@ -416,7 +418,15 @@ class EmbeddedSolver(NewtonSystem):
                         log.debug("increment %.4g -> %.4g mm failed: %s", d, d + dd, exc)
                         rec["cutbacks"] += 1
                         smallest = dd <= nominal * 2.0**-opts.max_cutbacks * (1.0 + 1e-9)
-                        if smallest or rec["cutbacks"] > CUTBACK_BUDGET * max(opts.max_cutbacks, 1):
+                        budget = CUTBACK_BUDGET * max(opts.max_cutbacks, 1)
+                        spent = smallest or rec["cutbacks"] - tried > budget
+                        if spent and self.contact.has_a_last_resort and not self.contact.last_resort:
+                            # the step again from its start, the contact's limits for speed lifted
+                            self.contact.last_resort, tried = True, rec["cutbacks"]
+                            d, u, contact, du_dtheta, last_inc, last_dd, last_dinc = step_start
+                            inc = nominal
+                            continue
+                        if spent:
                             partial = result_so_far()
                             raise SimulationError(
                                 f"simulation failed at depth {d + dd:.4g} mm (last converged {d:.4g} mm of "

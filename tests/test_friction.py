@@ -17,7 +17,7 @@ from indentation_studio.forward.coulomb_contact import (
 )
 from indentation_studio.forward.mesh import preset_mesh
 from indentation_studio.forward.result import SimulationResult
-from indentation_studio.forward.solver import EmbeddedSolver
+from indentation_studio.forward.solver import EmbeddedSolver, SimulationError
 from indentation_studio.forward.spec import (
     Contact,
     Material,
@@ -446,3 +446,30 @@ def test_gmres_cycles_leave_runs_whose_first_cycles_get_there_as_they_were(monke
     np.testing.assert_allclose(now.force_sensitivity, before.force_sensitivity, rtol=1e-4, atol=1e-9)
     if friction is None:
         np.testing.assert_array_equal(now.force_sensitivity, before.force_sensitivity)
+
+
+def test_an_increment_of_the_smallest_size_gets_the_full_newton_cap_before_the_run_fails(monkeypatch):
+    """Friction's cap on Newton's damped steps (``FRICTION_NEWTON``) is for speed: a step whose
+    increments fail within it down to the smallest size is made again from its start with
+    ``STICK_NEWTON`` before the run fails (a fit's FE confirmation at R = 8 mm, {1.498, 101.45}
+    kPa, mu 0.383, contact-L1, failed at 9.508 mm with 20; made again, step 20 takes the path of a
+    run with 60 throughout, to its force at 14 mm to the last bit). Here the cap is set to 3 on
+    contact-L0, 3 steps, at most 2 cut-backs: every step is made again, as the uncapped run makes
+    it (the same Newton iterations; forces within 1e-5, measured 2.0e-6); without the last resort
+    the run fails, naming the depth and the cap."""
+    import indentation_studio.forward.penalty_contact as penalty_contact
+
+    spec = ModelSpec(mesh=MeshChoice("contact-L0"), protocol=Protocol(step_size=0.5, steps=3))
+    spec = spec.with_material(c1=10.0, c5=350.0).with_friction(0.3)
+    spec = dataclasses.replace(spec, solver=dataclasses.replace(spec.solver, max_cutbacks=2))
+    plain = EmbeddedSolver(spec).run(threads=1)
+    monkeypatch.setattr(penalty_contact, "FRICTION_NEWTON", 3)
+    capped = EmbeddedSolver(spec).run(threads=1)
+    assert np.all(capped.convergence["cutbacks"][1:] >= 2) and plain.convergence["cutbacks"].sum() == 0
+    np.testing.assert_array_equal(
+        capped.convergence["newton_iterations"], plain.convergence["newton_iterations"]
+    )
+    np.testing.assert_allclose(capped.force[1:], plain.force[1:], rtol=1e-5)
+    monkeypatch.setattr(penalty_contact.PenaltyContact, "has_a_last_resort", property(lambda self: False))
+    with pytest.raises(SimulationError, match=r"failed at depth 0\.25 mm .*did not converge in 3 iterations"):
+        EmbeddedSolver(spec).run(threads=1)
