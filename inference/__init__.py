@@ -51,6 +51,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
         "experiment.data_check": ["check_experiment"],
         "adequacy.chi_square": ["CANNOT_EXPLAIN", "Adequacy", "chi_square_test"],
         "adequacy.noise": ["NoiseModel", "noise_model"],
+        "adequacy.field_error": ["field_error_table", "field_variance", "shipped_field_error"],
         "budgets.error_budget": ["compute_error_budget", "noise_objective_value"],
         "budgets.budget_table": ["CONVERGED_FRACTION", "ErrorBudget"],
         "budgets.budget_models": ["resolve_model"],

@@ -273,7 +273,7 @@ def _loud_warnings(payload: dict) -> None:
                 f"chi-square {adequacy['statistic']:.4g} on {adequacy['dof']} degrees of freedom "
                 f"({adequacy['per_degree']:.3g} per degree), p = {adequacy['p_value']:.3g} < {adequacy['alpha']:g}"
                 f"\nper term (statistic / points): {terms}"
-                f"\nnoise: {_noise_words(adequacy['noise'])}"
+                f"\nnoise: {_noise_words(adequacy['noise'])}{_field_error_words(adequacy)}"
                 + (f"\nparameters named:{named}" if named else ""),
                 title="[bold red]MODEL INADEQUATE[/bold red]",
                 border_style="red",
@@ -282,7 +282,8 @@ def _loud_warnings(payload: dict) -> None:
     else:
         console.print(
             f"  model adequacy: chi-square {adequacy['statistic']:.4g} on {adequacy['dof']} degrees of freedom, "
-            f"p = {adequacy['p_value']:.3g} (not flagged; noise: {_noise_words(adequacy['noise'])})"
+            f"p = {adequacy['p_value']:.3g} (not flagged; noise: {_noise_words(adequacy['noise'])}"
+            f"{_field_error_words(adequacy)})"
         )
         for d in adequacy["named_parameters"]:
             console.print(f"  [yellow]{d['parameter']}[/yellow]: {d['reason']}")
@@ -290,6 +291,17 @@ def _loud_warnings(payload: dict) -> None:
     if budget["warning"]:
         title = "[bold yellow]NO ERROR BUDGET FOR THIS TEST[/bold yellow]"
         console.print(Panel(budget["warning"], title=title, border_style="yellow"))
+
+
+def _field_error_words(adequacy: dict) -> str:
+    """The high fidelity's field error the test held, short ('' where none)."""
+    fe = adequacy.get("field_error")
+    if not fe:
+        return ""
+    return (
+        f"; {fe['coarse_mesh']}'s field error against {fe['fine_mesh']} (measured at {fe['points']} "
+        f"points, {fe['file']}) held"
+    )
 
 
 def _noise_words(noise: dict) -> str:

@@ -34,6 +34,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
         "error_budgets": [
             "budget_at",
             "budget_map",
+            "indentation_test_of",
             "remaining_bias",
             "shipped_budget",
             "shipped_budgets_folder",

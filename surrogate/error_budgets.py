@@ -19,6 +19,7 @@ from scipy.spatial import QhullError
 __all__ = [
     "budget_at",
     "budget_map",
+    "indentation_test_of",
     "remaining_bias",
     "shipped_budget",
     "shipped_budgets_folder",
@@ -242,10 +243,23 @@ def shipped_budgets_folder() -> Path:
     return Path(str(files("indentation_studio") / "error_budgets"))
 
 
-def _test_of(model: dict) -> dict:
-    """What makes two specs the same test for an error budget: everything but the mesh, the
-    solver's options and the parameters (c1, c5); the contact included (absent: the perfect
-    stick), since a mesh's error measured with one contact is not that mesh's error with another."""
+def indentation_test_of(model: dict) -> dict:
+    """What makes two specs the same test for an error budget.
+
+    Everything but the mesh, the solver's options and the parameters (c1, c5); the contact
+    included (absent: the perfect stick), since a mesh's error measured with one contact is not
+    that mesh's error with another.
+
+    Parameters
+    ----------
+    model : dict
+        A spec's ``to_dict()``.
+
+    Returns
+    -------
+    dict
+        Its geometry, indenter, protocol, contact and material less c1 and c5.
+    """
     material = {k: v for k, v in (model.get("material") or {}).items() if k not in ("c1", "c5")}
     return {k: model.get(k) for k in ("geometry", "indenter", "protocol", "contact")} | {"material": material}
 
@@ -283,14 +297,16 @@ def shipped_budget(spec, folder: str | Path | None = None) -> dict | None:
     preset = (model.get("mesh") or {}).get("preset")
     if preset is None:
         return None
-    test = json.loads(json.dumps(_test_of(model)))
+    test = json.loads(json.dumps(indentation_test_of(model)))
     for path in sorted(Path(folder or shipped_budgets_folder()).glob("*.json")):
+        if path.name.startswith("field-error-"):  # the adequacy test's, not a budget
+            continue
         try:
             payload = json.loads(path.read_text())
             reference = payload["reference"]["model"]
         except (OSError, ValueError, KeyError, TypeError):
             continue
-        if json.loads(json.dumps(_test_of(reference))) != test:
+        if json.loads(json.dumps(indentation_test_of(reference))) != test:
             continue
         if not payload.get("complete", True):
             continue

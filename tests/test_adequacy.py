@@ -262,3 +262,28 @@ def test_the_cli_and_the_report_show_the_flag_loudly(model, tmp_path, capsys):
     assert f"{a.dof}" in out and "mu" in out
     page = fit_warnings_html(payload)
     assert "class='alarm'" in page and "class='caution'" in page and "its bounds are not meaningful" in page
+
+
+def test_the_high_fidelitys_field_error_is_a_variance_at_each_node(model, tmp_path):
+    """A model error of 0.05 mm (2.5 times the DIC noise) in ux at every measured node and step,
+    drawn independently, is flagged by the plain test; with its variance held at the nodes
+    (``field_variance``) the statistic is chi-square again (within 15 % of its degrees of
+    freedom); a zero variance leaves the plain statistic."""
+    root = _experiment(model, tmp_path / "e", 5)
+    exp = load_experiment(root)
+    objective, dic = experiment_objective(exp, model.at.top_xyz)
+    fit = replace(fit_parameters(objective, model, ETA), jacobian=None, prediction=None)
+    inputs = SimpleNamespace(objective=objective, experiment=exp, dic=dic, eta=ETA)
+    s, m = len(objective.steps), int(objective.measured.sum())
+    scale = objective.displacement_residual_scale()[objective.measured][:, 0]  # (m,)
+    error = 0.05 * np.random.default_rng(0).standard_normal((s, m))
+    r = fit.residuals.copy()
+    r[s : s + s * m] += (np.sqrt(ETA[1]) * scale[None, :] * error).ravel()
+    erred = replace(fit, residuals=r)
+    variance = np.zeros((s, m, 3))
+    plain = model_adequacy(inputs, erred)
+    assert model_adequacy(inputs, erred, field_variance=variance).statistic == pytest.approx(plain.statistic)
+    variance[..., 0] = 0.05**2
+    held = model_adequacy(inputs, erred, field_variance=variance)
+    assert plain.flagged and not held.flagged
+    assert abs(held.ratio - 1.0) < 0.15 and held.dof == plain.dof

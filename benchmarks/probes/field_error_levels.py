@@ -26,6 +26,15 @@ square in plane and out of plane by distance from the axis at steps 10, 20 and 2
 
     .venv/bin/python benchmarks/probes/field_error_levels.py split COARSE.npz FINE.npz
 
+``variance`` fits an experiment plain and reads the adequacy test as the fit does, then with the
+high fidelity's field error as a variance at each node and step (``chi_square_test``'s
+``field_variance``): the square of a pair's fine-less-coarse field, either at the node itself or
+as the root mean square of its band of distance from the axis (0.25 R wide) and step, per
+component: a pair of another point carries its bands over.
+
+    .venv/bin/python benchmarks/probes/field_error_levels.py variance EXPERIMENT_DIR \
+        --pair NAME:COARSE.npz:FINE.npz [--scale 1.0]
+
 ``records`` compares two lab records of one point made with one seed from runs at two levels
 (``make_synthetic_experiment.py --from-run ... --lab``): their DIC data differ by the levels'
 field at the DIC points alone. Root mean square and largest difference by distance from the point
@@ -183,6 +192,59 @@ def split(coarse_path: str, fine_path: str) -> None:
             print(f"  r {lo:4.1f} to {hi:4.1f} mm: {cells}")
 
 
+def _band_variance(coarse: SimulationResult, fine: SimulationResult, radius: float, nodes_xy, steps):
+    """(steps, nodes, 3) the fine-less-coarse field squared at the nodes, and its band rms squared."""
+    r_fine = np.hypot(*fine.top_xyz[:, :2].T)
+    band_fine = np.minimum((r_fine / (0.25 * radius)).astype(int), 40)
+    band_nodes = np.minimum((np.hypot(*nodes_xy.T) / (0.25 * radius)).astype(int), 40)
+    at_nodes, by_band = [], []
+    for k in steps:
+        d_fine = fine.displacement[k] - top_field_interpolator(coarse.top_xyz, coarse.displacement[k])(
+            fine.top_xyz[:, :2]
+        )
+        rms2 = np.zeros((41, 3))
+        for b in range(41):
+            z = band_fine == b
+            if z.any():
+                rms2[b] = np.mean(d_fine[z] ** 2, axis=0)
+        by_band.append(rms2[band_nodes])
+        d_nodes = top_field_interpolator(fine.top_xyz, fine.displacement[k])(
+            nodes_xy
+        ) - top_field_interpolator(coarse.top_xyz, coarse.displacement[k])(nodes_xy)
+        at_nodes.append(d_nodes**2)
+    return np.stack(at_nodes), np.stack(by_band)
+
+
+def variance(experiment: str, pairs: list[str], scale: float) -> None:
+    """Fit ``experiment`` plain and read its adequacy test with each pair's field variance."""
+    t = time.perf_counter()
+    result = fit_experiment(experiment)
+    print(f"fit {time.perf_counter() - t:.1f} s at {np.round(result.fit.theta, 3).tolist()}")
+    shipped, _ = of_fit.fit_adequacy(result, registration_mm=REGISTRATION_MM)
+    print(f"as the fit reads it: {shipped.ratio:.4f} per degree, p {shipped.p_value:.2e}")
+    objective = result.inputs.objective
+    nodes_xy = np.asarray(objective.top_xyz)[objective.measured][:, :2]
+    steps = np.asarray(objective.steps, int) + 1
+    radius = result.inputs.spec.indenter.radius
+    for pair in pairs:
+        name, coarse_path, fine_path = pair.split(":")
+        coarse, fine = SimulationResult.load(coarse_path), SimulationResult.load(fine_path)
+        own, band = _band_variance(coarse, fine, radius, nodes_xy, steps)
+        for kind, v in (("at each node", own), ("band rms", band)):
+            test = of_fit.model_adequacy(
+                result.inputs,
+                result.tested_fit,
+                at_ends=of_fit.parameters_at_ends(result),
+                registration_mm=REGISTRATION_MM,
+                model_directions=of_fit._model_directions(result),
+                field_variance=scale**2 * v,
+            )
+            print(
+                f"  + {name} ({kind}, x{scale:g}): {test.ratio:.4f} per degree, p {test.p_value:.2e}, "
+                f"flagged {test.flagged}; terms { ({k: round(d['statistic'], 1) for k, d in test.terms.items()}) }"
+            )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = ap.add_subparsers(dest="what", required=True)
@@ -196,12 +258,18 @@ def main() -> None:
     sp = sub.add_parser("split")
     sp.add_argument("coarse")
     sp.add_argument("fine")
+    va = sub.add_parser("variance")
+    va.add_argument("experiment")
+    va.add_argument("--pair", action="append", required=True, help="NAME:COARSE.npz:FINE.npz")
+    va.add_argument("--scale", type=float, default=1.0)
     rec = sub.add_parser("records")
     rec.add_argument("fine")
     rec.add_argument("coarse")
     rec.add_argument("--radius", type=float, required=True)
     args = ap.parse_args()
-    if args.what == "split":
+    if args.what == "variance":
+        variance(args.experiment, args.pair, args.scale)
+    elif args.what == "split":
         split(args.coarse, args.fine)
     elif args.what == "records":
         records(args.fine, args.coarse, args.radius)

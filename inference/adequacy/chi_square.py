@@ -54,6 +54,9 @@ class Adequacy:
         ``{"parameter", "reason"}`` named when flagged.
     alpha : float
         The test's level: flagged when ``p_value < alpha``.
+    field_error : dict or None
+        The high fidelity's field error the covariance held (its table's file, meshes and
+        points; :mod:`inference.adequacy.field_error`), None where none was.
     """
 
     statistic: float
@@ -66,6 +69,7 @@ class Adequacy:
     force_sd_pct: float  # median force noise in percent of f_inf
     named: list[dict] = field(default_factory=list)  # {"parameter", "reason"}
     alpha: float = ALPHA
+    field_error: dict | None = None  # the high fidelity's field error in the covariance, where it was
 
     @property
     def flagged(self) -> bool:
@@ -83,10 +87,17 @@ class Adequacy:
         data = [(k, v) for k, v in self.terms.items() if v["n"]]  # not the registration's, the refit's
         worst = max(data, key=lambda kv: kv[1]["statistic"] / kv[1]["n"])
         names = "".join(f"; {d['parameter']}: {d['reason']}" for d in self.named)
+        held = ""
+        if self.field_error:
+            fe = self.field_error
+            held = (
+                f"; {fe['coarse_mesh']}'s field error against {fe['fine_mesh']} "
+                f"(measured at {fe['points']} points) held in the covariance"
+            )
         return (
             f"{head}: chi-square {self.statistic:.4g} on {self.dof} degrees of freedom "
             f"({self.ratio:.3g} per degree), p = {self.p_value:.3g} (flagged below {self.alpha:g}); "
-            f"largest per point: {worst[0]} ({worst[1]['statistic'] / worst[1]['n']:.3g}){names}"
+            f"largest per point: {worst[0]} ({worst[1]['statistic'] / worst[1]['n']:.3g}){names}{held}"
         )
 
     def to_dict(self) -> dict:
@@ -110,6 +121,7 @@ class Adequacy:
             "terms": self.terms,
             "noise": noise,
             "named_parameters": self.named,
+            "field_error": self.field_error,
             "message": self.message(),
         }
 
@@ -128,6 +140,7 @@ def chi_square_test(
     jacobian: np.ndarray | None = None,
     model_directions: np.ndarray | None = None,
     alternatives: np.ndarray | None = None,
+    field_variance: np.ndarray | None = None,
 ) -> tuple[float, int, dict[str, dict]]:
     """The chi-square statistic of a fit: the whitened sum of squares of its residuals.
 
@@ -176,6 +189,10 @@ def chi_square_test(
         (the DIC points registered about other indentation points within the declared
         registration uncertainty, :func:`registration_alternatives`): the statistic is the least
         over the residuals and these, and two degrees of freedom go to that choice.
+    field_variance : numpy.ndarray, optional
+        (steps used, measured nodes, 3) the variance (mm^2) of the model's own field error at
+        each node and step (a discretisation error measured between mesh levels), independent
+        between nodes: added to the DIC covariance of each step.
 
     Returns
     -------
@@ -236,6 +253,9 @@ def chi_square_test(
         B = gradients[:, keep, j, :] @ L_origin  # (s, kept, 2)
         statistic = 0.0
         for k in range(s):
+            if field_variance is not None:  # the model's field error: the step's own covariance
+                v = np.asarray(field_variance, float)[k, keep, j]
+                factor = cho_factor(C + np.diag(v) + 1e-18 * np.eye(len(C)), lower=True)
             Dinv_R = cho_solve(factor, du[k])
             gram += du[k].T @ Dinv_R
             statistic += float(du[k, :, 0] @ Dinv_R[:, 0])

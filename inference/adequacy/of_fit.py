@@ -14,6 +14,7 @@ from ..experiment.processing import (
     node_interpolation,
 )
 from .chi_square import Adequacy, chi_square_test
+from .field_error import field_variance, shipped_field_error
 from .noise import noise_model
 from .registration import (
     _gradients,
@@ -60,6 +61,7 @@ def model_adequacy(
     friction: dict | None = None,
     registration_mm: float = 0.0,
     model_directions: np.ndarray | None = None,
+    field_variance: np.ndarray | None = None,
 ) -> Adequacy:
     """The adequacy test of ``fit`` (a :class:`inference.fit.inverse_fit.FitResult` carrying its
     residuals) on ``inputs`` (:class:`inference.fit.inputs.FitInputs`): the chi-square statistic
@@ -69,7 +71,8 @@ def model_adequacy(
     end ({"parameter", "reason"}), named; ``friction`` (fit.json's 'friction') names mu when it
     was identified narrowly while the fit is flagged; ``registration_mm`` the declared registration
     uncertainty, profiled (:func:`registration_alternatives`); ``model_directions`` the model's own stated uncertainty
-    in residual space (:func:`chi_square_test`)."""
+    in residual space and ``field_variance`` its field error's variance at the nodes
+    (:func:`chi_square_test`)."""
     if fit.residuals is None:
         raise ValueError("the fit records no residuals: the adequacy test needs them")
     objective, exp, dic = inputs.objective, inputs.experiment, inputs.dic
@@ -99,6 +102,7 @@ def model_adequacy(
         jacobian=fit.jacobian,
         model_directions=model_directions,
         alternatives=alternatives,
+        field_variance=field_variance,
     )
     p_value = float(stats.chi2.sf(statistic, dof)) if dof > 0 else float("nan")
     force_pct = float(np.median(100.0 * noise.force_sd_mN / np.abs(f_inf)))
@@ -179,6 +183,33 @@ def _model_directions(result) -> np.ndarray | None:
     return residual_changes(result.inputs.objective, result.inputs.eta, tested.prediction, factor)
 
 
+def _field_error(result) -> tuple[np.ndarray | None, dict | None]:
+    """The high fidelity's field error at the fit's nodes and steps (``field_variance``), and what
+    it is, where a table was shipped for the test and mesh the surrogate was trained on (its
+    campaign's model: the stick's, also for a fit that marginalises mu); else (None, None)."""
+    model = result.inputs.surrogate
+    campaign = ((getattr(model, "meta", {}) or {}).get("campaign") or {}).get("model")
+    if not campaign or not has_high_fidelity_level(model):
+        return None, None
+    table = shipped_field_error(campaign, (campaign.get("mesh") or {}).get("preset"))
+    if table is None:
+        return None, None
+    objective = result.inputs.objective
+    nodes = np.asarray(objective.top_xyz)[objective.measured][:, :2]
+    depths = np.asarray(result.inputs.spec.protocol.depths, float)[np.asarray(objective.steps, int)]
+    try:
+        variance = field_variance(table, nodes, depths)
+    except ValueError:  # another protocol's depths: not measured for this test
+        return None, None
+    about = {
+        "file": table["file"],
+        "coarse_mesh": table["coarse_mesh"],
+        "fine_mesh": table["fine_mesh"],
+        "points": len(table.get("pairs", [])),
+    }
+    return variance, about
+
+
 def fit_adequacy(
     result,
     *,
@@ -189,22 +220,24 @@ def fit_adequacy(
     """The adequacy test of an :class:`inference.fit.result.ExperimentFit`'s final fit (its
     ``tested_fit``: the FE model's residuals at the fit when an FE confirmation ran), with
     the parameters it names, the declared registration uncertainty and, for a multi-fidelity
-    surrogate, its discrepancy's uncertainty at the fit in the covariance; or None and why the test could not be made (the fit's residuals
+    surrogate, its discrepancy's uncertainty at the fit and its high fidelity's field error
+    (:mod:`.field_error`, where measured) in the covariance; or None and why the test could not be made (the fit's residuals
     missing, a hold without a standard error and no noise declared, too few DIC points)."""
     try:
         fr = result._friction_dict() if result.friction.fits_mu else {}
-        return (
-            model_adequacy(
-                result.inputs,
-                result.tested_fit,
-                force_noise=force_noise,
-                dic_noise=dic_noise,
-                at_ends=parameters_at_ends(result),
-                friction=fr,
-                registration_mm=registration_mm,
-                model_directions=_model_directions(result),
-            ),
-            None,
+        variance, about = _field_error(result)
+        test = model_adequacy(
+            result.inputs,
+            result.tested_fit,
+            force_noise=force_noise,
+            dic_noise=dic_noise,
+            at_ends=parameters_at_ends(result),
+            friction=fr,
+            registration_mm=registration_mm,
+            model_directions=_model_directions(result),
+            field_variance=variance,
         )
+        test.field_error = about
+        return test, None
     except (ValueError, np.linalg.LinAlgError) as exc:
         return None, f"the adequacy test could not be made: {exc}"
