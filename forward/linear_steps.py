@@ -358,8 +358,8 @@ class LinearSteps:
         now, then = self.fiber_taut, self._taut_factorised
         if now is None or then is None or now.shape != then.shape:
             return False
-        crossed = np.count_nonzero(now != then) > KINK_CROSSINGS
-        self.stats["kink_refactorisations"] += crossed
+        crossed = bool(np.count_nonzero(now != then) > KINK_CROSSINGS)
+        self.stats["kink_refactorisations"] += int(crossed)
         return crossed
 
     def fresh_step(self, K: sp.csr_matrix, cmask: np.ndarray, rhs: np.ndarray) -> np.ndarray:

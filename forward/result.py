@@ -22,6 +22,14 @@ from ..atomic_write import atomic_write_npz
 SYMMETRY_FACTOR = 4
 
 
+def _numpy_scalar(value):
+    """A numpy scalar (a counter summed from numpy values, in the solver's record) as its Python
+    value, for the result's JSON; anything else is not JSON."""
+    if isinstance(value, np.generic):
+        return value.item()
+    raise TypeError(f"Object of type {type(value).__name__} is not JSON serializable")
+
+
 @dataclass
 class SimulationResult:
     """Per-step outputs of one simulation (steps + 1 rows: depth 0 first).
@@ -153,7 +161,7 @@ class SimulationResult:
             "force": "whole specimen = 4 x quarter model",
         }
 
-        return atomic_write_npz(path, meta=np.array(json.dumps(meta)), **arrays)
+        return atomic_write_npz(path, meta=np.array(json.dumps(meta, default=_numpy_scalar)), **arrays)
 
     @classmethod
     def load(cls, path: str | Path) -> SimulationResult:

@@ -286,7 +286,7 @@ def test_the_worn_rule_with_sensitivities_and_friction(monkeypatch, friction):
 
 
 @pytest.mark.parametrize("friction", [None, 0.3, 3.0])
-def test_across_the_fibers_kink_friction_factorises_at_once(monkeypatch, friction):
+def test_across_the_fibers_kink_friction_factorises_at_once(monkeypatch, tmp_path, friction):
     """contact-L1, R = 8 mm, {1.5, 100} kPa, 3 x 0.5 mm with sensitivities (measured 2026-11-29),
     the kink rule (``KINK_CROSSINGS``) put on this small mesh (``KINK_DOFS`` 0) against the size
     rule that leaves it off here: with friction (mu 0.3, 3) Newton steps across which more than 30
@@ -311,6 +311,11 @@ def test_across_the_fibers_kink_friction_factorises_at_once(monkeypatch, frictio
         np.testing.assert_array_equal(rule.force_sensitivity, off.force_sensitivity)
         return
     assert st["kink_refactorisations"] > 0 == st_off["kink_refactorisations"]
+    rule.save(tmp_path / "rule.npz")  # its counters are JSON (a numpy count once was not)
+    assert (
+        SimulationResult.load(tmp_path / "rule.npz").solver["stats"]["kink_refactorisations"]
+        == st["kink_refactorisations"]
+    )
     assert st["krylov_failures"] <= st_off["krylov_failures"] // 4
     np.testing.assert_allclose(rule.force[1:], off.force[1:], rtol=1e-6)
     scale = np.abs(off.force_sensitivity).max(axis=0)
