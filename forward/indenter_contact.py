@@ -51,9 +51,15 @@ class IndenterContact(ABC):
 
     @property
     def has_a_last_resort(self) -> bool:
-        """Whether the contact solves an increment differently as a last resort (a limit it keeps
-        for speed, lifted: :class:`forward.penalty_contact.PenaltyContact` with friction); none
-        here."""
+        """Whether the contact solves an increment differently as a last resort.
+
+        A limit it keeps for speed, lifted (:class:`forward.penalty_contact.PenaltyContact` with
+        friction); none here.
+
+        Returns
+        -------
+        bool
+        """
         return False
 
     def __init__(self, solver: NewtonSystem) -> None:

@@ -482,7 +482,12 @@ class PenaltyContact(IndenterContact):
 
     @property
     def has_a_last_resort(self) -> bool:
-        """With friction: ``FRICTION_NEWTON`` lifted to ``STICK_NEWTON`` (the interface's)."""
+        """With friction: ``FRICTION_NEWTON`` lifted to ``STICK_NEWTON`` (the interface's).
+
+        Returns
+        -------
+        bool
+        """
         return self.friction is not None
 
     def increment(
