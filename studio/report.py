@@ -126,6 +126,13 @@ def fit_warnings_html(fit: dict) -> str:
     'error_budget' (absent: nothing said)."""
     parts = []
     adequacy = fit.get("adequacy") or {}
+    held = ""
+    if adequacy.get("field_error"):
+        fe = adequacy["field_error"]
+        held = (
+            f" The test's covariance held {html.escape(fe['coarse_mesh'])}'s field error against "
+            f"{html.escape(fe['fine_mesh'])} (measured at {fe['points']} points, {html.escape(fe['file'])})."
+        )
     if adequacy.get("flagged"):
         named = "".join(
             f"<li>{html.escape(d['parameter'])}: {html.escape(d['reason'])}</li>"
@@ -135,13 +142,14 @@ def fit_warnings_html(fit: dict) -> str:
             "<div class='alarm'><b>Model inadequate: the model cannot explain these data; its bounds are not "
             f"meaningful.</b> Chi-square {adequacy['statistic']:.4g} on {adequacy['dof']} degrees of freedom "
             f"({adequacy['per_degree']:.3g} per degree), p = {adequacy['p_value']:.3g} &lt; {adequacy['alpha']:g}."
+            + held
             + (f"<ul>{named}</ul>" if named else "")
             + "</div>"
         )
     elif "flagged" in adequacy:
         parts.append(
             f"<p>Model adequacy: chi-square {adequacy['statistic']:.4g} on {adequacy['dof']} degrees of "
-            f"freedom, p = {adequacy['p_value']:.3g} (not flagged).</p>"
+            f"freedom, p = {adequacy['p_value']:.3g} (not flagged).{held}</p>"
         )
     elif adequacy.get("note"):
         parts.append(f"<p>Model adequacy: not tested ({html.escape(adequacy['note'])}).</p>")

@@ -98,3 +98,18 @@ def test_the_reports_fit_says_what_it_found_of_mu():
     fit["friction"].update(mu_identified=True, mu_interval=[0.41, 0.62], mu=0.5, mu_model_unmeasured=None)
     assert fit_mu_sentence(fit) == "The fit: mu = 0.5, 95 % within [0.41, 0.62]."
     assert fit_mu_sentence({"friction": None}) == "" and fit_mu_sentence({}) == ""
+
+
+def test_the_report_names_the_field_error_its_adequacy_test_held():
+    """Where the test's covariance held the high fidelity's field error (issue 57), the report says
+    which, flagged or not; where it did not, nothing is said of it."""
+    from indentation_studio.studio.report import fit_warnings_html
+
+    held = {"file": "indentation_studio/error_budgets/field-error-R4.77.json", "points": 3}
+    held |= {"coarse_mesh": "contact-L3", "fine_mesh": "contact-L4"}
+    adequacy = {"flagged": False, "statistic": 1210.0, "dof": 1200, "p_value": 0.41, "alpha": 1e-3}
+    words = "held contact-L3's field error against contact-L4 (measured at 3 points"
+    assert words in fit_warnings_html({"adequacy": adequacy | {"field_error": held}})
+    flagged = adequacy | {"flagged": True, "per_degree": 1.09, "p_value": 1e-12, "field_error": held}
+    assert words in fit_warnings_html({"adequacy": flagged})
+    assert "field error" not in fit_warnings_html({"adequacy": adequacy | {"field_error": None}})
