@@ -226,13 +226,19 @@ def variance(experiment: str, pairs: list[str], scale: float) -> None:
         f"as the fit reads it: {shipped.ratio:.4f} per degree, p {shipped.p_value:.2e} "
         f"(the shipped field error: {shipped.field_error})"
     )
-    plain = of_fit.model_adequacy(
-        result.inputs,
-        result.tested_fit,
-        at_ends=of_fit.parameters_at_ends(result),
-        registration_mm=REGISTRATION_MM,
-        model_directions=of_fit._model_directions(result),
-    )
+
+    def test_with(field_variance: np.ndarray | None):
+        """The fit's adequacy test, its other terms as the fit passes them, with this field variance."""
+        return of_fit.model_adequacy(
+            result.inputs,
+            result.tested_fit,
+            at_ends=of_fit.parameters_at_ends(result),
+            registration_mm=REGISTRATION_MM,
+            model_directions=of_fit._model_directions(result),
+            field_variance=field_variance,
+        )
+
+    plain = test_with(None)
     print(f"without any field error: {plain.ratio:.4f} per degree, p {plain.p_value:.2e}")
     objective = result.inputs.objective
     nodes_xy = np.asarray(objective.top_xyz)[objective.measured][:, :2]
@@ -243,14 +249,7 @@ def variance(experiment: str, pairs: list[str], scale: float) -> None:
         coarse, fine = SimulationResult.load(coarse_path), SimulationResult.load(fine_path)
         own, band = _band_variance(coarse, fine, radius, nodes_xy, steps)
         for kind, v in (("at each node", own), ("band rms", band)):
-            test = of_fit.model_adequacy(
-                result.inputs,
-                result.tested_fit,
-                at_ends=of_fit.parameters_at_ends(result),
-                registration_mm=REGISTRATION_MM,
-                model_directions=of_fit._model_directions(result),
-                field_variance=scale**2 * v,
-            )
+            test = test_with(scale**2 * v)
             print(
                 f"  + {name} ({kind}, x{scale:g}): {test.ratio:.4f} per degree, p {test.p_value:.2e}, "
                 f"flagged {test.flagged}; terms { ({k: round(d['statistic'], 1) for k, d in test.terms.items()}) }"
