@@ -11,13 +11,17 @@ compared with ``--against`` (another run's file).
 
 import argparse
 import dataclasses
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the profile's cases
+import solver_profile
+
 from indentation_studio.forward import linear_steps
 from indentation_studio.forward.solver import EmbeddedSolver
-from indentation_studio.forward.spec import Indenter, MeshChoice, ModelSpec, Protocol
 
 ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
 for name, kind in (
@@ -36,15 +40,8 @@ ap.add_argument(
 ap.add_argument("--save", required=True)
 ap.add_argument("--against")
 args = ap.parse_args()
-spec = (
-    ModelSpec(
-        mesh=MeshChoice(args.mesh),
-        indenter=Indenter(radius=args.radius),
-        protocol=Protocol(step_size=0.5, steps=args.steps),
-    )
-    .with_material(c1=args.c1, c5=args.c5)
-    .with_friction(None if args.mu == 0 else args.mu)
-)
+case = {"mesh": args.mesh, "radius": args.radius, "c1": args.c1, "c5": args.c5, "friction": args.mu or None}
+spec = solver_profile.case_spec(case, args.steps)
 if args.residual_tol:
     spec = dataclasses.replace(spec, solver=dataclasses.replace(spec.solver, residual_tol=args.residual_tol))
 if args.off:

@@ -14,13 +14,18 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # benchmarks/: the profile's cases
+import solver_profile
+
 from indentation_studio.forward import linear_steps
 from indentation_studio.forward.solver import EmbeddedSolver
-from indentation_studio.forward.spec import Indenter, MeshChoice, ModelSpec, Protocol
+from indentation_studio.forward.spec import ModelSpec
 
 
 def _run(spec: ModelSpec, worn: float) -> tuple[np.ndarray, str]:
@@ -57,15 +62,8 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=28)
     ap.add_argument("--tight", action="store_true", help="also a run to residual_tol 1e-8")
     args = ap.parse_args()
-    spec = (
-        ModelSpec(
-            mesh=MeshChoice(args.mesh),
-            indenter=Indenter(radius=args.radius),
-            protocol=Protocol(step_size=0.5, steps=args.steps),
-        )
-        .with_material(c1=args.c1, c5=args.c5)
-        .with_friction(args.mu)
-    )
+    case = {"mesh": args.mesh, "radius": args.radius, "c1": args.c1, "c5": args.c5, "friction": args.mu}
+    spec = solver_profile.case_spec(case, args.steps)
     with_rule, line = _run(spec, linear_steps.WORN_KRYLOV)
     print(line)
     never, line = _run(spec, np.inf)
