@@ -55,6 +55,7 @@ import numpy as np
 from indentation_studio.forward.convergence.mesh_study import top_field_interpolator
 from indentation_studio.forward.result import SimulationResult
 from indentation_studio.inference.adequacy import of_fit
+from indentation_studio.inference.adequacy.field_error import field_error_table, field_variance
 from indentation_studio.inference.budgets.fit_moves import residual_changes
 from indentation_studio.inference.fit.workflow import REGISTRATION_MM, fit_experiment
 
@@ -193,27 +194,18 @@ def split(coarse_path: str, fine_path: str) -> None:
             print(f"  r {lo:4.1f} to {hi:4.1f} mm: {cells}")
 
 
-def _band_variance(coarse: SimulationResult, fine: SimulationResult, radius: float, nodes_xy, steps):
-    """(steps, nodes, 3) the fine-less-coarse field squared at the nodes, and its band rms squared."""
-    r_fine = np.hypot(*fine.top_xyz[:, :2].T)
-    band_fine = np.minimum((r_fine / (0.25 * radius)).astype(int), 40)
-    band_nodes = np.minimum((np.hypot(*nodes_xy.T) / (0.25 * radius)).astype(int), 40)
-    at_nodes, by_band = [], []
-    for k in steps:
-        d_fine = fine.displacement[k] - top_field_interpolator(coarse.top_xyz, coarse.displacement[k])(
-            fine.top_xyz[:, :2]
-        )
-        rms2 = np.zeros((41, 3))
-        for b in range(41):
-            z = band_fine == b
-            if z.any():
-                rms2[b] = np.mean(d_fine[z] ** 2, axis=0)
-        by_band.append(rms2[band_nodes])
-        d_nodes = top_field_interpolator(fine.top_xyz, fine.displacement[k])(
-            nodes_xy
-        ) - top_field_interpolator(coarse.top_xyz, coarse.displacement[k])(nodes_xy)
-        at_nodes.append(d_nodes**2)
-    return np.stack(at_nodes), np.stack(by_band)
+def _at_nodes_variance(coarse: SimulationResult, fine: SimulationResult, nodes_xy, steps) -> np.ndarray:
+    """(steps, nodes, 3) the fine-less-coarse field squared at the nodes themselves."""
+    return np.stack(
+        [
+            (
+                top_field_interpolator(fine.top_xyz, fine.displacement[k])(nodes_xy)
+                - top_field_interpolator(coarse.top_xyz, coarse.displacement[k])(nodes_xy)
+            )
+            ** 2
+            for k in steps
+        ]
+    )
 
 
 def variance(experiment: str, pairs: list[str], scale: float) -> None:
@@ -243,11 +235,13 @@ def variance(experiment: str, pairs: list[str], scale: float) -> None:
     objective = result.inputs.objective
     nodes_xy = np.asarray(objective.top_xyz)[objective.measured][:, :2]
     steps = np.asarray(objective.steps, int) + 1
+    depths = np.asarray(result.inputs.spec.protocol.depths, float)[steps - 1]
     radius = result.inputs.spec.indenter.radius
     for pair in pairs:
         name, coarse_path, fine_path = pair.split(":")
         coarse, fine = SimulationResult.load(coarse_path), SimulationResult.load(fine_path)
-        own, band = _band_variance(coarse, fine, radius, nodes_xy, steps)
+        own = _at_nodes_variance(coarse, fine, nodes_xy, steps)
+        band = field_variance(field_error_table([(coarse, fine)], radius), nodes_xy, depths)  # the library's
         for kind, v in (("at each node", own), ("band rms", band)):
             test = test_with(scale**2 * v)
             print(
