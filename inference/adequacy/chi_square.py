@@ -248,14 +248,15 @@ def chi_square_test(
         norm = np.sqrt(np.asarray(W.multiply(W).sum(axis=1)).ravel())
         keep = (norm > 1e-8 * norm.max()) & np.isfinite(scale[:, j]) & (scale[:, j] > 0)
         W, du = W[keep], du[:, keep]
-        C = noise.dic_sd_mm[j] ** 2 * (W @ W.T).toarray()
-        factor = cho_factor(C + 1e-18 * np.eye(len(C)), lower=True)
+        C = noise.dic_sd_mm[j] ** 2 * (W @ W.T).toarray() + 1e-18 * np.eye(W.shape[0])
+        # the model's field error makes each step's covariance its own; else one for all steps
+        v = None if field_variance is None else np.asarray(field_variance, float)[:, keep, j]
+        factor = cho_factor(C, lower=True) if v is None else None
         B = gradients[:, keep, j, :] @ L_origin  # (s, kept, 2)
         statistic = 0.0
         for k in range(s):
-            if field_variance is not None:  # the model's field error: the step's own covariance
-                v = np.asarray(field_variance, float)[k, keep, j]
-                factor = cho_factor(C + np.diag(v) + 1e-18 * np.eye(len(C)), lower=True)
+            if v is not None:
+                factor = cho_factor(C + np.diag(v[k]), lower=True)
             Dinv_R = cho_solve(factor, du[k])
             gram += du[k].T @ Dinv_R
             statistic += float(du[k, :, 0] @ Dinv_R[:, 0])
