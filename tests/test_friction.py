@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from sensitivity_check import assert_sensitivities_match_central_differences
 
+from indentation_studio.forward import penalty_contact
 from indentation_studio.forward.contact_quadrature import tributary_areas
 from indentation_studio.forward.coulomb_contact import (
     CONTACT,
@@ -303,7 +304,6 @@ def test_turning_points_predicted_to_stick_save_newton_iterations_not_accuracy(m
     """The coarse mesh, R = 8 mm, mu = 0.3, 6 steps: the Newton steps that turn slipping points
     round are made again with their stick predicted (PenaltyContact._turning_points_stick): 46
     Newton iterations instead of 64 (measured), the forces the same to the solver's tolerance."""
-    import indentation_studio.forward.penalty_contact as penalty_contact
     from indentation_studio.forward.spec import Indenter
 
     spec = (
@@ -329,7 +329,6 @@ def test_a_friction_increment_that_newton_cannot_finish_in_twenty_steps_is_cut_b
     they are cut back early, 289 -> 234 Newton iterations, and the forces move by at most 4e-4
     relative, under the increments' own error (1.05e-3 against four increments a step, the same
     for both caps). Under the stick the cap stays 60."""
-    import indentation_studio.forward.penalty_contact as penalty_contact
 
     assert penalty_contact.FRICTION_NEWTON == 20 and penalty_contact.STICK_NEWTON == 60
     spec = (
@@ -368,7 +367,6 @@ def test_the_friction_cap_leaves_runs_it_does_not_reach_as_they_were(monkeypatch
     """contact-L0, {3, 540} kPa, 28 x 0.5 mm, with sensitivities: with mu = 3 no Newton solve needs
     more than 12 damped steps (measured), and the stick keeps its own cap of 60, so the results are
     those of the cap of 60 to the last bit."""
-    import indentation_studio.forward.penalty_contact as penalty_contact
 
     now, before = _soft_corner_runs_now_and_with(
         monkeypatch, friction, penalty_contact, "FRICTION_NEWTON", 60
@@ -457,7 +455,6 @@ def test_an_increment_of_the_smallest_size_gets_the_full_newton_cap_before_the_r
     contact-L0, 3 steps, at most 2 cut-backs: every step is made again, as the uncapped run makes
     it (the same Newton iterations; forces within 1e-5, measured 2.0e-6); without the last resort
     the run fails, naming the depth and the cap."""
-    import indentation_studio.forward.penalty_contact as penalty_contact
 
     spec = ModelSpec(mesh=MeshChoice("contact-L0"), protocol=Protocol(step_size=0.5, steps=3))
     spec = spec.with_material(c1=10.0, c5=350.0).with_friction(0.3)

@@ -8,7 +8,7 @@ import re
 
 import pandas as pd
 
-from indentation_studio.studio.report import write_report
+from indentation_studio.studio.report import fit_warnings_html, write_report
 
 
 def _results() -> dict:
@@ -103,8 +103,6 @@ def test_the_reports_fit_says_what_it_found_of_mu():
 def test_the_report_names_the_field_error_its_adequacy_test_held():
     """Where the test's covariance held the high fidelity's field error (issue 57), the report says
     which, flagged or not; where it did not, nothing is said of it."""
-    from indentation_studio.studio.report import fit_warnings_html
-
     held = {"file": "indentation_studio/error_budgets/field-error-R4.77.json", "points": 3}
     held |= {"coarse_mesh": "contact-L3", "fine_mesh": "contact-L4"}
     adequacy = {"flagged": False, "statistic": 1210.0, "dof": 1200, "p_value": 0.41, "alpha": 1e-3}
