@@ -41,7 +41,7 @@ except ImportError as exc:  # not a dependency of the package
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import solver_profile
 
-from indentation_studio.forward import linear_steps
+from indentation_studio.forward import linear_steps, sensitivity_solves
 from indentation_studio.forward.solver import EmbeddedSolver
 
 
@@ -153,7 +153,10 @@ def main() -> None:
         "back_substitution_s": t_back,
         "single_precision": bool(lin.single_precision),
     }
-    for name, rtol in (("newton", linear_steps.KRYLOV_RTOL), ("sensitivity", linear_steps.SENSITIVITY_RTOL)):
+    for name, rtol in (
+        ("newton", linear_steps.KRYLOV_RTOL),
+        ("sensitivity", sensitivity_solves.SENSITIVITY_RTOL),
+    ):
         its, dt, ok = cg_run(A, b, M_direct, rtol)
         out["pardiso"][name] = {"rtol": rtol, "cg_iterations": its, "cg_s": dt, "converged": ok}
     print(f"PARDISO: factorise {t_fact:.2f} s, back-substitution {t_back:.3f} s, {out['pardiso']}")
@@ -185,7 +188,7 @@ def main() -> None:
         }
         for name, rtol in (
             ("newton", linear_steps.KRYLOV_RTOL),
-            ("sensitivity", linear_steps.SENSITIVITY_RTOL),
+            ("sensitivity", sensitivity_solves.SENSITIVITY_RTOL),
         ):
             its, dt, ok = cg_run(A, b, M, rtol)
             rec[name] = {"rtol": rtol, "cg_iterations": its, "cg_s": dt, "converged": ok}

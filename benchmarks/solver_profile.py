@@ -65,7 +65,7 @@ PYSPY_RULES: list[tuple[str, tuple[tuple[str, str], ...]]] = [
     ("PARDISO factorisation", (("_factorize_pardiso", "linear_solver.py"),)),
     (
         "back-subst.: sensitivity CG",
-        (("sensitivity_solve", "linear_steps.py"), ("solve", "linear_solver.py")),
+        (("sensitivity_solve", "sensitivity_solves.py"), ("solve", "linear_solver.py")),
     ),
     (
         "back-subst.: inverse columns",
@@ -87,15 +87,15 @@ PYSPY_RULES: list[tuple[str, tuple[tuple[str, str], ...]]] = [
 
 
 def sensitivity_factorises_first() -> None:
-    """Cure candidate (issue 58; landed since in ``LinearSteps.sensitivity_solve``, so a no-op on
+    """Cure candidate (issue 58; landed since in ``SensitivitySolves.sensitivity_solve``, so a no-op on
     today's solver, kept to make the measurement again on the commits before): the sensitivity
     solve factorises the converged
     tangent at once where the factorisation in hand is the one the previous sensitivity solve left
     (the CG to 1e-11 preconditioned with it, a step old, mostly fails after ``krylov_maxiter()``
-    iterations and factorises then). Patches :meth:`LinearSteps.sensitivity_solve` in this process."""
-    from indentation_studio.forward.linear_steps import LinearSteps
+    iterations and factorises then). Patches :meth:`SensitivitySolves.sensitivity_solve` in this process."""
+    from indentation_studio.forward.sensitivity_solves import SensitivitySolves
 
-    today = LinearSteps.sensitivity_solve
+    today = SensitivitySolves.sensitivity_solve
 
     def sensitivity_solve(self, K, cmask, b):
         if self.stats["factorizations"] == getattr(self, "_factorizations_at_sensitivity", -1):
@@ -105,7 +105,7 @@ def sensitivity_factorises_first() -> None:
         self._factorizations_at_sensitivity = self.stats["factorizations"]
         return x
 
-    LinearSteps.sensitivity_solve = sensitivity_solve
+    SensitivitySolves.sensitivity_solve = sensitivity_solve
 
 
 #: Cure candidates ``--candidate`` applies to this process before the run.

@@ -56,6 +56,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
         "penalty_contact": ["PenaltyContact"],
         "newton": ["Equilibrium", "IncrementFailed", "NewtonSystem"],
         "linear_steps": ["LinearSteps"],
+        "sensitivity_solves": ["SensitivitySolves"],
         "threads": ["busy_cores", "solver_threads", "thread_limits"],
         "convergence.mesh_family": ["MeshFamily", "contact_family", "contact_mesh"],
         "mesh_presets": ["FIT_MESH", "HIGH_FIDELITY_MESH"],

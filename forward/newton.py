@@ -1,6 +1,6 @@
 """Newton-Raphson for the embedded solver: the constrained Newton solve with prescribed dofs,
 shared by every contact (:mod:`forward.indenter_contact`), on the linear steps of
-:mod:`forward.linear_steps` (docs/architecture.md, "forward").
+:mod:`forward.linear_steps` and :mod:`forward.sensitivity_solves` (docs/architecture.md, "forward").
 
 :class:`NewtonSystem` is the base of :class:`forward.solver.EmbeddedSolver`, which provides
 :meth:`NewtonSystem.assemble`.
@@ -16,8 +16,8 @@ import numpy as np
 import scipy.sparse as sp
 
 from .linear_solver import LinearSolveError
-from .linear_steps import LinearSteps
 from .material import InvertedElementError
+from .sensitivity_solves import SensitivitySolves
 
 if TYPE_CHECKING:
     from .block_mesh import BlockMesh
@@ -74,11 +74,12 @@ class Equilibrium:
     dR: np.ndarray | None = None  # (3n, p): d(internal force)/d(theta) at u
 
 
-class NewtonSystem(LinearSteps):
+class NewtonSystem(SensitivitySolves):
     """The constrained Newton solve of the embedded solver, on its linear steps.
 
     Subclasses (forward.solver.EmbeddedSolver) set the attributes below and those of
-    :class:`forward.linear_steps.LinearSteps`, and provide :meth:`assemble`.
+    :class:`forward.sensitivity_solves.SensitivitySolves` (on
+    :class:`forward.linear_steps.LinearSteps`), and provide :meth:`assemble`.
 
     Attributes
     ----------

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from sensitivity_check import assert_sensitivities_match_central_differences
 
-from indentation_studio.forward import penalty_contact
+from indentation_studio.forward import linear_steps, penalty_contact, sensitivity_solves
 from indentation_studio.forward.contact_quadrature import tributary_areas
 from indentation_studio.forward.coulomb_contact import (
     CONTACT,
@@ -171,7 +171,6 @@ def test_sensitivities_where_gmres_cannot_bridge_the_slip_come_from_the_tangents
     """Where slip makes the tangent too far from its symmetric part for GMRES (the fit issue's
     FE confirmation at R = 8 mm, mu = 0.78, contact-L1), K itself is factorised: the same
     sensitivities as GMRES gives where it converges."""
-    from indentation_studio.forward import linear_steps
 
     spec = ModelSpec(mesh=MeshChoice("coarse"), protocol=Protocol(step_size=0.5, steps=3)).with_friction(1.0)
     r = EmbeddedSolver(spec).run(sensitivities=True)
@@ -180,7 +179,7 @@ def test_sensitivities_where_gmres_cannot_bridge_the_slip_come_from_the_tangents
     def no_sensitivity_krylov(self, K, cmask, rhs, rtol, maxiter, **options):
         return (
             None
-            if rtol == linear_steps.SENSITIVITY_RTOL
+            if rtol == sensitivity_solves.SENSITIVITY_RTOL
             else krylov(self, K, cmask, rhs, rtol, maxiter, **options)
         )
 
@@ -384,8 +383,6 @@ def test_gmres_on_a_factorisation_just_made_goes_on_past_its_first_cycle():
     (issue 58: a fresh step then took the symmetric part's step and Newton stalled)."""
     import scipy.sparse as sp
 
-    from indentation_studio.forward import linear_steps
-
     spec = (
         ModelSpec(mesh=MeshChoice("contact-L0"), protocol=Protocol(step_size=0.5, steps=2))
         .with_material(c1=3.0, c5=540.0)
@@ -431,7 +428,6 @@ def test_gmres_cycles_leave_runs_whose_first_cycles_get_there_as_they_were(monke
     factorisation in hand for the next increment's Newton steps, whose path then moves the last
     three steps' forces by 1.4e-6 and their sensitivities by 5e-5, within Newton's own tolerance
     (``residual_tol`` 1e-4 of the reactions). The stick's CG has no cycles: the same run."""
-    from indentation_studio.forward import linear_steps
 
     assert linear_steps.GMRES_CYCLES == 3
     now, before = _soft_corner_runs_now_and_with(monkeypatch, friction, linear_steps, "GMRES_CYCLES", 1)

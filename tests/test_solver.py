@@ -12,6 +12,7 @@ from indentation_studio.forward.linear_steps import LinearSteps
 from indentation_studio.forward.material import cauchy_stress, equibiaxial_stress_incompressible
 from indentation_studio.forward.mesh import BlockMesh
 from indentation_studio.forward.result import SimulationResult
+from indentation_studio.forward.sensitivity_solves import SensitivitySolves
 from indentation_studio.forward.solver import EmbeddedSolver, SimulationError
 from indentation_studio.forward.spec import (
     Contact,
@@ -341,13 +342,13 @@ def test_a_sensitivity_solve_on_the_last_ones_factorisation_factorises_first(mon
         .with_friction(friction)
     )
     first = EmbeddedSolver(spec).run(threads=1, sensitivities=True)
-    today = LinearSteps.sensitivity_solve
+    today = SensitivitySolves.sensitivity_solve
 
     def cg_first(self, K, cmask, b):
         self._sensitivity_factorisation = -1  # never "the last one's": CG first, as before
         return today(self, K, cmask, b)
 
-    monkeypatch.setattr(LinearSteps, "sensitivity_solve", cg_first)
+    monkeypatch.setattr(SensitivitySolves, "sensitivity_solve", cg_first)
     before = EmbeddedSolver(spec).run(threads=1, sensitivities=True)
     new, old = first.solver["stats"], before.solver["stats"]
     assert new["sensitivity_factorizations"] == old["sensitivity_factorizations"] >= 3
