@@ -31,6 +31,7 @@ __all__ = [
     "KINK_DOFS",
     "KRYLOV_RTOL",
     "LINEAR_STEP_STATS",
+    "TRIES_FAILED_IN_A_ROW",
     "WORN_KRYLOV",
     "LinearSteps",
     "TangentContact",
@@ -60,6 +61,14 @@ WORN_KRYLOV = 0.5
 #: 15.0 s), hence the size (docs/validation/solver-and-speed.md, "across the fibers' kink").
 KINK_CROSSINGS = 30
 KINK_DOFS = 20_000
+#: Under the stick, once this many Krylov tries of a Newton solve failed in a row (each on a
+#: factorisation made after the last failed), its later Newton steps factorise at once: far from
+#: equilibrium each Newton step changes the tangent so much that the one before preconditions it
+#: no better than nothing (CG's first iterate leaves 0.7 to 1.1 of the residual). contact-L4, R =
+#: 4.77 mm, {3, 120} kPa, step 1: 18 such tries in a row, 30 iterations each; on contact-L3 tries
+#: that fail come alone (9 of 137 over 28 steps) and the rule changes nothing
+#: (docs/validation/solver-and-speed.md, "Failed tries in a row").
+TRIES_FAILED_IN_A_ROW = 2
 #: With friction, a step made with a fresh factorisation is GMRES on the tangent to this relative
 #: residual, in at most this many iterations (EmbeddedSolver._fresh_step).
 FRESH_RTOL = 1e-8
@@ -104,6 +113,7 @@ LINEAR_STEP_STATS: dict[str, float] = {
     "sensitivity_factorizations": 0,
     "sensitivity_krylov_iterations": 0,
     "kink_refactorisations": 0,
+    "streak_refactorisations": 0,
 }
 
 
@@ -149,6 +159,12 @@ class LinearSteps:
     fiber_taut: np.ndarray | None = None
     #: ``fiber_taut`` of the tangent in the factorisation in hand
     _taut_factorised: np.ndarray | None = None
+    #: Krylov tries of this Newton solve that failed in a row (:data:`TRIES_FAILED_IN_A_ROW`)
+    _failed_in_a_row: int = 0
+
+    def begin_newton_solve(self) -> None:
+        """Start counting a Newton solve's failed Krylov tries afresh (:data:`TRIES_FAILED_IN_A_ROW`)."""
+        self._failed_in_a_row = 0
 
     def factorize(self, K: sp.csr_matrix, constrained: np.ndarray) -> None:
         """Factorise a tangent (with friction, its symmetric part: :meth:`IndenterContact.for_factorisation`).
@@ -285,7 +301,8 @@ class LinearSteps:
         or when it does not get there, by factorising K (:meth:`fresh_step`). A factorisation on
         which CG took more than ``WORN_KRYLOV`` of its iterations is worn: the next step
         factorises at once; so does a step with friction on a large mesh across whose tangent
-        more than ``KINK_CROSSINGS`` fibers went taut or slack since the factorisation.
+        more than ``KINK_CROSSINGS`` fibers went taut or slack since the factorisation, and a step
+        under the stick once ``TRIES_FAILED_IN_A_ROW`` tries of its Newton solve failed in a row.
 
         Parameters
         ----------
@@ -302,7 +319,12 @@ class LinearSteps:
         -------
         ndarray, shape (3n,)
         """
-        if self.linear.covers(cmask) and not self._worn and not self._across_the_kink():
+        if (
+            self.linear.covers(cmask)
+            and not self._worn
+            and not self._across_the_kink()
+            and not self._on_a_streak()
+        ):
             maxiter = self.krylov_maxiter()
             before = self.stats["krylov_iterations"]
             x = self.krylov(K, cmask, rhs, rtol, maxiter)
@@ -310,9 +332,16 @@ class LinearSteps:
             # its GMRES keeps trying until one fails
             worn = self.stats["krylov_iterations"] - before > WORN_KRYLOV * maxiter
             self._worn = worn and self.contact.symmetric
+            self._failed_in_a_row = 0 if x is not None else self._failed_in_a_row + 1
             if x is not None:
                 return x
         return self.fresh_step(K, cmask, rhs)
+
+    def _on_a_streak(self) -> bool:
+        """Whether, under the stick, this Newton solve's last ``TRIES_FAILED_IN_A_ROW`` Krylov tries failed."""
+        streak = self.contact.symmetric and self._failed_in_a_row >= TRIES_FAILED_IN_A_ROW
+        self.stats["streak_refactorisations"] += int(streak)
+        return streak
 
     def _across_the_kink(self) -> bool:
         """Whether, with friction on a large mesh, more than ``KINK_CROSSINGS`` Gauss points'

@@ -157,6 +157,7 @@ class NewtonSystem(SensitivitySolves):
         jump = np.zeros(self.n_dofs)
         jump[cmask] = target - u[cmask]
         want_dR = self.want_sensitivities
+        self.begin_newton_solve()
         try:
             R, K, _ = self.assemble(u.reshape(-1, 3))
             rhs = -(R + K @ jump)

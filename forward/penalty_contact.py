@@ -298,6 +298,7 @@ class PenaltyContact(IndenterContact):
         s = self.solver
         opts = s.spec.solver
         u = u0.reshape(-1).copy()
+        s.begin_newton_solve()
         try:
             R, K, _ = s.assemble(u.reshape(-1, 3))
         except InvertedElementError as exc:
