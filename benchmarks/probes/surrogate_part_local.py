@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from indentation_studio.inference.budgets.fit_moves import fit_moves
+from indentation_studio.inference.budgets.fit_moves import emulation_moves
 from indentation_studio.inference.fit.inputs import prepare_fit
 
 
@@ -33,24 +33,12 @@ def moves_at_fit(experiment: Path, fit: dict) -> tuple[np.ndarray, np.ndarray, n
     """(held-out theta, |move| in percent (n, 2), the fit's theta) for a fit's (c1, c5), mu held."""
     inputs = prepare_fit(experiment, reading=fit.get("reading", "fit"))
     surrogate = inputs.surrogate
-    emulation = surrogate.emulation_error
     theta = [fit["model_fit"]["c1"], fit["model_fit"]["c5"]]
     if len(surrogate.parameters) > 2:
         theta.append(fit["friction"]["mu"])
     theta = np.asarray(theta, float)
-    scores = emulation.scores.astype(float)
-    scale = np.sqrt(np.mean(scores**2, axis=0))
-    scale = np.where(scale > 0, scale, 1.0)
-    along = fit_moves(
-        inputs.objective,
-        np.asarray(fit["weights"], float),
-        surrogate,
-        theta,
-        2,
-        emulation.directions.astype(float) * scale[:, None],
-    )
-    moves = 100.0 * np.expm1(np.abs((scores / scale) @ along))
-    return emulation.theta, moves, theta
+    moves = emulation_moves(inputs.objective, np.asarray(fit["weights"], float), surrogate, theta, free=2)
+    return surrogate.emulation_error.theta, 100.0 * np.expm1(moves), theta
 
 
 def nearest(z: np.ndarray, at: np.ndarray, k: int, skip: int | None = None) -> np.ndarray:

@@ -15,6 +15,7 @@ __all__ = [
     "FEW_HELD_OUT",
     "contact_of",
     "emulation_error_pct",
+    "emulation_moves",
     "fit_moves",
     "has_high_fidelity_level",
     "moved_prediction",
@@ -113,15 +114,63 @@ def residual_changes(objective: Objective, eta, prediction: Prediction, outputs:
 FEW_HELD_OUT = 20
 
 
+def emulation_moves(
+    objective: Objective, eta, surrogate, theta: np.ndarray, *, free: int | None = None
+) -> np.ndarray | None:
+    """How far each of the surrogate's held-out error vectors moves the fit at ``theta`` (issue 46).
+
+    To first order a held-out error moves the fit by d log theta_k = -(J^T J)^-1 J^T dr_k
+    (:func:`fit_moves`); :func:`emulation_error_pct` takes its 95th percentile.
+
+    Parameters
+    ----------
+    objective : Objective
+        The fit's objective.
+    eta : array_like
+        The weights of eq. 5.
+    surrogate : FieldSurrogate
+        The surrogate fitted.
+    theta : numpy.ndarray
+        (p,) the fit.
+    free : int, optional
+        The first ``free`` parameters move, the rest are held (as :func:`model_error_at`).
+
+    Returns
+    -------
+    numpy.ndarray or None
+        (n, free) |d log theta| of each held-out point (the rows of
+        ``surrogate.emulation_error.theta``); None when the surrogate kept no held-out errors.
+    """
+    emulation = getattr(surrogate, "emulation_error", None)
+    if emulation is None:
+        return None
+    theta = np.asarray(theta, float)
+    free = len(theta) if free is None else free
+    # one residual evaluation per kept direction (each scaled to a typical error), not one per
+    # held-out point on the whole (points x outputs) error matrix
+    scores = emulation.scores.astype(float)
+    scale = np.sqrt(np.mean(scores**2, axis=0))
+    scale = np.where(scale > 0, scale, 1.0)
+    along = fit_moves(
+        objective,
+        check_weights(eta),
+        surrogate,
+        theta,
+        free,
+        emulation.directions.astype(float) * scale[:, None],
+    )
+    return np.abs((scores / scale) @ along)
+
+
 def emulation_error_pct(
     objective: Objective, eta, surrogate, theta: np.ndarray, *, free: int | None = None
 ) -> np.ndarray | None:
     """The surrogate's own error as a 95 % half-width of the fit at ``theta`` (issue 46).
 
     Each of the surrogate's held-out error vectors (``surrogate.emulation_error``) moves the fit,
-    to first order, by d log theta_k = -(J^T J)^-1 J^T dr_k; the half-width is the 95th percentile
-    of |d log theta_k| over the held-out points (their largest when there are fewer than
-    :data:`FEW_HELD_OUT`), in percent.
+    to first order, by d log theta_k = -(J^T J)^-1 J^T dr_k (:func:`emulation_moves`); the
+    half-width is the 95th percentile of |d log theta_k| over the held-out points (their largest
+    when there are fewer than :data:`FEW_HELD_OUT`), in percent.
 
     Parameters
     ----------
@@ -141,25 +190,8 @@ def emulation_error_pct(
     numpy.ndarray or None
         (free,) percent; None when the surrogate kept no held-out errors.
     """
-    emulation = getattr(surrogate, "emulation_error", None)
-    if emulation is None:
+    moves = emulation_moves(objective, eta, surrogate, theta, free=free)
+    if moves is None:
         return None
-    theta = np.asarray(theta, float)
-    free = len(theta) if free is None else free
-    # to first order a held-out error moves the fit by its scores times the moves along the kept
-    # directions: one residual evaluation per direction (each scaled to a typical error), not one
-    # per held-out point on the whole (points x outputs) error matrix
-    scores = emulation.scores.astype(float)
-    scale = np.sqrt(np.mean(scores**2, axis=0))
-    scale = np.where(scale > 0, scale, 1.0)
-    along = fit_moves(
-        objective,
-        check_weights(eta),
-        surrogate,
-        theta,
-        free,
-        emulation.directions.astype(float) * scale[:, None],
-    )
-    moves = np.abs((scores / scale) @ along)
     q = 1.0 if len(moves) < FEW_HELD_OUT else 0.95
     return 100.0 * np.expm1(np.quantile(moves, q, axis=0, method="higher"))
