@@ -129,7 +129,11 @@ def study_budget_cmd(
 
 BUDGET_FILE = Annotated[Path, typer.Option(help="an error-budget.json against a verification study's level")]
 FINEST_STUDY = Annotated[
-    Path, typer.Option(help="a verification study's study.json with a finer level, at the budget's points")
+    list[Path],
+    typer.Option(
+        help="a verification study's study.json with a finer level, at the budget's points; "
+        "repeat it for studies made a few points at a time (merged)"
+    ),
 ]
 
 
@@ -148,7 +152,9 @@ def budget_reference_cmd(
         print(strict_json(payload | {"json_file": str(out)}))
         return
     level = payload["reference"]["corrected_level"]
-    view = Table(title=f"contact-L{level} moved to level {payload['reference']['level']} of {study}")
+    view = Table(
+        title=f"contact-L{level} moved to level {payload['reference']['level']} of {payload['reference']['finest_study']}"
+    )
     for col in (
         "c1, c5 kPa",
         "c1 reference",

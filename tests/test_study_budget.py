@@ -17,7 +17,11 @@ from indentation_studio.forward.predictor import CachedPredictor, FESolverPredic
 from indentation_studio.forward.result import SimulationResult
 from indentation_studio.forward.spec import Contact, Indenter, MeshChoice, ModelSpec, Protocol
 from indentation_studio.inference.budgets.error_budget import compute_error_budget
-from indentation_studio.inference.budgets.finest_reference import reference_correction, with_finest_reference
+from indentation_studio.inference.budgets.finest_reference import (
+    finest_reference_budget,
+    reference_correction,
+    with_finest_reference,
+)
 from indentation_studio.inference.budgets.model_error import ModelError
 from indentation_studio.inference.budgets.study_budget import (
     FS_ASYMPTOTIC,
@@ -25,7 +29,10 @@ from indentation_studio.inference.budgets.study_budget import (
     reference_uncertainty_pct,
     study_error_budget,
 )
-from indentation_studio.inference.budgets.verification_study import run_verification_study
+from indentation_studio.inference.budgets.verification_study import (
+    merge_verification_studies,
+    run_verification_study,
+)
 from indentation_studio.surrogate.error_budgets import (
     budget_at,
     remaining_bias,
@@ -298,6 +305,39 @@ def test_a_budget_moved_to_the_studys_finest_level_follows_the_rule(small_study)
                 abs(rows["contact-L1"][f"{p}_correction_pct"]) + width
             )
             assert rows["contact-L0"][f"{p}_bias_pct"] != 0.0
+
+
+def test_a_study_made_a_point_at_a_time_merges_into_the_whole_studys_budget(small_study, tmp_path):
+    out, _, _ = small_study
+    budget_file = tmp_path / "budget.json"
+    budget = study_error_budget(out, ("contact-L0", "contact-L1"), reference_level=1, fe_steps=2)
+    budget_file.write_text(json.dumps(budget.to_dict()))
+    whole = json.loads((out / "study.json").read_text())
+    parts = []
+    for k, case in enumerate(whole["cases"]):  # each point as its own study, as on two machines
+        part = dict(whole) | {"cases": [case], "wall_s": 10.0 + k}
+        part["inputs"] = dict(whole["inputs"]) | {"points": [list(case["theta"])]}
+        parts.append(tmp_path / f"study-{k}.json")
+        parts[-1].write_text(json.dumps(part))
+    merged = merge_verification_studies(parts)
+    assert merged["cases"] == whole["cases"] and merged["wall_s"] == 21.0
+    assert merged["inputs"] == whole["inputs"] and merged["merged_from"] == [str(p) for p in parts]
+    from_parts = finest_reference_budget(budget_file, parts)
+    from_whole = finest_reference_budget(budget_file, out / "study.json")
+    assert from_parts["rows"] == from_whole["rows"]
+    assert from_parts["reference"]["finest_study"] == f"{parts[0]}, {parts[1]}"
+    # the same point twice, or studies of other levels, are named, not merged
+    with pytest.raises(ValueError, match=r"R = 4.77 mm at \(4.0, 300.0\) is also in"):
+        merge_verification_studies([parts[0], parts[0]])
+    other = tmp_path / "other.json"
+    other.write_text(json.dumps(json.loads(parts[1].read_text()) | {"levels": [1, 0]}))
+    with pytest.raises(ValueError, match=r"other\.json: its levels differs"):
+        merge_verification_studies([parts[0], other])
+    other.write_text(
+        json.dumps(json.loads(parts[1].read_text()) | {"inputs": whole["inputs"] | {"reading": "paper"}})
+    )
+    with pytest.raises(ValueError, match="its input 'reading' differs"):
+        merge_verification_studies([parts[0], other])
 
 
 def test_a_corrected_budget_moves_the_fit_and_never_narrows_outside_its_points(tmp_path):

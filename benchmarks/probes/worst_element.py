@@ -1,7 +1,8 @@
 """The most distorted elements of a simulation where it stops: runs a spec for ``--steps`` steps
 keeping every node's displacement, then ranks the elements at the last step by their smallest
 Gauss-point det F (J) and prints the worst: where they sit (reference centroid), which material
-set, J, the largest and smallest principal stretch, and how far the centroid is from the sphere.
+set, J, the element's dilatation J_bar = v_e / V_e (the one J the three-field element's volumetric
+energy sees), the largest and smallest principal stretch, and how far the centroid is from the sphere.
 
     .venv/bin/python benchmarks/probes/worst_element.py --mesh composite-medium --contact surface --steps 18
 """
@@ -14,7 +15,14 @@ import numpy as np
 
 from indentation_studio.forward.hex8_mean_dilatation import ReferenceGeometry
 from indentation_studio.forward.solver import EmbeddedSolver
-from indentation_studio.forward.spec import Contact, Indenter, MeshChoice, ModelSpec, Protocol
+from indentation_studio.forward.spec import (
+    Contact,
+    Indenter,
+    MeshChoice,
+    ModelSpec,
+    Protocol,
+    SolverOptions,
+)
 
 
 def main() -> None:
@@ -25,12 +33,14 @@ def main() -> None:
     parser.add_argument("--radius", type=float, default=4.77)
     parser.add_argument("--steps", type=int, default=18, help="steps of 0.5 mm to run")
     parser.add_argument("--worst", type=int, default=5)
+    parser.add_argument("--fiber-stretch", default="gauss", choices=("gauss", "mean"))
     args = parser.parse_args()
     composite = args.mesh.startswith("composite")
     fields = {
         "indenter": Indenter(args.radius),
         "protocol": Protocol(step_size=0.5, steps=args.steps),
         "contact": Contact(integration=args.contact, order=args.order),
+        "solver": SolverOptions(fiber_stretch=args.fiber_stretch),
     }
     spec = (
         ModelSpec.composite_phantom(args.mesh, **fields)
@@ -46,6 +56,7 @@ def main() -> None:
     geo = ReferenceGeometry.of(mesh)
     F = np.eye(3) + np.einsum("eai,egaJ->egiJ", u[mesh.elements], geo.dNdX)
     J = np.linalg.det(F)
+    J_bar = (J * geo.wdetJ0).sum(axis=1) / geo.wdetJ0.sum(axis=1)  # v_e / V_e
     stretch = np.sqrt(np.linalg.eigvalsh(np.swapaxes(F, -1, -2) @ F))  # (ne, g, 3) ascending
     worst = np.argsort(J.min(axis=1))[: args.worst]
     depth = result.depth[-1]
@@ -53,7 +64,7 @@ def main() -> None:
     names = mesh.material_names or ("all",)
     print(f"{args.mesh}, {args.contact} contact, depth {depth:g} mm, force {result.force[-1]:.1f} mN")
     print(
-        "element | set | reference centroid mm | smallest J | stretches min, max | centroid's gap to the sphere mm"
+        "element | set | reference centroid mm | smallest J | J_bar | stretches min, max | centroid's gap to the sphere mm"
     )
     for e in worst:
         x0 = mesh.nodes[mesh.elements[e]].mean(axis=0)
@@ -61,7 +72,7 @@ def main() -> None:
         material = names[mesh.element_material[e]] if mesh.element_material is not None else names[0]
         gap = np.linalg.norm(x - centre) - spec.indenter.radius
         print(
-            f"{e} | {material} | ({x0[0]:.2f}, {x0[1]:.2f}, {x0[2]:.2f}) | {J[e].min():.3f} | "
+            f"{e} | {material} | ({x0[0]:.2f}, {x0[1]:.2f}, {x0[2]:.2f}) | {J[e].min():.3f} | {J_bar[e]:.3f} | "
             f"{stretch[e, :, 0].min():.3f}, {stretch[e, :, 2].max():.3f} | {gap:+.2f}"
         )
 

@@ -15,7 +15,7 @@ import numpy as np
 from ...forward.convergence.gci import observed_order
 from ...forward.mesh_presets import CONTACT_MESH_LEVELS
 from .study_budget import ORDER_LIMITS, reference_uncertainty_pct
-from .verification_study import load_verification_study
+from .verification_study import merge_verification_studies
 
 __all__ = ["ReferenceCorrection", "finest_reference_budget", "reference_correction", "with_finest_reference"]
 
@@ -204,7 +204,7 @@ def with_finest_reference(budget: dict, study: dict, models: dict[str, int]) -> 
     return dict(budget) | {"rows": rows, "reference": reference}
 
 
-def finest_reference_budget(budget_file: str | Path, study_file: str | Path) -> dict:
+def finest_reference_budget(budget_file: str | Path, study_file: str | Path | Sequence[str | Path]) -> dict:
     """A budget file against a study's level moved to a finer study's finest level (issue 57).
 
     The budget's own reference level (``reference.level``, the level a multi-fidelity surrogate
@@ -215,9 +215,10 @@ def finest_reference_budget(budget_file: str | Path, study_file: str | Path) -> 
     ----------
     budget_file : str or pathlib.Path
         An error-budget.json against a verification study's level (``design study-budget``).
-    study_file : str or pathlib.Path
+    study_file : str, pathlib.Path or a sequence of them
         A verification study's ``study.json`` (or its copy) whose finest level is finer, at the
-        budget's points and radius.
+        budget's points and radius; or several made at different points, merged
+        (:func:`merge_verification_studies`).
 
     Returns
     -------
@@ -231,7 +232,9 @@ def finest_reference_budget(budget_file: str | Path, study_file: str | Path) -> 
         differ.
     """
     budget = json.loads(Path(budget_file).read_text())
-    study = load_verification_study(study_file)
+    files = [study_file] if isinstance(study_file, str | Path) else list(study_file)
+    study = merge_verification_studies(files)
+    study_file = ", ".join(str(f) for f in files)
     level = (budget.get("reference") or {}).get("corrected_level") or (budget.get("reference") or {}).get(
         "level"
     )
@@ -252,7 +255,7 @@ def finest_reference_budget(budget_file: str | Path, study_file: str | Path) -> 
         name: CONTACT_MESH_LEVELS[name] for name in names if name in CONTACT_MESH_LEVELS
     }
     out = with_finest_reference(budget, study, models)
-    out["reference"]["finest_study"] = str(study_file)
+    out["reference"]["finest_study"] = study_file
     out["description"] = (
         f"{budget.get('description', '')} Moved to level {study['levels'][0]} of {study_file} by "
         f"indent-studio design budget-reference (issue 57's rule: {out['reference']['rule']})."
