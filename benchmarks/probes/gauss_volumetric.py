@@ -38,6 +38,20 @@ def _gradients(geometry, u_e):
     return F, J, g
 
 
+def _outer(c, g):
+    """sum_g c g_ai g_bk as (ne, 24, 24), by batched products."""
+    ne, ng = c.shape
+    G = g.reshape(ne, ng, 24)
+    return np.matmul(np.swapaxes(c[:, :, None] * G, 1, 2), G)
+
+
+def _crossed(c, g):
+    """sum_g c g_ak g_bi as (ne, 24, 24) (rows ai, columns bk)."""
+    ne = c.shape[0]
+    M = _outer(c, g).reshape(ne, 8, 3, 8, 3)  # [a, k, b, i]
+    return np.transpose(M, (0, 1, 4, 3, 2)).reshape(ne, 24, 24)
+
+
 def gauss_volumetric(geometry, u_e, kappa):
     """Forces (ne, 24) and tangent (ne, 24, 24) of sum_g w detJ0 U(J_g) (module docstring)."""
     _, J, g = _gradients(geometry, u_e)
@@ -45,8 +59,7 @@ def gauss_volumetric(geometry, u_e, kappa):
     lnJ = np.log(J)
     ne = u_e.shape[0]
     force = np.einsum("eg,egai->eai", w * lnJ, g).reshape(ne, 24)
-    K = np.einsum("eg,egai,egbk->eaibk", w, g, g) - np.einsum("eg,egak,egbi->eaibk", w * lnJ, g, g)
-    return force, K.reshape(ne, 24, 24)
+    return force, _outer(w, g) - _crossed(w * lnJ, g)
 
 
 def mean_dilatation_volumetric(geometry, u_e, kappa):
@@ -61,11 +74,10 @@ def mean_dilatation_volumetric(geometry, u_e, kappa):
     dv = np.einsum("eg,egai->eai", w * J, g)  # dv/du
     ne = u_e.shape[0]
     force = (p[:, None, None] * dv).reshape(ne, 24)
-    d2v = np.einsum("eg,egai,egbk->eaibk", w * J, g, g) - np.einsum("eg,egak,egbi->eaibk", w * J, g, g)
-    K = (dp / V)[:, None, None, None, None] * np.einsum("eai,ebk->eaibk", dv, dv) + p[
-        :, None, None, None, None
-    ] * d2v
-    return force, K.reshape(ne, 24, 24)
+    d2v = _outer(w * J, g) - _crossed(w * J, g)
+    dv = dv.reshape(ne, 24)
+    K = (dp / V)[:, None, None] * dv[:, :, None] * dv[:, None, :] + p[:, None, None] * d2v
+    return force, K
 
 
 class GaussVolumetric:
