@@ -8,7 +8,7 @@ energy sees), the largest and smallest principal stretch, and how far the centro
 
 A run that stops is analysed at its last finished step (``SimulationError.partial``).
 ``--z-cells-finer K`` divides a composite mesh's first cell size in z by K (its growth and the
-cells across the fibers kept): K times the cells in the matrix between the top face and the top
+cells across the fibers kept): about K times the cells in the matrix between the top face and the top
 fibers, the mesh's x and y unchanged.
 
 ``--eigen`` adds, at each step, the smallest eigenvalues of the body's tangent (the elements
