@@ -29,7 +29,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
         "fit.confirm_stage": ["FitConfirmation", "confirm_fit"],
         "posterior.sampling": ["Posterior", "sample_posterior"],
         "budgets.model_error_parts": ["ModelError", "combined_pct", "model_error_scope"],
-        "budgets.fit_moves": ["emulation_error_pct"],
+        "budgets.fit_moves": ["emulation_error_pct", "emulation_moves"],
         "budgets.model_error": [
             "budget_correction",
             "model_error_at",
@@ -57,6 +57,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
         "budgets.budget_models": ["resolve_model"],
         "budgets.campaign_budget": ["campaign_error_budget"],
         "budgets.verification_study": ["VerificationStudy", "parameter_bias", "run_verification_study"],
+        "budgets.study_files": ["load_verification_study", "merge_verification_studies"],
         "preparation": ["CostEstimate", "PreparedTest", "TestRecipe", "estimate_cost", "prepare_test"],
         "budgets.study_budget": ["reference_uncertainty_pct", "study_error_budget"],
         "budgets.finest_reference": [

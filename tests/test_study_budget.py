@@ -29,10 +29,8 @@ from indentation_studio.inference.budgets.study_budget import (
     reference_uncertainty_pct,
     study_error_budget,
 )
-from indentation_studio.inference.budgets.verification_study import (
-    merge_verification_studies,
-    run_verification_study,
-)
+from indentation_studio.inference.budgets.study_files import merge_verification_studies
+from indentation_studio.inference.budgets.verification_study import run_verification_study
 from indentation_studio.surrogate.error_budgets import (
     budget_at,
     remaining_bias,

@@ -133,10 +133,8 @@ def test_observed_orders_of_the_fe_model_on_a_small_family(small_study):
 
 
 def test_the_study_resumes_from_its_runs(small_study):
-    from indentation_studio.inference.budgets.verification_study import (
-        load_verification_study,
-        run_verification_study,
-    )
+    from indentation_studio.inference.budgets.study_files import load_verification_study
+    from indentation_studio.inference.budgets.verification_study import run_verification_study
 
     study, out, spec, family = small_study
     said = []

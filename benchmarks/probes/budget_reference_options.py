@@ -19,7 +19,7 @@ from __future__ import annotations
 import sys
 
 from indentation_studio.inference import reference_uncertainty_pct
-from indentation_studio.inference.budgets.verification_study import load_verification_study
+from indentation_studio.inference.budgets.study_files import load_verification_study
 
 
 def _level4_cases(path: str) -> list[dict]:

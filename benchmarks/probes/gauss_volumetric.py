@@ -31,11 +31,11 @@ from indentation_studio.forward.spec import Contact, Indenter, ModelSpec, Protoc
 
 
 def _gradients(geometry, u_e):
-    """F (ne, g, 3, 3), J (ne, g) and the spatial gradients g (ne, g, 8, 3)."""
+    """J (ne, g) and the spatial gradients g (ne, g, 8, 3)."""
     F = np.eye(3) + np.einsum("eai,egaJ->egiJ", u_e, geometry.dNdX)
     J = np.linalg.det(F)
     g = np.einsum("egaJ,egJi->egai", geometry.dNdX, np.linalg.inv(F))  # dN_a/dX F^-1 = (F^-T dN_a/dX)^T
-    return F, J, g
+    return J, g
 
 
 def _outer(c, g):
@@ -54,7 +54,7 @@ def _crossed(c, g):
 
 def gauss_volumetric(geometry, u_e, kappa):
     """Forces (ne, 24) and tangent (ne, 24, 24) of sum_g w detJ0 U(J_g) (module docstring)."""
-    _, J, g = _gradients(geometry, u_e)
+    J, g = _gradients(geometry, u_e)
     w = geometry.wdetJ0 * kappa[:, None]
     lnJ = np.log(J)
     ne = u_e.shape[0]
@@ -64,7 +64,7 @@ def gauss_volumetric(geometry, u_e, kappa):
 
 def mean_dilatation_volumetric(geometry, u_e, kappa):
     """Forces and tangent of V_e U(v_e / V_e), the three-field element's volumetric term."""
-    _, J, g = _gradients(geometry, u_e)
+    J, g = _gradients(geometry, u_e)
     w = geometry.wdetJ0
     V = geometry.volume
     Jbar = (w * J).sum(axis=1) / V

@@ -17,7 +17,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from indentation_studio.inference.budgets.verification_study import load_verification_study
+from indentation_studio.inference.budgets.study_files import load_verification_study
 
 
 def main() -> None:

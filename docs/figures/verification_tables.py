@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import sys
 
-from indentation_studio.inference.budgets.verification_study import load_verification_study
+from indentation_studio.inference.budgets.study_files import load_verification_study
 
 
 def fmt(v: float, digits: int = 4) -> str:

@@ -15,7 +15,7 @@ import numpy as np
 from ...forward.convergence.gci import observed_order
 from ...forward.mesh_presets import CONTACT_MESH_LEVELS
 from .study_budget import ORDER_LIMITS, reference_uncertainty_pct
-from .verification_study import merge_verification_studies
+from .study_files import merge_verification_studies
 
 __all__ = ["ReferenceCorrection", "finest_reference_budget", "reference_correction", "with_finest_reference"]
 

@@ -27,7 +27,7 @@ from ...forward.predictor import CachedPredictor, FESolverPredictor
 from ...forward.result import SimulationResult
 from ...forward.spec import Indenter, MeshChoice, ModelSpec
 from .error_budget import ErrorBudget, compute_error_budget
-from .verification_study import load_verification_study
+from .study_files import load_verification_study
 
 __all__ = ["FS_ASYMPTOTIC", "FS_OUTSIDE", "reference_uncertainty_pct", "study_error_budget"]
 
