@@ -13,7 +13,6 @@ from rich.table import Table
 
 from .. import inference
 from ..atomic_write import atomic_write_json, strict_json
-from ..campaign.loader import open_campaign
 from ..forward.spec import SpecError
 from .options import (
     DIC_NOISE,
@@ -58,6 +57,10 @@ def error_budget_cmd(
     """The error budget of models: the bias each causes in a fit of the reference's noise-free
     responses, beside a typical experiment's 95 % half-width (converged: bias below a third).
     The JSON is saved after every row; run again with the same settings to resume a stopped one."""
+    # imported here: the campaign loader brings pandas and numba, which the command line must not
+    # load to start (tests/test_cold_start.py)
+    from ..campaign.loader import open_campaign
+
     try:
         path = out or open_campaign(reference, runs_dir).root / "error-budget.json"
         budget = inference.campaign_error_budget(
