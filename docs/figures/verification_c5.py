@@ -1,14 +1,19 @@
 """Log-log figure of the fitted c5's distance to the finest level against the cell size, at every
 point of verification studies (one panel per study, e.g. one per radius), with the observed order
-of each point's finest triplet in the legend (docs/validation/verification.md).
+of each point's finest triplet in the legend (docs/validation/verification.md). A panel may be a
+glob: a study made a point at a time, its files merged (``inference.merge_verification_studies``).
 
     .venv/bin/python docs/figures/verification_c5.py docs/validation/data/verification-fit-R4.77.json \
         docs/validation/data/verification-fit-R8.json --out docs/validation/figures/verification-c5.png
+    .venv/bin/python docs/figures/verification_c5.py \
+        "docs/validation/data/verification-contact-L4-R4.77-*.json" \
+        docs/validation/data/verification-contact-L4-R8.json --out docs/validation/figures/verification-c5-L4.png
 """
 
 from __future__ import annotations
 
 import argparse
+import glob
 from pathlib import Path
 
 import matplotlib
@@ -17,18 +22,29 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from indentation_studio.inference.budgets.study_files import load_verification_study
+from indentation_studio.inference.budgets.study_files import (
+    load_verification_study,
+    merge_verification_studies,
+)
+
+
+def panel_study(pattern: str) -> dict:
+    """The study of one panel: a file, or the files a glob names merged into one."""
+    paths = sorted(glob.glob(pattern))
+    if not paths:
+        raise SystemExit(f"no verification study matches {pattern!r}")
+    return load_verification_study(paths[0]) if len(paths) == 1 else merge_verification_studies(paths)
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("studies", nargs="+", type=Path)
+    ap.add_argument("studies", nargs="+", help="study files or globs (one panel each)")
     ap.add_argument("--quantity", default="fit c5")
     ap.add_argument("--out", type=Path, required=True)
     args = ap.parse_args()
     fig, axes = plt.subplots(1, len(args.studies), figsize=(6.2 * len(args.studies), 4.6), squeeze=False)
     for ax, path in zip(axes[0], args.studies, strict=True):
-        study = load_verification_study(path)
+        study = panel_study(path)
         reading = study["inputs"].get("reading", "paper")
         for case in study["cases"]:
             q = case["quantities"][args.quantity]
