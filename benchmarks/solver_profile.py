@@ -80,9 +80,9 @@ PYSPY_RULES: list[tuple[str, tuple[tuple[str, str], ...]]] = [
     ("CG matvecs", (("matvec", "linear_steps.py"),)),
     ("assembly: contact", (("add_to_system", "penalty_contact.py"),)),
     ("assembly: elements", (("assemble", "solver.py"),)),
-    ("contact statuses", (("_statuses_follow", "penalty_contact.py"),)),
+    ("contact statuses", (("_statuses_follow", "penalty_newton.py"),)),
     ("Krylov (scipy, rest)", (("krylov", "linear_steps.py"),)),
-    ("contact (rest)", (("penalty_contact.py",),)),
+    ("contact (rest)", (("penalty_contact.py",), ("penalty_newton.py",))),
 ]
 
 

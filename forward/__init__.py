@@ -54,6 +54,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
         "indenter_contact": ["IndenterContact"],
         "node_stick": ["NodeStickContact"],
         "penalty_contact": ["PenaltyContact"],
+        "penalty_newton": ["PenaltyNewton"],
         "newton": ["Equilibrium", "IncrementFailed", "NewtonSystem"],
         "linear_steps": ["LinearSteps"],
         "sensitivity_solves": ["SensitivitySolves"],

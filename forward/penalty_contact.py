@@ -6,7 +6,7 @@ points of the top faces (:mod:`forward.contact_quadrature`), with the contact la
 In an increment the sphere's forces at the points are carried to the top nodes (N^T f) and taken
 off the body's internal force, and their derivative (N^T df/dr N, cell by cell) off its tangent
 (:meth:`PenaltyContact.add_to_system`). Each increment is solved by damped Newton with the points'
-statuses held, re-solved until the statuses the solution calls for are those it was solved with
+statuses held (:mod:`forward.penalty_newton`), re-solved until the statuses the solution calls for are those it was solved with
 (:meth:`PenaltyContact.increment`); the statuses also follow the state in a solve's first Newton
 iterations. The factorisation is of the tangent's symmetric part; the contact blocks that changed
 since (points in or out, slip) are put back by a low-rank update (:meth:`PenaltyContact.correction`).
@@ -24,36 +24,13 @@ from .contact_quadrature import contact_points
 from .coulomb_contact import FREE, FrictionContactState
 from .indenter_contact import IndenterContact
 from .linear_solver import LinearSolveError, LowRankUpdate
-from .linear_steps import KRYLOV_RTOL
-from .material import InvertedElementError
-from .newton import (
-    MAX_HALVINGS,
-    MAX_STALE_STEPS,
-    REFACTOR_RATIO,
-    Equilibrium,
-    IncrementFailed,
-    NewtonSystem,
-)
+from .newton import Equilibrium, IncrementFailed, NewtonSystem
+from .penalty_newton import PenaltyNewton
 
 __all__ = ["CONTACT_STATS", "PenaltyContact"]
 
 log = logging.getLogger(__name__)
 
-#: Under the penalty stick, each Newton solve takes at most this many damped steps
-#: (:meth:`PenaltyContact.equilibrate`); then the increment is cut back.
-STICK_NEWTON = 60
-#: With Coulomb friction, at most this many: an increment that has not converged by then is cut
-#: back rather than driven on. At the hardest increments (many points slipping, the contact's
-#: edge turning round) a Newton solve took 50 to 60 damped steps where its two halves take 10 to
-#: 20 together: contact-L1, R = 4.77 mm, {3, 540} kPa, mu 0.3, CPU 41.5 -> 30.7 s, the forces
-#: within 6e-4 of 60's, a third of the increments' own error (2e-3 against four increments a
-#: step); nothing changes where no solve needs more (docs/validation/solver-and-speed.md,
-#: "Friction's hard increments").
-FRICTION_NEWTON = 20
-#: ... but a step whose increments fail down to the smallest size is made again from its start
-#: with ``STICK_NEWTON`` before the run fails (:attr:`IndenterContact.last_resort`): at R = 8 mm
-#: {1.498, 101.45} kPa, mu 0.383 (a fit's FE confirmation, contact-L1) the cap of 20 failed at
-#: 9.508 mm, the step's smallest increment, where 60 takes the run to 14 mm.
 #: A top node's contact block (its 3 x 3 share of the tangent) counts as changed since the
 #: factorisation when it moved by more than this fraction of the node's penalty: a node that came
 #: into contact, left it, or slips (EmbeddedSolver._contact_correction).
@@ -70,22 +47,6 @@ STATUS_FORCE_FRACTION = 1e-7
 #: within 1e-8 (the same point kept); no change where no set wanders past its first pass
 #: (docs/validation/solver-and-speed.md, "A contact edge that toggles").
 HOLDING_PASS = 2
-#: A penalty contact's statuses follow the state in the first this many Newton iterations of a
-#: solve (EmbeddedSolver._statuses_follow), then stay as they are until the solve ends.
-STATUS_NEWTON_UPDATES = 8
-#: Under the penalty stick a Newton step changes no displacement component by more than this
-#: fraction of the increment's depth (longer steps are shortened to it; PenaltyContact._damped_step). Below a
-#: soft matrix whose fibers are slack in compression the tangent at a state far from
-#: equilibrium can be nearly singular: steps of 100 to 900 mm were seen (c1 = 3, c5 = 540 kPa,
-#: one stick point per face), each inverting elements at every halving. Not under friction, whose
-#: equilibrium within an increment depends on the path to it (docs/validation/verification.md,
-#: "The penalty and the points per face").
-STICK_STEP_LIMIT = 0.2
-
-#: How many times a Newton step is made again with more turning points' stick predicted
-#: (:meth:`PenaltyContact._turning_points_stick`): the new step can turn others round.
-TURNING_ROUNDS = 4
-
 
 #: The contact's counters in its solver's ``stats``: its forces and tangent blocks evaluated
 #: (``contact_updates``: one per assembly in an increment, within ``assembly_s``), the low-rank
@@ -105,7 +66,7 @@ CONTACT_STATS: dict[str, float] = {
 }
 
 
-class PenaltyContact(IndenterContact):
+class PenaltyContact(PenaltyNewton, IndenterContact):
     """Stick or Coulomb friction by a penalty at contact points (module docstring).
 
     Parameters
@@ -263,224 +224,6 @@ class PenaltyContact(IndenterContact):
         D[:, held] = 0.0
         return LowRankUpdate(s.linear, dofs, D)
 
-    def equilibrate(self, u0: np.ndarray, cmask: np.ndarray) -> Equilibrium:
-        """Damped Newton-Raphson to equilibrium with the contact's forces in the residual.
-
-        Parameters
-        ----------
-        u0 : ndarray, shape (n, 3)
-            The starting state.
-        cmask : ndarray of bool, shape (3n,)
-            The supports and symmetry planes (held at zero).
-
-        Returns
-        -------
-        Equilibrium
-
-        Raises
-        ------
-        forward.newton.IncrementFailed
-            No convergence in ``STICK_NEWTON`` iterations (``FRICTION_NEWTON`` with friction,
-            unless as the driver's last resort), or an inverted element.
-
-        Notes
-        -----
-        The frictional contact's forces in the residual
-        (the supports in ``cmask`` held at zero), damped. As in :meth:`NewtonSystem.equilibrate`, corrections
-        reuse the factorisation in hand while the residual contracts by at least
-        ``REFACTOR_RATIO`` (``MAX_STALE_STEPS`` in a row at most), and take a Newton step with
-        the tangent at the current state otherwise (:meth:`LinearSteps.newton_step`). Every step is
-        shortened so that no slipping node passes its anchor
-        (:meth:`FrictionContactState.step_fraction`); a Newton step is then halved until the
-        residual falls (a full step can overshoot where a node slides along the indenter, with
-        little but the body's shear stiffness to hold it, against the penalty's stiffness
-        across), and a correction that does not lower it is replaced by a Newton step."""
-        s = self.solver
-        opts = s.spec.solver
-        u = u0.reshape(-1).copy()
-        s.begin_newton_solve()
-        try:
-            R, K, _ = s.assemble(u.reshape(-1, 3))
-        except InvertedElementError as exc:
-            raise IncrementFailed(str(exc)) from exc
-        last, stale_steps, fresh_step, exact = np.inf, MAX_STALE_STEPS, True, False
-        max_steps = STICK_NEWTON if self.friction is None or self.last_resort else FRICTION_NEWTON
-        for it in range(1, max_steps + 1):
-            norm = np.linalg.norm(np.where(cmask, 0.0, R))
-            ref = max(np.linalg.norm(R[cmask]), s.force_scale)
-            log.debug("newton %d: residual %.3e of %.3e", it, norm, ref)
-            at_round_off = fresh_step and norm > 0.5 * last and norm <= 1e-6 * ref  # no more to gain
-            if norm <= opts.residual_tol * ref or at_round_off:
-                K_out = dR = None
-                if s.want_sensitivities:
-                    _, K_out, dR = s.assemble(u.reshape(-1, 3), parameter_derivatives=True)
-                return Equilibrium(u.reshape(-1, 3), R, K_out, it, dR)
-            r_free = np.where(cmask, 0.0, R)
-            step = None
-            worn = norm > REFACTOR_RATIO * last or stale_steps >= MAX_STALE_STEPS
-            if not worn and s.linear.covers(cmask):  # a correction with the factorisation in hand
-                try:
-                    step = self._damped_step(u, s.solve(r_free, cmask), norm, cmask, halve=False)
-                except LinearSolveError:
-                    step = None
-                stale_steps += 1
-            fresh_step = step is None
-            if fresh_step:  # a Newton step with the tangent here
-                if K is None:
-                    _, K, _ = s.assemble(u.reshape(-1, 3))
-                rtol = self._krylov_rtol(norm, ref)
-                try:
-                    du = self._newton_direction(K, cmask, r_free, exact, rtol)
-                    du = self._turning_points_stick(u, du, K, r_free, cmask, exact, rtol)
-                except LinearSolveError as exc:
-                    raise IncrementFailed(str(exc)) from exc
-                step = self._damped_step(u, du, norm, cmask, halve=True)
-                stale_steps = 0
-            u, R = step
-            exact = np.linalg.norm(np.where(cmask, 0.0, R)) >= norm
-            K, last = None, norm
-            if it <= STATUS_NEWTON_UPDATES and self._statuses_follow(u):
-                # the residual with the statuses this state calls for; the next step is a Newton step
-                R, _, _ = s.assemble(u.reshape(-1, 3), tangent=False)
-                last, exact, stale_steps = np.inf, False, MAX_STALE_STEPS
-        raise IncrementFailed(f"Newton did not converge in {max_steps} iterations")
-
-    def _krylov_rtol(self, norm: float, ref: float) -> float:
-        """The relative residual an inexact Newton step is solved to.
-
-        ``KRYLOV_RTOL`` of the current residual under the stick (a constant forcing term: the
-        step's error shrinks with the residual, as inexact Newton needs). With friction, as exact
-        as the residual is far above the reactions (``KRYLOV_RTOL * ref / norm``): a slip step
-        solved loosely there moves points across their stick zones and the friction flips. Under the
-        stick that tightening bought nothing but failed Krylov solves: contact-L3, R = 4.77 mm,
-        {3, 120} kPa, 6 steps: 20 of 73 Krylov solves failed and 21 factorisations were made; with
-        the constant term 8 of 58 and 9, CPU 95.6 -> 59.1 s, forces the same to 2.3e-7
-        (docs/validation/solver-and-speed.md, "Where the time goes").
-        """
-        if self.friction is None:
-            return KRYLOV_RTOL
-        return KRYLOV_RTOL * min(1.0, ref / norm)
-
-    def _newton_direction(
-        self, K: sp.csr_matrix, cmask: np.ndarray, r_free: np.ndarray, exact: bool, rtol: float
-    ) -> np.ndarray:
-        """The Newton step of the tangent ``K``: by a factorisation here when ``exact`` (the last
-        step did not lower the residual), else inexact (the factorisation in hand preconditions
-        a Krylov solve to ``rtol``)."""
-        s = self.solver
-        return s.fresh_step(K, cmask, r_free) if exact else s.newton_step(K, cmask, r_free, rtol)
-
-    def _turning_points_stick(
-        self,
-        u: np.ndarray,
-        du: np.ndarray,
-        K: sp.csr_matrix,
-        r_free: np.ndarray,
-        cmask: np.ndarray,
-        exact: bool,
-        rtol: float,
-    ) -> np.ndarray:
-        """The Newton step ``du`` made again, if it takes slipping points past their anchors'
-        planes (:meth:`FrictionContactState.turning`), with those points' response the stick's.
-
-        A slipping point's tangent has no stiffness along its slip, so a step that turns it round
-        overshoots the stick zone (mu p / eps wide) and the friction flips; cutting the whole step
-        to the first anchor's plane (:meth:`FrictionContactState.step_fraction`) then leaves the
-        rest of the mesh where it was, iteration after iteration. Predicting that the turning
-        points stick (an active-set step, as a semi-smooth Newton method takes) puts them near
-        their anchors and the rest where that calls for. The prediction enters only this step's
-        system: the residual that accepts the step and decides convergence is the physics'.
-        Only the contact's part of the tangent ``K`` and of the residual ``r_free`` (both at
-        ``u``) changes: the body is not assembled again.
-        """
-        s = self.solver
-        c, top, pts = self._state, s.top, self._points
-        if c is None or c.mu == 0.0 or np.isinf(c.mu):
-            return du
-        at = pts.to_points(u.reshape(-1, 3)[top])
-        law = c.response(at, self._depth)
-        law_blocks = -pts.cell_blocks(law.df_dr)  # the contact's blocks in K
-        stuck = np.zeros(at.shape[0], bool)
-        for _ in range(TURNING_ROUNDS):
-            turning = c.turning(at, pts.to_points(-du.reshape(-1, 3)[top]), self._depth) & ~stuck
-            if not turning.any():
-                break
-            stuck |= turning
-            s.stats["turning_rounds"] += 1
-            log.debug("  %d slipping points turn round: their stick predicted", int(stuck.sum()))
-            c.stuck = stuck
-            try:
-                predicted = c.response(at, self._depth)
-            finally:
-                c.stuck = None
-            # the tangent's contact blocks as an assembly would leave them (the corrections and
-            # the factorisation read them)
-            self._contact_blocks = -pts.cell_blocks(predicted.df_dr)
-            K_stuck = K.copy()
-            K_stuck.data += self.scatter_cells(self._contact_blocks - law_blocks)
-            rhs = r_free.copy()
-            rhs.reshape(-1, 3)[top] -= pts.to_nodes(predicted.force - law.force)
-            du = self._newton_direction(K_stuck, cmask, np.where(cmask, 0.0, rhs), exact, rtol)
-        return du
-
-    def _statuses_follow(self, u: np.ndarray) -> bool:
-        """Within a Newton solve, hold the contact statuses the state ``u`` calls for (a
-        semi-smooth Newton step on the active set); whether they changed."""
-        s = self.solver
-        t = time.perf_counter()
-        c = self._state
-        top = u.reshape(-1, 3)[s.top]
-        wanted = c.settled_status(
-            self._points.to_points(top), self._depth, self._status_tolerance(c, u.reshape(-1, 3))
-        )
-        if self._holding:
-            wanted = np.maximum(wanted, c.status)
-        s.stats["status_checks"] += 1
-        s.stats["status_s"] += time.perf_counter() - t
-        if np.array_equal(wanted, c.status):
-            return False
-        c.status = wanted
-        s.stats["status_changes"] += 1
-        return True
-
-    def _damped_step(
-        self, u: np.ndarray, du: np.ndarray, norm: float, cmask: np.ndarray, halve: bool
-    ) -> tuple[np.ndarray, np.ndarray] | None:
-        """The state ``u - alpha du`` and its residual, ``du`` first shortened so that no
-        slipping node passes its anchor (:meth:`FrictionContactState.step_fraction`) and, under
-        the stick, so that no displacement component changes by more than ``STICK_STEP_LIMIT``
-        times the increment's depth: with ``halve``, alpha halved until the residual falls below ``norm`` (else the
-        best trial); without, the whole step if it lowers the residual, else None."""
-        s = self.solver
-        c, top, pts = self._state, s.top, self._points
-        du = du * c.step_fraction(
-            pts.to_points(u.reshape(-1, 3)[top]), pts.to_points(-du.reshape(-1, 3)[top]), self._depth
-        )
-        longest = float(np.abs(du).max(initial=0.0))
-        if self._step_limit is not None and longest > self._step_limit:
-            du = du * (self._step_limit / longest)
-        alpha, best = 1.0, None
-        for trial_no in range(MAX_HALVINGS + 2 if halve else 1):
-            s.stats["step_trials"] += 1
-            s.stats["step_halvings"] += int(trial_no > 0)
-            trial = u - alpha * du
-            try:
-                R_try, _, _ = s.assemble(trial.reshape(-1, 3), tangent=False)
-            except InvertedElementError:
-                alpha *= 0.5
-                continue
-            n_try = np.linalg.norm(np.where(cmask, 0.0, R_try))
-            if best is None or n_try < best[0]:
-                best = (n_try, trial, R_try)
-            if n_try < norm:
-                return trial, R_try
-            alpha *= 0.5
-        if not halve:
-            return None
-        if best is None:
-            raise IncrementFailed("every Newton step inverted an element")
-        return best[1], best[2]
-
     @property
     def has_a_last_resort(self) -> bool:
         """With friction: ``FRICTION_NEWTON`` lifted to ``STICK_NEWTON`` (the interface's).
@@ -516,7 +259,7 @@ class PenaltyContact(IndenterContact):
         cmask = s.bc_fixed.ravel()
         trial, iters = u_pred, 0
         self._state, self._depth, self._holding = c, d1, False
-        self._step_limit = STICK_STEP_LIMIT * abs(d1 - d0) if self.friction is None else None
+        self._limit_steps(d0, d1)
         try:
             for passes in range(1, s.spec.solver.max_contact_passes + 1):
                 eq = self.equilibrate(trial, cmask)

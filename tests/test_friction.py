@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from sensitivity_check import assert_sensitivities_match_central_differences
 
-from indentation_studio.forward import linear_steps, penalty_contact, sensitivity_solves
+from indentation_studio.forward import linear_steps, penalty_contact, penalty_newton, sensitivity_solves
 from indentation_studio.forward.contact_quadrature import tributary_areas
 from indentation_studio.forward.coulomb_contact import (
     CONTACT,
@@ -313,7 +313,7 @@ def test_turning_points_predicted_to_stick_save_newton_iterations_not_accuracy(m
         .with_friction(0.3)
     )
     predicted = EmbeddedSolver(spec).run()
-    monkeypatch.setattr(penalty_contact, "TURNING_ROUNDS", 0)  # the whole step cut at the first anchor
+    monkeypatch.setattr(penalty_newton, "TURNING_ROUNDS", 0)  # the whole step cut at the first anchor
     cut = EmbeddedSolver(spec).run()
     n_predicted = int(predicted.convergence["newton_iterations"].sum())
     n_cut = int(cut.convergence["newton_iterations"].sum())
@@ -329,14 +329,14 @@ def test_a_friction_increment_that_newton_cannot_finish_in_twenty_steps_is_cut_b
     relative, under the increments' own error (1.05e-3 against four increments a step, the same
     for both caps). Under the stick the cap stays 60."""
 
-    assert penalty_contact.FRICTION_NEWTON == 20 and penalty_contact.STICK_NEWTON == 60
+    assert penalty_newton.FRICTION_NEWTON == 20 and penalty_newton.STICK_NEWTON == 60
     spec = (
         ModelSpec(mesh=MeshChoice("contact-L0"), protocol=Protocol(step_size=0.5, steps=28))
         .with_material(c1=3.0, c5=540.0)
         .with_friction(0.3)
     )
     early = EmbeddedSolver(spec).run(threads=1)
-    monkeypatch.setattr(penalty_contact, "FRICTION_NEWTON", 60)
+    monkeypatch.setattr(penalty_newton, "FRICTION_NEWTON", 60)
     late = EmbeddedSolver(spec).run(threads=1)
     assert early.convergence["cutbacks"].sum() > late.convergence["cutbacks"].sum()
     assert (
@@ -367,9 +367,7 @@ def test_the_friction_cap_leaves_runs_it_does_not_reach_as_they_were(monkeypatch
     more than 12 damped steps (measured), and the stick keeps its own cap of 60, so the results are
     those of the cap of 60 to the last bit."""
 
-    now, before = _soft_corner_runs_now_and_with(
-        monkeypatch, friction, penalty_contact, "FRICTION_NEWTON", 60
-    )
+    now, before = _soft_corner_runs_now_and_with(monkeypatch, friction, penalty_newton, "FRICTION_NEWTON", 60)
     np.testing.assert_array_equal(now.force, before.force)
     np.testing.assert_array_equal(now.force_sensitivity, before.force_sensitivity)
     assert now.convergence["newton_iterations"].max() <= 20
@@ -456,7 +454,7 @@ def test_an_increment_of_the_smallest_size_gets_the_full_newton_cap_before_the_r
     spec = spec.with_material(c1=10.0, c5=350.0).with_friction(0.3)
     spec = dataclasses.replace(spec, solver=dataclasses.replace(spec.solver, max_cutbacks=2))
     plain = EmbeddedSolver(spec).run(threads=1)
-    monkeypatch.setattr(penalty_contact, "FRICTION_NEWTON", 3)
+    monkeypatch.setattr(penalty_newton, "FRICTION_NEWTON", 3)
     capped = EmbeddedSolver(spec).run(threads=1)
     assert np.all(capped.convergence["cutbacks"][1:] >= 2) and plain.convergence["cutbacks"].sum() == 0
     np.testing.assert_array_equal(

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from indentation_studio.forward import linear_steps, penalty_contact
+from indentation_studio.forward import linear_steps, penalty_contact, penalty_newton
 from indentation_studio.forward.linear_steps import LinearSteps
 from indentation_studio.forward.material import cauchy_stress, equibiaxial_stress_incompressible
 from indentation_studio.forward.mesh import BlockMesh
@@ -148,8 +148,8 @@ def test_failure_names_the_depth_and_keeps_finished_steps(monkeypatch, friction)
     are held to one damped step here, since it accepts a residual at round-off, also in the step
     made again as its last resort, which lifts its cap to the stick's)."""
 
-    monkeypatch.setattr(penalty_contact, "FRICTION_NEWTON", 1)
-    monkeypatch.setattr(penalty_contact, "STICK_NEWTON", 1)
+    monkeypatch.setattr(penalty_newton, "FRICTION_NEWTON", 1)
+    monkeypatch.setattr(penalty_newton, "STICK_NEWTON", 1)
     spec = ModelSpec(
         mesh=MeshChoice("coarse"),
         protocol=Protocol(step_size=0.5, steps=3),

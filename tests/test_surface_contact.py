@@ -111,7 +111,7 @@ def test_the_stick_s_newton_steps_are_limited_and_its_equilibrium_is_not(monkeyp
     into contact a little elsewhere). 6 steps: the 28 of the protocol cut back nowhere else.
     (On ``coarse`` at {3, 540} kPa it cut back too while Newton steps were solved to a tolerance
     tightened with the residual; no longer since they are solved to a constant one, issue 58.)"""
-    from indentation_studio.forward import penalty_contact
+    from indentation_studio.forward import penalty_newton
 
     spec = ModelSpec(
         mesh=MeshChoice("contact-L1"),
@@ -120,7 +120,7 @@ def test_the_stick_s_newton_steps_are_limited_and_its_equilibrium_is_not(monkeyp
         contact=Contact(integration="surface", order=1),
     )
     limited = EmbeddedSolver(spec).run(threads=1)
-    monkeypatch.setattr(penalty_contact, "STICK_STEP_LIMIT", np.inf)
+    monkeypatch.setattr(penalty_newton, "STICK_STEP_LIMIT", np.inf)
     free = EmbeddedSolver(spec).run(threads=1)
     assert limited.convergence["cutbacks"].sum() == 0 < free.convergence["cutbacks"].sum()
     np.testing.assert_allclose(limited.force, free.force, rtol=1.5e-3)
