@@ -55,6 +55,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
         "node_stick": ["NodeStickContact"],
         "penalty_contact": ["PenaltyContact"],
         "penalty_newton": ["PenaltyNewton"],
+        "run_records": ["IncrementState", "RunRecords"],
         "newton": ["Equilibrium", "IncrementFailed", "NewtonSystem"],
         "linear_steps": ["LinearSteps"],
         "sensitivity_solves": ["SensitivitySolves"],

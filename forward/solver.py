@@ -35,10 +35,11 @@ from .indenter_contact import IndenterContact
 from .linear_solver import ConstrainedSymmetricSolver
 from .linear_steps import LINEAR_STEP_STATS
 from .mesh import BlockMesh, build_mesh
-from .newton import IncrementFailed, NewtonSystem
+from .newton import Equilibrium, IncrementFailed, NewtonSystem
 from .node_stick import NodeStickContact
 from .penalty_contact import PenaltyContact
 from .result import SYMMETRY_FACTOR, SimulationResult
+from .run_records import IncrementState, RunRecords
 from .sparse_assembly import SparsePattern
 from .spec import ModelSpec
 from .stick_contact import RigidSphere
@@ -178,7 +179,6 @@ class EmbeddedSolver(NewtonSystem):
         self.contact: IndenterContact = (
             PenaltyContact(self) if spec.contact.penalised else NodeStickContact(self)
         )
-        self._full: list[np.ndarray] | None = None  # every node's displacement per step, when asked for
 
     # ------------------------------------------------------------------ numerics
     def assemble(self, u: np.ndarray, tangent: bool = True, parameter_derivatives: bool = False):
@@ -301,212 +301,159 @@ class EmbeddedSolver(NewtonSystem):
     ) -> SimulationResult:
         t_start = time.perf_counter()
         self.want_sensitivities = sensitivities
-        proto, opts = self.spec.protocol, self.spec.solver
-        n, nt = self.mesh.n_nodes, self.top.size
-        u = np.zeros((n, 3))
-        last_inc = np.zeros((n, 3))
-        last_dd = 0.0
-        contact = self.contact.start()
-        increment = self.contact.increment
+        proto = self.spec.protocol
         n_p = len(self.contact.parameters)  # theta = (c1, c5), and mu with friction
-        depths = [0.0]
-        forces = [0.0]
-        disp = [np.zeros((nt, 3))]
-        self._status = [np.zeros(nt, np.int8)]
-        self._full = [np.zeros((n, 3))] if full_field else None
-        conv = {
-            k: [0]
-            for k in (
-                "newton_iterations",
-                "increments",
-                "cutbacks",
-                "contact_passes",
-                "attached_nodes",
-            )
-        }
-        conv["wall_s"] = [0.0]
-        f_sens = [np.zeros(n_p)]
-        u_sens = [np.zeros((nt, 3, n_p))]
-        du_dtheta = np.zeros((n, 3, n_p)) if sensitivities else None
-        last_dinc = np.zeros((n, 3, n_p)) if sensitivities else None
-        steps_done, d, mid_step = 0, 0.0, None
+        state = IncrementState.start(
+            self.mesh.n_nodes, self.contact.start(), n_p, sensitivities=sensitivities
+        )
+        records = RunRecords.start(self.mesh.n_nodes, self.top.size, n_p, full_field=full_field)
+        mid_step = None
         identity = self._checkpoint_identity(sensitivities, full_field) if checkpoint is not None else None
         if checkpoint is not None and checkpoint.is_file():
             saved = read_checkpoint(checkpoint, identity)
-            u, last_inc, last_dd, contact = saved["u"], saved["last_inc"], saved["last_dd"], saved["contact"]
-            du_dtheta, last_dinc = saved["du_dtheta"], saved["last_dinc"]
-            depths, forces, disp, f_sens, u_sens = (
-                saved[k] for k in ("depths", "forces", "disp", "f_sens", "u_sens")
-            )
-            self._status, self._full, conv = saved["status"], saved["full"], saved["conv"]
+            records = RunRecords.from_checkpoint(saved)
             self.stats.update(saved["stats"])
             t_start -= saved["elapsed_s"]
-            steps_done, d = len(depths) - 1, depths[-1]  # depths[0] is the start, 0 mm
             mid_step = saved.get("mid_step")  # the increments of the next step done before the stop
-            if mid_step is not None:
-                d = mid_step["depth"]
-            log.info("resumed from %s after step %d (%.4g mm)", checkpoint, steps_done, d)
-
-        def result_so_far() -> SimulationResult:
-            return self._result(
-                depths,
-                forces,
-                disp,
-                conv=conv,
-                f_sens=f_sens,
-                u_sens=u_sens,
-                sensitivities=sensitivities,
-                t_start=t_start,
-            )
-
-        def checkpoint_state(mid: dict | None) -> dict:
-            # the run's state after its last whole step, and (mid) the increments of the next
-            # step converged since, whose state u, contact, ... already is
-            return {
-                "u": u,
-                "last_inc": last_inc,
-                "last_dd": last_dd,
-                "contact": contact,
-                "du_dtheta": du_dtheta,
-                "last_dinc": last_dinc,
-                "depths": depths,
-                "forces": forces,
-                "disp": disp,
-                "f_sens": f_sens,
-                "u_sens": u_sens,
-                "status": self._status,
-                "full": self._full,
-                "conv": conv,
-                "stats": self.stats,
-                "elapsed_s": time.perf_counter() - t_start,
-                "mid_step": mid,
-            }
-
-        nominal = proto.step_size / opts.substeps
+            depth = records.depths[-1] if mid_step is None else mid_step["depth"]
+            state = IncrementState.from_checkpoint(saved, depth)
+            log.info("resumed from %s after step %d (%.4g mm)", checkpoint, records.steps_done, depth)
         written = time.perf_counter()
+
+        def save(state: IncrementState, mid: dict | None) -> None:
+            # the run's state after its last whole step, and (mid) the increments of the next
+            # step converged since, whose state ``state`` already is: after every step, and inside
+            # one at most every MID_STEP_CHECKPOINT_S
+            nonlocal written
+            if checkpoint is None or (
+                mid is not None and time.perf_counter() - written < checkpoint_file.MID_STEP_CHECKPOINT_S
+            ):
+                return
+            fields = {**state.checkpoint_fields(), **records.checkpoint_fields()}
+            fields.update(stats=self.stats, elapsed_s=time.perf_counter() - t_start, mid_step=mid)
+            write_checkpoint(checkpoint, identity, fields)
+            written = time.perf_counter()
+
         try:
             for k, d_target in enumerate(proto.depths, start=1):
-                if k <= steps_done:
+                if k <= records.steps_done:
                     continue
-                t_step = time.perf_counter()
-                counted = {key: self.stats[key] for key in STEP_COUNTERS}
-                rec = dict.fromkeys(("newton_iterations", "increments", "cutbacks", "contact_passes"), 0)
-                inc = nominal
-                if mid_step is not None:  # this step's increments before the stop count as its own
-                    inc, rec, counted = (
-                        mid_step["increment"],
-                        mid_step["counters"],
-                        mid_step["stats_at_start"],
-                    )
-                    t_step -= mid_step["step_s"]
-                    mid_step = None
-                eq = None
-                self.contact.last_resort, tried = False, 0
-                step_start = (d, u, contact, du_dtheta, last_inc, last_dd, last_dinc)
-                while d < d_target - 1e-12:
-                    dd = min(inc, d_target - d)
-                    if d_target - (d + dd) < 1e-9 * proto.step_size:
-                        dd = d_target - d
-                    ratio = dd / last_dd if last_dd > 0 else 0.0
-                    u_pred = u + ratio * last_inc
-                    du_pred = du_dtheta + ratio * last_dinc if sensitivities else None
-                    try:
-                        eq, contact_new, its, passes, sens = increment(
-                            u, u_pred, d, d + dd, contact, du_dtheta, du_pred
-                        )
-                    except IncrementFailed as exc:
-                        log.debug("increment %.4g -> %.4g mm failed: %s", d, d + dd, exc)
-                        rec["cutbacks"] += 1
-                        smallest = dd <= nominal * 2.0**-opts.max_cutbacks * (1.0 + 1e-9)
-                        budget = CUTBACK_BUDGET * max(opts.max_cutbacks, 1)
-                        spent = smallest or rec["cutbacks"] - tried > budget
-                        if spent and self.contact.has_a_last_resort and not self.contact.last_resort:
-                            # the step again from its start, the contact's limits for speed lifted
-                            self.contact.last_resort, tried = True, rec["cutbacks"]
-                            d, u, contact, du_dtheta, last_inc, last_dd, last_dinc = step_start
-                            inc = nominal
-                            continue
-                        if spent:
-                            partial = result_so_far()
-                            raise SimulationError(
-                                f"simulation failed at depth {d + dd:.4g} mm (last converged {d:.4g} mm of "
-                                f"{proto.max_depth:g}): {exc}",
-                                depth_reached=d,
-                                partial=partial,
-                            ) from exc
-                        inc = dd / 2.0
-                        continue
-                    last_inc = eq.u - u
-                    last_dd = dd
-                    u = eq.u
-                    contact = contact_new
-                    if sensitivities:
-                        last_dinc = sens - du_dtheta
-                    du_dtheta = sens
-                    d += dd
-                    rec["newton_iterations"] += its
-                    rec["increments"] += 1
-                    rec["contact_passes"] += passes
-                    inc = min(nominal, 2.0 * inc)
-                    if (
-                        checkpoint is not None
-                        and d < d_target - 1e-12
-                        and time.perf_counter() - written >= checkpoint_file.MID_STEP_CHECKPOINT_S
-                    ):
-                        write_checkpoint(
-                            checkpoint,
-                            identity,
-                            checkpoint_state(
-                                {
-                                    "depth": d,
-                                    "increment": inc,
-                                    "counters": dict(rec),
-                                    "stats_at_start": counted,
-                                    "step_s": time.perf_counter() - t_step,
-                                }
-                            ),
-                        )
-                        written = time.perf_counter()
-                assert eq is not None
-                F_quarter = self.contact.quarter_force(eq, contact)
-                depths.append(d_target)
-                forces.append(SYMMETRY_FACTOR * F_quarter)
-                disp.append(u[self.top].copy())
-                if self._full is not None:
-                    self._full.append(u.copy())
-                if sensitivities:
-                    f_sens.append(
-                        SYMMETRY_FACTOR * self.contact.quarter_force_sensitivity(eq, contact, du_dtheta)
-                    )
-                    u_sens.append(du_dtheta[self.top].copy())
-                for key, val in rec.items():
-                    conv[key].append(val)
-                attached, slipping = self.contact.node_status(contact)
-                conv["attached_nodes"].append(int(attached.sum()))
-                self._status.append(attached.astype(np.int8) + slipping)
-                if "mu" in self.contact.parameters:
-                    conv.setdefault("slipping_nodes", [0]).append(int(slipping.sum()))
-                for key, was in counted.items():  # (a checkpoint of before they were kept: 0 before)
-                    conv.setdefault(key, [0] * len(conv["wall_s"])).append(self.stats[key] - was)
-                conv["wall_s"].append(time.perf_counter() - t_step)
-                if checkpoint is not None:
-                    write_checkpoint(
-                        checkpoint,
-                        identity,
-                        checkpoint_state(None),
-                    )
-                    written = time.perf_counter()
+                state, eq, counts, counted, t_step = self._step(
+                    state, d_target, mid_step, save, lambda: self._result(records, sensitivities, t_start)
+                )
+                mid_step = None
+                self._record_step(records, state, eq, counts, counted, t_step)
+                save(state, None)
                 if progress is not None:
-                    progress(k, proto.steps, forces[-1])
+                    progress(k, proto.steps, records.forces[-1])
         except KeyboardInterrupt as exc:  # Ctrl-C (or SIGTERM under run_simulation): keep the steps done
-            done = len(conv["wall_s"])  # appended last of a step's records
-            for seq in (depths, forces, disp, f_sens, u_sens, self._status, *conv.values()):
-                del seq[done:]
-            if self._full is not None:
-                del self._full[done:]
-            exc.partial = result_so_far() if done > 1 else None
+            records.keep_whole_steps()
+            exc.partial = self._result(records, sensitivities, t_start) if records.steps_done > 0 else None
             raise
-        return result_so_far()
+        return self._result(records, sensitivities, t_start)
+
+    def _step(
+        self,
+        state: IncrementState,
+        d_target: float,
+        mid_step: dict | None,
+        save: Callable[[IncrementState, dict | None], None],
+        so_far: Callable[[], SimulationResult],
+    ) -> tuple[IncrementState, Equilibrium, dict[str, int], dict[str, float], float]:
+        """The increments of one protocol step to ``d_target`` from ``state`` (module docstring:
+        halved where one fails, doubled after one converges, the step made again with the
+        contact's last resort before the run fails), resumed from ``mid_step`` where a checkpoint
+        stopped inside it. Returns the state at ``d_target``, its last equilibrium, the step's
+        counts, the solver's counters at its start and its start time."""
+        proto, opts = self.spec.protocol, self.spec.solver
+        nominal = proto.step_size / opts.substeps
+        t_step = time.perf_counter()
+        counted = {key: self.stats[key] for key in STEP_COUNTERS}
+        rec = dict.fromkeys(("newton_iterations", "increments", "cutbacks", "contact_passes"), 0)
+        inc = nominal
+        if mid_step is not None:  # this step's increments before the stop count as its own
+            inc, rec, counted = mid_step["increment"], mid_step["counters"], mid_step["stats_at_start"]
+            t_step -= mid_step["step_s"]
+        eq = None
+        self.contact.last_resort, tried = False, 0
+        step_start = state
+        while state.depth < d_target - 1e-12:
+            d = state.depth
+            dd = min(inc, d_target - d)
+            if d_target - (d + dd) < 1e-9 * proto.step_size:
+                dd = d_target - d
+            u_pred, du_pred = state.predicted(dd)
+            try:
+                eq, contact_new, its, passes, sens = self.contact.increment(
+                    state.u, u_pred, d, d + dd, state.contact, state.du_dtheta, du_pred
+                )
+            except IncrementFailed as exc:
+                log.debug("increment %.4g -> %.4g mm failed: %s", d, d + dd, exc)
+                rec["cutbacks"] += 1
+                smallest = dd <= nominal * 2.0**-opts.max_cutbacks * (1.0 + 1e-9)
+                budget = CUTBACK_BUDGET * max(opts.max_cutbacks, 1)
+                spent = smallest or rec["cutbacks"] - tried > budget
+                if spent and self.contact.has_a_last_resort and not self.contact.last_resort:
+                    # the step again from its start, the contact's limits for speed lifted
+                    self.contact.last_resort, tried = True, rec["cutbacks"]
+                    state, inc = step_start, nominal
+                    continue
+                if spent:
+                    raise SimulationError(
+                        f"simulation failed at depth {d + dd:.4g} mm (last converged {d:.4g} mm of "
+                        f"{proto.max_depth:g}): {exc}",
+                        depth_reached=d,
+                        partial=so_far(),
+                    ) from exc
+                inc = dd / 2.0
+                continue
+            state = state.advanced(dd, eq.u, contact_new, sens)
+            rec["newton_iterations"] += its
+            rec["increments"] += 1
+            rec["contact_passes"] += passes
+            inc = min(nominal, 2.0 * inc)
+            if state.depth < d_target - 1e-12:
+                mid = {
+                    "depth": state.depth,
+                    "increment": inc,
+                    "counters": dict(rec),
+                    "stats_at_start": counted,
+                    "step_s": time.perf_counter() - t_step,
+                }
+                save(state, mid)
+        assert eq is not None
+        return state, eq, rec, counted, t_step
+
+    def _record_step(
+        self,
+        records: RunRecords,
+        state: IncrementState,
+        eq: Equilibrium,
+        counts: dict[str, int],
+        counted: dict[str, float],
+        t_step: float,
+    ) -> None:
+        """Record the step that ended at ``state`` with equilibrium ``eq``."""
+        contact = state.contact
+        attached, slipping = self.contact.node_status(contact)
+        f_sens = u_sens = None
+        if state.du_dtheta is not None:
+            f_sens = SYMMETRY_FACTOR * self.contact.quarter_force_sensitivity(eq, contact, state.du_dtheta)
+            u_sens = state.du_dtheta[self.top].copy()
+        records.add_step(
+            state.depth,
+            SYMMETRY_FACTOR * self.contact.quarter_force(eq, contact),
+            state.u,
+            self.top,
+            counts=counts,
+            status=attached.astype(np.int8) + slipping,
+            attached_nodes=int(attached.sum()),
+            slipping_nodes=int(slipping.sum()) if "mu" in self.contact.parameters else None,
+            counters={key: self.stats[key] - was for key, was in counted.items()},
+            wall_s=time.perf_counter() - t_step,
+            f_sens=f_sens,
+            u_sens=u_sens,
+        )
 
     def _checkpoint_identity(self, sensitivities: bool, full_field: bool) -> dict:
         mesh = self.mesh
@@ -517,15 +464,15 @@ class EmbeddedSolver(NewtonSystem):
             full_field=full_field,
         )
 
-    def _result(self, depths, forces, disp, conv, f_sens, u_sens, sensitivities, t_start) -> SimulationResult:
+    def _result(self, records: RunRecords, sensitivities: bool, t_start: float) -> SimulationResult:
         mesh = self.mesh
         return SimulationResult(
-            depth=np.asarray(depths),
-            force=np.asarray(forces),
+            depth=np.asarray(records.depths),
+            force=np.asarray(records.forces),
             top_node_ids=mesh.node_ids[self.top],
             top_xyz=mesh.nodes[self.top],
-            displacement=np.asarray(disp),
-            full_displacement=np.asarray(self._full) if self._full is not None else None,
+            displacement=np.asarray(records.disp),
+            full_displacement=np.asarray(records.full) if records.full is not None else None,
             spec=self.spec.to_dict(),
             solver={
                 "name": self.name,
@@ -538,12 +485,12 @@ class EmbeddedSolver(NewtonSystem):
                 "mesh": {"source": mesh.source, "nodes": mesh.n_nodes, "elements": mesh.n_elements},
                 "stats": dict(self.stats),
             },
-            convergence={k: np.asarray(v) for k, v in conv.items()},
+            convergence={k: np.asarray(v) for k, v in records.conv.items()},
             wall_s=time.perf_counter() - t_start,
-            force_sensitivity=np.asarray(f_sens) if sensitivities else None,
-            displacement_sensitivity=np.asarray(u_sens) if sensitivities else None,
+            force_sensitivity=np.asarray(records.f_sens) if sensitivities else None,
+            displacement_sensitivity=np.asarray(records.u_sens) if sensitivities else None,
             parameters=tuple(self.contact.parameters),
-            contact_status=np.asarray(self._status, np.int8),
+            contact_status=np.asarray(records.status, np.int8),
         )
 
 
