@@ -2,7 +2,7 @@
 
 For one case folder of ``indent-studio verification-study`` (``L<k>-s1.npz`` for each level, the
 finest solved with sensitivities), each coarser level's response is fitted with the finest level's
-model (``inference.budgets.verification_study.parameter_bias``: one Gauss-Newton step, the paper's weights,
+model (``inference.budgets.study_quantities.parameter_bias``: one Gauss-Newton step, the paper's weights,
 a 25 mm field) as a whole and in parts:
 
 - ``field``: the level's top field with the finest level's force (what the field alone moves);
@@ -29,7 +29,7 @@ from indentation_studio.forward.convergence.mesh_study import top_field_interpol
 from indentation_studio.forward.predictor import Prediction
 from indentation_studio.forward.result import SimulationResult
 from indentation_studio.inference.budgets.mesh_check import prediction_at_nodes
-from indentation_studio.inference.budgets.verification_study import FIT_FIELD_OF_VIEW, parameter_bias
+from indentation_studio.inference.budgets.study_quantities import FIT_FIELD_OF_VIEW, parameter_bias
 
 COMPONENTS = {"ux": (0.45, 0.55, 0.0, 0.0), "uy": (0.45, 0.0, 0.55, 0.0), "uz": (0.45, 0.0, 0.0, 0.55)}
 

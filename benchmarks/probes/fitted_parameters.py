@@ -1,5 +1,5 @@
 """The (c1, c5) that one fitting model (a run solved with sensitivities) fits to each of several
-runs' noise-free responses (``inference.budgets.verification_study.parameter_bias``: the studio's default
+runs' noise-free responses (``inference.budgets.study_quantities.parameter_bias``: the studio's default
 objective and weights, 25 mm field), with each run's force at 2, 7 and 14 mm and its Newton
 iterations. Use it on a verification study's runs to see what a level, an increment count or an
 element option (e.g. ``--fiber-stretch mean`` against the default) does to the parameters.
@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from indentation_studio.forward.result import SimulationResult
-from indentation_studio.inference.budgets.verification_study import parameter_bias
+from indentation_studio.inference.budgets.study_quantities import parameter_bias
 
 
 def _at(run: SimulationResult, depth: float) -> float:

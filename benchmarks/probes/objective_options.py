@@ -3,7 +3,7 @@
 For one case folder of ``indent-studio verification-study`` (``L<k>-s1.npz``, the finest level
 solved with sensitivities and taken as the model), each objective below fits every coarser level's
 noise-free response (one Gauss-Newton step in log theta, as
-``inference.budgets.verification_study.parameter_bias``) and the c5 sequence over the levels gives the
+``inference.budgets.study_quantities.parameter_bias``) and the c5 sequence over the levels gives the
 observed orders, the asymptotic test and the GCI (``forward.convergence.gci.study_quantity``);
 beside it the 95 % half-width of eq. 6 to 8 that a typical experiment gives with that objective
 (2 % force noise per step, 0.02 mm DIC noise at every measured node, as
