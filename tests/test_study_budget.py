@@ -218,25 +218,21 @@ def test_a_fit_at_each_paper_radius_finds_its_budget_and_its_model(radius):
             point["c5_pct"] >= row["c5_reference_gci_pct"] > 0
             and point["c1_pct"] >= row["c1_reference_gci_pct"] > 0
         )
-    # the high fidelity (what a multi-fidelity surrogate on it carries): its reference's width alone,
-    # level 3's GCI at R = 4.77 mm; at R = 8 mm, where level 4 was run at the nine points, level 3's
-    # fit corrected to level 4's reference by issue 57's rule, level 4's GCI its width, and the fit's
-    # model carrying that correction as an error beside it
+    # the high fidelity (what a multi-fidelity surrogate on it carries): level 4 was run at the nine
+    # points at both radii, so level 3's fit is corrected to level 4's reference by issue 57's rule,
+    # its reference's width (level 4's GCI) alone, and the fit's model carries that correction as an
+    # error beside it
     high = shipped_budget(ModelSpec(mesh=MeshChoice(HIGH_FIDELITY_MESH), indenter=Indenter(radius)))
     assert high is not None and high["source"]["model"] == HIGH_FIDELITY_MESH
     l3_rows = [row for row in payload["rows"] if row["model"] == HIGH_FIDELITY_MESH]
     for row, point, l1 in zip(l3_rows, high["points"], l1_rows, strict=True):
         for p in ("c1", "c5"):
             assert point[f"{p}_pct"] == pytest.approx(row[f"{p}_reference_gci_pct"])
-            if radius == 8.0:
-                assert point[f"{p}_correction_pct"] == row[f"{p}_correction_pct"] != 0.0
-                assert l1[f"{p}_reference_gci_pct"] == pytest.approx(
-                    abs(row[f"{p}_correction_pct"]) + row[f"{p}_reference_gci_pct"]
-                )
-            else:
-                assert f"{p}_correction_pct" not in point
-                assert l1[f"{p}_reference_gci_pct"] == pytest.approx(row[f"{p}_reference_gci_pct"])
-    assert high["source"].get("reference_level") == (4 if radius == 8.0 else None)
+            assert point[f"{p}_correction_pct"] == row[f"{p}_correction_pct"] != 0.0
+            assert l1[f"{p}_reference_gci_pct"] == pytest.approx(
+                abs(row[f"{p}_correction_pct"]) + row[f"{p}_reference_gci_pct"]
+            )
+    assert high["source"].get("reference_level") == 4
     assert shipped_budget(ModelSpec(mesh=MeshChoice("contact-L2"), indenter=Indenter(radius))) is None
     assert (
         shipped_budget(

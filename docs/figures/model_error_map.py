@@ -1,6 +1,6 @@
 """c5's (and c1's) 95 % half-width over the paper's box at both radii, from the shipped budgets of
 the high-fidelity level a fit's surrogate emulates (contact-L3): the budget's width (level 3's fit
-corrected to level 4 where it was run, R = 8 mm; level 3 and its GCI at R = 4.77 mm) combined with a
+corrected to level 4, run at the nine points of both radii) combined with a
 typical experiment's statistical half-width (2 % force, 0.02 mm DIC noise) at the nine points, both
 interpolated between the points as a fit reads them and held at the nearest points' largest outside
 them (hatched). The white line is 6 %.
