@@ -7,6 +7,7 @@ import math
 import os
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from .. import __version__
@@ -57,6 +58,30 @@ def _fmt(v, missing: str = "not computed") -> str:
     if isinstance(v, (list, tuple)):
         return "(" + ", ".join(_fmt(x) for x in v) + ")"
     return str(v)
+
+
+def correction_sentence(fit: dict) -> str:
+    """Where an error budget corrected the fit (its model's fit moved to the converged model's, issue
+    57's rule), the model's own fit and the correction, as the fit command prints them; else "".
+
+    Parameters
+    ----------
+    fit : dict
+        The demo's fit record (``theta`` and, where corrected, ``model_fit``).
+
+    Returns
+    -------
+    str
+        One sentence of HTML, with a trailing space, or "".
+    """
+    model_fit = fit.get("model_fit")
+    if model_fit is None or np.allclose(model_fit[:2], fit["theta"][:2], rtol=1e-12, atol=0.0):
+        return ""
+    moved = 100.0 * (np.asarray(fit["theta"][:2], float) / np.asarray(model_fit[:2], float) - 1.0)
+    return (
+        f"Corrected from the model's fit c1 = {model_fit[0]:.3f}, c5 = {model_fit[1]:.1f} kPa by "
+        f"{moved[0]:+.2f} % / {moved[1]:+.2f} % (the error budget's correction to the converged model). "
+    )
 
 
 def bounds_sentence(fit: dict) -> str:
@@ -262,7 +287,7 @@ def write_report(out: Path, results: dict, sections: list[tuple[str, str]]) -> P
         f"<p>Fit (on the surrogate, then its FE stage: {fit.get('fe_stage', 'a confirming FE run')}): c1 = {fit['theta'][0]:.3f} kPa +- "
         f"{fit['bounds_pct'][0]:.2f} %, c5 = {fit['theta'][1]:.1f} kPa +- {fit['bounds_pct'][1]:.2f} % (95 %; "
         f"statistical part eq. 6 with s = {fit['s']:.3g} from eq. 8: +- {_fmt(fit.get('statistical_pct', fit['bounds_pct']))} %). "
-        f"{bounds_sentence(fit)} {fit_mu_sentence(fit)} "
+        f"{correction_sentence(fit)}{bounds_sentence(fit)} {fit_mu_sentence(fit)} "
         f"F = {fit['F']:.3g}. Synthetic truth: {_fmt(fit['truth'])}.</p>"
         + posterior_html(post)
         + f"<p>FE confirmation: F(theta_hat) = {results['confirmation']['F_fe']:.3g}.</p>"

@@ -111,3 +111,14 @@ def test_the_report_names_the_field_error_its_adequacy_test_held():
     flagged = adequacy | {"flagged": True, "per_degree": 1.09, "p_value": 1e-12, "field_error": held}
     assert words in fit_warnings_html({"adequacy": flagged})
     assert "field error" not in fit_warnings_html({"adequacy": adequacy | {"field_error": None}})
+
+
+def test_a_corrected_fit_says_from_what_and_by_how_much(tmp_path):
+    """Where the error budget corrected the fit (issue 57's rule), the report gives the model's own
+    fit and the correction, as the fit command prints them; an uncorrected fit says nothing of it."""
+    results = _results()
+    results["fit"] |= {"theta": [12.314909, 243.844429], "model_fit": [11.965410, 246.092414, 1.5]}
+    page = write_report(tmp_path, results, []).read_text()
+    assert "Corrected from the model's fit c1 = 11.965, c5 = 246.1 kPa by +2.92 % / -0.91 %" in page
+    plain = write_report(tmp_path / "plain", _results(), []).read_text()
+    assert "Corrected from" not in plain
