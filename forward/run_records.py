@@ -16,11 +16,13 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["CONVERGENCE_RECORDS", "IncrementState", "RunRecords"]
+__all__ = ["CONVERGENCE_RECORDS", "STEP_COUNTS", "IncrementState", "RunRecords"]
 
+#: What a step's increments count (forward.solver.EmbeddedSolver._step).
+STEP_COUNTS = ("newton_iterations", "increments", "cutbacks", "contact_passes")
 #: The convergence record's per-step counts that every run keeps (its wall time beside them, and
 #: with friction the slipping nodes; the solver's counters per step where it counts them).
-CONVERGENCE_RECORDS = ("newton_iterations", "increments", "cutbacks", "contact_passes", "attached_nodes")
+CONVERGENCE_RECORDS = (*STEP_COUNTS, "attached_nodes")
 
 _STATE_KEYS = ("u", "last_inc", "last_dd", "contact", "du_dtheta", "last_dinc")
 _RECORD_KEYS = ("depths", "forces", "disp", "f_sens", "u_sens", "status", "full", "conv")

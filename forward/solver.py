@@ -39,7 +39,7 @@ from .newton import Equilibrium, IncrementFailed, NewtonSystem
 from .node_stick import NodeStickContact
 from .penalty_contact import PenaltyContact
 from .result import SYMMETRY_FACTOR, SimulationResult
-from .run_records import IncrementState, RunRecords
+from .run_records import STEP_COUNTS, IncrementState, RunRecords
 from .sparse_assembly import SparsePattern
 from .spec import ModelSpec
 from .stick_contact import RigidSphere
@@ -369,7 +369,7 @@ class EmbeddedSolver(NewtonSystem):
         nominal = proto.step_size / opts.substeps
         t_step = time.perf_counter()
         counted = {key: self.stats[key] for key in STEP_COUNTERS}
-        rec = dict.fromkeys(("newton_iterations", "increments", "cutbacks", "contact_passes"), 0)
+        rec = dict.fromkeys(STEP_COUNTS, 0)
         inc = nominal
         if mid_step is not None:  # this step's increments before the stop count as its own
             inc, rec, counted = mid_step["increment"], mid_step["counters"], mid_step["stats_at_start"]
