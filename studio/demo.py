@@ -265,6 +265,7 @@ def _example(experiment, mlp, posterior_steps: int, out: Path, spec: ModelSpec, 
             if result.refined
             else ("one confirming FE run" if result.confirmation is not None else "none"),
             "error_budget": record["error_budget"],
+            "correction": record.get("correction"),  # the budget's, as fit.json (None: not corrected)
             "friction": record.get("friction"),
         },
         "posterior": post.posterior.summary()

@@ -7,7 +7,6 @@ import math
 import os
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 
 from .. import __version__
@@ -67,20 +66,21 @@ def correction_sentence(fit: dict) -> str:
     Parameters
     ----------
     fit : dict
-        The demo's fit record (``theta`` and, where corrected, ``model_fit``).
+        The demo's fit record: ``model_fit`` and, where corrected, ``correction`` (fit.json's).
 
     Returns
     -------
     str
         One sentence of HTML, with a trailing space, or "".
     """
-    model_fit = fit.get("model_fit")
-    if model_fit is None or np.allclose(model_fit[:2], fit["theta"][:2], rtol=1e-12, atol=0.0):
+    correction = fit.get("correction")
+    if correction is None:
         return ""
-    moved = 100.0 * (np.asarray(fit["theta"][:2], float) / np.asarray(model_fit[:2], float) - 1.0)
+    model_fit = fit["model_fit"]
     return (
         f"Corrected from the model's fit c1 = {model_fit[0]:.3f}, c5 = {model_fit[1]:.1f} kPa by "
-        f"{moved[0]:+.2f} % / {moved[1]:+.2f} % (the error budget's correction to the converged model). "
+        f"{correction['c1_pct']:+.2f} % / {correction['c5_pct']:+.2f} % (the error budget's correction "
+        "to the converged model). "
     )
 
 

@@ -118,6 +118,7 @@ def test_a_corrected_fit_says_from_what_and_by_how_much(tmp_path):
     fit and the correction, as the fit command prints them; an uncorrected fit says nothing of it."""
     results = _results()
     results["fit"] |= {"theta": [12.314909, 243.844429], "model_fit": [11.965410, 246.092414, 1.5]}
+    results["fit"]["correction"] = {"c1_pct": 2.920913, "c5_pct": -0.913472, "reference": "level 4"}
     page = write_report(tmp_path, results, []).read_text()
     assert "Corrected from the model's fit c1 = 11.965, c5 = 246.1 kPa by +2.92 % / -0.91 %" in page
     plain = write_report(tmp_path / "plain", _results(), []).read_text()
