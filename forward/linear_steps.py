@@ -16,8 +16,8 @@ from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
+from .krylov_solve import krylov_solve
 from .linear_solver import LowRankUpdate
 
 if TYPE_CHECKING:
@@ -239,52 +239,24 @@ class LinearSteps:
             The solution, or None when it does not reach ``rtol`` within those iterations.
         """
         t = time.perf_counter()
-
-        stats = self.stats
-
-        def matvec(x: np.ndarray) -> np.ndarray:
-            t_mv = time.perf_counter()
-            y = K @ np.where(cmask, 0.0, x)
-            y[cmask] = x[cmask]
-            stats["krylov_matvecs"] += 1
-            stats["krylov_matvec_s"] += time.perf_counter() - t_mv
-            return y
-
-        def preconditioner(r: np.ndarray) -> np.ndarray:
-            t_pc = time.perf_counter()
-            y = self.precondition(r, cmask, correction)
-            stats["preconditioner_applications"] += 1
-            stats["preconditioner_s"] += time.perf_counter() - t_pc
-            return y
-
-        n = self.n_dofs
-        A = spla.LinearOperator((n, n), matvec=matvec, dtype=float)
         correction = self.contact.correction(cmask)
-        M = spla.LinearOperator((n, n), matvec=preconditioner, dtype=float)
-        its = [0]
-
-        def count(_x: np.ndarray) -> None:
-            its[0] += 1
-
-        if self.contact.symmetric:
-            x, info = spla.cg(A, rhs, rtol=rtol, maxiter=maxiter, M=M, callback=count)
-        else:
-            x, info = spla.gmres(
-                A,
-                rhs,
-                rtol=rtol,
-                restart=maxiter,
-                maxiter=cycles,
-                M=M,
-                callback=count,
-                callback_type="pr_norm",
-            )
+        x, iterations, converged = krylov_solve(
+            K,
+            cmask,
+            rhs,
+            lambda r: self.precondition(r, cmask, correction),
+            symmetric=self.contact.symmetric,
+            rtol=rtol,
+            maxiter=maxiter,
+            cycles=cycles,
+            stats=self.stats,
+        )
         dt = time.perf_counter() - t
         self.stats["krylov_calls"] += 1
-        self.stats["krylov_iterations"] += its[0]
+        self.stats["krylov_iterations"] += iterations
         self.stats["krylov_s"] += dt
         self.stats["solve_s"] += dt
-        if info != 0 or not np.all(np.isfinite(x)):
+        if not converged:
             self.stats["krylov_failures"] += 1
             return np.where(cmask, 0.0, x) if unfinished and np.all(np.isfinite(x)) else None
         self.stats["krylov_steps"] += 1

@@ -35,11 +35,12 @@ from .indenter_contact import IndenterContact
 from .linear_solver import ConstrainedSymmetricSolver
 from .linear_steps import LINEAR_STEP_STATS
 from .mesh import BlockMesh, build_mesh
-from .newton import Equilibrium, IncrementFailed, NewtonSystem
+from .newton import NewtonSystem
 from .node_stick import NodeStickContact
 from .penalty_contact import PenaltyContact
-from .result import SYMMETRY_FACTOR, SimulationResult
-from .run_records import STEP_COUNTS, IncrementState, RunRecords
+from .protocol_step import CUTBACK_BUDGET, ProtocolSteps, SimulationError
+from .result import SimulationResult
+from .run_records import IncrementState, RunRecords
 from .sparse_assembly import SparsePattern
 from .spec import ModelSpec
 from .stick_contact import RigidSphere
@@ -57,39 +58,12 @@ __all__ = [
 log = logging.getLogger(__name__)
 
 
-class SimulationError(RuntimeError):
-    """A simulation that could not reach its final depth; names the depth reached.
-
-    Parameters
-    ----------
-    message : str
-        What failed, where.
-    depth_reached : float
-        The last converged depth, mm.
-    partial : SimulationResult or None, optional
-        The steps finished before it failed (kept so that nothing computed is lost).
-    """
-
-    def __init__(self, message: str, depth_reached: float, partial: SimulationResult | None = None):
-        super().__init__(message)
-        self.depth_reached = depth_reached
-        self.partial = partial
-
-
-#: A step may fail this many times ``max_cutbacks`` increments in all (halving and doubling back)
-#: before the run is given up: a hard stretch (the composite's matrix pinched between the sphere
-#: and a fiber) needs several small increments in a row, not one.
-CUTBACK_BUDGET = 4
 #: Meshes with at least this many dofs factorise in single precision (PARDISO): the factorisation
 #: only preconditions CG and makes corrections that Newton's residual checks, and costs half.
 #: Smaller meshes stay in double: single precision would save 13 to 19 % there but make the result
 #: depend on the thread count up to Newton's tolerance (1 against 2 threads on FEBio's mesh:
 #: 1.1e-8 mm stick, 1.6e-5 mm with mu = 0.3, against 1e-14 in double; docs/validation/solver-and-speed.md).
 SINGLE_PRECISION_DOFS = 20_000
-
-#: Counters of :attr:`EmbeddedSolver.stats` also recorded per step in the result's convergence
-#: record (with the step's failed increments).
-STEP_COUNTERS = ("assemblies", "factorizations", "krylov_iterations", "back_substitutions")
 
 _STRUCTURES: dict[bytes, tuple[ReferenceGeometry, SparsePattern]] = {}
 
@@ -110,7 +84,7 @@ def mesh_structures(mesh: BlockMesh) -> tuple[ReferenceGeometry, SparsePattern]:
     return _STRUCTURES[key]
 
 
-class EmbeddedSolver(NewtonSystem):
+class EmbeddedSolver(ProtocolSteps, NewtonSystem):
     """Solves one :class:`ModelSpec` on its mesh (module docstring).
 
     Parameters
@@ -351,109 +325,6 @@ class EmbeddedSolver(NewtonSystem):
             exc.partial = self._result(records, sensitivities, t_start) if records.steps_done > 0 else None
             raise
         return self._result(records, sensitivities, t_start)
-
-    def _step(
-        self,
-        state: IncrementState,
-        d_target: float,
-        mid_step: dict | None,
-        save: Callable[[IncrementState, dict | None], None],
-        so_far: Callable[[], SimulationResult],
-    ) -> tuple[IncrementState, Equilibrium, dict[str, int], dict[str, float], float]:
-        """The increments of one protocol step to ``d_target`` from ``state`` (module docstring:
-        halved where one fails, doubled after one converges, the step made again with the
-        contact's last resort before the run fails), resumed from ``mid_step`` where a checkpoint
-        stopped inside it. Returns the state at ``d_target``, its last equilibrium, the step's
-        counts, the solver's counters at its start and its start time."""
-        proto, opts = self.spec.protocol, self.spec.solver
-        nominal = proto.step_size / opts.substeps
-        t_step = time.perf_counter()
-        counted = {key: self.stats[key] for key in STEP_COUNTERS}
-        rec = dict.fromkeys(STEP_COUNTS, 0)
-        inc = nominal
-        if mid_step is not None:  # this step's increments before the stop count as its own
-            inc, rec, counted = mid_step["increment"], mid_step["counters"], mid_step["stats_at_start"]
-            t_step -= mid_step["step_s"]
-        eq = None
-        self.contact.last_resort, tried = False, 0
-        step_start = state
-        while state.depth < d_target - 1e-12:
-            d = state.depth
-            dd = min(inc, d_target - d)
-            if d_target - (d + dd) < 1e-9 * proto.step_size:
-                dd = d_target - d
-            u_pred, du_pred = state.predicted(dd)
-            try:
-                eq, contact_new, its, passes, sens = self.contact.increment(
-                    state.u, u_pred, d, d + dd, state.contact, state.du_dtheta, du_pred
-                )
-            except IncrementFailed as exc:
-                log.debug("increment %.4g -> %.4g mm failed: %s", d, d + dd, exc)
-                rec["cutbacks"] += 1
-                smallest = dd <= nominal * 2.0**-opts.max_cutbacks * (1.0 + 1e-9)
-                budget = CUTBACK_BUDGET * max(opts.max_cutbacks, 1)
-                spent = smallest or rec["cutbacks"] - tried > budget
-                if spent and self.contact.has_a_last_resort and not self.contact.last_resort:
-                    # the step again from its start, the contact's limits for speed lifted
-                    self.contact.last_resort, tried = True, rec["cutbacks"]
-                    state, inc = step_start, nominal
-                    continue
-                if spent:
-                    raise SimulationError(
-                        f"simulation failed at depth {d + dd:.4g} mm (last converged {d:.4g} mm of "
-                        f"{proto.max_depth:g}): {exc}",
-                        depth_reached=d,
-                        partial=so_far(),
-                    ) from exc
-                inc = dd / 2.0
-                continue
-            state = state.advanced(dd, eq.u, contact_new, sens)
-            rec["newton_iterations"] += its
-            rec["increments"] += 1
-            rec["contact_passes"] += passes
-            inc = min(nominal, 2.0 * inc)
-            if state.depth < d_target - 1e-12:
-                mid = {
-                    "depth": state.depth,
-                    "increment": inc,
-                    "counters": dict(rec),
-                    "stats_at_start": counted,
-                    "step_s": time.perf_counter() - t_step,
-                }
-                save(state, mid)
-        assert eq is not None
-        return state, eq, rec, counted, t_step
-
-    def _record_step(
-        self,
-        records: RunRecords,
-        state: IncrementState,
-        eq: Equilibrium,
-        counts: dict[str, int],
-        counted: dict[str, float],
-        t_step: float,
-    ) -> None:
-        """Record the step that ended at ``state`` with equilibrium ``eq``."""
-        contact = state.contact
-        attached, slipping = self.contact.node_status(contact)
-        f_sens = u_sens = None
-        if state.du_dtheta is not None:
-            f_sens = SYMMETRY_FACTOR * self.contact.quarter_force_sensitivity(eq, contact, state.du_dtheta)
-            u_sens = state.du_dtheta[self.top].copy()
-        records.add_step(
-            state.depth,
-            SYMMETRY_FACTOR * self.contact.quarter_force(eq, contact),
-            state.u,
-            self.top,
-            counts=counts,
-            status=attached.astype(np.int8) + slipping,
-            attached_nodes=int(attached.sum()),
-            slipping_nodes=int(slipping.sum()) if "mu" in self.contact.parameters else None,
-            counters={key: self.stats[key] - was for key, was in counted.items()},
-            wall_s=time.perf_counter() - t_step,
-            f_sens=f_sens,
-            u_sens=u_sens,
-        )
 
     def _checkpoint_identity(self, sensitivities: bool, full_field: bool) -> dict:
         mesh = self.mesh
