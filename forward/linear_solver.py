@@ -115,6 +115,17 @@ def _new_pardiso():
     return solver
 
 
+#: A factorisation keeps at most ``MAX_EXTRA`` columns of W = A^-1 E_C (the dofs held beyond its
+#: own, and the contact's low-rank correction), fewer on a mesh so large that they would pass
+#: ``EXTRA_COLUMNS_DOUBLES`` doubles (about 1 GB). The correction of the contact's changed cells
+#: is capped by it (forward.penalty_contact): at 2e7 doubles contact-L4 (222,264 dofs) kept 90
+#: columns, seven cells, and friction's GMRES made up the rest on an old factorisation until it
+#: failed; with 400, R = 8 mm {7, 520} kPa mu 0.3, step 8: factorisations 25 -> 10, Krylov
+#: iterations 1,203 -> 87, back-substitutions 1,362 -> 160, force within 7.7e-7
+#: (docs/validation/solver-and-speed.md, "The correction's columns on the finest level").
+MAX_EXTRA = 400
+EXTRA_COLUMNS_DOUBLES = 120_000_000
+
 #: The counters a :class:`ConstrainedSymmetricSolver` keeps (in its ``stats``, which may be its
 #: caller's dict): PARDISO's symbolic analysis (once per run) and numerical factorisations apart,
 #: back-substitutions (calls, right-hand-side columns, seconds; those of
@@ -183,7 +194,7 @@ class ConstrainedSymmetricSolver:
         #: the dofs constrained in the factorisation in hand (None: no factorisation)
         self.factor_mask: np.ndarray | None = None
         #: at most this many dofs constrained beyond the factorisation's (W is n x this)
-        self.max_extra = int(min(400, max(32, 2e7 // max(n, 1))))
+        self.max_extra = int(min(MAX_EXTRA, max(32, EXTRA_COLUMNS_DOUBLES // max(n, 1))))
         self._reset_extra()
 
     def _reset_extra(self) -> None:
