@@ -258,6 +258,33 @@ def test_a_contact_correction_capped_below_the_contact_set_still_solves():
     assert capped.linear._W.shape[1] <= 3  # the kept columns stay within max_extra
 
 
+def test_the_correction_columns_cap_is_400_below_a_gigabyte_and_more_columns_cut_the_krylov_work():
+    """The factorisation keeps up to MAX_EXTRA columns of the contact's correction unless they
+    would pass EXTRA_COLUMNS_DOUBLES (contact-L4's 222,264 dofs: 400, not the 90 of 2e7 doubles);
+    a cap below the changed cells (one cell) leaves the rest to GMRES: more Krylov iterations and
+    factorisations for the same forces (docs/validation/solver-and-speed.md, "The correction's
+    columns on the finest level")."""
+    from indentation_studio.forward import linear_solver
+
+    assert linear_solver.MAX_EXTRA == 400
+    assert min(linear_solver.MAX_EXTRA, linear_solver.EXTRA_COLUMNS_DOUBLES // 222_264) == 400
+    assert (
+        linear_solver.EXTRA_COLUMNS_DOUBLES // 700_000 < 400
+    )  # a mesh past about 1 GB of columns keeps fewer
+    spec = ModelSpec(mesh=MeshChoice("contact-L0"), protocol=Protocol(step_size=0.5, steps=8)).with_friction(
+        0.3
+    )
+    full = EmbeddedSolver(spec)
+    assert full.linear.max_extra == 400
+    r_full = full.run()
+    one_cell = EmbeddedSolver(spec)
+    one_cell.linear.max_extra = 12  # one contact cell's 4 nodes
+    r_one = one_cell.run()
+    np.testing.assert_allclose(r_one.force[1:], r_full.force[1:], rtol=1e-5)
+    assert full.stats["krylov_iterations"] < one_cell.stats["krylov_iterations"]
+    assert full.stats["factorizations"] <= one_cell.stats["factorizations"]
+
+
 def test_a_point_predicted_to_stick_answers_with_the_stick_law():
     r, a, eps = _nodes(1)
     status = np.full(r.shape[0], CONTACT, np.int8)
