@@ -70,7 +70,7 @@ KINK_DOFS = 20_000
 #: (docs/validation/solver-and-speed.md, "Failed tries in a row").
 TRIES_FAILED_IN_A_ROW = 2
 #: With friction, a step made with a fresh factorisation is GMRES on the tangent to this relative
-#: residual, in at most this many iterations (EmbeddedSolver._fresh_step).
+#: residual, in at most this many iterations (LinearSteps.fresh_step).
 FRESH_RTOL = 1e-8
 FRESH_MAXITER = 50
 #: On a factorisation just made (a fresh step, a sensitivity solve that factorised), GMRES

@@ -18,7 +18,7 @@ import numpy as np
 
 __all__ = ["CONVERGENCE_RECORDS", "STEP_COUNTS", "IncrementState", "RunRecords"]
 
-#: What a step's increments count (forward.solver.EmbeddedSolver._step).
+#: What a step's increments count (forward.protocol_step.ProtocolSteps._step).
 STEP_COUNTS = ("newton_iterations", "increments", "cutbacks", "contact_passes")
 #: The convergence record's per-step counts that every run keeps (its wall time beside them, and
 #: with friction the slipping nodes; the solver's counters per step where it counts them).

@@ -8,7 +8,13 @@ import numpy as np
 import pytest
 from sensitivity_check import assert_sensitivities_match_central_differences
 
-from indentation_studio.forward import linear_steps, penalty_contact, penalty_newton, sensitivity_solves
+from indentation_studio.forward import (
+    linear_solver,
+    linear_steps,
+    penalty_contact,
+    penalty_newton,
+    sensitivity_solves,
+)
 from indentation_studio.forward.contact_quadrature import tributary_areas
 from indentation_studio.forward.coulomb_contact import (
     CONTACT,
@@ -267,8 +273,6 @@ def test_the_correction_columns_cap_is_400_below_a_gigabyte_and_more_columns_cut
     stick and mu = 3 on this small mesh no step changes more than one cell, and the runs are the
     same to the last digit (docs/validation/solver-and-speed.md, "The correction's columns on the
     finest level")."""
-    from indentation_studio.forward import linear_solver
-
     assert linear_solver.MAX_EXTRA == 400
     assert min(linear_solver.MAX_EXTRA, linear_solver.EXTRA_COLUMNS_DOUBLES // 222_264) == 400
     assert (

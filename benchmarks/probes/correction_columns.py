@@ -1,0 +1,36 @@
+"""The `simulate` command with the linear solver's correction columns (``max_extra``) set, and
+optionally the fibers' kink rule off: how the cap on the contact's low-rank correction and the kink
+rule change a run's factorisations and Krylov work (docs/validation/solver-and-speed.md, "The
+correction's columns on the finest level").
+
+    .venv/bin/python benchmarks/probes/correction_columns.py 90 simulate --mesh contact-L4 --radius 4.77 \\
+        --c1 11 --c5 330 --contact surface --contact-order 1 --steps 4 --out RUN.npz
+    .venv/bin/python benchmarks/probes/correction_columns.py 0 --no-kink-rule simulate ... --restart --out RUN.npz
+
+The first argument is the column count (0 leaves the solver's own); ``--no-kink-rule`` puts
+``linear_steps.KINK_DOFS`` out of reach; the rest is the command line of ``indent-studio``. Run it
+on a copy of a checkpoint (``--restart``) to measure one step of a long run. The counts are in the
+result's ``solver["stats"]`` and convergence record.
+"""
+
+import sys
+
+from indentation_studio.forward import linear_solver, linear_steps
+from indentation_studio.studio.cli import app
+
+columns = int(sys.argv[1])
+rest = sys.argv[2:]
+if rest and rest[0] == "--no-kink-rule":
+    linear_steps.KINK_DOFS = 10**12
+    rest = rest[1:]
+made = linear_solver.ConstrainedSymmetricSolver.__init__
+
+
+def with_columns(self, *args, **kwargs):
+    made(self, *args, **kwargs)
+    if columns:
+        self.max_extra = columns
+
+
+linear_solver.ConstrainedSymmetricSolver.__init__ = with_columns
+app(rest)
