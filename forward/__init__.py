@@ -59,7 +59,6 @@ __getattr__, __dir__, __all__ = lazy.attach(
         "run_records": ["IncrementState", "RunRecords"],
         "newton": ["Equilibrium", "IncrementFailed", "NewtonSystem"],
         "linear_steps": ["LinearSteps"],
-        "krylov_solve": ["krylov_solve"],
         "sensitivity_solves": ["SensitivitySolves"],
         "threads": ["busy_cores", "solver_threads", "thread_limits"],
         "convergence.mesh_family": ["MeshFamily", "contact_family", "contact_mesh"],
