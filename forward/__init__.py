@@ -41,7 +41,8 @@ __getattr__, __dir__, __all__ = lazy.attach(
             "equibiaxial_stretch",
             "stretch_block",
         ],
-        "coulomb_contact": ["FrictionContactState", "contact_response"],
+        "coulomb_law": ["contact_response"],
+        "coulomb_contact": ["FrictionContactState"],
         "contact_quadrature": [
             "CONTACT_INTEGRATIONS",
             "ContactPoints",

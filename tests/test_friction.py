@@ -16,7 +16,7 @@ from indentation_studio.forward import (
     sensitivity_solves,
 )
 from indentation_studio.forward.contact_quadrature import tributary_areas
-from indentation_studio.forward.coulomb_contact import (
+from indentation_studio.forward.coulomb_law import (
     CONTACT,
     FREE,
     capsule_projection,
