@@ -35,7 +35,7 @@ from indentation_studio.atomic_write import atomic_write_json  # noqa: E402
 from indentation_studio.campaign.designs import design_from_option  # noqa: E402
 from indentation_studio.campaign.loader import load_campaign  # noqa: E402
 from indentation_studio.design.reduced_objective import FieldObjective, ReducedObjective  # noqa: E402
-from indentation_studio.forward.predictor import FESolverPredictor  # noqa: E402
+from indentation_studio.forward.fe_predictor import FESolverPredictor  # noqa: E402
 from indentation_studio.forward.spec import ModelSpec  # noqa: E402
 from indentation_studio.inference.experiment.data import load_experiment  # noqa: E402
 from indentation_studio.inference.experiment.processing import experiment_objective  # noqa: E402

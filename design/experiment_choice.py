@@ -21,8 +21,9 @@ import numpy as np
 import pandas as pd
 
 from ..atomic_write import atomic_write
+from ..forward.fe_predictor import FESolverPredictor
 from ..forward.mesh_presets import HIGH_FIDELITY_MESH
-from ..forward.predictor import FESolverPredictor, Prediction
+from ..forward.predictor import Prediction
 from ..forward.spec import Indenter, MeshChoice, ModelSpec, Protocol
 from ..surrogate.error_budgets import budget_at, shipped_budget
 from .certainty import DESIGN_BOUNDS_INCLUDE, bounds_pct, combine, gauss_newton_term_hessians

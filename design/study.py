@@ -9,7 +9,8 @@ from typing import Any
 import numpy as np
 from scipy import stats
 
-from ..forward.predictor import FESolverPredictor, Prediction
+from ..forward.fe_predictor import FESolverPredictor
+from ..forward.predictor import Prediction
 from ..forward.spec import ModelSpec
 from .certainty import (
     DESIGN_BOUNDS_INCLUDE,

@@ -67,9 +67,9 @@ __getattr__, __dir__, __all__ = lazy.attach(
         "convergence.gci": ["ConvergenceOfQuantity", "GridTriplet", "observed_order", "study_quantity"],
         "material": ["InvertedElementError"],
         "result": ["SimulationResult"],
+        "fe_predictor": ["FESolverPredictor"],
         "predictor": [
             "CachedPredictor",
-            "FESolverPredictor",
             "Prediction",
             "Predictor",
             "ReducedBasis",

@@ -306,7 +306,7 @@ class MultiFidelitySurrogate(TwoLevelSurrogate):
         ----------
         low_model : Predictor
             A model of the low level on its top nodes, over (c1, c5) or (c1, c5, mu)
-            (e.g. :class:`~indentation_studio.forward.predictor.FESolverPredictor`).
+            (e.g. :class:`~indentation_studio.forward.fe_predictor.FESolverPredictor`).
 
         Returns
         -------

@@ -15,7 +15,8 @@ import pandas as pd
 import pytest
 from scipy import stats
 
-from indentation_studio.forward.predictor import FESolverPredictor, Prediction
+from indentation_studio.forward.fe_predictor import FESolverPredictor
+from indentation_studio.forward.predictor import Prediction
 from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
 from indentation_studio.inference.adequacy.chi_square import ALPHA, CANNOT_EXPLAIN
 from indentation_studio.inference.adequacy.noise import dic_noise_mm

@@ -15,7 +15,7 @@ import pytest
 from lab_files import frames_with_reference, write_matchid
 from test_lab_importers import ETA, SPEC, TRUE, LinearPredictor
 
-from indentation_studio.forward.predictor import FESolverPredictor
+from indentation_studio.forward.fe_predictor import FESolverPredictor
 from indentation_studio.inference.experiment.data import ExperimentDataError, load_experiment
 from indentation_studio.inference.experiment.processing import experiment_objective, to_model_frame
 from indentation_studio.inference.experiment.synthetic import write_synthetic_experiment

@@ -12,7 +12,7 @@ import pandas as pd
 import pytest
 from test_lab_importers import SPEC, TRUE, LinearPredictor
 
-from indentation_studio.forward.predictor import FESolverPredictor
+from indentation_studio.forward.fe_predictor import FESolverPredictor
 from indentation_studio.inference.experiment.data_check import check_experiment
 from indentation_studio.inference.experiment.synthetic import write_synthetic_experiment
 

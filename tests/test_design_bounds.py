@@ -16,7 +16,7 @@ from indentation_studio.design.certainty import (
 from indentation_studio.design.nodal_weights import default_selection, nodal_weights
 from indentation_studio.design.objective import Objective, check_weights
 from indentation_studio.design.weights import optimise_weights
-from indentation_studio.forward.predictor import FESolverPredictor
+from indentation_studio.forward.fe_predictor import FESolverPredictor
 from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
 
 THETA = np.array([10.0, 350.0])

@@ -10,7 +10,7 @@ import pytest
 
 import indentation_studio as ins
 from indentation_studio.design.objective import PAPER_WEIGHTS, Objective
-from indentation_studio.forward.predictor import FESolverPredictor
+from indentation_studio.forward.fe_predictor import FESolverPredictor
 from indentation_studio.forward.solver import simulate
 from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
 from indentation_studio.inference.budgets.error_budget import (

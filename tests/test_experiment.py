@@ -15,7 +15,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from indentation_studio.forward.predictor import FESolverPredictor
+from indentation_studio.forward.fe_predictor import FESolverPredictor
 from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
 from indentation_studio.inference.experiment.data import ExperimentDataError, load_experiment
 from indentation_studio.inference.experiment.processing import (

@@ -14,7 +14,7 @@ from indentation_studio.design.experiment_choice import (
 )
 from indentation_studio.design.objective import Objective
 from indentation_studio.design.objective_over_plane import ObjectiveMap
-from indentation_studio.forward.predictor import FESolverPredictor
+from indentation_studio.forward.fe_predictor import FESolverPredictor
 from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
 from indentation_studio.studio.figures import (
     certainty_ellipse,

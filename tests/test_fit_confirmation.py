@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from indentation_studio.campaign.loader import load_campaign
-from indentation_studio.forward.predictor import FESolverPredictor
+from indentation_studio.forward.fe_predictor import FESolverPredictor
 from indentation_studio.forward.solver import SimulationError
 from indentation_studio.forward.spec import ModelSpec
 from indentation_studio.inference.experiment.synthetic import write_synthetic_experiment

@@ -222,7 +222,7 @@ def test_friction_as_a_campaign_axis(tmp_path):
 
 
 def test_fe_predictor_with_mu_as_a_parameter():
-    from indentation_studio.forward.predictor import FESolverPredictor
+    from indentation_studio.forward.fe_predictor import FESolverPredictor
 
     spec = ModelSpec(mesh=MeshChoice("coarse"), protocol=Protocol(step_size=0.5, steps=2))
     three = FESolverPredictor(spec, parameters=("c1", "c5", "mu")).predict(

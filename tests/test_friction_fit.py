@@ -302,7 +302,7 @@ def test_the_fe_stage_identifies_mu_on_data_of_the_fe_model(mu_surrogate, tmp_pa
     """The FE stage with mu (exact d/d(mu) from the embedded solver): data made by the coarse FE
     model at mu = 0.35, fitted from the surrogate's estimate; the truth inside every bound, mu's
     interval from the FE profile at the range's ends (one Gauss-Newton step each)."""
-    from indentation_studio.forward.predictor import FESolverPredictor
+    from indentation_studio.forward.fe_predictor import FESolverPredictor
     from indentation_studio.forward.spec import ModelSpec
     from indentation_studio.inference.fit.workflow import fit_experiment
 

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from indentation_studio.design.objective import Objective
-from indentation_studio.forward.predictor import CachedPredictor, FESolverPredictor
+from indentation_studio.forward.fe_predictor import FESolverPredictor
+from indentation_studio.forward.predictor import CachedPredictor
 from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol, SolverOptions
 from indentation_studio.inference.fit.inverse_fit import PAPER_F_STOP, fit_parameters
 

@@ -22,7 +22,8 @@ from lab_files import (
     write_vic_csv,
 )
 
-from indentation_studio.forward.predictor import FESolverPredictor, Prediction
+from indentation_studio.forward.fe_predictor import FESolverPredictor
+from indentation_studio.forward.predictor import Prediction
 from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
 from indentation_studio.inference.experiment.data import ExperimentDataError, load_experiment
 from indentation_studio.inference.experiment.processing import experiment_objective, static_forces

@@ -17,7 +17,7 @@ from typer.testing import CliRunner
 from indentation_studio.campaign.loader import StoredResponses, load_campaign
 from indentation_studio.campaign.runner import run_named_campaign
 from indentation_studio.design.objective import Objective
-from indentation_studio.forward.predictor import FESolverPredictor
+from indentation_studio.forward.fe_predictor import FESolverPredictor
 from indentation_studio.forward.solver import simulate
 from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
 from indentation_studio.inference.budgets.mesh_check import prediction_at_nodes

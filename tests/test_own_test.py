@@ -9,7 +9,7 @@ import json
 import numpy as np
 import pytest
 
-from indentation_studio.forward.predictor import FESolverPredictor
+from indentation_studio.forward.fe_predictor import FESolverPredictor
 from indentation_studio.forward.spec import Indenter, ModelSpec, Protocol
 from indentation_studio.inference.experiment.synthetic import write_synthetic_experiment
 from indentation_studio.inference.fit.workflow import fit_experiment

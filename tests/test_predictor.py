@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from indentation_studio.forward.predictor import FESolverPredictor, Prediction, Predictor
+from indentation_studio.forward.fe_predictor import FESolverPredictor
+from indentation_studio.forward.predictor import Prediction, Predictor
 from indentation_studio.forward.solver import simulate
 from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol, SpecError
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from indentation_studio.design.objective import PAPER_WEIGHTS
-from indentation_studio.forward.predictor import FESolverPredictor
+from indentation_studio.forward.fe_predictor import FESolverPredictor
 from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
 from indentation_studio.inference.budgets.model_error import model_error_scope, with_processing_error
 from indentation_studio.inference.experiment.data import load_experiment

@@ -15,7 +15,8 @@ from indentation_studio.campaign.spec import CampaignSpec
 from indentation_studio.campaign.store import CampaignStore
 from indentation_studio.design.objective import Objective
 from indentation_studio.design.reduced_objective import FieldObjective, ReducedObjective, objective_function
-from indentation_studio.forward.predictor import FESolverPredictor, ReducedPredictor
+from indentation_studio.forward.fe_predictor import FESolverPredictor
+from indentation_studio.forward.predictor import ReducedPredictor
 from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol
 from indentation_studio.inference.experiment.data import load_experiment
 from indentation_studio.inference.experiment.processing import experiment_objective

@@ -6,7 +6,8 @@ import numpy as np
 from sensitivity_check import assert_jacobian_matches_central_differences
 
 from indentation_studio.forward.convergence.richardson import RichardsonPredictor
-from indentation_studio.forward.predictor import CachedPredictor, FESolverPredictor
+from indentation_studio.forward.fe_predictor import FESolverPredictor
+from indentation_studio.forward.predictor import CachedPredictor
 from indentation_studio.forward.spec import MeshChoice, ModelSpec, Protocol, SolverOptions
 
 PROTOCOL = Protocol(step_size=0.5, steps=2)

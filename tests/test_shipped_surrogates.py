@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from indentation_studio.forward.predictor import FESolverPredictor
+from indentation_studio.forward.fe_predictor import FESolverPredictor
 from indentation_studio.forward.spec import ModelSpec
 from indentation_studio.inference.experiment.synthetic import write_synthetic_experiment
 from indentation_studio.inference.fit.inputs import prepare_fit

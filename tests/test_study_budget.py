@@ -12,8 +12,9 @@ import pytest
 
 from indentation_studio.design.nodal_weights import FIT_INNER_RADII
 from indentation_studio.forward.convergence.mesh_family import contact_family
+from indentation_studio.forward.fe_predictor import FESolverPredictor
 from indentation_studio.forward.mesh_presets import FIT_MESH, HIGH_FIDELITY_MESH
-from indentation_studio.forward.predictor import CachedPredictor, FESolverPredictor
+from indentation_studio.forward.predictor import CachedPredictor
 from indentation_studio.forward.result import SimulationResult
 from indentation_studio.forward.spec import Contact, Indenter, MeshChoice, ModelSpec, Protocol
 from indentation_studio.inference.budgets.error_budget import compute_error_budget

@@ -127,7 +127,7 @@ def test_kfold_and_cli(campaigns, tmp_path):
 def test_confirm_with_mesh_check_cli(campaigns, tmp_path):
     """`confirm --check-mesh`: an experiment made on `default`, the fit's model on `coarse` (the
     campaign's mesh): the check solves both meshes and reports the shift and the widened bounds."""
-    from indentation_studio.forward.predictor import FESolverPredictor
+    from indentation_studio.forward.fe_predictor import FESolverPredictor
     from indentation_studio.inference.experiment.synthetic import write_synthetic_experiment
 
     root, _, _ = campaigns

@@ -41,7 +41,7 @@ import numpy as np
 import pandas as pd
 
 from indentation_studio.forward.convergence.mesh_study import top_field_interpolator
-from indentation_studio.forward.predictor import FESolverPredictor
+from indentation_studio.forward.fe_predictor import FESolverPredictor
 from indentation_studio.forward.result import SimulationResult
 from indentation_studio.forward.spec import ModelSpec
 

@@ -15,7 +15,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from indentation_studio.forward.predictor import FESolverPredictor
+from indentation_studio.forward.fe_predictor import FESolverPredictor
 from indentation_studio.forward.result import SimulationResult
 from indentation_studio.forward.spec import Indenter, MeshChoice, ModelSpec
 from indentation_studio.inference.experiment.synthetic import (

@@ -27,7 +27,7 @@ from indentation_studio.atomic_write import atomic_write_json, strict_json
 from indentation_studio.design.certainty import gauss_newton_term_hessians
 from indentation_studio.design.objective import Objective
 from indentation_studio.design.study import DesignStudy, friction_design_bounds
-from indentation_studio.forward.predictor import FESolverPredictor
+from indentation_studio.forward.fe_predictor import FESolverPredictor
 from indentation_studio.forward.spec import MeshChoice, ModelSpec
 
 WEIGHTS = {

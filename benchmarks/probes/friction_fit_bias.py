@@ -30,7 +30,7 @@ import numpy as np
 
 from indentation_studio.atomic_write import atomic_write_json, strict_json
 from indentation_studio.design.friction_treatment import FrictionTreatment
-from indentation_studio.forward.predictor import FESolverPredictor
+from indentation_studio.forward.fe_predictor import FESolverPredictor
 from indentation_studio.forward.spec import MeshChoice, ModelSpec
 from indentation_studio.inference.experiment.synthetic import write_synthetic_experiment
 from indentation_studio.inference.fit.workflow import fit_experiment

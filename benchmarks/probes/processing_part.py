@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from indentation_studio.design.objective import PAPER_WEIGHTS
-from indentation_studio.forward.predictor import FESolverPredictor
+from indentation_studio.forward.fe_predictor import FESolverPredictor
 from indentation_studio.forward.spec import Indenter, MeshChoice, ModelSpec, Protocol
 from indentation_studio.inference.experiment.data import load_experiment
 from indentation_studio.inference.experiment.processing import experiment_objective

@@ -22,7 +22,7 @@ from indentation_studio.campaign.loader import load_campaign
 from indentation_studio.design.certainty import bounds_pct, combine, gauss_newton_term_hessians
 from indentation_studio.design.objective import Objective
 from indentation_studio.design.weights import PAPER_TABLE1
-from indentation_studio.forward.predictor import FESolverPredictor
+from indentation_studio.forward.fe_predictor import FESolverPredictor
 from indentation_studio.forward.spec import ModelSpec
 from indentation_studio.surrogate.base import TrainingData
 from indentation_studio.surrogate.persistence import save_surrogate

@@ -9,8 +9,9 @@ from dataclasses import replace
 from pathlib import Path
 
 from ...forward.convergence.richardson import RichardsonPredictor
+from ...forward.fe_predictor import FESolverPredictor
 from ...forward.mesh_presets import CONTACT_MESH_LEVELS, MESH_PRESETS
-from ...forward.predictor import CachedPredictor, FESolverPredictor
+from ...forward.predictor import CachedPredictor
 from ...forward.spec import MeshChoice, ModelSpec
 from ...surrogate.persistence import load_surrogate
 

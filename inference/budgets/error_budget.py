@@ -27,8 +27,9 @@ import pandas as pd
 from ...design.certainty import bounds_pct, s_from_data
 from ...design.objective import PAPER_WEIGHTS, Objective, check_weights
 from ...forward.convergence.richardson import RichardsonPredictor
+from ...forward.fe_predictor import FESolverPredictor
 from ...forward.mesh import build_mesh
-from ...forward.predictor import CachedPredictor, FESolverPredictor, Prediction
+from ...forward.predictor import CachedPredictor, Prediction
 from ...forward.result import SimulationResult
 from ..fit.inverse_fit import fit_parameters
 from .budget_models import resolve_model

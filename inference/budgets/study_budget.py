@@ -22,8 +22,9 @@ import pandas as pd
 
 from ...design.objective import PAPER_WEIGHTS
 from ...forward.convergence.gci import observed_order
+from ...forward.fe_predictor import FESolverPredictor
 from ...forward.mesh_presets import CONTACT_MESH_LEVELS
-from ...forward.predictor import CachedPredictor, FESolverPredictor
+from ...forward.predictor import CachedPredictor
 from ...forward.result import SimulationResult
 from ...forward.spec import Indenter, MeshChoice, ModelSpec
 from .error_budget import ErrorBudget, compute_error_budget

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from ...design.objective import PAPER_WEIGHTS, Objective, check_weights
-from ...forward.predictor import FESolverPredictor
+from ...forward.fe_predictor import FESolverPredictor
 from ...forward.spec import ModelSpec
 from ...surrogate.base import FieldSurrogate
 from ...surrogate.persistence import load_surrogate

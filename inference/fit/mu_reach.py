@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...design.friction_treatment import FixedParameter
-from ...forward.predictor import FESolverPredictor
+from ...forward.fe_predictor import FESolverPredictor
 from ...forward.solver import SimulationError
 from .inverse_fit import FitResult, fit_parameters, residuals_at
 
