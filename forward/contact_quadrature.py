@@ -25,7 +25,14 @@ import scipy.sparse as sp
 from .block_mesh import BlockMesh
 from .sparse_assembly import SparsePattern
 
-__all__ = ["CONTACT_INTEGRATIONS", "ContactPoints", "contact_points", "top_faces", "tributary_areas"]
+__all__ = [
+    "CONTACT_INTEGRATIONS",
+    "ContactPoints",
+    "cells_within",
+    "contact_points",
+    "top_faces",
+    "tributary_areas",
+]
 
 #: The placements of :func:`contact_points`.
 CONTACT_INTEGRATIONS = ("node", "surface")
@@ -332,3 +339,32 @@ def contact_points(mesh: BlockMesh, integration: str = "node", *, order: int = 2
     shape = np.broadcast_to(N, (nf, q, 4)).copy()
     xyz0 = np.einsum("qk,fkj->fqj", N, mesh.nodes[quads]).reshape(nf * q, 3)
     return ContactPoints("surface", index[quads], shape, (detJ * wq).ravel(), xyz0, top.size)
+
+
+def cells_within(cell_dofs: np.ndarray, columns: int) -> int:
+    """How many of the cells, taken in order, hold at most ``columns`` distinct dofs together.
+
+    Neighbouring contact cells share nodes, so a patch of cells needs far fewer columns of the
+    factorisation's inverse than 3 per node of each cell: on a quad grid a patch of P cells has
+    about P + 2 sqrt(P) + 1 nodes, not 4 P (the contact's correction,
+    :meth:`forward.penalty_contact.PenaltyContact.correction`).
+
+    Parameters
+    ----------
+    cell_dofs : ndarray of int, shape (m, k, 3)
+        The global dofs of each cell's nodes, in the order the cells are wanted.
+    columns : int
+        How many distinct dofs may be held.
+
+    Returns
+    -------
+    int
+        The longest prefix of the cells within ``columns`` dofs (at least 1 where there is a cell).
+    """
+    m = cell_dofs.shape[0]
+    if m == 0:
+        return 0
+    flat = cell_dofs.reshape(m, -1)
+    _, first = np.unique(flat.ravel(), return_index=True)
+    new_dofs = np.bincount(first // flat.shape[1], minlength=m)
+    return max(1, int(np.searchsorted(np.cumsum(new_dofs), columns, side="right")))

@@ -20,8 +20,9 @@ import time
 import numpy as np
 import scipy.sparse as sp
 
-from .contact_quadrature import contact_points
-from .coulomb_contact import FREE, FrictionContactState
+from .contact_quadrature import cells_within, contact_points
+from .coulomb_contact import FrictionContactState
+from .coulomb_law import FREE
 from .indenter_contact import IndenterContact
 from .linear_solver import LinearSolveError, LowRankUpdate
 from .newton import Equilibrium, IncrementFailed, NewtonSystem
@@ -181,8 +182,8 @@ class PenaltyContact(PenaltyNewton, IndenterContact):
         return np.bincount(self._cell_slots.ravel(), weights=blocks.ravel(), minlength=s.pattern.nnz)
 
     def correction(self, cmask: np.ndarray) -> LowRankUpdate | None:
-        # the interface's correction: the changed cells' blocks, the largest first, at most as many
-        # dofs as the factorisation keeps columns for (``max_extra``)
+        # the interface's correction: the changed cells' blocks, the largest first, as many cells as
+        # their distinct dofs fit in the columns the factorisation keeps (``max_extra``)
         s = self.solver
         if (
             self._contact_blocks is None
@@ -208,11 +209,12 @@ class PenaltyContact(PenaltyNewton, IndenterContact):
         cells = np.flatnonzero(size > CONTACT_BLOCK_CHANGE)
         if cells.size == 0:
             return None
-        k = change.shape[1]
-        cap = max(1, s.linear.max_extra // (3 * k))
-        if cells.size > cap:
-            cells = cells[np.argsort(-size[cells], kind="stable")[:cap]]
-        cell_dofs = self._points.cell_dofs(s.top)[cells]  # (m, k, 3)
+        all_dofs = self._points.cell_dofs(s.top)
+        if 3 * all_dofs.shape[1] * cells.size > s.linear.max_extra:
+            # the largest changes first, as many cells as their distinct dofs fit in the columns
+            by_size = cells[np.argsort(-size[cells], kind="stable")]
+            cells = np.sort(by_size[: cells_within(all_dofs[by_size], s.linear.max_extra)])
+        cell_dofs = all_dofs[cells]  # (m, k, 3)
         dofs, local = np.unique(cell_dofs, return_inverse=True)
         local = local.reshape(cell_dofs.shape)
         rows = np.broadcast_to(local[:, :, :, None, None], change[cells].shape)

@@ -15,7 +15,7 @@ from indentation_studio.forward import (
     penalty_newton,
     sensitivity_solves,
 )
-from indentation_studio.forward.contact_quadrature import tributary_areas
+from indentation_studio.forward.contact_quadrature import cells_within, tributary_areas
 from indentation_studio.forward.coulomb_law import (
     CONTACT,
     FREE,
@@ -300,6 +300,58 @@ def test_the_correction_columns_cap_is_400_below_a_gigabyte_and_more_columns_cut
     else:
         assert full.stats["krylov_iterations"] == one_cell.stats["krylov_iterations"]
         np.testing.assert_array_equal(r_one.force, r_full.force)
+
+
+def test_cells_within_counts_the_distinct_dofs_of_neighbouring_cells():
+    """A 10 x 10 patch of quad cells on an 11 x 11 grid of nodes: 121 nodes, 363 dofs. The 400
+    columns hold all 100 cells, where 3 dofs per node of each cell (12 a cell) would hold 33;
+    the prefix stops at the first cell whose new nodes pass the columns; order matters."""
+    node = np.arange(121).reshape(11, 11)
+    quads = np.stack([node[:-1, :-1], node[:-1, 1:], node[1:, 1:], node[1:, :-1]], axis=-1).reshape(-1, 4)
+    dofs = 3 * quads[:, :, None] + np.arange(3)
+    assert cells_within(dofs, 400) == 100
+    assert cells_within(dofs, 363) == 100 and cells_within(dofs, 362) == 99
+    # row by row: the first cell 4 nodes, each next in the row 2 more, each next row's first 2
+    assert cells_within(dofs, 12) == 1 and cells_within(dofs, 17) == 1 and cells_within(dofs, 18) == 2
+    assert cells_within(dofs, 3 * 22) == 10  # the first row: 22 nodes
+    assert cells_within(dofs, 3 * 22 + 5) == 10 and cells_within(dofs, 3 * 24) == 11
+    far = dofs[[0, 99, 9, 90]]  # four cells apart from each other: 4 new nodes each
+    assert cells_within(far, 47) == 3 and cells_within(far, 48) == 4
+    assert cells_within(dofs[:0], 400) == 0 and cells_within(dofs, 5) == 1
+
+
+def test_the_correction_holds_as_many_changed_cells_as_their_distinct_dofs_fit(monkeypatch):
+    """With friction on contact-L1 and the correction's columns cut to 36 (three cells' 12 dofs
+    each, the rule before), the cells of a correction share nodes and more of them fit: the
+    correction never asks for more than 36 columns, holds more than three cells, and the run's
+    forces stay those of the full correction (docs/validation/solver-and-speed.md, "The correction's
+    columns on the finest level")."""
+    spec = ModelSpec(mesh=MeshChoice("contact-L1"), protocol=Protocol(step_size=0.5, steps=6)).with_friction(
+        0.3
+    )
+    taken, asked = [], []
+    within = penalty_contact.cells_within
+
+    def counted(cell_dofs, columns):
+        taken.append(within(cell_dofs, columns))
+        return taken[-1]
+
+    made = penalty_contact.LowRankUpdate
+
+    def recorded(solver, dofs, D):
+        asked.append(np.asarray(dofs).size)
+        return made(solver, dofs, D)
+
+    monkeypatch.setattr(penalty_contact, "cells_within", counted)
+    monkeypatch.setattr(penalty_contact, "LowRankUpdate", recorded)
+    cut = EmbeddedSolver(spec)
+    cut.linear.max_extra = 36
+    r_cut = cut.run()
+    monkeypatch.undo()
+    r_full = EmbeddedSolver(spec).run()
+    assert taken and max(taken) > 36 // 12
+    assert max(asked) <= 36
+    np.testing.assert_allclose(r_cut.force[1:], r_full.force[1:], rtol=1e-5)
 
 
 def test_a_point_predicted_to_stick_answers_with_the_stick_law():
