@@ -228,6 +228,14 @@ def _budget_words(src: dict) -> str:
         if src.get("reference_level") is not None and src.get("rule")
         else ""
     )
+    freed = src.get("mu_free")
+    if freed:  # the fit frees mu: what that adds to the mesh's error (inference.budgets.freed_mu_moves)
+        corrected += (
+            f"; with mu free as this fit has it, the mesh's error moves c1 by "
+            f"{-freed['c1_correction_pct']:+.2f} % and c5 by {-freed['c5_correction_pct']:+.2f} % more "
+            f"({freed['where']} between {freed['points']} points of {freed['file']}): corrected, and the "
+            "width grown by as much"
+        )
     if where == "interpolated":
         return f"{model}'s bias interpolated at the fit between {points} test points of {file}{corrected}"
     if where == "outside":

@@ -11,6 +11,8 @@ import numpy as np
 
 from ...design.friction_treatment import FrictionTreatment
 from ...surrogate.error_budgets import budget_at, surrogate_error_budget
+from ...surrogate.mesh_differences import surrogate_mesh_differences
+from ..budgets.freed_mu_moves import with_freed_mu
 from ..budgets.model_error import (
     ModelError,
     budget_correction,
@@ -24,7 +26,16 @@ from ..experiment.processing_error import REGISTRATION_MM, processing_error_at
 from .held_out_refits import HeldOutRefits, held_out_refits
 from .inputs import FitInputs
 
-__all__ = ["model_error_with_mu", "mu_held_out_refits", "mu_model_error_pct", "mu_model_error_unmeasured"]
+#: The treatments under which a fit frees mu (its budget's mesh error then moves with mu free).
+MU_FREED = ("identify", "marginalise")
+
+__all__ = [
+    "MU_FREED",
+    "model_error_with_mu",
+    "mu_held_out_refits",
+    "mu_model_error_pct",
+    "mu_model_error_unmeasured",
+]
 
 
 def model_error_with_mu(
@@ -78,6 +89,10 @@ def model_error_with_mu(
         error = _stick_mesh_budget(model, contact, inputs.spec.contact.describe(), theta=theta)
         if on_surrogate:  # the final stage on the surrogate: its own error too
             error = with_emulation_error(error, obj, eta, model, at, free=2)
+    differences = surrogate_mesh_differences(model) if treatment.mode in MU_FREED else None
+    if error is not None and differences is not None:  # the fit frees mu: the mesh's error moves more
+        say("the mesh's error with mu free (the budget's points' level-3 less level-4 outputs) ...")
+        error = with_freed_mu(error, obj, eta, model, at, differences)
     error = None if error is None else replace(error, contact=contact)
     return _with_processing(error, inputs, at, contact, registration_mm, say, free=2)
 

@@ -1,0 +1,192 @@
+"""The mesh's error with the fit's own free parameters (issue 57, option (i)).
+
+An error budget is measured by fitting the reference's data with the fit's model, mu held (the
+stick). A plain fit frees mu, and mu takes up the part of the mesh's error that looks like slip:
+measured on contact-L4 experiments, level 3's first-order move in c5 was -6.4 % with mu held and
+-10.1 % with mu free at R = 8 mm, {1.5, 560} kPa, and -4.3 % against -7.9 % at R = 4.77 mm,
+{3, 540} (docs/validation/model-error.md, "The mesh's move with mu free").
+
+Here each of the budget's points' output differences (level 3 less level 4, force and top field,
+:class:`surrogate.mesh_differences.MeshDifferences`) is moved through the fit at its own theta, to
+first order (:func:`.fit_moves.fit_moves`), once with mu held and once with mu free; what freeing
+mu adds, d = move(mu free) - move(mu held) over (c1, c5), is read at the fit as the budget is
+(interpolated inside its points' hull, the nearest points' outside:
+:func:`surrogate.error_budgets.budget_at`). The budget's correction is moved by -d and its
+half-width grows by |d|: the bound holds both the mu-held budget and twice the freed move."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import replace
+from datetime import UTC, datetime
+
+import numpy as np
+
+from ...design.objective import Objective, check_weights
+from ...forward.result import SimulationResult
+from ...surrogate.error_budgets import budget_at
+from ...surrogate.mesh_differences import MeshDifferences
+from .fit_moves import residual_changes
+from .mesh_check import prediction_at_nodes
+from .model_error_parts import ModelError
+
+__all__ = ["freed_mu_moves", "mesh_differences_from_runs", "with_freed_mu"]
+
+#: Singular values of the free Jacobian below this fraction of the largest are not inverted: at
+#: mu's range ends nothing slips and d/dmu vanishes; mu then takes up nothing.
+RCOND = 1e-8
+
+
+def mesh_differences_from_runs(
+    pairs: Sequence[tuple[SimulationResult, SimulationResult]],
+    top_xyz: np.ndarray,
+    *,
+    runs: Sequence[dict] | None = None,
+    version: str = "",
+) -> MeshDifferences:
+    """The coarse runs' outputs less the fine runs' at ``top_xyz`` (a surrogate's top nodes).
+
+    Parameters
+    ----------
+    pairs : sequence of (SimulationResult, SimulationResult)
+        (coarse, fine) at each point, the same spec but the mesh.
+    top_xyz : numpy.ndarray
+        (nodes, 3) where the field is kept (both runs' fields interpolated there).
+    runs : sequence of dict, optional
+        What each pair was read from (files, versions), recorded in ``meta``.
+    version : str, optional
+        The studio's version, recorded in ``meta['made']``.
+
+    Returns
+    -------
+    MeshDifferences
+
+    Raises
+    ------
+    ValueError
+        If a pair differs in c1, c5 or depths, or its fine run is not finer.
+    """
+    points, force_log, field = [], [], []
+    for coarse, fine in pairs:
+        theta = [coarse.spec["material"][k] for k in ("c1", "c5")]
+        if not np.allclose(theta, [fine.spec["material"][k] for k in ("c1", "c5")]):
+            raise ValueError(f"mesh differences: a pair at {theta} kPa was run at other parameters")
+        if coarse.depth.shape != fine.depth.shape or not np.allclose(coarse.depth, fine.depth):
+            raise ValueError(f"mesh differences: the pair at {theta} kPa was run to other depths")
+        if int(fine.solver["mesh"]["nodes"]) <= int(coarse.solver["mesh"]["nodes"]):
+            raise ValueError(f"mesh differences: the pair at {theta} kPa: the fine run is not finer")
+        a, b = prediction_at_nodes(coarse, top_xyz), prediction_at_nodes(fine, top_xyz)
+        points.append(theta)
+        force_log.append(np.log(a.force[0]) - np.log(b.force[0]))
+        field.append(a.displacement[0] - b.displacement[0])
+    first_coarse, first_fine = pairs[0]
+    meta = {
+        "model": first_coarse.spec,
+        "coarse_mesh": (first_coarse.spec.get("mesh") or {}).get("preset"),
+        "fine_mesh": (first_fine.spec.get("mesh") or {}).get("preset"),
+        "runs": list(runs or []),
+        "made": {
+            "by": "inference.budgets.freed_mu_moves",
+            "version": version,
+            "at": datetime.now(UTC).isoformat(),
+        },
+    }
+    return MeshDifferences(
+        np.array(points), np.array(force_log), np.array(field), np.asarray(top_xyz, float), meta
+    )
+
+
+def freed_mu_moves(
+    objective: Objective, eta, surrogate, theta: np.ndarray, differences: MeshDifferences
+) -> np.ndarray:
+    """What freeing mu adds to each point's mesh error in the fit at ``theta``, to first order.
+
+    Each point's output change dr (level 3 less level 4 at the surrogate's nodes) moves the fit by
+    -(J^T J)^+ J^T dr (in log theta); J over (c1, c5) with mu held, over (c1, c5, mu) with mu free.
+
+    Parameters
+    ----------
+    objective : Objective
+        The fit's objective.
+    eta : array_like
+        The weights of eq. 5.
+    surrogate : FieldSurrogate
+        The fit's surrogate, trained with mu (its parameters c1, c5, mu).
+    theta : numpy.ndarray
+        (3,) the fit (c1, c5 kPa, mu).
+    differences : MeshDifferences
+        The budget's points' output differences.
+
+    Returns
+    -------
+    numpy.ndarray
+        (n, 2) move(mu free) - move(mu held) in log c1, log c5 at each point.
+    """
+    theta = np.asarray(theta, float)
+    if theta.size != 3:
+        raise ValueError(f"freeing mu needs the fit's (c1, c5, mu), got {theta.size} values")
+    e = check_weights(eta)
+    pred = surrogate.predict(theta[None, :], jacobian=True)
+    J = objective.jacobian(pred, e)[0] * theta  # d r / d log theta
+    dr = residual_changes(objective, e, pred, differences.outputs_at(surrogate.top_xyz))  # (n, m)
+    held = -np.linalg.lstsq(J[:, :2], dr.T, rcond=RCOND)[0].T
+    free = -np.linalg.lstsq(J, dr.T, rcond=RCOND)[0].T[:, :2]
+    return free - held
+
+
+def with_freed_mu(
+    model: ModelError, objective: Objective, eta, surrogate, theta: np.ndarray, differences: MeshDifferences
+) -> ModelError:
+    """``model`` with what freeing mu adds to the mesh's error (:func:`freed_mu_moves`).
+
+    The moves are read at the fit as the budget is (``budget_at``: interpolated inside the points'
+    hull; outside, the nearest point's move and the largest of the nearest ones' plus their spread);
+    the correction is moved by -d and the budget's half-width grows by |d| (percent of the fit). Its
+    source records the added correction and width (``budget_source['mu_free']``).
+
+    Parameters
+    ----------
+    model : ModelError
+        The parts over (c1, c5), mu held.
+    objective, eta, surrogate, theta, differences
+        As :func:`freed_mu_moves`.
+
+    Returns
+    -------
+    ModelError
+    """
+    d = 100.0 * np.expm1(freed_mu_moves(objective, eta, surrogate, theta, differences))  # (n, 2) percent
+    points = [
+        {
+            "c1": float(c1),
+            "c5": float(c5),
+            "c1_pct": abs(a),
+            "c5_pct": abs(b),
+            "c1_correction_pct": -a,
+            "c5_correction_pct": -b,
+        }
+        for (c1, c5), (a, b) in zip(differences.points, d.tolist(), strict=True)
+    ]
+    at = budget_at({"source": {"reference_gci_carried": True}, "points": points}, theta)
+    add_width = np.array([at["c1_pct"], at["c5_pct"]])
+    add_correction = np.array([at["c1_correction_pct"], at["c5_correction_pct"]])
+    source = dict(model.budget_source or {}) | {
+        "mu_free": {
+            "c1_pct": float(add_width[0]),
+            "c5_pct": float(add_width[1]),
+            "c1_correction_pct": float(add_correction[0]),
+            "c5_correction_pct": float(add_correction[1]),
+            "where": at["source"]["where"],
+            "file": differences.meta.get("file"),
+            "points": len(points),
+            "rule": "each budget point's level-3 less level-4 outputs moved through the fit with mu free and "
+            "held (first order); the budget's correction moved by what freeing mu adds, its width grown by as much",
+        }
+    }
+    budget = np.asarray(model.budget_pct, float).copy()
+    budget[:2] = budget[:2] + add_width
+    correction = (
+        np.zeros(len(budget)) if model.correction_pct is None else np.array(model.correction_pct, float)
+    )
+    correction[:2] = correction[:2] + add_correction
+    return replace(model, budget_pct=budget, correction_pct=correction, budget_source=source)
