@@ -178,3 +178,26 @@ def test_a_fit_freeing_mu_carries_the_freed_move_and_one_holding_it_does_not(
     )
     assert "mu_free" not in (held["model_error"]["error_budget_source"] or {})
     np.testing.assert_allclose(held["model_error"]["error_budget_pct"], [3.0, 4.0])
+
+
+def test_a_fit_freeing_mu_without_the_outputs_says_its_bound_leaves_that_out(
+    mu_surrogate, tmp_path, monkeypatch
+):
+    from indentation_studio.inference.experiment.synthetic import write_synthetic_experiment
+    from indentation_studio.inference.fit.workflow import fit_experiment
+
+    model = copy.copy(mu_surrogate)
+    model.meta = dict(model.meta) | {
+        "error_budget": {
+            "c1_pct": 3.0,
+            "c5_pct": 4.0,
+            "source": {"model": "coarse", "points": 9, "file": "b.json"},
+        }
+    }
+    (tmp_path / "none").mkdir()
+    monkeypatch.setattr(md, "shipped_budgets_folder", lambda: tmp_path / "none")
+    exp = write_synthetic_experiment(model, THETA, tmp_path / "e", radius=4.77, step_size=0.5, seed=2)
+    d = fit_experiment(exp, model, refine=False, reading="paper", friction="marginalise").to_dict()
+    assert d["model_error"]["error_budget_source"]["mu_free"] == {"measured": False}
+    np.testing.assert_allclose(d["model_error"]["error_budget_pct"], [3.0, 4.0])
+    assert "not what freeing mu, as this fit does, adds to the mesh's error" in d["bounds_include"]

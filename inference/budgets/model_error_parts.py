@@ -198,7 +198,7 @@ def model_error_scope(
     src = model.budget_source
     if isinstance(src, dict) and src.get("model"):
         measured = f", measured with the {src['measured_with']}" if src.get("measured_with") else ""
-        budget = f" ({_budget_words(src)}{measured})"
+        budget = f" ({_where_words(src)}{measured}{_freed_mu_words(src.get('mu_free'))})"
     held = []  # the systematic parts beside the budget, in words
     if model.surrogate_pct is not None:
         held.append(f"the surrogate's own error ({model.surrogate_source}, pushed through this fit)")
@@ -219,8 +219,8 @@ def model_error_scope(
     return f"{noise}, the mesh's error budget{budget}{extra}; {own}not {assumed}"
 
 
-def _budget_words(src: dict) -> str:
-    """Where a budget's value at a fit came from (``surrogate.error_budgets.budget_at``), in words."""
+def _where_words(src: dict) -> str:
+    """Where a budget's value at a fit came from, and the correction it applies, in words."""
     model, points, file = src.get("model"), src.get("points"), src.get("file")
     where = src.get("where")
     corrected = (
@@ -228,14 +228,6 @@ def _budget_words(src: dict) -> str:
         if src.get("reference_level") is not None and src.get("rule")
         else ""
     )
-    freed = src.get("mu_free")
-    if freed:  # the fit frees mu: what that adds to the mesh's error (inference.budgets.freed_mu_moves)
-        corrected += (
-            f"; with mu free as this fit has it, the mesh's error moves c1 by "
-            f"{-freed['c1_correction_pct']:+.2f} % and c5 by {-freed['c5_correction_pct']:+.2f} % more "
-            f"({freed['where']} between {freed['points']} points of {freed['file']}): corrected, and the "
-            "width grown by as much"
-        )
     if where == "interpolated":
         return f"{model}'s bias interpolated at the fit between {points} test points of {file}{corrected}"
     if where == "outside":
@@ -250,6 +242,23 @@ def _budget_words(src: dict) -> str:
             "measured against one finer mesh, not interpolated"
         )
     return f"{model}'s largest bias at {points} test points of {file}"
+
+
+def _freed_mu_words(freed: dict | None) -> str:
+    """What freeing mu adds to the mesh's error at a fit that frees it, in words ('' where mu is held)."""
+    if not freed:
+        return ""
+    if freed.get("measured") is False:
+        return (
+            "; not what freeing mu, as this fit does, adds to the mesh's error: no level-3 less level-4 "
+            "outputs are shipped for this test"
+        )
+    return (
+        f"; with mu free as this fit has it, the mesh's error moves c1 by "
+        f"{-freed['c1_correction_pct']:+.2f} % and c5 by {-freed['c5_correction_pct']:+.2f} % more "
+        f"({freed['where']} between {freed['points']} points of {freed['file']}): corrected, and the "
+        "width grown by as much"
+    )
 
 
 def combined_pct(statistical_pct: np.ndarray, model: ModelError | None) -> np.ndarray:

@@ -93,6 +93,8 @@ def model_error_with_mu(
     if error is not None and differences is not None:  # the fit frees mu: the mesh's error moves more
         say("the mesh's error with mu free (the budget's points' level-3 less level-4 outputs) ...")
         error = with_freed_mu(error, obj, eta, model, at, differences)
+    elif error is not None and treatment.mode in MU_FREED and isinstance(error.budget_source, dict):
+        error = replace(error, budget_source=error.budget_source | {"mu_free": {"measured": False}})
     error = None if error is None else replace(error, contact=contact)
     return _with_processing(error, inputs, at, contact, registration_mm, say, free=2)
 
