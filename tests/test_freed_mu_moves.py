@@ -81,6 +81,12 @@ def test_the_freed_move_corrects_the_budget_and_widens_it_by_as_much(mu_surrogat
         base, objective, ETA, mu_surrogate, THETA, _differences(p, _along(p, 2, 0.02), CORNERS * 3)
     )
     assert outside.budget_source["mu_free"]["where"] == "outside"
+    one = with_freed_mu(
+        base, objective, ETA, mu_surrogate, THETA, _differences(p, _along(p, 2, 0.02), CORNERS[:2])
+    )
+    assert one.budget_source["mu_free"]["where"] == "largest"  # two points: the largest move, no correction
+    np.testing.assert_allclose(one.budget_pct, np.array([1.0, 2.0]) + np.abs(moves), rtol=1e-9)
+    np.testing.assert_allclose(one.correction_pct, [0.5, -1.0])
 
 
 def test_mesh_differences_read_back_and_follow_other_nodes(tmp_path, mu_surrogate):

@@ -168,8 +168,11 @@ def with_freed_mu(
         for (c1, c5), (a, b) in zip(differences.points, d.tolist(), strict=True)
     ]
     at = budget_at({"source": {"reference_gci_carried": True}, "points": points}, theta)
-    add_width = np.array([at["c1_pct"], at["c5_pct"]])
-    add_correction = np.array([at["c1_correction_pct"], at["c5_correction_pct"]])
+    if "c1_pct" in at:
+        add_width = np.array([at["c1_pct"], at["c5_pct"]])
+        add_correction = np.array([at["c1_correction_pct"], at["c5_correction_pct"]])
+    else:  # too few points to read between: the largest move widens, nothing is corrected
+        add_width, add_correction = np.abs(d).max(axis=0), np.zeros(2)
     source = dict(model.budget_source or {}) | {
         "mu_free": {
             "c1_pct": float(add_width[0]),
