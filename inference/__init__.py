@@ -30,6 +30,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
         "posterior.sampling": ["Posterior", "sample_posterior"],
         "budgets.model_error_parts": ["ModelError", "combined_pct", "model_error_scope"],
         "budgets.fit_moves": ["emulation_error_pct", "emulation_moves"],
+        "budgets.freed_mu_moves": ["freed_mu_moves", "mesh_differences_from_runs", "with_freed_mu"],
         "budgets.model_error": [
             "budget_correction",
             "model_error_at",

@@ -40,6 +40,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
             "shipped_budgets_folder",
             "surrogate_error_budget",
         ],
+        "mesh_differences": ["MeshDifferences", "shipped_mesh_differences", "surrogate_mesh_differences"],
         "registry": ["SAVED_KINDS", "surrogate_class"],
         "shipped": [
             "ShippedSurrogate",

@@ -120,6 +120,15 @@ class MeshDifferences:
     def load(cls, path: str | Path) -> MeshDifferences:
         """Read a file written by :meth:`save`.
 
+        Parameters
+        ----------
+        path : str or pathlib.Path
+            The file.
+
+        Returns
+        -------
+        MeshDifferences
+
         Raises
         ------
         ValueError

@@ -6,7 +6,7 @@ the models it fits :mod:`.budget_models`, the campaign's budget written and resu
 :mod:`.study_budget`), the mesh check at a fit (:mod:`.mesh_check`), whether a fit has a budget for
 its model (:mod:`.check`), and the model error carried into the bounds (:mod:`.model_error`; its
 parts and their sum :mod:`.model_error_parts`, an output change's move of the fit
-:mod:`.fit_moves`). The budgets a surrogate carries are read from their files by
+:mod:`.fit_moves`, what freeing mu adds to the mesh's error :mod:`.freed_mu_moves`). The budgets a surrogate carries are read from their files by
 :mod:`indentation_studio.surrogate.error_budgets`. The names are exported by
 :mod:`indentation_studio.inference`.
 """

@@ -121,6 +121,11 @@ def freed_mu_moves(
     -------
     numpy.ndarray
         (n, 2) move(mu free) - move(mu held) in log c1, log c5 at each point.
+
+    Raises
+    ------
+    ValueError
+        If ``theta`` is not (c1, c5, mu).
     """
     theta = np.asarray(theta, float)
     if theta.size != 3:
