@@ -289,7 +289,8 @@ def _loud_warnings(payload: dict) -> None:
             console.print(f"  [yellow]{d['parameter']}[/yellow]: {d['reason']}")
     budget = payload["error_budget"]
     if budget["warning"]:
-        title = "[bold yellow]NO ERROR BUDGET FOR THIS TEST[/bold yellow]"
+        words = "ERROR BUDGET NOT MEASURED HERE" if budget["known"] else "NO ERROR BUDGET FOR THIS TEST"
+        title = f"[bold yellow]{words}[/bold yellow]"
         console.print(Panel(budget["warning"], title=title, border_style="yellow"))
 
 

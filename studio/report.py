@@ -181,7 +181,8 @@ def fit_warnings_html(fit: dict) -> str:
     budget = fit.get("error_budget") or {}
     if budget.get("warning"):
         parts.append(
-            f"<div class='caution'><b>No error budget for this test.</b> {html.escape(budget['warning'])}</div>"
+            f"<div class='caution'><b>{'Error budget not measured here' if budget.get('known') else 'No error budget for this test'}."
+            f"</b> {html.escape(budget['warning'])}</div>"
         )
     return "".join(parts)
 

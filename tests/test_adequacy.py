@@ -243,6 +243,24 @@ def test_a_test_without_an_error_budget_says_so(model, tmp_path):
     )
     status = budget_status(_result(tmp_path, model, narrow))
     assert not status["known"] and "8 mm field of view" in status["warning"]
+    outside = ModelError(
+        np.zeros(2),
+        np.array([3.0, 24.0]),
+        np.zeros((2, 2)),
+        source | {"where": "outside", "at": [1.5, 560.0]},
+        False,
+    )
+    status = budget_status(_result(tmp_path, model, outside))
+    assert status["known"] and "lies outside the region its error budget verified" in status["warning"]
+    assert "add this point (1.5:560) to the study's points" in status["warning"]
+    assert status["warning"].endswith("'No error budget')")
+    from indentation_studio.studio.report import fit_warnings_html
+
+    assert "<b>Error budget not measured here.</b>" in fit_warnings_html({"error_budget": status})
+    inside = ModelError(
+        np.zeros(2), np.array([3.0, 24.0]), np.zeros((2, 2)), source | {"where": "interpolated"}, False
+    )
+    assert budget_status(_result(tmp_path, model, inside))["warning"] is None
 
 
 def test_the_cli_and_the_report_show_the_flag_loudly(model, tmp_path, capsys):

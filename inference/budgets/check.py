@@ -6,7 +6,8 @@ of view. A budget is known when the surrogate carries one (measured for its mesh
 given at training, or shipped with the studio: :func:`surrogate.error_budgets.shipped_budget`), or
 when the fit carries its mesh check (``--check-mesh``: the finer mesh's GCI in its bounds). A
 budget measured over a field of view much wider or narrower than the data's
-(``FOV_TOLERANCE``) is named as not quite this test.
+(``FOV_TOLERANCE``) is named as not quite this test, and a fit outside the points its budget was
+measured at is told that its budget there is not measured.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ import numpy as np
 
 from ...forward.mesh_presets import CONTACT_CORE_PER_RADIUS
 
-__all__ = ["FOV_TOLERANCE", "HOW_TO_MEASURE", "budget_status", "how_to_measure"]
+__all__ = ["FOV_TOLERANCE", "HOW_TO_MEASURE", "OUTSIDE_HOW", "budget_status", "how_to_measure"]
 
 #: A budget measured over a field of view whose radius differs from the data's by more than
 #: this fraction is not this test's.
@@ -32,6 +33,10 @@ HOW_TO_MEASURE = (
     "train the surrogate on a contact-L1 campaign with --error-budget budget.json (docs: Fit and posterior, "
     "'No error budget')"
 )
+
+
+#: What to add to :data:`HOW_TO_MEASURE` for a fit outside its budget's points.
+OUTSIDE_HOW = "add this point ({c1:.3g}:{c5:.4g}) to the study's points and "
 
 
 def how_to_measure(radius: float) -> str:
@@ -52,7 +57,8 @@ def _test(spec, fov_mm: float) -> str:
 def budget_status(result) -> dict:
     """Whether the fit (an :class:`inference.fit.result.ExperimentFit`) has an error budget
     for its test: ``{"known": bool, "test": str, "source": dict | None, "warning": str | None}``;
-    the warning says what the bounds then hold and how to measure one."""
+    the warning says what the bounds then hold and how to measure one (a fit outside its budget's
+    points is told so with ``known`` True)."""
     inputs = result.inputs
     xyz = np.asarray(inputs.dic.xyz, float)
     fov = float(np.hypot(xyz[:, 0], xyz[:, 1]).max()) if len(xyz) else float("nan")
@@ -83,6 +89,22 @@ def budget_status(result) -> dict:
             "warning": (
                 f"the error budget in these bounds was measured over a {float(budget_fov):g} mm field of view; "
                 f"these data cover {fov:.3g} mm ({test}): it may not hold here; "
+                + how_to_measure(inputs.spec.indenter.radius)
+            ),
+        }
+    if isinstance(source, dict) and source.get("where") == "outside":
+        at = source.get("at") or [float("nan")] * 2
+        return {
+            "known": True,
+            "test": test,
+            "source": source,
+            "warning": (
+                f"the fit ({at[0]:.3g}, {at[1]:.4g} kPa) lies outside the region its error budget verified "
+                f"(the {source.get('points')} test points of {source.get('file')}): the budget there is its "
+                "nearest points' largest, not measured, and can be far too narrow (at R = 8 mm, {1.5, 560} kPa, "
+                "made on contact-L4, level 3's c5 missed level 4's by 6.4 % where the nearest point's "
+                "correction was 0.8 %, and the fit's c5 lay 14 % from the truth outside its +-8.8 %); "
+                + OUTSIDE_HOW.format(c1=at[0], c5=at[1])
                 + how_to_measure(inputs.spec.indenter.radius)
             ),
         }
