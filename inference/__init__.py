@@ -62,6 +62,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
         "budgets.study_files": ["load_verification_study", "merge_verification_studies"],
         "preparation": ["CostEstimate", "PreparedTest", "TestRecipe", "estimate_cost", "prepare_test"],
         "budgets.study_budget": ["reference_uncertainty_pct", "study_error_budget"],
+        "budgets.budget_merge": ["merge_error_budgets"],
         "budgets.finest_reference": [
             "ReferenceCorrection",
             "finest_reference_budget",

@@ -1,6 +1,7 @@
-"""``indent-studio design error-budget | study-budget | budget-reference``: a model's error budget
-against a reference campaign or a verification study, and a budget moved to the study's finest
-level (the library's :mod:`indentation_studio.inference.budgets`)."""
+"""``indent-studio design error-budget | study-budget | budget-reference | merge-budgets``: a
+model's error budget against a reference campaign or a verification study, a budget moved to the
+study's finest level, budgets of one test made at different points merged (the library's
+:mod:`indentation_studio.inference.budgets`)."""
 
 from __future__ import annotations
 
@@ -226,12 +227,42 @@ def _print_budget(budget: inference.ErrorBudget, reference: str) -> None:
         )
 
 
+BUDGETS_TO_MERGE = Annotated[
+    list[Path],
+    typer.Option(
+        "--budget",
+        help="an error-budget.json of the test; repeat it (two or more, the same test, objective, noise "
+        "and reference rule, made at different points)",
+    ),
+]
+
+
+def merge_budgets_cmd(budget: BUDGETS_TO_MERGE, out: STUDY_BUDGET_OUT, as_json: JSON = False) -> None:
+    """Merge error budgets of one test measured at different points (a budget grown by a point, e.g.
+    a one-point study where a fit lay outside the budget's points) into one."""
+    try:
+        payload = inference.merge_error_budgets(budget)
+        atomic_write_json(out, payload)
+    except (ValueError, OSError, KeyError) as exc:
+        fail(str(exc), as_json)
+    if as_json:
+        print(strict_json(payload | {"json_file": str(out)}))
+        return
+    points = sorted({(r["c1_true"], r["c5_true"]) for r in payload["rows"]})
+    Console().print(
+        f"wrote {out}: {payload['reference']['points']} points ("
+        + ", ".join("{" + f"{c1:g}, {c5:g}" + "}" for c1, c5 in points)
+        + f" kPa) from {len(budget)} budgets"
+    )
+
+
 def register_budget_commands(app: typer.Typer) -> None:
     """Add the budget commands to ``indent-studio design`` (after its design commands)."""
     commands = {
         "error-budget": error_budget_cmd,
         "study-budget": study_budget_cmd,
         "budget-reference": budget_reference_cmd,
+        "merge-budgets": merge_budgets_cmd,
     }
     for name, command in commands.items():
         app.command(name)(command)

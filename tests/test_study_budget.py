@@ -9,6 +9,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from typer.testing import CliRunner
 
 from indentation_studio.design.nodal_weights import FIT_INNER_RADII
 from indentation_studio.forward.convergence.mesh_family import contact_family
@@ -17,6 +18,7 @@ from indentation_studio.forward.mesh_presets import FIT_MESH, HIGH_FIDELITY_MESH
 from indentation_studio.forward.predictor import CachedPredictor
 from indentation_studio.forward.result import SimulationResult
 from indentation_studio.forward.spec import Contact, Indenter, MeshChoice, ModelSpec, Protocol
+from indentation_studio.inference.budgets.budget_merge import merge_error_budgets
 from indentation_studio.inference.budgets.error_budget import compute_error_budget
 from indentation_studio.inference.budgets.finest_reference import (
     finest_reference_budget,
@@ -32,6 +34,7 @@ from indentation_studio.inference.budgets.study_budget import (
 )
 from indentation_studio.inference.budgets.study_files import merge_verification_studies
 from indentation_studio.inference.budgets.verification_study import run_verification_study
+from indentation_studio.studio.cli import app
 from indentation_studio.surrogate.error_budgets import (
     budget_at,
     remaining_bias,
@@ -394,3 +397,64 @@ def test_a_budget_map_reads_the_budget_as_a_fit_does(tmp_path):
     np.testing.assert_allclose(m["total_c5_pct"][:, 1:], np.hypot([[2.0, 4.0], [2.0, 4.0]], 1.5))
     assert m["verified"][:, 1:].all() and not m["verified"][:, 0].any()  # c1 = 1 kPa: outside
     assert np.all(m["c5_pct"][:, 0] >= 2.0)  # never narrower than at the nearest point
+
+
+def _split_budget(tmp_path, source):
+    """The shipped R = 4.77 mm budget cut in two: the points with c1 = 19 kPa, and the rest."""
+    payload = json.loads(source.read_text())
+    corner = [r for r in payload["rows"] if r["c1_true"] == 19.0]
+    rest = [r for r in payload["rows"] if r["c1_true"] != 19.0]
+    a, b = tmp_path / "rest.json", tmp_path / "c1-19.json"
+    a.write_text(json.dumps(payload | {"rows": rest}))
+    b.write_text(json.dumps(payload | {"rows": corner}))
+    return payload, a, b
+
+
+def test_budgets_made_at_different_points_merge_into_the_whole(tmp_path):
+    source = shipped_budgets_folder() / "fit-model-R4.77.json"
+    payload, a, b = _split_budget(tmp_path, source)
+    merged = merge_error_budgets([a, b])
+    assert merged["reference"]["points"] == 9 and len(merged["rows"]) == len(payload["rows"])
+    assert merged["summary"] == payload["summary"]  # the summary made again over the rows
+    out = tmp_path / "merged.json"
+    out.write_text(json.dumps(merged))
+    whole, again = remaining_bias(source, "contact-L3"), remaining_bias(out, "contact-L3")
+    again["source"] = whole["source"] = {k: whole["source"][k] for k in ("reference_gci_carried",)}
+    for theta in ([5.0, 200.0], [15.0, 450.0], [1.5, 560.0]):  # inside the hull, and outside it
+        x, y = budget_at(whole, theta), budget_at(again, theta)
+        for key in ("c1_pct", "c5_pct", "c1_correction_pct", "c5_correction_pct"):
+            assert x[key] == pytest.approx(y[key], rel=1e-12)
+    # the half without c1 = 19 has its hull end at c1 = 11: there a fit at 15 kPa is outside
+    alone = remaining_bias(a, "contact-L3")
+    assert budget_at(alone, [15.0, 450.0])["source"]["where"] == "outside"
+
+
+def test_budgets_of_other_settings_or_the_same_point_twice_do_not_merge(tmp_path):
+    _, a, b = _split_budget(tmp_path, shipped_budgets_folder() / "fit-model-R4.77.json")
+    with pytest.raises(ValueError, match="the same model at the same point"):
+        merge_error_budgets([a, a])
+    other = tmp_path / "weights.json"
+    other.write_text(json.dumps(json.loads(b.read_text()) | {"weights": [0.5, 0.3, 0.2, 0.0]}))
+    with pytest.raises(ValueError, match="weights"):
+        merge_error_budgets([a, other])
+    radius = json.loads(b.read_text())
+    radius["reference"]["model"]["indenter"]["radius"] = 8.0
+    (tmp_path / "r8.json").write_text(json.dumps(radius))
+    with pytest.raises(ValueError, match="another test"):
+        merge_error_budgets([a, tmp_path / "r8.json"])
+    with pytest.raises(ValueError, match="two files or more"):
+        merge_error_budgets([a])
+
+
+def test_the_merge_command_writes_the_whole(tmp_path):
+    _, a, b = _split_budget(tmp_path, shipped_budgets_folder() / "fit-model-R4.77.json")
+    out = tmp_path / "m.json"
+    r = CliRunner().invoke(
+        app, ["design", "merge-budgets", "--budget", str(a), "--budget", str(b), "--out", str(out)]
+    )
+    assert r.exit_code == 0, r.output
+    assert "9 points" in r.output and json.loads(out.read_text())["merged_from"] == [str(a), str(b)]
+    bad = CliRunner().invoke(
+        app, ["design", "merge-budgets", "--budget", str(a), "--budget", str(a), "--out", str(out)]
+    )
+    assert bad.exit_code != 0 and "the same model at the same point" in bad.output
