@@ -168,7 +168,6 @@ def test_a_fit_freeing_mu_carries_the_freed_move_and_one_holding_it_does_not(
         }
     }
     _, p = _objective(model)
-    spec["mesh"] = dict(spec.get("mesh") or {}) | {"preset": spec["mesh"]["preset"]}
     _differences(p, _along(p, 2, 0.05), meta={"model": spec}).save(tmp_path / "mesh-differences-test.npz")
     monkeypatch.setattr(md, "shipped_budgets_folder", lambda: tmp_path)
     exp = write_synthetic_experiment(model, THETA, tmp_path / "e", radius=4.77, step_size=0.5, seed=2)
