@@ -146,13 +146,8 @@ def budget_reference_cmd(
     """Move a budget to a finer study's finest level: its level's fit corrected to the extrapolated
     value where the finest triplet is monotone, to the finest level where it oscillates; the width
     is the finest level's own GCI (docs/explanation/model-error.md)."""
-    try:
-        payload = inference.finest_reference_budget(budget, study)
-        atomic_write_json(out, payload)
-    except (ValueError, OSError, KeyError) as exc:
-        fail(str(exc), as_json)
-    if as_json:
-        print(strict_json(payload | {"json_file": str(out)}))
+    payload = _written(lambda: inference.finest_reference_budget(budget, study), out, as_json)
+    if payload is None:
         return
     level = payload["reference"]["corrected_level"]
     view = Table(
@@ -240,13 +235,8 @@ BUDGETS_TO_MERGE = Annotated[
 def merge_budgets_cmd(budget: BUDGETS_TO_MERGE, out: STUDY_BUDGET_OUT, as_json: JSON = False) -> None:
     """Merge error budgets of one test measured at different points (a budget grown by a point, e.g.
     a one-point study where a fit lay outside the budget's points) into one."""
-    try:
-        payload = inference.merge_error_budgets(budget)
-        atomic_write_json(out, payload)
-    except (ValueError, OSError, KeyError) as exc:
-        fail(str(exc), as_json)
-    if as_json:
-        print(strict_json(payload | {"json_file": str(out)}))
+    payload = _written(lambda: inference.merge_error_budgets(budget), out, as_json)
+    if payload is None:
         return
     points = sorted({(r["c1_true"], r["c5_true"]) for r in payload["rows"]})
     Console().print(
@@ -254,6 +244,20 @@ def merge_budgets_cmd(budget: BUDGETS_TO_MERGE, out: STUDY_BUDGET_OUT, as_json: 
         + ", ".join("{" + f"{c1:g}, {c5:g}" + "}" for c1, c5 in points)
         + f" kPa) from {len(budget)} budgets"
     )
+
+
+def _written(make, out: Path, as_json: bool) -> dict | None:
+    """A budget's payload made by ``make()`` and written to ``out``; a bad input ends the command
+    with its error named. With ``as_json`` the payload is printed and None returned."""
+    try:
+        payload = make()
+        atomic_write_json(out, payload)
+    except (ValueError, OSError, KeyError) as exc:
+        fail(str(exc), as_json)
+    if as_json:
+        print(strict_json(payload | {"json_file": str(out)}))
+        return None
+    return payload
 
 
 def register_budget_commands(app: typer.Typer) -> None:
