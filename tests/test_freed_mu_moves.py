@@ -130,10 +130,11 @@ def test_bad_mesh_differences_are_named(tmp_path):
         MeshDifferences.load(tmp_path / "x.npz")
 
 
-def test_the_shipped_differences_are_found_by_test_and_mesh():
+@pytest.mark.parametrize(("tag", "radius"), [("R4.77", 4.77), ("R8", 8.0)])
+def test_the_shipped_differences_are_found_by_test_and_mesh(tag, radius):
     from indentation_studio.surrogate.shipped import load_shipped, shipped_surrogates
 
-    entry = next(e for e in shipped_surrogates() if "R4.77" in e.name)
+    entry = next(e for e in shipped_surrogates() if e.name.endswith(tag))
     model = load_shipped(entry).meta["campaign"]["model"]
     found = shipped_mesh_differences(model)
     assert (
@@ -141,13 +142,14 @@ def test_the_shipped_differences_are_found_by_test_and_mesh():
         and found.meta["coarse_mesh"] == "contact-L3"
         and found.meta["fine_mesh"] == "contact-L4"
     )
-    assert len(found.points) == 9 and found.meta["file"].endswith("mesh-differences-R4.77.npz")
+    assert len(found.points) == 9 and found.meta["file"].endswith(f"mesh-differences-{tag}.npz")
+    assert found.meta["model"]["indenter"]["radius"] == radius
     # level 3 is stiffer than level 4 at every budget point: its force is higher at 14 mm
     assert np.all(found.force_log[:, -1] > 0)
     other = json.loads(json.dumps(model))
     other["indenter"]["radius"] = 6.0
     assert shipped_mesh_differences(other) is None
-    other["indenter"]["radius"] = 4.77
+    other["indenter"]["radius"] = radius
     other["mesh"]["preset"] = "contact-L2"
     assert shipped_mesh_differences(other) is None
 
