@@ -102,8 +102,8 @@ def budget_status(result) -> dict:
                 f"the fit ({at[0]:.3g}, {at[1]:.4g} kPa) lies outside the region its error budget verified "
                 f"(the {source.get('points')} test points of {source.get('file')}): the budget there is its "
                 "nearest points' largest, not measured, and can be far too narrow (at R = 8 mm, {1.5, 560} kPa, "
-                "made on contact-L4, level 3's c5 missed level 4's by 6.4 % where the nearest point's "
-                "correction was 0.8 %, and the fit's c5 lay 14 % from the truth outside its +-8.8 %); "
+                "made on contact-L4, level 3's c5 missed level 4's by 6.4 % with mu held where the nearest "
+                "point's correction was 0.8 %); "
                 + OUTSIDE_HOW.format(c1=at[0], c5=at[1])
                 + how_to_measure(inputs.spec.indenter.radius)
             ),
