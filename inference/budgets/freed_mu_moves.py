@@ -8,7 +8,9 @@ measured on contact-L4 experiments, level 3's first-order move in c5 was -6.4 % 
 
 Here each of the budget's points' output differences (level 3 less level 4, force and top field,
 :class:`surrogate.mesh_differences.MeshDifferences`) is moved through the fit at its own theta, to
-first order (:func:`.fit_moves.fit_moves`), once with mu held and once with mu free; what freeing
+first order as :func:`.fit_moves.fit_moves` moves a change (by least squares with a cut-off here:
+at mu's range ends d/dmu vanishes and the normal equations would be singular), once with mu held
+and once with mu free; what freeing
 mu adds, d = move(mu free) - move(mu held) over (c1, c5), is read at the fit as the budget is
 (interpolated inside its points' hull, the nearest points' outside:
 :func:`surrogate.error_budgets.budget_at`). The budget's correction is moved by -d and its
