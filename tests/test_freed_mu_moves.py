@@ -1,5 +1,5 @@
 """The mesh's error with the fit's own free parameters (issue 57, option (i)): the budget's points'
-output differences moved through the fit with mu held and with mu free (first order), their file,
+output differences moved through the fit by refits with mu held and with mu free, their file,
 and a fit freeing mu carrying them (inference.budgets.freed_mu_moves, surrogate.mesh_differences)."""
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from indentation_studio.design.objective import Objective
-from indentation_studio.inference.budgets.freed_mu_moves import freed_mu_moves, with_freed_mu
+from indentation_studio.inference.budgets.freed_mu_moves import freed_mu_moves, mesh_moves, with_freed_mu
 from indentation_studio.inference.budgets.model_error_parts import ModelError
 from indentation_studio.surrogate import mesh_differences as md
 from indentation_studio.surrogate.mesh_differences import MeshDifferences, shipped_mesh_differences
@@ -60,6 +60,27 @@ def test_a_change_that_looks_like_slip_is_taken_by_mu_when_it_is_freed(mu_surrog
     held = -np.linalg.lstsq(J[:, :2], J[:, 2] * delta, rcond=None)[0]
     assert np.max(np.abs(held)) > 1e-5  # mu's change is not orthogonal to c1's and c5's
     np.testing.assert_allclose(d, np.tile(-held, (4, 1)), rtol=2e-2, atol=1e-8)
+
+
+def test_a_large_change_of_mu_is_taken_whole_by_mu_where_a_first_order_move_is_not(mu_surrogate):
+    objective, p = _objective(mu_surrogate)
+    # the data moved by exactly what mu 0.5 -> 1.5 changes (nonlinear): with mu free the refit lands
+    # on (c1, c5, 1.5), so (c1, c5) do not move; with mu held they take part of it
+    other = mu_surrogate.predict(np.array([[THETA[0], THETA[1], 1.5]]))
+    change = np.concatenate(
+        [np.log(other.force[0]) - np.log(p.force[0]), (other.displacement[0] - p.displacement[0]).ravel()]
+    )
+    free, held = mesh_moves(objective, ETA, mu_surrogate, THETA, change)
+    np.testing.assert_allclose(free, 0.0, atol=1e-8)
+    assert abs(held[1]) > 1e-2  # c5 1.4 % with mu held
+    # one Gauss-Newton step at the fit (the first-order move) misses the refit's free move
+    J = objective.jacobian(p, np.asarray(ETA))[0] * THETA
+    dr = (
+        objective.residuals(mu_surrogate.predict(np.array([[THETA[0], THETA[1], 1.5]])), np.asarray(ETA))[0]
+        - objective.residuals(p, np.asarray(ETA))[0]
+    )
+    first_order = np.linalg.lstsq(J, dr, rcond=1e-8)[0]  # the step the data's move asks
+    assert abs(first_order[1]) > 1e-4  # c5 moves 0.06 %: mu's step (0.29 in log) falls short of log 3
 
 
 def test_the_freed_move_corrects_the_budget_and_widens_it_by_as_much(mu_surrogate):

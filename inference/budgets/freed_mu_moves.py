@@ -6,15 +6,20 @@ measured on contact-L4 experiments, level 3's first-order move in c5 was -6.4 % 
 -10.1 % with mu free at R = 8 mm, {1.5, 560} kPa, and -4.3 % against -7.9 % at R = 4.77 mm,
 {3, 540} (docs/validation/model-error.md, "The mesh's move with mu free").
 
-Here each of the budget's points' output differences (level 3 less level 4, force and top field,
-:class:`surrogate.mesh_differences.MeshDifferences`) is moved through the fit at its own theta, to
-first order as :func:`.fit_moves.fit_moves` moves a change (by least squares with a cut-off here:
-at mu's range ends d/dmu vanishes and the normal equations would be singular), once with mu held
-and once with mu free; what freeing
-mu adds, d = move(mu free) - move(mu held) over (c1, c5), is read at the fit as the budget is
-(interpolated inside its points' hull, the nearest points' outside:
-:func:`surrogate.error_budgets.budget_at`). The budget's correction is moved by -d and its
-half-width grows by |d|: the bound holds both the mu-held budget and twice the freed move."""
+Here each of the budget's points' output differences d (level 3 less level 4, force and top
+field, :class:`surrogate.mesh_differences.MeshDifferences`) is carried through the fit at its own
+theta: the fit is made again on the surrogate with its data moved by d (what level 3 would have
+recorded there), once with mu free and once with mu held at the fit's, and the mesh's move is the
+fit less that refit. What freeing mu adds, m = move(mu free) - move(mu held) over (c1, c5), is read
+at the fit as the budget is (interpolated inside its points' hull, the nearest points' outside:
+:func:`surrogate.error_budgets.budget_at`). The budget's correction is moved by -m and its
+half-width grows by |m|: the bound holds both the mu-held budget and twice the freed move.
+
+The refits are nonlinear because mu's move is: on a `contact-L4` record at R = 4.77 mm, {11, 540}
+kPa with the stick, the plain fit took mu = 0.45 and c5 3.6 % below the plain fit of level 3's
+record of the same point and noise (mu = 1.89), where a first-order move at the fit (one
+Gauss-Newton step) gave 0.3 % (docs/validation/model-error.md, "The freed move made again by
+refits")."""
 
 from __future__ import annotations
 
@@ -23,20 +28,57 @@ from dataclasses import replace
 from datetime import UTC, datetime
 
 import numpy as np
+from scipy.optimize import least_squares
 
+from ...design.friction_treatment import FixedParameter
 from ...design.objective import Objective, check_weights
+from ...forward.predictor import Prediction
 from ...forward.result import SimulationResult
 from ...surrogate.error_budgets import budget_at
 from ...surrogate.mesh_differences import MeshDifferences
-from .fit_moves import residual_changes
+from .fit_moves import moved_prediction
 from .mesh_check import prediction_at_nodes
 from .model_error_parts import ModelError
 
-__all__ = ["freed_mu_moves", "mesh_differences_from_runs", "with_freed_mu"]
+__all__ = ["MovedOutputs", "freed_mu_moves", "mesh_differences_from_runs", "mesh_moves", "with_freed_mu"]
 
-#: Singular values of the free Jacobian below this fraction of the largest are not inverted: at
-#: mu's range ends nothing slips and d/dmu vanishes; mu then takes up nothing.
-RCOND = 1e-8
+#: Evaluations of the objective each refit may take (a fit on the surrogate takes 5 to 15).
+REFIT_EVALUATIONS = 60
+
+
+class MovedOutputs:
+    """A predictor whose outputs are moved by one fixed output-space change (log force, field).
+
+    Parameters
+    ----------
+    predictor : Predictor
+        The predictor moved.
+    change : numpy.ndarray
+        (steps + steps * nodes * 3,) the change of log force per step, then of the field (mm).
+    """
+
+    def __init__(self, predictor, change: np.ndarray) -> None:
+        self.predictor = predictor
+        self.parameters = tuple(predictor.parameters)
+        self.change = np.asarray(change, float)
+
+    def predict(self, theta, jacobian: bool = False) -> Prediction:
+        """The moved predictor's response (its Jacobians are the predictor's, the force's scaled).
+
+        Parameters
+        ----------
+        theta : array_like
+            (n, p) the parameters.
+        jacobian : bool, default False
+            Also the Jacobians.
+
+        Returns
+        -------
+        Prediction
+        """
+        pred = self.predictor.predict(theta, jacobian=jacobian)
+        steps = pred.force.shape[1]
+        return moved_prediction(pred, self.change[:steps], self.change[steps:])
 
 
 def mesh_differences_from_runs(
@@ -98,22 +140,43 @@ def mesh_differences_from_runs(
     )
 
 
+def _refit(objective: Objective, eta: np.ndarray, predictor, theta: np.ndarray, box) -> np.ndarray:
+    """log theta of the fit of ``objective`` on ``predictor`` from ``theta``, kept inside ``box``."""
+    z_lo, z_hi = np.log(box[0]), np.log(box[1])
+
+    def residuals(z: np.ndarray) -> np.ndarray:
+        return objective.residuals(predictor.predict(np.exp(z)[None]), eta)[0]
+
+    def jacobian(z: np.ndarray) -> np.ndarray:
+        t = np.exp(z)
+        return objective.jacobian(predictor.predict(t[None], jacobian=True), eta)[0] * t
+
+    z0 = np.clip(np.log(theta), z_lo, z_hi)
+    sol = least_squares(
+        residuals, z0, jac=jacobian, bounds=(z_lo, z_hi), method="trf", max_nfev=REFIT_EVALUATIONS
+    )
+    return sol.x
+
+
 def freed_mu_moves(
     objective: Objective, eta, surrogate, theta: np.ndarray, differences: MeshDifferences
 ) -> np.ndarray:
-    """What freeing mu adds to each point's mesh error in the fit at ``theta``, to first order.
+    """What freeing mu adds to each point's mesh error in the fit at ``theta`` (refits).
 
-    Each point's output change dr (level 3 less level 4 at the surrogate's nodes) moves the fit by
-    -(J^T J)^+ J^T dr (in log theta); J over (c1, c5) with mu held, over (c1, c5, mu) with mu free.
+    Each point's output change d (level 3 less level 4 at the surrogate's nodes) moves the fit by
+    log theta_hat - log theta_refit, where the refit fits the surrogate to the data moved by d (the
+    surrogate's outputs moved by -d), from ``theta``, inside the surrogate's box: over (c1, c5, mu)
+    with mu free, over (c1, c5) with mu held at the fit's.
 
     Parameters
     ----------
     objective : Objective
-        The fit's objective.
+        The fit's objective (its target the fit's data).
     eta : array_like
         The weights of eq. 5.
     surrogate : FieldSurrogate
-        The fit's surrogate, trained with mu (its parameters c1, c5, mu).
+        The fit's surrogate, trained with mu (its parameters c1, c5, mu; ``scaler.lo``, ``scaler.hi``
+        its box).
     theta : numpy.ndarray
         (3,) the fit (c1, c5 kPa, mu).
     differences : MeshDifferences
@@ -132,13 +195,48 @@ def freed_mu_moves(
     theta = np.asarray(theta, float)
     if theta.size != 3:
         raise ValueError(f"freeing mu needs the fit's (c1, c5, mu), got {theta.size} values")
+    moves = [
+        np.subtract(*mesh_moves(objective, eta, surrogate, theta, change))
+        for change in differences.outputs_at(surrogate.top_xyz)
+    ]
+    return np.array(moves)
+
+
+def mesh_moves(
+    objective: Objective, eta, surrogate, theta: np.ndarray, change: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """How one output change d moves the fit at ``theta``, with mu free and with mu held (refits).
+
+    The move is log theta_hat - log theta_refit over (c1, c5), the refit fitting the surrogate to
+    the data moved by d (its outputs moved by -d) from ``theta``, inside the surrogate's box.
+
+    Parameters
+    ----------
+    objective : Objective
+        The fit's objective (its target the fit's data).
+    eta : array_like
+        The weights of eq. 5.
+    surrogate : FieldSurrogate
+        The fit's surrogate over (c1, c5, mu).
+    theta : numpy.ndarray
+        (3,) the fit (c1, c5 kPa, mu).
+    change : numpy.ndarray
+        (steps + steps * nodes * 3,) d: log force per step, then the field (mm).
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray)
+        (2,) the move with mu free and (2,) with mu held, in log c1, log c5.
+    """
+    theta = np.asarray(theta, float)
     e = check_weights(eta)
-    pred = surrogate.predict(theta[None, :], jacobian=True)
-    J = objective.jacobian(pred, e)[0] * theta  # d r / d log theta
-    dr = residual_changes(objective, e, pred, differences.outputs_at(surrogate.top_xyz))  # (n, m)
-    held = -np.linalg.lstsq(J[:, :2], dr.T, rcond=RCOND)[0].T
-    free = -np.linalg.lstsq(J, dr.T, rcond=RCOND)[0].T[:, :2]
-    return free - held
+    box = np.asarray(surrogate.scaler.lo, float), np.asarray(surrogate.scaler.hi, float)
+    mu = float(np.clip(theta[2], box[0][2], box[1][2]))
+    moved = MovedOutputs(surrogate, -np.asarray(change, float))
+    z = np.log(theta[:2])
+    free = z - _refit(objective, e, moved, theta, box)[:2]
+    held = z - _refit(objective, e, FixedParameter(moved, "mu", mu), theta[:2], (box[0][:2], box[1][:2]))
+    return free, held
 
 
 def with_freed_mu(
@@ -189,8 +287,8 @@ def with_freed_mu(
             "where": at["source"]["where"],
             "file": differences.meta.get("file"),
             "points": len(points),
-            "rule": "each budget point's level-3 less level-4 outputs moved through the fit with mu free and "
-            "held (first order); the budget's correction moved by what freeing mu adds, its width grown by as much",
+            "rule": "each budget point's level-3 less level-4 outputs moved through the fit by refits with mu "
+            "free and held; the budget's correction moved by what freeing mu adds, its width grown by as much",
         }
     }
     budget = np.asarray(model.budget_pct, float).copy()
