@@ -37,12 +37,11 @@ from typing import Any
 
 import numpy as np
 from scipy import sparse
-from sklearn.model_selection import KFold
 
 from ..forward.convergence.mesh_study import top_field_interpolator
 from ..forward.predictor import Prediction, ReducedBasis
 from .base import FieldSurrogate, InputScaler, TrainingData, padded_jacobian
-from .emulation_error import EmulationError
+from .discrepancy_errors import k_fold_discrepancy_errors, pca_truncation_errors
 from .gaussian_process import GaussianProcessSurrogate
 from .slip_surrogate import SlipSurrogate
 from .two_level import TwoLevelSurrogate, model_differences
@@ -242,14 +241,16 @@ class MultiFidelitySurrogate(TwoLevelSurrogate):
                 "discrepancy_parameters": list(self.discrepancy.parameters),
                 "discrepancy": {
                     **{k: d[k] for k in ("kernels", "force_pca_error", "field_pca_error")},
-                    "truncation": self._truncation_errors(D),
+                    "truncation": pca_truncation_errors(self.discrepancy, D),
                 },
                 "campaign": data.source,
                 "low_fidelity": self.low.meta,
             }
         )
         if self.folds >= 2:
-            self.meta["discrepancy_kfold"] = self._k_fold_errors(D, seed)
+            self.discrepancy_error, self.meta["discrepancy_kfold"] = k_fold_discrepancy_errors(
+                self._discrepancy_model, D, folds=self.folds, seed=seed, steps=self.n_steps
+            )
         self.meta["fit_s"] = time.perf_counter() - t0
         return self
 
@@ -335,54 +336,10 @@ class MultiFidelitySurrogate(TwoLevelSurrogate):
         model.discrepancy_error = self.discrepancy_error
         return model
 
-    def _truncation_errors(self, D: TrainingData) -> dict[str, float]:
-        """What the discrepancy's PCA leaves of its training data (largest force % and field mm)."""
-        d = self.discrepancy
-        log_ratio = np.log(D.force)
-        U = D.displacement.reshape(D.n, -1)
-        f = d.force_pca.inverse_transform(d.force_pca.transform(log_ratio)) - log_ratio
-        u = d.field_pca.inverse_transform(d.field_pca.transform(U)) - U
-        return {
-            "force_max_pct": 100.0 * float(np.abs(np.expm1(f)).max()),
-            "field_max_mm": float(np.abs(u).max()),
-        }
-
-    def _k_fold_errors(self, D: TrainingData, seed: int) -> dict[str, Any]:
-        """Held-out errors of the discrepancy model (PCA truncation and GP together), refitted on
-        each fold's rest: the multi-fidelity prediction's errors at the high-fidelity points."""
-        folds = min(self.folds, D.n)
-        df, du, held = [], [], []
-        for train, test in KFold(folds, shuffle=True, random_state=seed).split(D.theta):
-            held.append(test)
-            model = self._discrepancy_model().fit(D.subset(train), seed=seed)
-            pred = model.predict(D.theta[test])
-            df.append(np.log(pred.force) - np.log(D.force[test]))
-            du.append(pred.displacement - D.displacement[test])
-        rel_f = np.expm1(np.concatenate(df))
-        err_u = np.concatenate(du)
-        order = np.concatenate(held)
-        # the multi-fidelity prediction's errors there (the FE response minus the prediction), as a
-        # low surrogate's held-out errors are kept: what a fit pushes through to a fitted mu
-        self.discrepancy_error = EmulationError.from_errors(
-            D.theta[order],
-            -np.hstack([np.concatenate(df), err_u.reshape(len(order), -1)]),
-            steps=self.n_steps,
-            source=f"{folds}-fold cross-validation of the discrepancy at {D.n} high-fidelity points",
-        )
-        return {
-            "folds": folds,
-            "points": int(D.n),
-            "force_rms_pct": 100.0 * float(np.sqrt(np.mean(rel_f**2))),
-            "force_max_pct": 100.0 * float(np.abs(rel_f).max()),
-            "field_rms_mm": float(np.sqrt(np.mean(err_u**2))),
-            "field_max_mm": float(np.abs(err_u).max()),
-            **{f"u{'xyz'[j]}_rms_mm": float(np.sqrt(np.mean(err_u[..., j] ** 2))) for j in range(3)},
-        }
-
     #: The low level's held-out errors on its own top nodes: what the file keeps (a few times fewer
     #: numbers than on the high nodes), moved to the high nodes when it is read.
     low_emulation_error = None
-    #: The discrepancy's own held-out errors (:meth:`_k_fold_errors`: the multi-fidelity
+    #: The discrepancy's own held-out errors (:func:`.discrepancy_errors.k_fold_discrepancy_errors`: the multi-fidelity
     #: prediction's errors at the high-fidelity points, an EmulationError on the high top nodes);
     #: None where it was trained without folds or read from a file made before they were kept.
     discrepancy_error = None
