@@ -42,7 +42,7 @@ from .model_error_parts import ModelError
 
 __all__ = ["MovedOutputs", "freed_mu_moves", "mesh_differences_from_runs", "mesh_moves", "with_freed_mu"]
 
-#: Evaluations of the objective each refit may take (a fit on the surrogate takes 5 to 15).
+#: Evaluations of the objective each refit may take at most (scipy least_squares' max_nfev).
 REFIT_EVALUATIONS = 60
 
 
