@@ -264,7 +264,7 @@ def test_a_test_without_an_error_budget_says_so(model, tmp_path):
 
 
 def test_the_cli_and_the_report_show_the_flag_loudly(model, tmp_path, capsys):
-    from indentation_studio.studio.inference_cli import _loud_warnings
+    from indentation_studio.studio.inference_printout import loud_warnings
     from indentation_studio.studio.report import fit_warnings_html
 
     root = _experiment(model, tmp_path / "loud", 5)
@@ -274,7 +274,7 @@ def test_the_cli_and_the_report_show_the_flag_loudly(model, tmp_path, capsys):
     _, a = _fit_and_test(model, root)
     a.named = [{"parameter": "mu", "reason": "on its range's upper limit"}]
     payload = {"adequacy": a.to_dict(), "error_budget": budget_status(_result(tmp_path, model, None))}
-    _loud_warnings(payload)
+    loud_warnings(payload)
     out = capsys.readouterr().out
     assert "MODEL INADEQUATE" in out and "NO ERROR BUDGET FOR THIS TEST" in out
     assert "the model cannot explain these data" in " ".join(out.split())
