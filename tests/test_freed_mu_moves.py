@@ -11,7 +11,12 @@ import numpy as np
 import pytest
 
 from indentation_studio.design.objective import Objective
-from indentation_studio.inference.budgets.freed_mu_moves import freed_mu_moves, mesh_moves, with_freed_mu
+from indentation_studio.inference.budgets.freed_mu_moves import (
+    freed_mu_moves,
+    mesh_moves,
+    points_read,
+    with_freed_mu,
+)
 from indentation_studio.inference.budgets.model_error_parts import ModelError
 from indentation_studio.surrogate import mesh_differences as md
 from indentation_studio.surrogate.mesh_differences import MeshDifferences, shipped_mesh_differences
@@ -108,6 +113,17 @@ def test_the_freed_move_corrects_the_budget_and_widens_it_by_as_much(mu_surrogat
     assert one.budget_source["mu_free"]["where"] == "largest"  # two points: the largest move, no correction
     np.testing.assert_allclose(one.budget_pct, np.array([1.0, 2.0]) + np.abs(moves), rtol=1e-9)
     np.testing.assert_allclose(one.correction_pct, [0.5, -1.0])
+
+
+def test_only_the_points_the_budget_reads_at_the_fit_are_moved():
+    # inside the hull: the three vertices of the triangle holding the fit (near the first corner)
+    inside = points_read(CORNERS, np.array([6.3, 260.0, 0.5]))
+    assert inside[0] and inside.sum() == 3
+    # outside: the nearest three (surrogate.error_budgets.NEAREST_OUTSIDE)
+    outside = points_read(CORNERS * 3, THETA)
+    np.testing.assert_array_equal(outside, [True, True, True, False])
+    # two points cannot be read between: all of them (the largest move is taken)
+    assert points_read(CORNERS[:2], THETA).all()
 
 
 def test_mesh_differences_read_back_and_follow_other_nodes(tmp_path, mu_surrogate):

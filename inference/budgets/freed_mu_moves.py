@@ -40,7 +40,14 @@ from .fit_moves import moved_prediction
 from .mesh_check import prediction_at_nodes
 from .model_error_parts import ModelError
 
-__all__ = ["MovedOutputs", "freed_mu_moves", "mesh_differences_from_runs", "mesh_moves", "with_freed_mu"]
+__all__ = [
+    "MovedOutputs",
+    "freed_mu_moves",
+    "mesh_differences_from_runs",
+    "mesh_moves",
+    "points_read",
+    "with_freed_mu",
+]
 
 #: Evaluations of the objective each refit may take at most (scipy least_squares' max_nfev).
 REFIT_EVALUATIONS = 60
@@ -159,7 +166,13 @@ def _refit(objective: Objective, eta: np.ndarray, predictor, theta: np.ndarray, 
 
 
 def freed_mu_moves(
-    objective: Objective, eta, surrogate, theta: np.ndarray, differences: MeshDifferences
+    objective: Objective,
+    eta,
+    surrogate,
+    theta: np.ndarray,
+    differences: MeshDifferences,
+    *,
+    only: np.ndarray | None = None,
 ) -> np.ndarray:
     """What freeing mu adds to each point's mesh error in the fit at ``theta`` (refits).
 
@@ -181,6 +194,8 @@ def freed_mu_moves(
         (3,) the fit (c1, c5 kPa, mu).
     differences : MeshDifferences
         The budget's points' output differences.
+    only : numpy.ndarray of bool, optional
+        (n,) the points to move (the others' rows are NaN); default all.
 
     Returns
     -------
@@ -195,11 +210,11 @@ def freed_mu_moves(
     theta = np.asarray(theta, float)
     if theta.size != 3:
         raise ValueError(f"freeing mu needs the fit's (c1, c5, mu), got {theta.size} values")
-    moves = [
-        np.subtract(*mesh_moves(objective, eta, surrogate, theta, change))
-        for change in differences.outputs_at(surrogate.top_xyz)
-    ]
-    return np.array(moves)
+    changes = differences.outputs_at(surrogate.top_xyz)
+    moves = np.full((len(changes), 2), np.nan)
+    for k in np.flatnonzero(np.ones(len(changes), bool) if only is None else only):
+        moves[k] = np.subtract(*mesh_moves(objective, eta, surrogate, theta, changes[k]))
+    return moves
 
 
 def mesh_moves(
@@ -239,6 +254,37 @@ def mesh_moves(
     return free, held
 
 
+def points_read(points: np.ndarray, theta: np.ndarray) -> np.ndarray:
+    """Which of a budget's points :func:`surrogate.error_budgets.budget_at` reads at ``theta``.
+
+    Inside their hull the vertices of the triangle holding ``theta`` (a weight above zero), outside
+    the nearest ones; where it cannot read between them (fewer than three points), all.
+
+    Parameters
+    ----------
+    points : numpy.ndarray
+        (n, 2) the points' (c1, c5), kPa.
+    theta : numpy.ndarray
+        The fit's (c1, c5, ...).
+
+    Returns
+    -------
+    numpy.ndarray of bool
+        (n,)
+    """
+    read = np.zeros(len(points), bool)
+    for k in range(len(points)):
+        one = [
+            {"c1": float(c1), "c5": float(c5), "c1_pct": float(j == k), "c5_pct": 0.0}
+            for j, (c1, c5) in enumerate(points)
+        ]
+        at = budget_at({"source": {"reference_gci_carried": True}, "points": one}, theta)
+        if "c1_pct" not in at:  # too few points to read between: the largest of all is taken
+            return np.ones(len(points), bool)
+        read[k] = at["c1_pct"] > 0.0
+    return read
+
+
 def with_freed_mu(
     model: ModelError, objective: Objective, eta, surrogate, theta: np.ndarray, differences: MeshDifferences
 ) -> ModelError:
@@ -260,7 +306,9 @@ def with_freed_mu(
     -------
     ModelError
     """
-    d = 100.0 * np.expm1(freed_mu_moves(objective, eta, surrogate, theta, differences))  # (n, 2) percent
+    read = points_read(differences.points, theta)
+    d = 100.0 * np.expm1(freed_mu_moves(objective, eta, surrogate, theta, differences, only=read))
+    d[~read] = 0.0  # (n, 2) percent; the points the budget does not read at theta weigh nothing
     points = [
         {
             "c1": float(c1),
