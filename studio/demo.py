@@ -25,7 +25,6 @@ from ..design.study import fe_design_study
 from ..design.weights import PAPER_HESSIAN, compare_with_paper
 from ..forward.mesh import build_mesh
 from ..forward.spec import ModelSpec
-from ..inference.budgets.model_error import model_error_scope
 from ..inference.confirmation import confirm
 from ..inference.experiment.data import load_experiment
 from ..inference.experiment.processing import static_forces
@@ -255,7 +254,7 @@ def _example(experiment, mlp, posterior_steps: int, out: Path, spec: ModelSpec, 
             "bounds_pct": result.bounds_pct.tolist(),  # statistical and, where known, model error
             "statistical_pct": fit.bounds_pct.tolist(),
             "model_error": None if result.model_error is None else result.model_error.to_dict(),
-            "bounds_include": model_error_scope(result.model_error, contact=result.contact),
+            "bounds_include": record["bounds_include"],
             "F": fit.F,
             "s": fit.s,
             "surrogate_theta": result.surrogate_fit.theta.tolist(),

@@ -14,6 +14,7 @@ from indentation_studio.design.reduced_objective import FieldObjective, ReducedO
 from indentation_studio.forward.convergence.mesh_study import top_field_interpolator
 from indentation_studio.forward.predictor import Prediction
 from indentation_studio.inference.experiment.synthetic import write_synthetic_experiment
+from indentation_studio.inference.fit.error_parts import FRICTION_DISCREPANCY_UNMEASURED
 from indentation_studio.inference.fit.held_out_refits import HeldOutRefits, held_out_refits
 from indentation_studio.inference.fit.inverse_fit import fit_parameters
 from indentation_studio.inference.fit.workflow import fit_experiment
@@ -428,6 +429,8 @@ def test_a_fit_with_mu_carries_the_discrepancy_into_its_bounds(mf3, tmp_path):
     # the discrepancy was learned at the stick: mu's error at the high fidelity is not measured, so
     # mu is not claimed (issue 57: mu 0.5 made on contact-L3 was fitted 1.12, 95 % in (0.61, 1.64))
     assert mf3.learned_at_stick and "learned at the stick" in d["friction"]["mu_model_unmeasured"]
+    # and (c1, c5)'s bounds say they leave out how that discrepancy changes with friction
+    assert d["bounds_include"].endswith(f"; not {FRICTION_DISCREPANCY_UNMEASURED}")
     assert d["friction"]["mu_identified"] is False
     assert d["friction"]["mu_interval"] == pytest.approx(d["friction"]["mu_range"])
 

@@ -157,7 +157,11 @@ class ModelError:
 
 
 def model_error_scope(
-    model: ModelError | None, noise: str = "statistical (eq. 6 to 8)", contact: str | None = None
+    model: ModelError | None,
+    noise: str = "statistical (eq. 6 to 8)",
+    contact: str | None = None,
+    *,
+    unmeasured: tuple[str, ...] = (),
 ) -> str:
     """What a fit's bounds (or a posterior's intervals) hold, in words, as fit.json and the CLI say it.
 
@@ -173,6 +177,8 @@ def model_error_scope(
         The contact the model assumes (``Contact.describe()``): no bound holds its error (README,
         "Friction": a stick fit of data with mu = 0.3 puts c5 about 30 % low); by default the
         model error's own, or the perfect stick.
+    unmeasured : tuple of str, default ()
+        Other parts the bounds leave out, each said as "not ..." at the end.
 
     Returns
     -------
@@ -186,7 +192,7 @@ def model_error_scope(
     True
     """
     contact = contact or (model.contact if model is not None else "perfect stick")
-    assumed = f"the contact model's ({contact} assumed)"
+    assumed = f"the contact model's ({contact} assumed)" + "".join(f"; not {u}" for u in unmeasured)
     if model is None:
         return (
             f"{noise} only: no error budget is known for this surrogate's mesh and test "

@@ -30,6 +30,7 @@ from .inputs import FitInputs
 MU_FREED = ("identify", "marginalise")
 
 __all__ = [
+    "FRICTION_DISCREPANCY_UNMEASURED",
     "MU_FREED",
     "model_error_with_mu",
     "mu_held_out_refits",
@@ -97,6 +98,16 @@ def model_error_with_mu(
         error = replace(error, budget_source=error.budget_source | {"mu_free": {"measured": False}})
     error = None if error is None else replace(error, contact=contact)
     return _with_processing(error, inputs, at, contact, registration_mm, say, free=2)
+
+
+#: What bounds on a surrogate whose discrepancy was learned at the stick leave out when the fit has
+#: friction: the discrepancy is applied at every mu, and no high-fidelity run with friction measured
+#: how it changes (issue 57, session 32).
+FRICTION_DISCREPANCY_UNMEASURED = (
+    "how the discrepancy, learned at the stick, changes with friction (no high-fidelity run with "
+    "friction entered it; at R = 4.77 mm, {15, 200} kPa, mu = 1, level 3's own record was fitted with "
+    "c5 3.0 % low, where the surrogate's own part near the fit was 0.7 %)"
+)
 
 
 def mu_model_error_unmeasured(inputs: FitInputs) -> str | None:

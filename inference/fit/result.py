@@ -16,6 +16,7 @@ from ..budgets.check import budget_status
 from ..budgets.mesh_check import MeshCheck
 from ..budgets.model_error import ModelError, combined_pct, model_error_scope
 from .confirm_stage import FitConfirmation, confirm_fit
+from .error_parts import FRICTION_DISCREPANCY_UNMEASURED
 from .held_out_refits import HeldOutRefits
 from .inputs import FitInputs
 from .inverse_fit import FitResult
@@ -240,7 +241,11 @@ class ExperimentFit:
             },
             "c1_pct": float(self.bounds_pct[0]),
             "c5_pct": float(self.bounds_pct[1]),
-            "bounds_include": model_error_scope(self.model_error, contact=self.contact),
+            "bounds_include": model_error_scope(
+                self.model_error,
+                contact=self.contact,
+                unmeasured=(FRICTION_DISCREPANCY_UNMEASURED,) if self.mu_unmeasured else (),
+            ),
             "statistical_pct": self.statistical_pct.tolist(),
             "friction": self._friction_dict(),
             "warnings": self.warnings,

@@ -27,6 +27,7 @@ from ..budgets.model_error import (
 from ..experiment.data import ExperimentData
 from ..experiment.processing_error import REGISTRATION_MM
 from ..fit.error_parts import (
+    FRICTION_DISCREPANCY_UNMEASURED,
     _with_processing,
     model_error_with_mu,
     mu_held_out_refits,
@@ -181,7 +182,10 @@ class ExperimentPosterior:
             "carried_to_finer_mesh": self.carried,
             "model_error": None if self.model_error is None else self.model_error.to_dict(),
             "intervals_include": model_error_scope(
-                self.model_error, noise="measurement noise", contact=self.contact
+                self.model_error,
+                noise="measurement noise",
+                contact=self.contact,
+                unmeasured=(FRICTION_DISCREPANCY_UNMEASURED,) if self.mu_unmeasured else (),
             ),
             "friction": self._friction_dict(),
             "inputs": {**self.inputs.sources, "weights": self.inputs.eta.tolist()},
