@@ -431,6 +431,9 @@ def test_a_fit_with_mu_carries_the_discrepancy_into_its_bounds(mf3, tmp_path):
     assert mf3.learned_at_stick and "learned at the stick" in d["friction"]["mu_model_unmeasured"]
     # and (c1, c5)'s bounds say they leave out how that discrepancy changes with friction
     assert d["bounds_include"].endswith(f"; not {FRICTION_DISCREPANCY_UNMEASURED}")
+    held = fit_experiment(exp, mf3, refine=False, friction="0.5").to_dict()  # mu known: the same holds
+    assert held["friction"].get("mu_model_unmeasured") is None  # mu not fitted: nothing said of it
+    assert held["bounds_include"].endswith(f"; not {FRICTION_DISCREPANCY_UNMEASURED}")
     assert d["friction"]["mu_identified"] is False
     assert d["friction"]["mu_interval"] == pytest.approx(d["friction"]["mu_range"])
 

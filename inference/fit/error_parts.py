@@ -32,6 +32,7 @@ MU_FREED = ("identify", "marginalise")
 __all__ = [
     "FRICTION_DISCREPANCY_UNMEASURED",
     "MU_FREED",
+    "left_out_with_friction",
     "model_error_with_mu",
     "mu_held_out_refits",
     "mu_model_error_pct",
@@ -132,13 +133,37 @@ def mu_model_error_unmeasured(inputs: FitInputs) -> str | None:
         The reason, in words; None for a surrogate without a high-fidelity level (its own budget
         counts) or whose discrepancy was learned over mu.
     """
-    model = inputs.surrogate
-    if has_high_fidelity_level(model) and getattr(model, "learned_at_stick", False):
+    if _discrepancy_learned_at_stick(inputs.surrogate):
         return (
             "mu's model error at the high fidelity is not measured: the discrepancy was learned at the stick "
             "(no high-fidelity run with friction), so mu rests on the low level's friction alone"
         )
     return None
+
+
+def left_out_with_friction(inputs: FitInputs) -> tuple[str, ...]:
+    """What (c1, c5)'s bounds leave out on a surrogate with friction whose discrepancy was learned at
+    the stick, whether mu is held or fitted (:data:`FRICTION_DISCREPANCY_UNMEASURED`).
+
+    Parameters
+    ----------
+    inputs : FitInputs
+        The experiment, surrogate and objective.
+
+    Returns
+    -------
+    tuple of str
+        The parts left out, in words (for ``model_error_scope``'s ``unmeasured``); empty otherwise.
+    """
+    model = inputs.surrogate
+    if "mu" in model.parameters and _discrepancy_learned_at_stick(model):
+        return (FRICTION_DISCREPANCY_UNMEASURED,)
+    return ()
+
+
+def _discrepancy_learned_at_stick(model) -> bool:
+    """A multi-fidelity surrogate whose discrepancy was learned at the stick (applied at every mu)."""
+    return has_high_fidelity_level(model) and getattr(model, "learned_at_stick", False)
 
 
 def mu_held_out_refits(inputs: FitInputs, theta: np.ndarray) -> HeldOutRefits | None:

@@ -16,7 +16,7 @@ from ..budgets.check import budget_status
 from ..budgets.mesh_check import MeshCheck
 from ..budgets.model_error import ModelError, combined_pct, model_error_scope
 from .confirm_stage import FitConfirmation, confirm_fit
-from .error_parts import FRICTION_DISCREPANCY_UNMEASURED
+from .error_parts import left_out_with_friction
 from .held_out_refits import HeldOutRefits
 from .inputs import FitInputs
 from .inverse_fit import FitResult
@@ -244,7 +244,7 @@ class ExperimentFit:
             "bounds_include": model_error_scope(
                 self.model_error,
                 contact=self.contact,
-                unmeasured=(FRICTION_DISCREPANCY_UNMEASURED,) if self.mu_unmeasured else (),
+                unmeasured=left_out_with_friction(self.inputs),
             ),
             "statistical_pct": self.statistical_pct.tolist(),
             "friction": self._friction_dict(),

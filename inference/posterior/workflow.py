@@ -27,8 +27,8 @@ from ..budgets.model_error import (
 from ..experiment.data import ExperimentData
 from ..experiment.processing_error import REGISTRATION_MM
 from ..fit.error_parts import (
-    FRICTION_DISCREPANCY_UNMEASURED,
     _with_processing,
+    left_out_with_friction,
     model_error_with_mu,
     mu_held_out_refits,
     mu_model_error_pct,
@@ -185,7 +185,7 @@ class ExperimentPosterior:
                 self.model_error,
                 noise="measurement noise",
                 contact=self.contact,
-                unmeasured=(FRICTION_DISCREPANCY_UNMEASURED,) if self.mu_unmeasured else (),
+                unmeasured=left_out_with_friction(self.inputs),
             ),
             "friction": self._friction_dict(),
             "inputs": {**self.inputs.sources, "weights": self.inputs.eta.tolist()},
