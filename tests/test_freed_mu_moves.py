@@ -115,6 +115,17 @@ def test_the_freed_move_corrects_the_budget_and_widens_it_by_as_much(mu_surrogat
     np.testing.assert_allclose(one.correction_pct, [0.5, -1.0])
 
 
+def test_a_fit_without_mu_or_a_stack_of_changes_is_named(mu_surrogate):
+    objective, p = _objective(mu_surrogate)
+    d = _along(p, 1, 0.03)
+    with pytest.raises(ValueError, match=r"\(c1, c5, mu\), got 2 values"):
+        mesh_moves(objective, ETA, mu_surrogate, THETA[:2], d)
+    with pytest.raises(ValueError, match=r"one vector, got the shape \(2, "):
+        mesh_moves(objective, ETA, mu_surrogate, THETA, np.stack([d, d]))
+    with pytest.raises(ValueError, match=r"got 2 values"):
+        freed_mu_moves(objective, ETA, mu_surrogate, THETA[:2], _differences(p, d))
+
+
 def test_only_the_points_the_budget_reads_at_the_fit_are_moved():
     # inside the hull: the three vertices of the triangle holding the fit (near the first corner)
     inside = points_read(CORNERS, np.array([6.3, 260.0, 0.5]))

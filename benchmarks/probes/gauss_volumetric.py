@@ -15,7 +15,11 @@ replacement is checked before the run: the three-field state minus its volumetri
 reference implementation with kappa = 0, and the new term's tangent equals its forces' finite
 differences.
 
-    .venv/bin/python benchmarks/probes/gauss_volumetric.py --mesh composite-medium --steps 28 [--set matrix]
+    .venv/bin/python benchmarks/probes/gauss_volumetric.py --mesh composite-medium --steps 28 [--set matrix] [--blend B]
+
+With ``--blend B`` the element keeps (1 - B) of its own term and takes B of the Gauss points'
+(a stabilised mean dilatation: the Gauss points' J resisted with the bulk modulus B kappa, which
+locks little where B kappa is of the order of the shear modulus).
 """
 
 from __future__ import annotations
@@ -83,8 +87,8 @@ def mean_dilatation_volumetric(geometry, u_e, kappa):
 class GaussVolumetric:
     """The solver's moduli with the volumetric term of ``elements`` at every Gauss point."""
 
-    def __init__(self, moduli, elements: np.ndarray):
-        self.moduli, self.elements = moduli, elements
+    def __init__(self, moduli, elements: np.ndarray, blend: float = 1.0):
+        self.moduli, self.elements, self.blend = moduli, elements, blend
         kappa = np.asarray(moduli.kappa, float)
         self.kappa = kappa[elements] if kappa.ndim else np.full(elements.size, float(kappa))
 
@@ -100,11 +104,11 @@ class GaussVolumetric:
         f_old, K_old = mean_dilatation_volumetric(sub, ue, self.kappa)
         f_new, K_new = gauss_volumetric(sub, ue, self.kappa)
         force = st.force.copy()
-        force[self.elements] += f_new - f_old
+        force[self.elements] += self.blend * (f_new - f_old)
         K = None
         if st.stiffness is not None:
             K = st.stiffness.copy()
-            K[self.elements] += K_new - K_old
+            K[self.elements] += self.blend * (K_new - K_old)
         return ElementState(st.energy, force, K, st.dforce_dtheta, st.min_jacobian, st.fiber_taut)
 
 
@@ -151,6 +155,12 @@ def main() -> None:
     parser.add_argument("--radius", type=float, default=4.77)
     parser.add_argument("--steps", type=int, default=28)
     parser.add_argument("--set", default="matrix", choices=("matrix", "all"))
+    parser.add_argument(
+        "--blend",
+        type=float,
+        default=1.0,
+        help="the share beta of the Gauss points' term: (1 - beta) U(J_bar) V_e + beta sum_g w U(J_g)",
+    )
     args = parser.parse_args()
     spec = ModelSpec.composite_phantom(
         args.mesh,
@@ -164,9 +174,10 @@ def main() -> None:
         np.flatnonzero(mesh.element_material == 0) if args.set == "matrix" else np.arange(mesh.n_elements)
     )
     check(solver, elements)
-    solver._mat = GaussVolumetric(solver._mat, elements)
+    solver._mat = GaussVolumetric(solver._mat, elements, blend=args.blend)
     print(
-        f"{mesh.n_nodes} nodes; the volumetric term at every Gauss point in {elements.size} elements",
+        f"{mesh.n_nodes} nodes; a share {args.blend:g} of the volumetric term at every Gauss point"
+        f" in {elements.size} elements",
         flush=True,
     )
     t = time.process_time()

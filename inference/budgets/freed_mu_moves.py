@@ -165,6 +165,13 @@ def _refit(objective: Objective, eta: np.ndarray, predictor, theta: np.ndarray, 
     return sol.x
 
 
+def _fit_with_mu(theta) -> np.ndarray:
+    theta = np.asarray(theta, float)
+    if theta.shape != (3,):
+        raise ValueError(f"freeing mu needs the fit's (c1, c5, mu), got {theta.size} values")
+    return theta
+
+
 def freed_mu_moves(
     objective: Objective,
     eta,
@@ -207,9 +214,7 @@ def freed_mu_moves(
     ValueError
         If ``theta`` is not (c1, c5, mu).
     """
-    theta = np.asarray(theta, float)
-    if theta.size != 3:
-        raise ValueError(f"freeing mu needs the fit's (c1, c5, mu), got {theta.size} values")
+    theta = _fit_with_mu(theta)
     changes = differences.outputs_at(surrogate.top_xyz)
     moves = np.full((len(changes), 2), np.nan)
     for k in np.flatnonzero(np.ones(len(changes), bool) if only is None else only):
@@ -242,8 +247,16 @@ def mesh_moves(
     -------
     (numpy.ndarray, numpy.ndarray)
         (2,) the move with mu free and (2,) with mu held, in log c1, log c5.
+
+    Raises
+    ------
+    ValueError
+        If ``theta`` is not (c1, c5, mu) or ``change`` is not one output vector of the surrogate.
     """
-    theta = np.asarray(theta, float)
+    theta = _fit_with_mu(theta)
+    change = np.asarray(change, float)
+    if change.ndim != 1:
+        raise ValueError(f"one output change d is one vector, got the shape {change.shape}")
     e = check_weights(eta)
     box = np.asarray(surrogate.scaler.lo, float), np.asarray(surrogate.scaler.hi, float)
     mu = float(np.clip(theta[2], box[0][2], box[1][2]))
