@@ -168,7 +168,9 @@ def _refit(objective: Objective, eta: np.ndarray, predictor, theta: np.ndarray, 
 def _fit_with_mu(theta) -> np.ndarray:
     theta = np.asarray(theta, float)
     if theta.shape != (3,):
-        raise ValueError(f"freeing mu needs the fit's (c1, c5, mu), got {theta.size} values")
+        raise ValueError(
+            f"freeing mu needs the fit's (c1, c5, mu), got {theta.size} values (shape {theta.shape})"
+        )
     return theta
 
 
