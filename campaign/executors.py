@@ -39,9 +39,14 @@ def solve_point(
     timeout_s: float | None,
     workdir: str | None = None,
     equilibrium_rel: float | None = None,
+    checkpoint: str | None = None,
 ) -> dict[str, Any]:
     """Solve one point; returns its index row with the result (or the partial result of a
-    failure) for the parent to save. Never raises: a failure becomes the row's error."""
+    failure) for the parent to save. Never raises: a failure becomes the row's error.
+
+    An embedded point given ``checkpoint`` writes its state there after every step and, when the
+    file exists (a point stopped by a kill, a lost worker or its timeout), resumes after its last
+    finished step; the parent deletes the file once the result is kept."""
     t0 = time.perf_counter()
     row: dict[str, Any] = {
         "point": point,
@@ -65,7 +70,7 @@ def solve_point(
                     raise PointTimeout(f"timeout: {timeout_s:g} s exceeded after step {k} of {n}")
 
             # one thread: a worker among as many as the cores (forward.threads)
-            result = EmbeddedSolver(spec).run(progress=deadline, threads=1)
+            result = EmbeddedSolver(spec).run(progress=deadline, threads=1, checkpoint=checkpoint)
         row.update(status="done", result=result, **result_row(result))
     except Exception as exc:  # recorded, never propagated: one bad point must not stop a campaign
         partial = getattr(exc, "partial", None)

@@ -2,7 +2,9 @@
 files lives. ``campaign.json`` (the spec and code version) and ``campaign.sha256`` (its sha256),
 ``index.parquet`` (one row per point), ``points/<n>.npz`` (a point's result, written atomically
 by the run's parent process) and ``points/<n>.partial.npz`` (a failed point's finished steps),
-``leases/<n>.json`` (a run's claim on a point), ``damaged/`` (files that failed their check,
+``checkpoints/<n>.pkl`` (an embedded point's state after its last finished step, kept while it is
+unfinished so that a stopped point resumes there), ``leases/<n>.json`` (a run's claim on a point),
+``damaged/`` (files that failed their check,
 kept to look at) and ``.lock`` (the store's short file lock)."""
 
 from __future__ import annotations
@@ -66,6 +68,16 @@ class StoreLayout:
     def partial_path(self, point: int) -> Path:
         """The file of failed ``point``'s finished steps, ``points/<point>.partial.npz``."""
         return self.points_dir / f"{point:05d}.partial.npz"
+
+    @property
+    def checkpoints_dir(self) -> Path:
+        """The folder of unfinished points' restart files, ``checkpoints/``."""
+        return self.root / "checkpoints"
+
+    def checkpoint_path(self, point: int) -> Path:
+        """The restart file of ``point`` while it is unfinished, ``checkpoints/<point>.pkl``
+        (:meth:`forward.solver.EmbeddedSolver.run`'s ``checkpoint``)."""
+        return self.checkpoints_dir / f"{point:05d}.pkl"
 
     def lease_path(self, point: int) -> Path:
         """The lease file of ``point``, ``leases/<point>.json``."""

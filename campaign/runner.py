@@ -133,7 +133,9 @@ def run_campaign(
         claimed: set[int] = set()
 
         def args(i: int) -> tuple:
-            workdir = str(store.root / "febio" / f"{i:05d}") if spec.solver == "febio" else None
+            febio = spec.solver == "febio"
+            workdir = str(store.root / "febio" / f"{i:05d}") if febio else None
+            checkpoint = None if febio else str(store.checkpoint_path(i))
             values = spec.design.points[i].tolist()
             return (
                 i,
@@ -144,6 +146,7 @@ def run_campaign(
                 timeout_s,
                 workdir,
                 spec.equilibrium_rel,
+                checkpoint,
             )
 
         try:

@@ -241,6 +241,7 @@ class CampaignStore(StoreIndex):
             with full_disk_as_error(path):
                 result.save(path)
             update["sha256"], update["bytes"] = file_digest(path)
+            self.checkpoint_path(point).unlink(missing_ok=True)  # the result kept: no resume needed
         if partial is not None:
             with full_disk_as_error(self.partial_path(point)):
                 partial.save(self.partial_path(point))
@@ -259,7 +260,8 @@ class CampaignStore(StoreIndex):
         -------
         dict
             Name, folder, points and counts by status, flagged FEBio steps and reruns, wall
-            times, failures, the slowest points, problems, claims and the store's size.
+            times, failures, the slowest points, problems, claims, the unfinished points that
+            resume from a checkpoint (``resumable``) and the store's size.
         """
         c = self.counts()
         walls = self.index["wall_s"].dropna()
@@ -297,5 +299,6 @@ class CampaignStore(StoreIndex):
             "problems": [p.to_dict() for p in self.problems],
             "hashed_now": len(self.hashed_now),
             "claims": self.claims.holders(lease_timeout_s),
+            "resumable": sorted(int(p.stem) for p in self.checkpoints_dir.glob("[0-9]*.pkl") if p.stem.isdigit()),
             "store_bytes": sum(p.stat().st_size for p in self.root.rglob("*") if p.is_file()),
         }

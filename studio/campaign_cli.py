@@ -83,6 +83,13 @@ def _print_summary(summary: dict[str, Any], title: str) -> None:
             f"heartbeat {c['heartbeat_age_s']:g} s ago): {state}",
             highlight=False,
         )
+    if summary.get("resumable"):
+        points = ", ".join(str(i) for i in summary["resumable"][:10])
+        out.print(
+            f"{len(summary['resumable'])} unfinished points resume from their last finished step "
+            f"(checkpoints/): {points}",
+            highlight=False,
+        )
     for h in summary.get("held_by_other_runs", []):
         out.print(
             f"point {h['point']}: left to the run holding it ({h['host']} pid {h['pid']})", highlight=False

@@ -194,6 +194,37 @@ def test_timeout_fails_points_and_retry_recovers(tmp_path):
     assert s["done"] == 2 and s["failed"] == 0
 
 
+def test_a_point_stopped_after_a_step_resumes_there_with_the_uninterrupted_result(tmp_path, caplog):
+    # the timeout stops the point after its first step (the deadline is checked after each step,
+    # once the step's checkpoint is written); the retry resumes from that step, not from the start
+    store = CampaignStore.create_or_open(tmp_path, _spec("r", "c1=6:6:1,c5=300:300:1"))
+    s = run_campaign(store, jobs=1, timeout_s=1e-6)
+    assert s["failed"] == 1 and "after step 1 of 2" in s["failures"][0]["error"]
+    assert s["resumable"] == [0] and store.checkpoint_path(0).is_file()
+    with caplog.at_level("INFO", logger="indentation_studio.forward.solver"):
+        s = run_campaign(CampaignStore.open(tmp_path / "r"), jobs=1, retry_failed=True)
+    assert s["done"] == 1 and s["resumable"] == []
+    assert "after step 1 (0.5 mm)" in caplog.text
+    assert not store.checkpoint_path(0).exists()  # deleted once the result is kept
+    # step 1 is the checkpoint's, bit for bit; step 2 within the Newton tolerance (residual 1e-4
+    # of its scale: the resumed run has no factorisation to reuse, as simulate --restart's tests)
+    resumed = SimulationResult.load(store.result_path(0))
+    whole = EmbeddedSolver(SMALL.with_parameters(c1=6.0, c5=300.0)).run(threads=1)
+    np.testing.assert_array_equal(resumed.force[:2], whole.force[:2])
+    np.testing.assert_allclose(resumed.force, whole.force, rtol=1e-4)
+    np.testing.assert_allclose(resumed.displacement, whole.displacement, atol=1e-4 * 1.0)
+
+
+def test_a_checkpoint_of_another_run_is_named_and_the_point_not_solved_from_it(tmp_path):
+    store = CampaignStore.create_or_open(tmp_path, _spec("m", "c1=6:6:1,c5=300:300:1"))
+    store.checkpoints_dir.mkdir()
+    store.checkpoint_path(0).write_bytes(b"not a checkpoint")
+    s = run_campaign(store, jobs=1)
+    assert s["failed"] == 1
+    error = s["failures"][0]["error"]
+    assert "CheckpointMismatch" in error and "00000.pkl" in error and "delete it" in error
+
+
 def test_dask_localcluster_and_loader(tmp_path):
     distributed = pytest.importorskip("distributed")
     with distributed.LocalCluster(
