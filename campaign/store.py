@@ -299,6 +299,8 @@ class CampaignStore(StoreIndex):
             "problems": [p.to_dict() for p in self.problems],
             "hashed_now": len(self.hashed_now),
             "claims": self.claims.holders(lease_timeout_s),
-            "resumable": sorted(int(p.stem) for p in self.checkpoints_dir.glob("[0-9]*.pkl") if p.stem.isdigit()),
+            "resumable": sorted(
+                int(p.stem) for p in self.checkpoints_dir.glob("[0-9]*.pkl") if p.stem.isdigit()
+            ),
             "store_bytes": sum(p.stat().st_size for p in self.root.rglob("*") if p.is_file()),
         }
