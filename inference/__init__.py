@@ -27,6 +27,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
         "fit.friction": ["default_friction"],
         "fit.mu_reach": ["interval_is_whole_range", "mu_is_identified"],
         "fit.confirm_stage": ["FitConfirmation", "confirm_fit"],
+        "fit.run_refits": ["RunRefit", "refit_campaign", "refit_runs", "refit_summary"],
         "posterior.sampling": ["Posterior", "sample_posterior"],
         "budgets.model_error_parts": ["ModelError", "combined_pct", "model_error_scope"],
         "budgets.fit_moves": ["emulation_error_pct", "emulation_moves"],

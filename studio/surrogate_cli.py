@@ -45,6 +45,33 @@ def _errors_table(title: str, rows: dict[str, dict]) -> None:
     Console(width=120).print(table)
 
 
+def _refits_table(title: str, refits: dict) -> None:
+    rows = refits["refits"]
+    names = [k for k in ("c1", "c5", "mu") if any(f"{k}_fit" in r for r in rows)]
+    table = Table(title=title)
+    for name in names:
+        table.add_column(f"{name} run")
+        table.add_column(f"{name} fit")
+        table.add_column(f"{name} error %")
+    table.add_column("F")
+    for r in rows:
+        cells = []
+        for name in names:
+            cells.append(f"{r[name + '_true']:.4g}" if name + "_true" in r else "-")
+            cells.append(f"{r[name + '_fit']:.4g}")
+            cells.append(f"{r[name + '_error_pct']:+.2f}" if name + "_error_pct" in r else "-")
+        table.add_row(*cells, f"{r['F']:.3g}")
+    Console(width=140).print(table)
+    for name in names:
+        s = refits["summary"].get(name)
+        if s:
+            Console().print(
+                f"{name}: |error| largest {s['max_abs_pct']:.2f} %, 95th percentile {s['p95_abs_pct']:.2f} %, "
+                f"mean {s['mean_pct']:+.2f} % over {refits['summary']['runs']} runs",
+                highlight=False,
+            )
+
+
 def _train_and_say(
     train: Callable[[], surrogate.TrainedSurrogate],
     as_json: bool,
@@ -198,12 +225,20 @@ def evaluate(
     model_file: Annotated[Path, typer.Option("--model", help="a trained surrogate file")],
     campaign: Annotated[str | None, typer.Option(help="campaign to compare with")] = None,
     timing: Annotated[int, typer.Option(help="also time a prediction of this many random points")] = 0,
+    refits: Annotated[
+        bool,
+        typer.Option(
+            help="also fit each run of --campaign on the surrogate as a noise-free experiment (mu free "
+            "where the surrogate has it): its error in c1, c5 (and mu)"
+        ),
+    ] = False,
     runs_dir: RUNS_DIR = Path("runs"),
     as_json: JSON = False,
 ) -> None:
     """Errors of a saved surrogate on a campaign, and the time to predict many points."""
     import numpy as np
 
+    from ..inference.fit.run_refits import refit_campaign
     from ..surrogate.persistence import load_surrogate
     from ..surrogate.training import training_data
     from ..surrogate.validation import prediction_errors
@@ -214,6 +249,13 @@ def evaluate(
         payload["kind"] = model.kind
         if campaign:
             payload["errors"] = prediction_errors(model, training_data(campaign, runs_dir))
+        if campaign and refits:
+            payload["refits"] = refit_campaign(
+                model,
+                campaign,
+                runs_dir,
+                progress=lambda k, n: err.print(f"refit {k} of {n}", highlight=False),
+            )
         if timing:
             rng = np.random.default_rng(0)
             theta = model.scaler.lo + rng.random((timing, len(model.parameters))) * (
@@ -229,6 +271,8 @@ def evaluate(
         return
     if "errors" in payload:
         _errors_table(f"{model.kind} surrogate on {campaign!r} (percent)", {campaign: payload["errors"]})
+    if "refits" in payload:
+        _refits_table(f"{model.kind} surrogate fitted to the runs of {campaign!r}", payload["refits"])
     if "timing" in payload:
         t = payload["timing"]
         Console().print(f"prediction of {t['points']} points: {t['wall_s']:.3f} s")

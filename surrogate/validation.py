@@ -21,6 +21,10 @@ def prediction_errors(surrogate: FieldSurrogate, data: TrainingData) -> dict[str
     node and step divided by max |u| of that direction at that point. Steps whose force the
     campaign does not have (``data.missing``) are left out of the force errors.
 
+    Runs at the perfect stick (over (c1, c5)) on a surrogate with mu are compared with its stick
+    level (a multi-fidelity surrogate whose discrepancy was learned at the stick:
+    ``stick_level()``).
+
     Parameters
     ----------
     surrogate : FieldSurrogate
@@ -33,7 +37,22 @@ def prediction_errors(surrogate: FieldSurrogate, data: TrainingData) -> dict[str
     dict
         ``points``, ``force_rms_pct``, ``force_max_pct``, ``displacement_rms_pct``,
         ``displacement_max_pct`` and ``ux_rms_pct``, ``uy_rms_pct``, ``uz_rms_pct``.
+
+    Raises
+    ------
+    ValueError
+        If the data are over other parameters than the surrogate's and it has no stick level for
+        them.
     """
+    if tuple(data.parameters) != tuple(surrogate.parameters):
+        if not getattr(surrogate, "learned_at_stick", False) or tuple(data.parameters) != tuple(
+            surrogate.parameters[: len(data.parameters)]
+        ):
+            raise ValueError(
+                f"the data are over {tuple(data.parameters)}, the surrogate over {tuple(surrogate.parameters)}; "
+                "stick runs are compared only with a surrogate whose discrepancy was learned at the stick"
+            )
+        surrogate = surrogate.stick_level()
     pred = surrogate.predict(data.theta)
     rel_f = pred.force / data.force - 1.0
     if data.missing is not None:  # steps the campaign has no force for (filled for training)

@@ -25,6 +25,7 @@ from indentation_studio.surrogate.multi_fidelity import MultiFidelitySurrogate, 
 from indentation_studio.surrogate.persistence import load_surrogate, save_surrogate
 from indentation_studio.surrogate.slip_surrogate import SlipSurrogate
 from indentation_studio.surrogate.training import make_surrogate, train_multi_fidelity
+from indentation_studio.surrogate.validation import prediction_errors
 
 LO, HI = np.array([2.0, 100.0]), np.array([20.0, 500.0])
 DEPTH = np.array([0.5, 1.0, 1.5, 2.0])
@@ -382,6 +383,15 @@ def test_a_discrepancy_learned_at_the_stick_carries_mu(mf3, slip_low, low, high_
     np.testing.assert_array_equal(again.predict(theta).force, pred.force)
     np.testing.assert_array_equal(again.scaler.hi, mf3.scaler.hi)
     assert again.learned_at_stick and again.discrepancy_covariance_factor(theta[0]).shape[1] == 4 + 4 * 81 * 3
+
+
+def test_stick_runs_are_compared_with_the_stick_level_of_a_surrogate_with_mu(mf3, high_data, slip_low):
+    # the campaign the discrepancy was learned on (over (c1, c5)) against the surrogate over (c1, c5, mu)
+    errors = prediction_errors(mf3, high_data)
+    assert errors == prediction_errors(mf3.stick_level(), high_data)
+    assert errors["force_rms_pct"] < 0.1  # the GP interpolates its own campaign
+    with pytest.raises(ValueError, match=r"only with a surrogate whose discrepancy was learned at the stick"):
+        prediction_errors(slip_low.stick, TrainingData(**{**vars(high_data), "parameters": ("c1", "x")}))
 
 
 def test_a_high_campaign_with_mu_learns_the_discrepancy_over_mu(slip_low):
