@@ -143,8 +143,19 @@ def train_mf(
         ),
     ],
     campaign: Annotated[
-        str, typer.Option(help="the high-fidelity campaign (tens of points on a finer mesh)")
+        list[str],
+        typer.Option(
+            help="the high-fidelity campaign (tens of points on a finer mesh); given again, campaigns of "
+            "that mesh merged over (c1, c5, mu), e.g. one at the stick and one with a mu axis"
+        ),
     ],
+    stick_mu: Annotated[
+        float | None,
+        typer.Option(
+            help="with several campaigns: the mu a stick campaign's points are taken as; default "
+            "the low level's mu range end (where nothing slips)"
+        ),
+    ] = None,
     error_budget: ERROR_BUDGET = None,
     budget_model: BUDGET_MODEL = None,
     test_campaign: Annotated[
@@ -161,7 +172,8 @@ def train_mf(
     _train_and_say(
         lambda: surrogate.train_and_save_multi_fidelity(
             low,
-            campaign,
+            campaign[0] if len(campaign) == 1 else campaign,
+            stick_mu=stick_mu,
             test_campaign=test_campaign,
             seed=seed,
             out=out,

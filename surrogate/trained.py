@@ -4,7 +4,7 @@ the campaign; the record ``surrogate train --json`` and ``surrogate train-mf --j
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -161,8 +161,9 @@ def train_and_save(
 
 def train_and_save_multi_fidelity(
     low: str | Path,
-    campaign: str,
+    campaign: str | Sequence[str],
     *,
+    stick_mu: float | None = None,
     test_campaign: str | None = None,
     seed: int = 0,
     out: str | Path | None = None,
@@ -179,12 +180,13 @@ def train_and_save_multi_fidelity(
     ----------
     low : str or Path
         The low-fidelity surrogate file.
-    campaign : str
-        The high-fidelity campaign.
-    test_campaign, seed, runs_dir
+    campaign : str or sequence of str
+        The high-fidelity campaign, or several of one mesh merged (a stick one and one with a mu
+        axis: ``stick_mu`` then).
+    stick_mu, test_campaign, seed, runs_dir
         As :func:`surrogate.training.train_multi_fidelity`.
     out : str or Path, optional
-        The model file (default ``<runs_dir>/<campaign>/surrogate-mf.safetensors``).
+        The model file (default ``<runs_dir>/<first campaign>/surrogate-mf.safetensors``).
     error_budget, budget_model
         As :func:`budget_for_campaign`.
     say : callable, optional
@@ -195,12 +197,20 @@ def train_and_save_multi_fidelity(
     TrainedSurrogate
         The model and its file.
     """
-    budget = budget_for_campaign(error_budget, budget_model, campaign, runs_dir)
+    campaigns = [campaign] if isinstance(campaign, str) else list(campaign)
+    budget = budget_for_campaign(error_budget, budget_model, campaigns[0], runs_dir)
     if say is not None:
-        say(f"training a multi-fidelity surrogate: {low} corrected by {campaign!r} ...")
+        say(f"training a multi-fidelity surrogate: {low} corrected by {' + '.join(campaigns)} ...")
     model = train_multi_fidelity(
-        low, campaign, test_campaign=test_campaign, seed=seed, runs_dir=runs_dir, error_budget=budget
+        low,
+        campaigns[0] if len(campaigns) == 1 else campaigns,
+        test_campaign=test_campaign,
+        seed=seed,
+        runs_dir=runs_dir,
+        error_budget=budget,
+        stick_mu=stick_mu,
     )
-    name = model.meta["campaign"].get("name", campaign)
-    path = save_surrogate(model, out or Path(runs_dir) / name / "surrogate-mf.safetensors")
+    folder = open_campaign(campaigns[0], runs_dir).root if len(campaigns) > 1 else None
+    name = model.meta["campaign"].get("name", campaigns[0])
+    path = save_surrogate(model, out or (folder or Path(runs_dir) / name) / "surrogate-mf.safetensors")
     return TrainedSurrogate(model, "mf", path)

@@ -2,9 +2,8 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -15,10 +14,8 @@ from .error_budgets import surrogate_error_budget
 from .multi_fidelity import MultiFidelitySurrogate
 from .persistence import load_surrogate
 from .registry import surrogate_class
+from .training_set import merged_training_data
 from .validation import k_fold_errors, prediction_errors
-
-if TYPE_CHECKING:
-    from .multi_fidelity import MultiFidelitySurrogate
 
 __all__ = ["SURROGATE_KINDS", "make_surrogate", "train_multi_fidelity", "train_surrogate", "training_data"]
 
@@ -194,17 +191,9 @@ def _record_error_budget(model: FieldSurrogate, error_budget: dict | None) -> No
     model.meta["error_budget"] = None if known is None else dict(known)
 
 
-def _scored_on(model: MultiFidelitySurrogate, data) -> MultiFidelitySurrogate:
-    """The multi-fidelity surrogate that predicts campaign ``data``: itself, or its stick level for
-    a perfect-stick campaign over (c1, c5) when its discrepancy was learned at the stick."""
-    if model.learned_at_stick and len(data.parameters) < len(model.parameters):
-        return model.stick_level()
-    return model
-
-
 def train_multi_fidelity(
     low: str | Path | FieldSurrogate,
-    high_campaign: str | Path | CampaignData,
+    high_campaign: str | Path | CampaignData | Sequence[str | Path | CampaignData],
     pca_tol: float = 1e-3,
     max_components: int = 8,
     folds: int = 5,
@@ -212,6 +201,8 @@ def train_multi_fidelity(
     seed: int = 0,
     runs_dir: str | Path = "runs",
     error_budget: dict | None = None,
+    *,
+    stick_mu: float | None = None,
 ) -> MultiFidelitySurrogate:
     """Train a multi-fidelity surrogate: ``low`` corrected by the GP of its discrepancy from ``high_campaign``.
 
@@ -226,8 +217,11 @@ def train_multi_fidelity(
         A surrogate file or a trained surrogate, e.g. on a large campaign on a coarser mesh; a
         multi-fidelity one gives its low level (its discrepancy learned anew from
         ``high_campaign``, e.g. a shipped surrogate on a wider high-fidelity campaign).
-    high_campaign : str, pathlib.Path or CampaignData
-        A few tens of points on the finer mesh, same test.
+    high_campaign : str, pathlib.Path, CampaignData or a sequence of them
+        A few tens of points on the finer mesh, same test. Several campaigns of that mesh (e.g. one
+        at the stick and one with a mu axis) are merged into one over (c1, c5, mu)
+        (:func:`~.training_set.merged_training_data`): the discrepancy is then learned with
+        friction, not at the stick alone.
     pca_tol : float, default 1e-3
         PCA tolerance of the discrepancy.
     max_components : int, default 8
@@ -245,6 +239,9 @@ def train_multi_fidelity(
         (:func:`surrogate.error_budgets.remaining_bias`); default the shipped budget for that mesh
         and test, if any. It goes to ``meta['error_budget']``, where fits read the systematic part
         of their model error.
+    stick_mu : float, optional
+        With several campaigns, the mu a stick campaign's points are taken as; default the low
+        level's mu range end (where nothing slips).
 
     Returns
     -------
@@ -258,14 +255,19 @@ def train_multi_fidelity(
         low_model = low_model.low
         if low_model.emulation_error is None and kept is not None:
             low_model.emulation_error = kept
-    data = training_data(high_campaign, runs_dir)
+    if isinstance(high_campaign, (str, Path, CampaignData)):
+        data = training_data(high_campaign, runs_dir)
+    else:
+        if stick_mu is None and "mu" in low_model.parameters:  # where the low level's slip ends
+            stick_mu = float(low_model.scaler.hi[low_model.parameters.index("mu")])
+        data = merged_training_data([training_data(c, runs_dir) for c in high_campaign], stick_mu=stick_mu)
     model = surrogate_class("mf")(low_model, pca_tol=pca_tol, max_components=max_components, folds=folds).fit(
         data, seed=seed
     )
-    validation = {"training": prediction_errors(_scored_on(model, data), data)}
+    validation = {"training": prediction_errors(model, data)}
     if test_campaign is not None:
         test = training_data(test_campaign, runs_dir)
-        validation["test"] = prediction_errors(_scored_on(model, test), test)
+        validation["test"] = prediction_errors(model, test)
     model.meta["validation"] = validation
     model.restore_emulation_error(low_model.emulation_error)  # the low level's own, at the high nodes
     _record_error_budget(model, error_budget)

@@ -1,8 +1,10 @@
 """What a surrogate is trained on (:class:`TrainingData`): parameter points and their responses,
-read from a campaign with the steps a point did not finish filled in and marked."""
+read from a campaign with the steps a point did not finish filled in and marked; several
+campaigns of one test merged into one (:func:`merged_training_data`)."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -10,7 +12,10 @@ import numpy as np
 
 from ..campaign.loader import fill_missing_steps
 
-__all__ = ["TrainingData"]
+__all__ = ["TrainingData", "merged_training_data"]
+
+#: The parts of a campaign's model its points set (merged campaigns may differ there only).
+_VARIED = {"material": ("c1", "c5"), "contact": ("friction",)}
 
 
 @dataclass
@@ -109,3 +114,90 @@ class TrainingData:
     def n(self) -> int:
         """The number of points."""
         return len(self.theta)
+
+
+def merged_training_data(datas: Sequence[TrainingData], *, stick_mu: float | None = None) -> TrainingData:
+    """Campaigns of one test and mesh merged into one over (c1, c5, mu).
+
+    A campaign with a mu axis keeps its points; a perfect-stick campaign over (c1, c5) gets mu =
+    ``stick_mu`` (e.g. the range end of a stick-plus-slip low level's mu, where nothing slips:
+    contact-L3 at R = 4.77 mm, {9.81, 218.4} kPa, mu = 3 within 0.005 % in force and 0.018 mm in
+    the field of the stick's; docs/validation/model-error.md). So a multi-fidelity discrepancy
+    learned at the stick and with friction is one GP over (c1, c5, mu).
+
+    Parameters
+    ----------
+    datas : sequence of TrainingData
+        The campaigns (each over (c1, c5) with the stick, or (c1, c5, mu) with friction an axis).
+    stick_mu : float, optional
+        The mu a stick campaign's points take; needed when there is one.
+
+    Returns
+    -------
+    TrainingData
+        All points over (c1, c5, mu); its source is the first campaign's with ``name`` joined by
+        "+", ``merged`` (each one's source) and ``stick_mu``.
+
+    Raises
+    ------
+    ValueError
+        If the campaigns are not of one test and mesh (depths, top nodes, model apart from
+        friction), one holds mu fixed (its model's friction: neither stick nor an axis), one is
+        over other parameters, or a stick campaign is given without ``stick_mu``.
+    """
+    if not datas:
+        raise ValueError("no campaign to merge")
+    first = datas[0]
+    thetas, problems = [], []
+    for k, d in enumerate(datas):
+        name = (d.source or {}).get("name", f"campaign {k + 1}")
+        model = dict((d.source or {}).get("model") or {})
+        friction = (model.get("contact") or {}).get("friction")
+        if friction is not None:
+            problems.append(f"{name}: its mu is held at {friction:g} (neither the stick nor an axis)")
+        if tuple(d.parameters) == ("c1", "c5", "mu"):
+            thetas.append(np.asarray(d.theta, float))
+        elif tuple(d.parameters) == ("c1", "c5"):
+            if stick_mu is None:
+                problems.append(
+                    f"{name}: a stick campaign over (c1, c5) needs stick_mu, the mu it is taken as"
+                )
+            else:
+                thetas.append(np.column_stack([d.theta, np.full(d.n, float(stick_mu))]))
+        else:
+            problems.append(f"{name}: parameters {tuple(d.parameters)}, not (c1, c5) or (c1, c5, mu)")
+        if d.depth.shape != first.depth.shape or not np.allclose(d.depth, first.depth, rtol=0, atol=1e-9):
+            problems.append(f"{name}: depths differ from the first campaign's")
+        if d.top_xyz.shape != first.top_xyz.shape or not np.allclose(
+            d.top_xyz, first.top_xyz, rtol=0, atol=1e-9
+        ):
+            problems.append(f"{name}: top nodes differ from the first campaign's (another mesh)")
+        base = dict((first.source or {}).get("model") or {})
+        for key in sorted(set(model) | set(base)):
+            here, there = model.get(key), base.get(key)
+            if key in _VARIED:  # what a campaign's points set: its parameters, friction
+                here = {k: v for k, v in (here or {}).items() if k not in _VARIED[key]}
+                there = {k: v for k, v in (there or {}).items() if k not in _VARIED[key]}
+            if here != there:
+                problems.append(f"{name}: model {key} {here} differs from the first campaign's {there}")
+    if problems:
+        raise ValueError("the campaigns cannot be merged: " + "; ".join(problems))
+    missing = None
+    if any(d.missing is not None for d in datas):
+        missing = np.vstack(
+            [d.missing if d.missing is not None else np.zeros(d.force.shape, bool) for d in datas]
+        )
+    names = [(d.source or {}).get("name", f"campaign {k + 1}") for k, d in enumerate(datas)]
+    source = {**(first.source or {}), "name": "+".join(names), "merged": [d.source for d in datas]}
+    if stick_mu is not None:
+        source["stick_mu"] = float(stick_mu)
+    return TrainingData(
+        np.vstack(thetas),
+        np.vstack([d.force for d in datas]),
+        np.concatenate([d.displacement for d in datas]),
+        np.asarray(first.depth, float),
+        np.asarray(first.top_xyz, float),
+        ("c1", "c5", "mu"),
+        source,
+        missing,
+    )

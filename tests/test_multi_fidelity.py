@@ -25,6 +25,7 @@ from indentation_studio.surrogate.multi_fidelity import MultiFidelitySurrogate, 
 from indentation_studio.surrogate.persistence import load_surrogate, save_surrogate
 from indentation_studio.surrogate.slip_surrogate import SlipSurrogate
 from indentation_studio.surrogate.training import make_surrogate, train_multi_fidelity
+from indentation_studio.surrogate.training_set import merged_training_data
 from indentation_studio.surrogate.validation import prediction_errors
 
 LO, HI = np.array([2.0, 100.0]), np.array([20.0, 500.0])
@@ -410,6 +411,80 @@ def test_a_high_campaign_with_mu_learns_the_discrepancy_over_mu(slip_low):
     mf3 = MultiFidelitySurrogate(slip_low, restarts=1, folds=0).fit(data, seed=0)
     assert not mf3.learned_at_stick and mf3.discrepancy.parameters == ("c1", "c5", "mu")
     np.testing.assert_allclose(mf3.predict(theta[:3]).force, force[:3], rtol=1e-4)  # the GP interpolates
+
+
+def _friction_high_data(seed: int = 5) -> TrainingData:
+    """The high model with friction (a mu axis), its discrepancy changing with mu."""
+    rng = np.random.default_rng(seed)
+    theta = np.column_stack([HIGH_THETA, np.exp(rng.uniform(np.log(0.3), np.log(2.5), len(HIGH_THETA)))])
+    force, disp = slip_response(theta, HIGH_XYZ)
+    high_force, _ = response(theta[:, :2], HIGH_XYZ, True)
+    low_force, _ = response(theta[:, :2], HIGH_XYZ, False)
+    force = force * high_force / low_force * (1.0 + 0.02 * np.exp(-theta[:, 2]))[:, None]
+    model = {**MODEL, "mesh": {"preset": "default"}}
+    return TrainingData(
+        theta, force, disp, DEPTH, HIGH_XYZ, ("c1", "c5", "mu"), {"name": "hi-mu", "model": model}
+    )
+
+
+def test_a_stick_campaign_and_one_with_mu_merged_learn_one_discrepancy_over_mu(slip_low, high_data):
+    """The stick's points taken at mu = the low level's range end, beside the friction campaign's:
+    one GP over (c1, c5, mu) that gives both campaigns back (it interpolates) and is not the
+    stick's applied at every mu."""
+    friction, end = _friction_high_data(), float(slip_low.scaler.hi[2])
+    merged = merged_training_data([high_data, friction], stick_mu=end)
+    assert merged.parameters == ("c1", "c5", "mu") and merged.n == high_data.n + friction.n
+    np.testing.assert_array_equal(merged.theta[: high_data.n, 2], end)
+    assert merged.source["name"] == "high-campaign+hi-mu" and merged.source["stick_mu"] == end
+    mf3 = MultiFidelitySurrogate(slip_low, restarts=1, folds=0).fit(merged, seed=0)
+    assert not mf3.learned_at_stick and mf3.discrepancy.parameters == ("c1", "c5", "mu")
+    np.testing.assert_allclose(mf3.predict(merged.theta[:3]).force, high_data.force[:3], rtol=1e-4)
+    np.testing.assert_allclose(mf3.predict(friction.theta[:3]).force, friction.force[:3], rtol=1e-4)
+    at_stick = MultiFidelitySurrogate(slip_low, restarts=1, folds=0).fit(high_data, seed=0)
+    stick_error = np.abs(at_stick.predict(friction.theta).force / friction.force - 1).max()
+    assert stick_error > 0.005  # the stick's discrepancy misses the friction campaign (measured 0.014)
+
+
+def test_the_training_function_merges_campaigns_at_the_low_levels_mu_end(slip_low, tmp_path):
+    friction = _friction_high_data()
+    as_campaign = CampaignData(
+        friction.theta,
+        friction.force,
+        displacement=friction.displacement,
+        depth=friction.depth,
+        top_xyz=friction.top_xyz,
+        top_node_ids=np.arange(len(friction.top_xyz)),
+        parameters=friction.parameters,
+        points=np.arange(friction.n),
+        spec=friction.source,
+    )
+    low_file = save_surrogate(slip_low, tmp_path / "slip.safetensors")
+    model = train_multi_fidelity(low_file, [mf_campaign(), as_campaign], folds=0)
+    end = float(slip_low.scaler.hi[2])
+    assert (
+        model.meta["campaign"]["stick_mu"] == end and model.meta["campaign"]["name"] == "high-campaign+hi-mu"
+    )
+    assert model.meta["training_points"] == 2 * len(HIGH_THETA) and not model.learned_at_stick
+    stick = mf_campaign()
+    at_end = np.column_stack([stick.theta[:2], [end, end]])
+    np.testing.assert_allclose(model.predict(at_end).force, stick.force[:2], rtol=1e-4)
+
+
+def test_campaigns_that_cannot_be_merged_are_named(high_data):
+    friction = _friction_high_data()
+    with pytest.raises(ValueError, match=r"high-campaign: a stick campaign over \(c1, c5\) needs stick_mu"):
+        merged_training_data([high_data, friction])
+    other_mesh = TrainingData(**{**vars(friction), "top_xyz": friction.top_xyz * 1.01})
+    with pytest.raises(ValueError, match="top nodes differ from the first campaign's"):
+        merged_training_data([high_data, other_mesh], stick_mu=MU_HI)
+    held = TrainingData(**{**vars(high_data), "source": {**high_data.source}})
+    held.source["model"] = {**held.source["model"], "contact": {"friction": 0.3}}
+    with pytest.raises(ValueError, match=r"its mu is held at 0.3"):
+        merged_training_data([held, friction], stick_mu=MU_HI)
+    wider = TrainingData(**{**vars(friction), "source": {**friction.source}})
+    wider.source["model"] = {**wider.source["model"], "indenter": {"radius": 3.0}}
+    with pytest.raises(ValueError, match=r"model indenter \{'radius': 3.0\} differs"):
+        merged_training_data([high_data, wider], stick_mu=MU_HI)
 
 
 def test_a_discrepancy_at_the_stick_is_refused_where_it_cannot_be(slip_low, low, high_data):
