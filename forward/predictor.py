@@ -270,3 +270,62 @@ def _row(prediction: Prediction, i: int) -> Prediction:
         force_jacobian=pick(prediction.force_jacobian),
         displacement_jacobian=pick(prediction.displacement_jacobian),
     )
+
+
+class FixedParameter:
+    """A Predictor over all but one of another predictor's parameters, that one held at ``value``.
+
+    E.g. mu known, on a surrogate trained with mu as a parameter.
+
+    Parameters
+    ----------
+    predictor : Predictor
+        The predictor over all the parameters.
+    name : str
+        The parameter to hold (e.g. ``"mu"``).
+    value : float
+        Its value.
+
+    Raises
+    ------
+    ValueError
+        If the predictor has no parameter ``name``.
+    """
+
+    def __init__(self, predictor, name: str, value: float) -> None:
+        names = tuple(predictor.parameters)
+        if name not in names:
+            raise ValueError(f"the predictor has no parameter {name!r} (it has {names})")
+        self.predictor = predictor
+        self.index = names.index(name)
+        self.value = float(value)
+        self.parameters = tuple(k for k in names if k != name)
+
+    def predict(self, theta, jacobian: bool = False) -> Prediction:
+        """The wrapped predictor's response with the held parameter inserted.
+
+        Parameters
+        ----------
+        theta : array_like
+            (n, p - 1) the other parameters.
+        jacobian : bool, default False
+            Also the Jacobians (the held parameter's column left out).
+
+        Returns
+        -------
+        Prediction
+            Over the other parameters.
+        """
+        t = as_theta(theta, len(self.parameters))
+        full = np.insert(t, self.index, self.value, axis=1)
+        pred = self.predictor.predict(full, jacobian=jacobian)
+        keep = [i for i in range(full.shape[1]) if i != self.index]
+        return Prediction(
+            pred.force,
+            pred.displacement,
+            pred.depth,
+            pred.top_xyz,
+            self.parameters,
+            None if pred.force_jacobian is None else pred.force_jacobian[..., keep],
+            None if pred.displacement_jacobian is None else pred.displacement_jacobian[..., keep],
+        )

@@ -20,14 +20,22 @@ what a fit can add to its bounds as model error.
 Friction. With a low surrogate over (c1, c5, mu) made of a perfect-stick surrogate plus the slip
 (:class:`surrogate.slip_surrogate.SlipSurrogate`), the high campaign may be a perfect-stick
 campaign over (c1, c5): delta is then learned from the high points' differences to the low
-level's STICK surrogate and applied at every mu,
+level at mu_s, the end of its mu range where nothing slips (``stick_mu``), and applied at every mu,
 
     log F(c1, c5, mu) = log F_lo(c1, c5, mu) + delta_f(c1, c5)                          (2a)
     u(c1, c5, mu)     = W u_lo(c1, c5, mu)   + delta_u(c1, c5)                          (2b)
 
-which holds where the finer mesh changes the response the same way whatever the friction
-(measured: docs/validation/surrogates.md, "A multi-fidelity surrogate with mu"). A high campaign
-with the mu axis learns delta over (c1, c5, mu) instead, with eq. 1.
+with delta_i = [log F_hi,i - log F_lo(theta_i, mu_s), u_hi,i - W u_lo(theta_i, mu_s)], so that at
+mu_s the surrogate gives the high level's stick back. Learned against the low level's stick
+surrogate instead (files made before 2026-11-30, ``stick_mu`` None), it could not: the low
+level's slip at its range end is not its stick (contact-L1 at mu = 3 against the stick: 0.04 % in
+force, 0.20 mm in the field at the contact's edge; contact-L3: 0.005 %, 0.018 mm), and a fit of
+stick data with mu free took a wrong mu and moved c5 (the shipped R = 8 mm surrogate on its own
+stick runs at c1 = 1 kPa: c5 -6.0 %, mu 0.79; against mu_s: -0.5 %, mu 3.0;
+docs/validation/model-error.md). Eq. 2 holds where the finer mesh changes the response the same
+way whatever the friction (docs/validation/surrogates.md, "A multi-fidelity surrogate with mu").
+A high campaign with the mu axis (or a stick campaign merged with one,
+:func:`~.training_set.merged_training_data`) learns delta over (c1, c5, mu) instead, with eq. 1.
 """
 
 from __future__ import annotations
@@ -39,7 +47,7 @@ import numpy as np
 from scipy import sparse
 
 from ..forward.convergence.mesh_study import top_field_interpolator
-from ..forward.predictor import Prediction, ReducedBasis
+from ..forward.predictor import FixedParameter, Prediction, ReducedBasis
 from .base import FieldSurrogate, InputScaler, TrainingData, padded_jacobian
 from .discrepancy_errors import k_fold_discrepancy_errors, pca_truncation_errors
 from .gaussian_process import GaussianProcessSurrogate
@@ -88,6 +96,10 @@ class MultiFidelitySurrogate(TwoLevelSurrogate):
         One GP per discrepancy score.
     folds : int, default 5
         With ``folds`` >= 2, the discrepancy's k-fold errors go to ``meta['discrepancy_kfold']``.
+    stick_mu : float, "end" or None, default "end"
+        Over a stick-plus-slip low level, the mu a stick campaign is compared at (eq. 2): "end",
+        the low level's mu range end (resolved when trained); None, its stick surrogate (files
+        made before 2026-11-30).
     """
 
     kind = "mf"
@@ -103,10 +115,12 @@ class MultiFidelitySurrogate(TwoLevelSurrogate):
         restarts: int = 3,
         per_component: bool = True,
         folds: int = 5,
+        stick_mu: float | str | None = "end",
     ) -> None:
         self.low = low
         super().__init__(input_scale, pca_tol, max_components)
         self.restarts, self.per_component, self.folds = restarts, per_component, folds
+        self.stick_mu = stick_mu
 
     def hyperparameters(self) -> dict[str, Any]:
         """The constructor's arguments (the low surrogate apart)."""
@@ -115,6 +129,7 @@ class MultiFidelitySurrogate(TwoLevelSurrogate):
             "restarts": self.restarts,
             "per_component": self.per_component,
             "folds": self.folds,
+            "stick_mu": self.stick_mu,
         }
 
     def _discrepancy_model(self) -> GaussianProcessSurrogate:
@@ -139,19 +154,26 @@ class MultiFidelitySurrogate(TwoLevelSurrogate):
         """
         return len(self.discrepancy.parameters) < len(self.low.parameters)
 
-    def _low_for(self, data: TrainingData) -> FieldSurrogate:
+    def _low_for(self, data: TrainingData):
         """The low level the high campaign ``data`` is compared with: the low surrogate itself over
-        the same parameters, or the stick surrogate of a stick-plus-slip low level when ``data`` is
-        a perfect-stick campaign over (c1, c5)."""
+        the same parameters, or, when ``data`` is a perfect-stick campaign over (c1, c5), a
+        stick-plus-slip low level at ``stick_mu`` (eq. 2; its stick surrogate where ``stick_mu``
+        is None)."""
         low = self.low
         if tuple(data.parameters) == tuple(low.parameters):
             return low
         if isinstance(low, SlipSurrogate) and tuple(data.parameters) == tuple(low.stick.parameters):
-            return low.stick
+            return low.stick if self.stick_mu is None else _LowAtStickMu(low, self._resolved_stick_mu())
         raise ValueError(
             f"parameters: {low.parameters} (low) vs {tuple(data.parameters)} (high); a high campaign over "
             "(c1, c5) needs a stick-plus-slip low surrogate ('slip') to be learned at the stick"
         )
+
+    def _resolved_stick_mu(self) -> float:
+        """``stick_mu`` as a number: "end" is the low level's mu range end."""
+        if self.stick_mu == "end":
+            return float(self.low.scaler.hi[list(self.low.parameters).index("mu")])
+        return float(self.stick_mu)
 
     # ------------------------------------------------------------------ training
     def _check_compatible(self, data: TrainingData) -> None:
@@ -219,6 +241,10 @@ class MultiFidelitySurrogate(TwoLevelSurrogate):
             ``self``, trained.
         """
         t0 = time.perf_counter()
+        if not isinstance(self.low, SlipSurrogate):
+            self.stick_mu = None  # no stick to take at a mu
+        elif self.stick_mu is not None:
+            self.stick_mu = self._resolved_stick_mu()
         self._check_compatible(data)
         self.parameters = tuple(self.low.parameters)
         self.depth = np.asarray(data.depth, float)
@@ -266,16 +292,17 @@ class MultiFidelitySurrogate(TwoLevelSurrogate):
         """The parameters the discrepancy is a function of: all, or (c1, c5) when learned at the stick."""
         return theta[:, : len(self.discrepancy.parameters)]
 
-    def stick_level(self) -> MultiFidelitySurrogate:
-        """This surrogate at the perfect stick, over (c1, c5).
+    def stick_level(self):
+        """This surrogate at the perfect stick, over (c1, c5): what the high stick campaign is
+        validated against.
 
-        The stick-plus-slip low level's stick surrogate plus the same discrepancy (module eq. 1;
-        what the high stick campaign is validated against).
+        Itself at ``stick_mu`` (eq. 2: where the discrepancy was learned); for a file made before
+        ``stick_mu`` (None), the low level's stick surrogate plus the same discrepancy.
 
         Returns
         -------
-        MultiFidelitySurrogate
-            Over (c1, c5), sharing this one's discrepancy.
+        Predictor
+            Over (c1, c5).
 
         Raises
         ------
@@ -284,6 +311,8 @@ class MultiFidelitySurrogate(TwoLevelSurrogate):
         """
         if not self.learned_at_stick:
             raise ValueError("the discrepancy was learned over the low level's parameters, not at the stick")
+        if self.stick_mu is not None:
+            return FixedParameter(self, "mu", self._resolved_stick_mu())
         model = type(self)(self.low.stick, **self.hyperparameters())
         model.discrepancy, model.interpolation = self.discrepancy, self.interpolation
         model.parameters = tuple(self.discrepancy.parameters)
@@ -521,8 +550,34 @@ class MultiFidelitySurrogate(TwoLevelSurrogate):
         """The surrogate from its low level and its discrepancy GP; W rebuilt from their top nodes."""
         if not isinstance(second, GaussianProcessSurrogate):
             raise ValueError(f"the discrepancy model must be a 'gp' surrogate, not {second.kind!r}")
-        model = cls(first, **config["hyperparameters"])
+        # a file made before stick_mu learned the stick's discrepancy against the stick surrogate
+        model = cls(first, **{"stick_mu": None, **config["hyperparameters"]})
         model.discrepancy = second
         model._set_box()
         model.interpolation = interpolation_matrix(first.top_xyz, second.top_xyz)
         return model
+
+
+class _LowAtStickMu(FixedParameter):
+    """A stick-plus-slip low level at the mu a stick campaign is compared at (eq. 2): a Predictor
+    over (c1, c5) with the low level's box over them."""
+
+    def __init__(self, low: SlipSurrogate, mu: float) -> None:
+        super().__init__(low, "mu", mu)
+        self.scaler = InputScaler(low.scaler.lo[:2], low.scaler.hi[:2], low.scaler.scale)
+
+    def inside_box(self, theta) -> np.ndarray:
+        """Which (c1, c5) points lie in the low level's box (mu at the held value).
+
+        Parameters
+        ----------
+        theta : array_like
+            (n, 2) points, kPa.
+
+        Returns
+        -------
+        numpy.ndarray
+            (n,) bool.
+        """
+        theta = np.atleast_2d(np.asarray(theta, float))
+        return self.predictor.inside_box(np.insert(theta, self.index, self.value, axis=1))

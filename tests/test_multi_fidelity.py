@@ -372,12 +372,24 @@ def test_a_discrepancy_learned_at_the_stick_carries_mu(mf3, slip_low, low, high_
         np.testing.assert_allclose(
             pred.displacement_jacobian[0, ..., k], fd_u, rtol=0, atol=1e-4 * np.abs(fd_u).max()
         )
-    # the stick level is the 2-parameter multi-fidelity surrogate of the stick surrogate, exactly
-    stick = mf3.stick_level()
+    # learned against the low level at its mu range end, where it gives the stick campaign back,
+    # and the stick level is itself there
+    end = float(slip_low.scaler.hi[2])
+    assert mf3.stick_mu == end and mf3.hyperparameters()["stick_mu"] == end
+    at_end = np.column_stack([high_data.theta[:4], np.full(4, end)])
+    np.testing.assert_allclose(mf3.predict(at_end).force, high_data.force[:4], rtol=1e-4)
+    np.testing.assert_array_equal(
+        mf3.stick_level().predict(high_data.theta[:4]).force, mf3.predict(at_end).force
+    )
+    # learned against the stick surrogate (files made before stick_mu): the stick level is the
+    # 2-parameter multi-fidelity surrogate of the stick surrogate, exactly
+    before = MultiFidelitySurrogate(slip_low, restarts=1, folds=0, stick_mu=None).fit(high_data, seed=0)
     direct = MultiFidelitySurrogate(low, restarts=1, folds=0).fit(high_data, seed=0)
     np.testing.assert_allclose(
-        stick.predict(theta[:, :2]).force, direct.predict(theta[:, :2]).force, rtol=1e-12
+        before.stick_level().predict(theta[:, :2]).force, direct.predict(theta[:, :2]).force, rtol=1e-12
     )
+    missed = np.abs(before.predict(at_end).force / high_data.force[:4] - 1).max()
+    assert missed > 1e-3  # the low level's slip at its end is not its stick (measured 0.0069)
     # the box: (c1, c5) the high campaign's, mu the low level's; saved and loaded bit for bit
     np.testing.assert_allclose(mf3.scaler.lo, [*HIGH_THETA.min(axis=0), slip_low.scaler.lo[2]])
     again = load_surrogate(save_surrogate(mf3, tmp_path / "mf3.safetensors"))
