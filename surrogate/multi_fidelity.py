@@ -560,14 +560,16 @@ class MultiFidelitySurrogate(TwoLevelSurrogate):
 
 class _LowAtStickMu(FixedParameter):
     """A stick-plus-slip low level at the mu a stick campaign is compared at (eq. 2): a Predictor
-    over (c1, c5) with the low level's box over them."""
+    over (c1, c5) whose box is its stick surrogate's (the slip's change is learned from a
+    space-filling design a little inside that box, c1 from 1.016 rather than 1 kPa in the shipped
+    ones; a fit on the multi-fidelity surrogate reads it there already, its box the discrepancy's)."""
 
     def __init__(self, low: SlipSurrogate, mu: float) -> None:
         super().__init__(low, "mu", mu)
-        self.scaler = InputScaler(low.scaler.lo[:2], low.scaler.hi[:2], low.scaler.scale)
+        self.scaler = low.stick.scaler
 
     def inside_box(self, theta) -> np.ndarray:
-        """Which (c1, c5) points lie in the low level's box (mu at the held value).
+        """Which (c1, c5) points lie in the stick surrogate's box.
 
         Parameters
         ----------
@@ -579,5 +581,4 @@ class _LowAtStickMu(FixedParameter):
         numpy.ndarray
             (n,) bool.
         """
-        theta = np.atleast_2d(np.asarray(theta, float))
-        return self.predictor.inside_box(np.insert(theta, self.index, self.value, axis=1))
+        return self.predictor.stick.inside_box(theta)

@@ -4,10 +4,12 @@ import json
 
 import numpy as np
 import pytest
+from rich.console import Console
 from typer.testing import CliRunner
 
 from indentation_studio.forward.convergence.mesh_study import nodes_on_sphere
 from indentation_studio.forward.result import SimulationResult
+from indentation_studio.studio import progress
 from indentation_studio.studio.cli import app
 
 runner = CliRunner()
@@ -150,3 +152,17 @@ def test_the_command_lines_registration_default_is_the_librarys():
     from indentation_studio.studio.inference_cli import REGISTRATION_DEFAULT_MM
 
     assert REGISTRATION_DEFAULT_MM == REGISTRATION_MM == 0.1
+
+
+def test_the_time_left_of_a_resumed_run_is_the_rate_of_its_own_steps(monkeypatch):
+    # resumed after step 17 of 28: 18 at 100 s, 19 at 200 s -> 9 steps left at 100 s each
+    clock = iter([0.0, 100.0, 200.0])
+    monkeypatch.setattr(progress.time, "perf_counter", lambda: next(clock))
+    console = Console(record=True, width=200, force_terminal=False)
+    with progress.step_progress(console, "simulate", 28) as bar:
+        bar.update(18)
+        bar.update(19)
+    lines = console.export_text().splitlines()
+    assert lines[0].endswith("elapsed 100.0 s, eta 1000.0 s") and lines[1].endswith(
+        "elapsed 200.0 s, eta 900.0 s"
+    )
