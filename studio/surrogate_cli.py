@@ -12,7 +12,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from .. import surrogate  # lazy: the command imports what it runs
+from .. import inference, surrogate  # lazy: the command imports what it runs
 from ..atomic_write import strict_json
 from .options import JSON, RUNS_DIR, SEED, err, fail
 
@@ -250,7 +250,6 @@ def evaluate(
     """Errors of a saved surrogate on a campaign, and the time to predict many points."""
     import numpy as np
 
-    from ..inference.fit.run_refits import refit_campaign
     from ..surrogate.persistence import load_surrogate
     from ..surrogate.training import training_data
     from ..surrogate.validation import prediction_errors
@@ -262,7 +261,7 @@ def evaluate(
         if campaign:
             payload["errors"] = prediction_errors(model, training_data(campaign, runs_dir))
         if campaign and refits:
-            payload["refits"] = refit_campaign(
+            payload["refits"] = inference.refit_campaign(
                 model,
                 campaign,
                 runs_dir,

@@ -293,10 +293,9 @@ class MultiFidelitySurrogate(TwoLevelSurrogate):
         return theta[:, : len(self.discrepancy.parameters)]
 
     def stick_level(self):
-        """This surrogate at the perfect stick, over (c1, c5): what the high stick campaign is
-        validated against.
+        """This surrogate at the perfect stick, over (c1, c5).
 
-        Itself at ``stick_mu`` (eq. 2: where the discrepancy was learned); for a file made before
+        What the high stick campaign is validated against: itself at ``stick_mu`` (eq. 2: where the discrepancy was learned); for a file made before
         ``stick_mu`` (None), the low level's stick surrogate plus the same discrepancy.
 
         Returns
