@@ -268,20 +268,24 @@ def test_a_file_keeps_the_low_levels_errors_and_moves_them_to_the_high_nodes(mf,
     np.testing.assert_allclose(anew.emulation_error.errors(), again.emulation_error.errors(), atol=1e-6)
 
 
-def mf_campaign() -> CampaignData:
-    """The high campaign as a campaign's data (what train_multi_fidelity reads)."""
-    high_data = synthetic(HIGH_THETA, True, "high-campaign")
+def as_campaign(data: TrainingData) -> CampaignData:
+    """Training data as a campaign's data (what train_multi_fidelity reads)."""
     return CampaignData(
-        high_data.theta,
-        high_data.force,
-        displacement=high_data.displacement,
-        depth=high_data.depth,
-        top_xyz=high_data.top_xyz,
-        top_node_ids=np.arange(len(high_data.top_xyz)),
-        parameters=high_data.parameters,
-        points=np.arange(high_data.n),
-        spec=high_data.source,
+        data.theta,
+        data.force,
+        displacement=data.displacement,
+        depth=data.depth,
+        top_xyz=data.top_xyz,
+        top_node_ids=np.arange(len(data.top_xyz)),
+        parameters=data.parameters,
+        points=np.arange(data.n),
+        spec=data.source,
     )
+
+
+def mf_campaign() -> CampaignData:
+    """The high campaign as a campaign's data."""
+    return as_campaign(synthetic(HIGH_THETA, True, "high-campaign"))
 
 
 def test_training_function_and_refusals(low, high_data, tmp_path):
@@ -458,20 +462,8 @@ def test_a_stick_campaign_and_one_with_mu_merged_learn_one_discrepancy_over_mu(s
 
 
 def test_the_training_function_merges_campaigns_at_the_low_levels_mu_end(slip_low, tmp_path):
-    friction = _friction_high_data()
-    as_campaign = CampaignData(
-        friction.theta,
-        friction.force,
-        displacement=friction.displacement,
-        depth=friction.depth,
-        top_xyz=friction.top_xyz,
-        top_node_ids=np.arange(len(friction.top_xyz)),
-        parameters=friction.parameters,
-        points=np.arange(friction.n),
-        spec=friction.source,
-    )
     low_file = save_surrogate(slip_low, tmp_path / "slip.safetensors")
-    model = train_multi_fidelity(low_file, [mf_campaign(), as_campaign], folds=0)
+    model = train_multi_fidelity(low_file, [mf_campaign(), as_campaign(_friction_high_data())], folds=0)
     end = float(slip_low.scaler.hi[2])
     assert (
         model.meta["campaign"]["stick_mu"] == end and model.meta["campaign"]["name"] == "high-campaign+hi-mu"
