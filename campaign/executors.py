@@ -8,6 +8,7 @@ picks one. The run itself (claims, heartbeat, recording) is
 from __future__ import annotations
 
 import concurrent.futures as cf
+import logging
 import os
 import time
 import traceback
@@ -15,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from ..forward.checkpoint import CheckpointMismatch
 from ..forward.febio.equilibrium import EquilibriumTolerance
 from ..forward.febio.runner import FebioSolver
 from ..forward.solver import EmbeddedSolver
@@ -24,6 +26,8 @@ from .index import result_row
 from .spec import CAMPAIGN_EQUILIBRIUM_REL
 
 __all__ = ["DaskCluster", "InProcess", "PointTimeout", "Processes", "executor_for", "solve_point"]
+
+log = logging.getLogger(__name__)
 
 
 class PointTimeout(RuntimeError):
@@ -46,7 +50,9 @@ def solve_point(
 
     An embedded point given ``checkpoint`` writes its state there after every step and, when the
     file exists (a point stopped by a kill, a lost worker or its timeout), resumes after its last
-    finished step; the parent deletes the file once the result is kept."""
+    finished step; the parent deletes the file once the result is kept. A checkpoint this run
+    cannot resume from (written by another version of the package, or cut short) is kept beside
+    as ``<file>.refused`` and the point solved from its start."""
     t0 = time.perf_counter()
     row: dict[str, Any] = {
         "point": point,
@@ -70,7 +76,13 @@ def solve_point(
                     raise PointTimeout(f"timeout: {timeout_s:g} s exceeded after step {k} of {n}")
 
             # one thread: a worker among as many as the cores (forward.threads)
-            result = EmbeddedSolver(spec).run(progress=deadline, threads=1, checkpoint=checkpoint)
+            try:
+                result = EmbeddedSolver(spec).run(progress=deadline, threads=1, checkpoint=checkpoint)
+            except CheckpointMismatch as exc:
+                refused = f"{checkpoint}.refused"
+                os.replace(checkpoint, refused)
+                log.warning("point %d: %s; kept as %s, solved from its start", point, exc, refused)
+                result = EmbeddedSolver(spec).run(progress=deadline, threads=1, checkpoint=checkpoint)
         row.update(status="done", result=result, **result_row(result))
     except Exception as exc:  # recorded, never propagated: one bad point must not stop a campaign
         partial = getattr(exc, "partial", None)

@@ -215,14 +215,20 @@ def test_a_point_stopped_after_a_step_resumes_there_with_the_uninterrupted_resul
     np.testing.assert_allclose(resumed.displacement, whole.displacement, atol=1e-4 * 1.0)
 
 
-def test_a_checkpoint_of_another_run_is_named_and_the_point_not_solved_from_it(tmp_path):
+def test_a_checkpoint_it_cannot_resume_from_is_kept_aside_and_the_point_solved_from_its_start(
+    tmp_path, caplog
+):
     store = CampaignStore.create_or_open(tmp_path, _spec("m", "c1=6:6:1,c5=300:300:1"))
     store.checkpoints_dir.mkdir()
     store.checkpoint_path(0).write_bytes(b"not a checkpoint")
-    s = run_campaign(store, jobs=1)
-    assert s["failed"] == 1
-    error = s["failures"][0]["error"]
-    assert "CheckpointMismatch" in error and "00000.pkl" in error and "delete it" in error
+    with caplog.at_level("WARNING", logger="indentation_studio.campaign.executors"):
+        s = run_campaign(store, jobs=1)
+    assert s["done"] == 1 and s["resumable"] == []
+    assert "00000.pkl is not a readable checkpoint" in caplog.text and "solved from its start" in caplog.text
+    refused = store.checkpoints_dir / "00000.pkl.refused"
+    assert refused.read_bytes() == b"not a checkpoint" and not store.checkpoint_path(0).exists()
+    whole = EmbeddedSolver(SMALL.with_parameters(c1=6.0, c5=300.0)).run(threads=1)
+    np.testing.assert_array_equal(SimulationResult.load(store.result_path(0)).force, whole.force)
 
 
 def test_dask_localcluster_and_loader(tmp_path):
