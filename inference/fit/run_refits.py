@@ -10,7 +10,7 @@ surrogate's range where mu is one of its parameters, from three starts in mu,
 from the run's parameters is the surrogate's error where it matters.
 
 Issue 57: a surrogate whose discrepancy (low level to level 3) was learned at the stick fitted
-level 3's own record made with mu = 1 3 % low in c5, where its held-out errors near the fit said
+level 3's own record made with mu = 1 with c5 3 % low, where its held-out errors near the fit said
 0.7 %. Level-3 runs with mu over the box, fitted here, measure how that discrepancy changes with
 friction (docs/validation/model-error.md).
 """
@@ -46,7 +46,7 @@ class RunRefit:
         The run's parameters (c1, c5 and, with friction, mu).
     truth : numpy.ndarray
         (p,) the run's parameters.
-    fit_parameters : tuple of str
+    fitted_parameters : tuple of str
         The fit's parameters (the surrogate's).
     fit : numpy.ndarray
         (k,) the fit.
@@ -56,7 +56,7 @@ class RunRefit:
 
     parameters: tuple[str, ...]
     truth: np.ndarray
-    fit_parameters: tuple[str, ...]
+    fitted_parameters: tuple[str, ...]
     fit: np.ndarray
     F: float
 
@@ -72,10 +72,10 @@ class RunRefit:
         -------
         float
         """
-        if name not in self.parameters or name not in self.fit_parameters:
+        if name not in self.parameters or name not in self.fitted_parameters:
             return float("nan")
         truth = float(self.truth[self.parameters.index(name)])
-        return 100.0 * (float(self.fit[self.fit_parameters.index(name)]) / truth - 1.0)
+        return 100.0 * (float(self.fit[self.fitted_parameters.index(name)]) / truth - 1.0)
 
     def to_dict(self) -> dict:
         """The run, the fit and the errors, for JSON.
@@ -85,7 +85,7 @@ class RunRefit:
         dict
         """
         out = {f"{k}_true": float(v) for k, v in zip(self.parameters, self.truth, strict=True)}
-        out |= {f"{k}_fit": float(v) for k, v in zip(self.fit_parameters, self.fit, strict=True)}
+        out |= {f"{k}_fit": float(v) for k, v in zip(self.fitted_parameters, self.fit, strict=True)}
         out |= {f"{k}_error_pct": self.error_pct(k) for k in ("c1", "c5", "mu") if k in self.parameters}
         return out | {"F": float(self.F)}
 
