@@ -295,8 +295,10 @@ class MultiFidelitySurrogate(TwoLevelSurrogate):
     def stick_level(self):
         """This surrogate at the perfect stick, over (c1, c5).
 
-        What the high stick campaign is validated against: itself at ``stick_mu`` (eq. 2: where the discrepancy was learned); for a file made before
-        ``stick_mu`` (None), the low level's stick surrogate plus the same discrepancy.
+        What a high stick campaign is validated against: itself at ``stick_mu``, where a stick
+        campaign's discrepancy was learned (eq. 2, or a merged campaign's stick points); for a
+        file made before ``stick_mu`` (None), the low level's stick surrogate plus the same
+        discrepancy.
 
         Returns
         -------
@@ -306,12 +308,13 @@ class MultiFidelitySurrogate(TwoLevelSurrogate):
         Raises
         ------
         ValueError
-            If the discrepancy was not learned at the stick.
+            If neither: the discrepancy was learned over the low level's parameters with no mu
+            taken as the stick.
         """
-        if not self.learned_at_stick:
-            raise ValueError("the discrepancy was learned over the low level's parameters, not at the stick")
         if self.stick_mu is not None:
             return FixedParameter(self, "mu", self._resolved_stick_mu())
+        if not self.learned_at_stick:
+            raise ValueError("the discrepancy was learned over the low level's parameters, not at the stick")
         model = type(self)(self.low.stick, **self.hyperparameters())
         model.discrepancy, model.interpolation = self.discrepancy, self.interpolation
         model.parameters = tuple(self.discrepancy.parameters)

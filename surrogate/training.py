@@ -261,9 +261,13 @@ def train_multi_fidelity(
         if stick_mu is None and "mu" in low_model.parameters:  # where the low level's slip ends
             stick_mu = float(low_model.scaler.hi[low_model.parameters.index("mu")])
         data = merged_training_data([training_data(c, runs_dir) for c in high_campaign], stick_mu=stick_mu)
-    model = surrogate_class("mf")(low_model, pca_tol=pca_tol, max_components=max_components, folds=folds).fit(
-        data, seed=seed
-    )
+    model = surrogate_class("mf")(
+        low_model,
+        pca_tol=pca_tol,
+        max_components=max_components,
+        folds=folds,
+        stick_mu="end" if stick_mu is None else stick_mu,
+    ).fit(data, seed=seed)
     validation = {"training": prediction_errors(model, data)}
     if test_campaign is not None:
         test = training_data(test_campaign, runs_dir)

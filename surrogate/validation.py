@@ -22,8 +22,7 @@ def prediction_errors(surrogate: FieldSurrogate, data: TrainingData) -> dict[str
     campaign does not have (``data.missing``) are left out of the force errors.
 
     Runs at the perfect stick (over (c1, c5)) on a surrogate with mu are compared with its stick
-    level (a multi-fidelity surrogate whose discrepancy was learned at the stick:
-    ``stick_level()``).
+    level (a multi-fidelity surrogate's ``stick_level()``).
 
     Parameters
     ----------
@@ -45,14 +44,15 @@ def prediction_errors(surrogate: FieldSurrogate, data: TrainingData) -> dict[str
         them.
     """
     if tuple(data.parameters) != tuple(surrogate.parameters):
-        if not getattr(surrogate, "learned_at_stick", False) or tuple(data.parameters) != tuple(
+        stick_level = getattr(surrogate, "stick_level", None)
+        if stick_level is None or tuple(data.parameters) != tuple(
             surrogate.parameters[: len(data.parameters)]
         ):
             raise ValueError(
                 f"the data are over {tuple(data.parameters)}, the surrogate over {tuple(surrogate.parameters)}; "
-                "stick runs are compared only with a surrogate whose discrepancy was learned at the stick"
+                "stick runs are compared only with a multi-fidelity surrogate's stick level"
             )
-        surrogate = surrogate.stick_level()
+        surrogate = stick_level()  # a ValueError naming why where it has none
     pred = surrogate.predict(data.theta)
     rel_f = pred.force / data.force - 1.0
     if data.missing is not None:  # steps the campaign has no force for (filled for training)

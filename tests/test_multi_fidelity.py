@@ -407,7 +407,7 @@ def test_stick_runs_are_compared_with_the_stick_level_of_a_surrogate_with_mu(mf3
     errors = prediction_errors(mf3, high_data)
     assert errors == prediction_errors(mf3.stick_level(), high_data)
     assert errors["force_rms_pct"] < 0.1  # the GP interpolates its own campaign
-    with pytest.raises(ValueError, match=r"only with a surrogate whose discrepancy was learned at the stick"):
+    with pytest.raises(ValueError, match=r"only with a multi-fidelity surrogate's stick level"):
         prediction_errors(slip_low.stick, TrainingData(**{**vars(high_data), "parameters": ("c1", "x")}))
 
 
@@ -456,6 +456,8 @@ def test_a_stick_campaign_and_one_with_mu_merged_learn_one_discrepancy_over_mu(s
     assert not mf3.learned_at_stick and mf3.discrepancy.parameters == ("c1", "c5", "mu")
     np.testing.assert_allclose(mf3.predict(merged.theta[:3]).force, high_data.force[:3], rtol=1e-4)
     np.testing.assert_allclose(mf3.predict(friction.theta[:3]).force, friction.force[:3], rtol=1e-4)
+    # its stick level is itself where the stick's points were taken: the stick campaign given back
+    assert prediction_errors(mf3, high_data)["force_max_pct"] < 0.01
     at_stick = MultiFidelitySurrogate(slip_low, restarts=1, folds=0).fit(high_data, seed=0)
     stick_error = np.abs(at_stick.predict(friction.theta).force / friction.force - 1).max()
     assert stick_error > 0.005  # the stick's discrepancy misses the friction campaign (measured 0.014)
