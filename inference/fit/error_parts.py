@@ -37,6 +37,8 @@ __all__ = [
     "mu_held_out_refits",
     "mu_model_error_pct",
     "mu_model_error_unmeasured",
+    "stick_mesh_budget",
+    "with_processing_part",
 ]
 
 
@@ -55,7 +57,7 @@ def model_error_with_mu(
     The discrepancy's uncertainty and the error budget of a multi-fidelity surrogate
     (:func:`~indentation_studio.inference.budgets.model_error.model_error_at`, mu held: at mu's range ends
     nothing slips and d/dmu vanishes), or the stick-measured budget of a single-level one
-    (:func:`_stick_mesh_budget`); the surrogate's own error where the final stage is on it; the
+    (:func:`stick_mesh_budget`); the surrogate's own error where the final stage is on it; the
     processing's part. A fit and a posterior of the same data carry the same parts.
 
     Parameters
@@ -88,7 +90,7 @@ def model_error_with_mu(
         say("the model error at the fit (discrepancy and error budget, mu held) ...")
         error = model_error_at(obj, eta, model, at, free=2, on_surrogate=on_surrogate)
     else:
-        error = _stick_mesh_budget(model, contact, inputs.spec.contact.describe(), theta=theta)
+        error = stick_mesh_budget(model, contact, inputs.spec.contact.describe(), theta=theta)
         if on_surrogate:  # the final stage on the surrogate: its own error too
             error = with_emulation_error(error, obj, eta, model, at, free=2)
     differences = surrogate_mesh_differences(model) if treatment.mode in MU_FREED else None
@@ -98,7 +100,7 @@ def model_error_with_mu(
     elif error is not None and treatment.mode in MU_FREED and isinstance(error.budget_source, dict):
         error = replace(error, budget_source=error.budget_source | {"mu_free": {"measured": False}})
     error = None if error is None else replace(error, contact=contact)
-    return _with_processing(error, inputs, at, contact, registration_mm, say, free=2)
+    return with_processing_part(error, inputs, at, contact, registration_mm, say, free=2)
 
 
 #: What bounds on a surrogate whose discrepancy was learned at the stick leave out when the fit has
@@ -244,7 +246,7 @@ def mu_model_error_pct(
     return float(np.hypot.reduce(parts)) if parts else None
 
 
-def _with_processing(
+def with_processing_part(
     model_error: ModelError | None,
     inputs: FitInputs,
     theta: np.ndarray,
@@ -254,8 +256,33 @@ def _with_processing(
     *,
     free: int | None = None,
 ) -> ModelError:
-    """The fit's model error with the experiment's processing part measured at ``theta`` on the
-    fit's surrogate (``inference.experiment.processing_error``)."""
+    """The fit's model error with the experiment's processing part measured at ``theta``.
+
+    On the fit's surrogate (``inference.experiment.processing_error``: the DIC points carried to
+    the nodes and the registration), beside the parts ``model_error`` holds.
+
+    Parameters
+    ----------
+    model_error : ModelError or None
+        The other parts.
+    inputs : FitInputs
+        The experiment, surrogate and objective.
+    theta : numpy.ndarray
+        The fit, kPa (and mu).
+    contact : str
+        The contact the fit assumed, in words.
+    registration_mm : float
+        How far the registration may be off, mm.
+    say : callable
+        Progress messages.
+    free : int, optional
+        The first ``free`` parameters move, the rest are held.
+
+    Returns
+    -------
+    ModelError
+        ``model_error`` with the processing part.
+    """
     say(
         f"the processing's part at the fit (DIC points to nodes, registration within {registration_mm:g} mm) ..."
     )
@@ -281,13 +308,31 @@ def _with_held_mu(theta: np.ndarray, model, treatment: FrictionTreatment) -> np.
     return np.append(theta, np.clip(treatment.value, model.scaler.lo[2], model.scaler.hi[2]))
 
 
-def _stick_mesh_budget(surrogate, contact: str, measured_with: str, *, theta) -> ModelError | None:
+def stick_mesh_budget(surrogate, contact: str, measured_with: str, *, theta) -> ModelError | None:
     """The mesh's error budget of the surrogate's (c1, c5), measured with the perfect stick, for a
-    fit with friction: that mesh's error does not vanish when mu is held or fitted, and no budget
-    measured with friction is shipped; leaving it out would leave bounds of noise alone (a fit of
-    FEBio's baseline with mu identified: c5 +34 % outside +-3.9 %). Its source says which contact
-    it was measured with (``measured_with``: the surrogate's campaign's contact, which the shipped
-    budget was matched on), read at the fit ``theta`` (``surrogate.error_budgets.budget_at``)."""
+    fit with friction.
+
+    That mesh's error does not vanish when mu is held or fitted, and no budget measured with
+    friction is shipped; leaving it out would leave bounds of noise alone (a fit of FEBio's
+    baseline with mu identified: c5 +34 % outside +-3.9 %).
+
+    Parameters
+    ----------
+    surrogate : FieldSurrogate
+        The fit's surrogate.
+    contact : str
+        The contact the fit assumed, in words.
+    measured_with : str
+        The contact the budget was measured with (the surrogate's campaign's, which the shipped
+        budget was matched on); recorded in its source.
+    theta : array_like
+        The fit, where the budget is read (``surrogate.error_budgets.budget_at``).
+
+    Returns
+    -------
+    ModelError or None
+        The budget's part (and its correction); None where the surrogate has no budget.
+    """
 
     budget = budget_at(surrogate_error_budget(surrogate), theta)
     if not budget:

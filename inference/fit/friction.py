@@ -15,12 +15,12 @@ from ..adequacy.of_fit import training_box_ends
 from ..budgets.model_error import has_high_fidelity_level
 from ..experiment.processing_error import REGISTRATION_MM
 from .error_parts import (
-    _stick_mesh_budget,
-    _with_processing,
     model_error_with_mu,
     mu_held_out_refits,
     mu_model_error_pct,
     mu_model_error_unmeasured,
+    stick_mesh_budget,
+    with_processing_part,
 )
 from .inputs import FitInputs
 from .inverse_fit import PAPER_START, FitResult, _told, fit_parameters
@@ -259,8 +259,10 @@ def _fit_with_friction(
             say=say,
         )
     else:  # the stick surrogate's field at (c1, c5) stands for the model's
-        error = _stick_mesh_budget(model, fit.contact, spec.contact.describe(), theta=final.theta)
-        fit.model_error = _with_processing(error, inputs, final.theta[:2], fit.contact, registration_mm, say)
+        error = stick_mesh_budget(model, fit.contact, spec.contact.describe(), theta=final.theta)
+        fit.model_error = with_processing_part(
+            error, inputs, final.theta[:2], fit.contact, registration_mm, say
+        )
     fit.mu_reach, fit.mu_reach_notes, fit.restarts = reach, notes, restarts
     if with_mu and treatment.fits_mu:
         refits = mu_held_out_refits(inputs, final.theta)

@@ -18,7 +18,7 @@ from ..budgets.mesh_check import check_mesh_at
 from ..budgets.model_error import has_high_fidelity_level, model_error_at
 from ..experiment.data import ExperimentData
 from ..experiment.processing_error import REGISTRATION_MM
-from .error_parts import _with_processing
+from .error_parts import with_processing_part
 from .friction import _fit_with_friction, default_friction
 from .inputs import prepare_fit
 from .inverse_fit import PAPER_F_STOP, _told, fit_parameters, gauss_newton_refine
@@ -165,7 +165,7 @@ def fit_experiment(
     model_error = model_error_at(
         inputs.objective, inputs.eta, inputs.surrogate, final.theta, on_surrogate=stage != "fit"
     )
-    model_error = _with_processing(
+    model_error = with_processing_part(
         model_error, inputs, final.theta, inputs.spec.contact.describe(), registration_mm, say
     )
     result = ExperimentFit(inputs, first, final, stage == "fit", check, check_mesh, model_error)

@@ -27,12 +27,12 @@ from ..budgets.model_error import (
 from ..experiment.data import ExperimentData
 from ..experiment.processing_error import REGISTRATION_MM
 from ..fit.error_parts import (
-    _with_processing,
     left_out_with_friction,
     model_error_with_mu,
     mu_held_out_refits,
     mu_model_error_pct,
     mu_model_error_unmeasured,
+    with_processing_part,
 )
 from ..fit.friction import _mu_range, fit_on_surrogate_with_mu, surrogate_with_mu
 from ..fit.held_out_refits import HeldOutRefits
@@ -382,7 +382,7 @@ def sample_posterior_for(
             model_error = model_error.with_mu(mu_model_pct)
     else:
         model_error = model_error_at(inputs.objective, inputs.eta, model, fit.theta)
-        model_error = _with_processing(
+        model_error = with_processing_part(
             model_error, inputs, fit.theta, inputs.spec.contact.describe(), registration_mm, say
         )
     if model_error is not None:  # spread by the model error, moved by a corrected budget's correction
