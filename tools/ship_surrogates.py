@@ -14,6 +14,11 @@ without the DIC rings under 1.5 R):
    578 kPa; ``--high-grid``): the multi-fidelity discrepancy from the low level to it (a GP, its
    5-fold held-out errors kept in the file; issue 57: the nine budget points alone, c1 in
    {3, 11, 19} x c5 in {120, 330, 540}, left the soft corner to extrapolation);
+4b. with ``--high-mu-grid`` (e.g. ``sobol:16:2,mu=0.1:3:log``), the high level with friction as an
+   axis too, merged with step 4's stick campaign (its points at the low level's mu range end), so
+   that the discrepancy is learned with friction rather than learned at the stick and applied at
+   every mu (docs/validation/model-error.md: the stick's discrepancy missed level 3 with mu 0.2 to
+   0.6 by 1.2 to 4.0 % in c5);
 5. the file copied to ``--out`` as ``paper-test-R<R>.safetensors`` (or ``test-R<R>-<N>x<h>``) with
    its manifest entry: sha256, size, test, campaigns (grid, points, failures, solver time),
    held-out errors, package version and commit, and this command.
@@ -141,6 +146,11 @@ def main() -> None:
     parser.add_argument(
         "--high-grid", default=HIGH_GRID, help="the high level's points (a grid option or a CSV of c1, c5)"
     )
+    parser.add_argument(
+        "--high-mu-grid",
+        help="also the high level with a mu axis (e.g. sobol:16:2,mu=0.1:3:log), merged with the stick's",
+    )
+    parser.add_argument("--high-mu-campaign", help="name of the high level's campaign with mu")
     args = parser.parse_args()
 
     tag = f"R{args.radius:g}" + (
@@ -152,11 +162,15 @@ def main() -> None:
         "mu": args.mu_campaign or f"mu-{tag}",
         "high": args.high_campaign or f"high-box-{tag}",
     }
+    if args.high_mu_grid:
+        names["high-mu"] = args.high_mu_campaign or f"high-mu-{tag}"
     runs_dir = args.runs_dir
     campaign(runs_dir, names["stick"], STICK_GRID, args, args.low_mesh)
     campaign(runs_dir, names["test"], TEST_GRID, args, args.low_mesh)
     campaign(runs_dir, names["mu"], MU_GRID, args, args.low_mesh)
     campaign(runs_dir, names["high"], args.high_grid, args, args.high_mesh)
+    if args.high_mu_grid:
+        campaign(runs_dir, names["high-mu"], args.high_mu_grid, args, args.high_mesh)
 
     stick = runs_dir / names["stick"] / "surrogate-gp.safetensors"
     slip = runs_dir / names["mu"] / "surrogate-slip.safetensors"
@@ -180,6 +194,7 @@ def main() -> None:
             str(slip),
             "--campaign",
             names["high"],
+            *(["--campaign", names["high-mu"]] if args.high_mu_grid else []),
             "--out",
             str(shipped),
             *common,
@@ -207,7 +222,11 @@ def main() -> None:
         "kind": model.kind,
         "parameters": list(model.parameters),
         "models": {"low": args.low_mesh, "high": args.high_mesh},
-        "campaigns": [campaign_record(runs_dir, names[key]) for key in ("stick", "test", "mu", "high")],
+        "campaigns": [
+            campaign_record(runs_dir, names[key])
+            for key in ("stick", "test", "mu", "high", "high-mu")
+            if key in names
+        ],
         "held_out": {
             "stick": load_surrogate(stick).meta.get("emulation_error"),
             "slip": load_surrogate(slip).meta.get("emulation_error"),
@@ -223,7 +242,7 @@ def main() -> None:
         },
         "recipe": (
             f"python tools/ship_surrogates.py --radius {args.radius:g} --steps {args.steps} "
-            f"--step {args.step:g}"
+            f"--step {args.step:g}" + (f' --high-mu-grid "{args.high_mu_grid}"' if args.high_mu_grid else "")
         ),
     }
     path = add_to_manifest(args.out, entry)
