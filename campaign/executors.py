@@ -19,6 +19,7 @@ import numpy as np
 from ..forward.checkpoint import CheckpointMismatch
 from ..forward.febio.equilibrium import EquilibriumTolerance
 from ..forward.febio.runner import FebioSolver
+from ..forward.result import SimulationResult
 from ..forward.solver import EmbeddedSolver
 from ..forward.spec import ModelSpec
 from .errors import CampaignError
@@ -28,6 +29,12 @@ from .spec import CAMPAIGN_EQUILIBRIUM_REL
 __all__ = ["DaskCluster", "InProcess", "PointTimeout", "Processes", "executor_for", "solve_point"]
 
 log = logging.getLogger(__name__)
+
+#: An embedded point writes its checkpoint after a step only when this long has passed since the
+#: last one (forward.solver.EmbeddedSolver.run's ``checkpoint_every_s``): a point of seconds (the
+#: paper's campaign on ``default``: 2 s, of which a file after every step took 3 to 4 %) writes
+#: none, a fine level's point of hours loses at most this much.
+POINT_CHECKPOINT_S = 30.0
 
 
 class PointTimeout(RuntimeError):
@@ -48,7 +55,8 @@ def solve_point(
     """Solve one point; returns its index row with the result (or the partial result of a
     failure) for the parent to save. Never raises: a failure becomes the row's error.
 
-    An embedded point given ``checkpoint`` writes its state there after every step and, when the
+    An embedded point given ``checkpoint`` writes its state there after a step at most every
+    ``POINT_CHECKPOINT_S`` and, when the
     file exists (a point stopped by a kill, a lost worker or its timeout), resumes after its last
     finished step; the parent deletes the file once the result is kept. A checkpoint this run
     cannot resume from (written by another version of the package, or cut short) is kept beside
@@ -75,14 +83,19 @@ def solve_point(
                 if timeout_s is not None and time.perf_counter() - t0 > timeout_s:
                     raise PointTimeout(f"timeout: {timeout_s:g} s exceeded after step {k} of {n}")
 
-            # one thread: a worker among as many as the cores (forward.threads)
+            def solve() -> SimulationResult:
+                # one thread: a worker among as many as the cores (forward.threads)
+                return EmbeddedSolver(spec).run(
+                    progress=deadline, threads=1, checkpoint=checkpoint, checkpoint_every_s=POINT_CHECKPOINT_S
+                )
+
             try:
-                result = EmbeddedSolver(spec).run(progress=deadline, threads=1, checkpoint=checkpoint)
+                result = solve()
             except CheckpointMismatch as exc:
                 refused = f"{checkpoint}.refused"
                 os.replace(checkpoint, refused)
                 log.warning("point %d: %s; kept as %s, solved from its start", point, exc, refused)
-                result = EmbeddedSolver(spec).run(progress=deadline, threads=1, checkpoint=checkpoint)
+                result = solve()
         row.update(status="done", result=result, **result_row(result))
     except Exception as exc:  # recorded, never propagated: one bad point must not stop a campaign
         partial = getattr(exc, "partial", None)

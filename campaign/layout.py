@@ -2,8 +2,8 @@
 files lives. ``campaign.json`` (the spec and code version) and ``campaign.sha256`` (its sha256),
 ``index.parquet`` (one row per point), ``points/<n>.npz`` (a point's result, written atomically
 by the run's parent process) and ``points/<n>.partial.npz`` (a failed point's finished steps),
-``checkpoints/<n>.pkl`` (an embedded point's state after its last finished step, kept while it is
-unfinished so that a stopped point resumes there), ``leases/<n>.json`` (a run's claim on a point),
+``checkpoints/<n>.pkl`` (an embedded point's state after a finished step, written at most every
+30 s and kept while it is unfinished, so that a stopped point resumes there), ``leases/<n>.json`` (a run's claim on a point),
 ``damaged/`` (files that failed their check,
 kept to look at) and ``.lock`` (the store's short file lock)."""
 

@@ -212,6 +212,7 @@ class EmbeddedSolver(ProtocolSteps, NewtonSystem):
         *,
         threads: int | None = None,
         checkpoint: str | Path | None = None,
+        checkpoint_every_s: float = 0.0,
     ) -> SimulationResult:
         """Run the protocol.
 
@@ -232,6 +233,10 @@ class EmbeddedSolver(ProtocolSteps, NewtonSystem):
             step (atomically), and a run given a file that exists resumes after its last step
             instead of starting again. The caller deletes it once the result is kept. It is a
             pickle: load only checkpoints your own runs wrote.
+        checkpoint_every_s : float, default 0
+            Write the checkpoint after a step only when this long has passed since the last one
+            was written (or the run started): 0, after every step; a campaign of many short runs
+            passes tens of seconds, so that a run of seconds writes none.
 
         Returns
         -------
@@ -261,6 +266,7 @@ class EmbeddedSolver(ProtocolSteps, NewtonSystem):
                     progress,
                     full_field,
                     Path(checkpoint) if checkpoint is not None else None,
+                    checkpoint_every_s,
                 )
         finally:
             self.linear.release()
@@ -272,6 +278,7 @@ class EmbeddedSolver(ProtocolSteps, NewtonSystem):
         progress: Callable[[int, int, float], None] | None,
         full_field: bool = False,
         checkpoint: Path | None = None,
+        checkpoint_every_s: float = 0.0,
     ) -> SimulationResult:
         t_start = time.perf_counter()
         self.want_sensitivities = sensitivities
@@ -299,9 +306,8 @@ class EmbeddedSolver(ProtocolSteps, NewtonSystem):
             # step converged since, whose state ``state`` already is: after every step, and inside
             # one at most every MID_STEP_CHECKPOINT_S
             nonlocal written
-            if checkpoint is None or (
-                mid is not None and time.perf_counter() - written < checkpoint_file.MID_STEP_CHECKPOINT_S
-            ):
+            least = checkpoint_file.MID_STEP_CHECKPOINT_S if mid is not None else checkpoint_every_s
+            if checkpoint is None or time.perf_counter() - written < least:
                 return
             fields = {**state.checkpoint_fields(), **records.checkpoint_fields()}
             fields.update(stats=self.stats, elapsed_s=time.perf_counter() - t_start, mid_step=mid)

@@ -16,6 +16,7 @@ import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
+from indentation_studio.campaign import executors
 from indentation_studio.campaign.designs import (
     DesignError,
     design_from_option,
@@ -194,9 +195,13 @@ def test_timeout_fails_points_and_retry_recovers(tmp_path):
     assert s["done"] == 2 and s["failed"] == 0
 
 
-def test_a_point_stopped_after_a_step_resumes_there_with_the_uninterrupted_result(tmp_path, caplog):
+def test_a_point_stopped_after_a_step_resumes_there_with_the_uninterrupted_result(
+    tmp_path, caplog, monkeypatch
+):
     # the timeout stops the point after its first step (the deadline is checked after each step,
-    # once the step's checkpoint is written); the retry resumes from that step, not from the start
+    # once the step's checkpoint is written: here after every step, as a point of hours writes
+    # one every POINT_CHECKPOINT_S); the retry resumes from that step, not from the start
+    monkeypatch.setattr(executors, "POINT_CHECKPOINT_S", 0.0)
     store = CampaignStore.create_or_open(tmp_path, _spec("r", "c1=6:6:1,c5=300:300:1"))
     s = run_campaign(store, jobs=1, timeout_s=1e-6)
     assert s["failed"] == 1 and "after step 1 of 2" in s["failures"][0]["error"]
@@ -213,6 +218,13 @@ def test_a_point_stopped_after_a_step_resumes_there_with_the_uninterrupted_resul
     np.testing.assert_array_equal(resumed.force[:2], whole.force[:2])
     np.testing.assert_allclose(resumed.force, whole.force, rtol=1e-4)
     np.testing.assert_allclose(resumed.displacement, whole.displacement, atol=1e-4 * 1.0)
+
+
+def test_a_point_of_seconds_writes_no_checkpoint(tmp_path):
+    # stopped after its first step of well under POINT_CHECKPOINT_S: nothing written to resume from
+    store = CampaignStore.create_or_open(tmp_path, _spec("q", "c1=6:6:1,c5=300:300:1"))
+    s = run_campaign(store, jobs=1, timeout_s=1e-6)
+    assert s["failed"] == 1 and s["resumable"] == [] and not store.checkpoint_path(0).exists()
 
 
 def test_a_checkpoint_it_cannot_resume_from_is_kept_aside_and_the_point_solved_from_its_start(
