@@ -250,16 +250,14 @@ def evaluate(
     """Errors of a saved surrogate on a campaign, and the time to predict many points."""
     import numpy as np
 
-    from ..surrogate.persistence import load_surrogate
-    from ..surrogate.training import training_data
-    from ..surrogate.validation import prediction_errors
-
     payload: dict = {}
     try:
-        model = load_surrogate(model_file)
+        model = surrogate.load_surrogate(model_file)
         payload["kind"] = model.kind
         if campaign:
-            payload["errors"] = prediction_errors(model, training_data(campaign, runs_dir))
+            payload["errors"] = surrogate.prediction_errors(
+                model, surrogate.training_data(campaign, runs_dir)
+            )
         if campaign and refits:
             payload["refits"] = inference.refit_campaign(
                 model,
@@ -301,10 +299,8 @@ def convert(
 
     WARNING: this UNPICKLES the old file, which runs any code it holds. Convert only files you
     made yourself or trust; the new file runs nothing when it is loaded."""
-    from ..surrogate.pickle_conversion import convert_pickled_surrogate
-
     try:
-        path = convert_pickled_surrogate(model_file, out)
+        path = surrogate.convert_pickled_surrogate(model_file, out)
     except (ValueError, OSError) as exc:
         fail(str(exc), as_json)
     if as_json:

@@ -8,7 +8,7 @@ __getattr__, __dir__, __all__ = lazy.attach(
     __name__,
     submod_attrs={
         "base": ["FieldSurrogate"],
-        "training_set": ["TrainingData"],
+        "training_set": ["TrainingData", "merged_training_data"],
         "gaussian_process": ["GaussianProcessSurrogate"],
         "mlp": ["MLPSurrogate"],
         "multi_fidelity": ["MultiFidelitySurrogate"],
