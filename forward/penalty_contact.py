@@ -52,7 +52,8 @@ HOLDING_PASS = 2
 #: The contact's counters in its solver's ``stats``: its forces and tangent blocks evaluated
 #: (``contact_updates``: one per assembly in an increment, within ``assembly_s``), the low-rank
 #: corrections made (their inverse columns' back-substitutions within), the statuses checked within
-#: Newton solves and changed, the turning points' re-solves, the damped steps' trial states and halvings.
+#: Newton solves and changed, the turning points' re-solves, the damped steps' trial states and
+#: halvings, the Newton solves failed as stalled (forward.penalty_newton.STALL_STEPS).
 CONTACT_STATS: dict[str, float] = {
     "contact_updates": 0,
     "contact_update_s": 0.0,
@@ -64,6 +65,7 @@ CONTACT_STATS: dict[str, float] = {
     "turning_rounds": 0,
     "step_trials": 0,
     "step_halvings": 0,
+    "stalled_solves": 0,
 }
 
 

@@ -24,6 +24,8 @@ from .newton import MAX_HALVINGS, MAX_STALE_STEPS, REFACTOR_RATIO, Equilibrium, 
 
 __all__ = [
     "FRICTION_NEWTON",
+    "STALL_DECREASE",
+    "STALL_STEPS",
     "STATUS_NEWTON_UPDATES",
     "STICK_NEWTON",
     "STICK_STEP_LIMIT",
@@ -60,6 +62,18 @@ STATUS_NEWTON_UPDATES = 8
 #: "The penalty and the points per face").
 STICK_STEP_LIMIT = 0.2
 
+#: With friction, a Newton solve whose Newton steps (each on the tangent at its state) lower the
+#: residual by less than ``STALL_DECREASE`` ``STALL_STEPS`` times in a row has stalled, and fails
+#: at once (the increment is cut back) instead of after ``FRICTION_NEWTON`` (or, in the last
+#: resort, ``STICK_NEWTON``) iterations. Where it stalls, a point sits at its cone's edge and the
+#: stick's and the slip's linearisations each send it to the other side: contact-L3, R = 4.77 mm,
+#: {17.98, 210.5} kPa, mu 2.17 from 13.18 mm on, the residual stayed at 0.3834 of 500.8 mN (7.7
+#: times the tolerance) for 60 Newton iterations at every increment down to 1/64 of a step, and
+#: the run failed after 100 minutes on one step (docs/validation/solver-and-speed.md, "A point at
+#: its cone's edge").
+STALL_STEPS = 3
+STALL_DECREASE = 0.01
+
 #: How many times a Newton step is made again with more turning points' stick predicted
 #: (:meth:`PenaltyNewton._turning_points_stick`): the new step can turn others round.
 TURNING_ROUNDS = 4
@@ -91,7 +105,8 @@ class PenaltyNewton:
         ------
         forward.newton.IncrementFailed
             No convergence in ``STICK_NEWTON`` iterations (``FRICTION_NEWTON`` with friction,
-            unless as the driver's last resort), or an inverted element.
+            unless as the driver's last resort), a stalled solve with friction (``STALL_STEPS``),
+            or an inverted element.
 
         Notes
         -----
@@ -114,6 +129,7 @@ class PenaltyNewton:
         except InvertedElementError as exc:
             raise IncrementFailed(str(exc)) from exc
         last, stale_steps, fresh_step, exact = np.inf, MAX_STALE_STEPS, True, False
+        stalls = 0  # Newton steps in a row that lowered the residual by less than STALL_DECREASE
         max_steps = STICK_NEWTON if self.friction is None or self.last_resort else FRICTION_NEWTON
         for it in range(1, max_steps + 1):
             norm = np.linalg.norm(np.where(cmask, 0.0, R))
@@ -125,6 +141,14 @@ class PenaltyNewton:
                 if s.want_sensitivities:
                     _, K_out, dR = s.assemble(u.reshape(-1, 3), parameter_derivatives=True)
                 return Equilibrium(u.reshape(-1, 3), R, K_out, it, dR)
+            stalls = stalls + 1 if fresh_step and norm > (1.0 - STALL_DECREASE) * last else 0
+            if self.friction is not None and stalls >= STALL_STEPS:
+                s.stats["stalled_solves"] += 1
+                raise IncrementFailed(
+                    f"Newton stalled: {STALL_STEPS} Newton steps in a row lowered the residual by "
+                    f"less than {STALL_DECREASE:.0%} (at {norm:.3g} mN, {norm / ref:.2g} of the "
+                    f"reaction, after {it} iterations)"
+                )
             r_free = np.where(cmask, 0.0, R)
             step = None
             worn = norm > REFACTOR_RATIO * last or stale_steps >= MAX_STALE_STEPS

@@ -560,3 +560,42 @@ def test_an_increment_of_the_smallest_size_gets_the_full_newton_cap_before_the_r
     monkeypatch.setattr(penalty_contact.PenaltyContact, "has_a_last_resort", property(lambda self: False))
     with pytest.raises(SimulationError, match=r"failed at depth 0\.25 mm .*did not converge in 3 iterations"):
         EmbeddedSolver(spec).run(threads=1)
+
+
+@pytest.mark.parametrize("friction", [None, 0.3])
+def test_a_friction_solve_that_stops_lowering_its_residual_fails_at_once(monkeypatch, friction):
+    """A Newton solve whose damped steps leave the state where it is (as at a point on its
+    cone's edge, contact-L3 mu 2.17, session 35) fails after ``STALL_STEPS`` Newton steps with
+    friction, its error naming the stall, instead of after 20 (60 in the last resort); the stick
+    keeps its cap of 60 iterations (the surface penalty's stick, as the campaigns run it)."""
+
+    newton_steps = []
+
+    def no_progress(self, u, du, norm, cmask, halve):
+        newton_steps.append(halve)
+        if not halve:
+            return None  # a correction that does not lower the residual: a Newton step next
+        R, _, _ = self.solver.assemble(u.reshape(-1, 3), tangent=False)
+        return u.copy(), R
+
+    spec = ModelSpec(
+        mesh=MeshChoice("contact-L0"),
+        protocol=Protocol(step_size=0.5, steps=2),
+        contact=Contact(integration="surface", order=1, friction=friction),
+    ).with_material(c1=3.0, c5=540.0)
+    solver = EmbeddedSolver(spec)
+    monkeypatch.setattr(penalty_newton.PenaltyNewton, "_damped_step", no_progress)
+    with pytest.raises(SimulationError) as failed:
+        solver.run(threads=1)
+    if friction is None:
+        assert "did not converge in 60 iterations" in str(failed.value)
+        assert solver.stats["stalled_solves"] == 0
+        assert sum(newton_steps) > 0 and sum(newton_steps) % 60 == 0  # each solve 60 Newton steps
+    else:
+        assert "Newton stalled: 3 Newton steps in a row lowered the residual by less than 1%" in str(
+            failed.value
+        )
+        # every increment tried (the step's cut-backs, then its last resort) failed as stalled,
+        # each after three Newton steps
+        assert solver.stats["stalled_solves"] >= 8
+        assert sum(newton_steps) == 3 * solver.stats["stalled_solves"]
