@@ -44,12 +44,12 @@ import time
 from typing import Any
 
 import numpy as np
-from scipy import sparse
 
-from ..forward.convergence.mesh_study import top_field_interpolator
 from ..forward.predictor import FixedParameter, Prediction, ReducedBasis
 from .base import FieldSurrogate, InputScaler, TrainingData, padded_jacobian
+from .discrepancy_covariance import DiscrepancyCovariance
 from .discrepancy_errors import k_fold_discrepancy_errors, pca_truncation_errors
+from .fidelity_levels import LowAtStickMu, interpolation_matrix
 from .gaussian_process import GaussianProcessSurrogate
 from .slip_surrogate import SlipSurrogate
 from .two_level import TwoLevelSurrogate, model_differences
@@ -57,23 +57,7 @@ from .two_level import TwoLevelSurrogate, model_differences
 __all__ = ["MultiFidelitySurrogate", "interpolation_matrix", "model_differences"]
 
 
-def interpolation_matrix(source_xyz: np.ndarray, target_xyz: np.ndarray) -> sparse.csr_array:
-    """W (targets, sources) with ``W @ f`` equal to ``top_field_interpolator(source_xyz, f)`` at
-    ``target_xyz`` for any field f (sources, ...): that interpolation (bilinear on a tensor grid,
-    linear on Delaunay triangles otherwise) is linear in f, so W's columns interpolate unit vectors."""
-    source_xyz, target_xyz = np.asarray(source_xyz, float), np.asarray(target_xyz, float)
-    W = top_field_interpolator(source_xyz, np.eye(len(source_xyz)))(target_xyz)
-    outside = ~np.all(np.isfinite(W), axis=1)
-    if outside.any():
-        raise ValueError(
-            f"{int(outside.sum())} high-fidelity top nodes (e.g. {target_xyz[outside][0, :2].tolist()} mm) "
-            "lie outside the triangulation of the low-fidelity top nodes"
-        )
-    W[np.abs(W) < 1e-13] = 0.0  # rounding of the interpolants of unit vectors
-    return sparse.csr_array(W)
-
-
-class MultiFidelitySurrogate(TwoLevelSurrogate):
+class MultiFidelitySurrogate(DiscrepancyCovariance, TwoLevelSurrogate):
     """A low-fidelity surrogate plus a GP of its discrepancy from a high-fidelity campaign.
 
     Predicts the high fidelity on the high campaign's top nodes (module docstring, eq. 1a, 1b).
@@ -163,7 +147,7 @@ class MultiFidelitySurrogate(TwoLevelSurrogate):
         if tuple(data.parameters) == tuple(low.parameters):
             return low
         if isinstance(low, SlipSurrogate) and tuple(data.parameters) == tuple(low.stick.parameters):
-            return low.stick if self.stick_mu is None else _LowAtStickMu(low, self._resolved_stick_mu())
+            return low.stick if self.stick_mu is None else LowAtStickMu(low, self._resolved_stick_mu())
         raise ValueError(
             f"parameters: {low.parameters} (low) vs {tuple(data.parameters)} (high); a high campaign over "
             "(c1, c5) needs a stick-plus-slip low surrogate ('slip') to be learned at the stick"
@@ -474,58 +458,6 @@ class MultiFidelitySurrogate(TwoLevelSurrogate):
             coordinates=coordinates,
         )
 
-    def discrepancy_covariance_factor(self, theta) -> np.ndarray:
-        """A factor L of the discrepancy's predictive covariance L^T L at one point, in the output space.
-
-        The output space is log force (steps) then the field (steps x nodes x 3, mm): row j is
-        score j's GP standard deviation times its score scale times its PCA component (the
-        scores' GPs are independent). Zero rows in the other part's columns.
-
-        Parameters
-        ----------
-        theta : array_like
-            (p,) one point, kPa.
-
-        Returns
-        -------
-        numpy.ndarray
-            (k, steps + steps * nodes * 3) L.
-
-        Raises
-        ------
-        ValueError
-            If more than one point is given.
-        """
-        theta = self._checked_theta(theta)
-        if len(theta) != 1:
-            raise ValueError(f"one parameter point at a time, got {len(theta)}")
-        d = self.discrepancy
-        scale = d.predict_std(self._discrepancy_theta(theta))[0] * d.score_std  # (k,): score units
-        kf, n_force = d.k_force, d.force_pca.components_.shape[1]
-        L = np.zeros((len(scale), n_force + d.field_pca.components_.shape[1]))
-        L[:kf, :n_force] = scale[:kf, None] * d.force_pca.components_
-        L[kf:, n_force:] = scale[kf:, None] * d.field_pca.components_
-        return L
-
-    def discrepancy_std(self, theta) -> tuple[np.ndarray, np.ndarray]:
-        """The discrepancy's predictive standard deviations at one point: the diagonal of L^T L.
-
-        Parameters
-        ----------
-        theta : array_like
-            (p,) one point, kPa.
-
-        Returns
-        -------
-        force_sd : numpy.ndarray
-            (steps,) of log force.
-        field_sd : numpy.ndarray
-            (steps, nodes, 3) of the field, mm.
-        """
-        L = self.discrepancy_covariance_factor(theta)
-        sd = np.sqrt(np.einsum("ko,ko->o", L, L))
-        return sd[: self.n_steps], sd[self.n_steps :].reshape(self.n_steps, self.n_nodes, 3)
-
     def training_gap(self, theta) -> np.ndarray:
         """The low-fidelity level's :meth:`FieldSurrogate.training_gap`.
 
@@ -558,29 +490,3 @@ class MultiFidelitySurrogate(TwoLevelSurrogate):
         model._set_box()
         model.interpolation = interpolation_matrix(first.top_xyz, second.top_xyz)
         return model
-
-
-class _LowAtStickMu(FixedParameter):
-    """A stick-plus-slip low level at the mu a stick campaign is compared at (eq. 2): a Predictor
-    over (c1, c5) whose box is its stick surrogate's (the slip's change is learned from a
-    space-filling design a little inside that box, c1 from 1.016 rather than 1 kPa in the shipped
-    ones; a fit on the multi-fidelity surrogate reads it there already, its box the discrepancy's)."""
-
-    def __init__(self, low: SlipSurrogate, mu: float) -> None:
-        super().__init__(low, "mu", mu)
-        self.scaler = low.stick.scaler
-
-    def inside_box(self, theta) -> np.ndarray:
-        """Which (c1, c5) points lie in the stick surrogate's box.
-
-        Parameters
-        ----------
-        theta : array_like
-            (n, 2) points, kPa.
-
-        Returns
-        -------
-        numpy.ndarray
-            (n,) bool.
-        """
-        return self.predictor.stick.inside_box(theta)
