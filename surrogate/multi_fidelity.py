@@ -180,13 +180,24 @@ class MultiFidelitySurrogate(DiscrepancyCovariance, TwoLevelSurrogate):
                 "the high-fidelity campaign does not describe the low-fidelity surrogate's test: "
                 + "; ".join(problems)
             )
-        outside = ~low.inside_box(data.theta)
+        outside = ~self._inside_low_box(low, data.theta)
         if outside.any():
             raise ValueError(
                 f"{int(outside.sum())} high-fidelity points (e.g. {data.theta[outside][0].tolist()} kPa) lie "
                 f"outside the low-fidelity surrogate's training box {low.scaler.lo.tolist()} .. "
                 f"{low.scaler.hi.tolist()}: it would extrapolate there"
             )
+
+    def _inside_low_box(self, low, theta: np.ndarray) -> np.ndarray:
+        """Which high points the low level ``low`` covers: its box, and for a campaign merged over
+        (c1, c5, mu) also a stick point (mu at ``stick_mu``) whose (c1, c5) lies in the stick
+        surrogate's box, as :class:`LowAtStickMu` judges a stick campaign's (the slip's change is
+        learned a little inside that box, c1 from 1.016 rather than 1 kPa in the shipped ones)."""
+        inside = low.inside_box(theta)
+        if low is self.low and isinstance(low, SlipSurrogate) and self.stick_mu is not None:
+            at_stick = np.isclose(theta[:, -1], self._resolved_stick_mu(), rtol=1e-9, atol=0.0)
+            inside |= at_stick & low.stick.inside_box(theta[:, :-1])
+        return inside
 
     def discrepancy_data(self, data: TrainingData) -> TrainingData:
         """The discrepancies D of the high-fidelity ``data`` from the low surrogate (module eq. 1a, 1b).

@@ -463,6 +463,32 @@ def test_a_stick_campaign_and_one_with_mu_merged_learn_one_discrepancy_over_mu(s
     assert stick_error > 0.005  # the stick's discrepancy misses the friction campaign (measured 0.014)
 
 
+def test_merged_stick_points_are_judged_by_the_stick_surrogates_box(slip_low):
+    """The shipped slip's change is learned a little inside the stick's box (c1 from 1.016 kPa), so
+    the stick campaign's corner at c1 = 1 kPa, taken at the mu range end, was refused ("outside
+    the low-fidelity surrogate's training box") although the stick surrogate covers it; a point
+    outside the stick's box is still refused, and so is a friction point outside the slip's."""
+    end = float(slip_low.scaler.hi[2])
+    corner = np.array([LO, [LO[0], HI[1]]])  # on the stick's box, outside the slip's
+    assert not slip_low.inside_box(np.column_stack([corner, [end, end]])).any()
+    assert slip_low.stick.inside_box(corner).all()
+    stick = synthetic(np.vstack([HIGH_THETA, corner]), True, "high-campaign")
+    merged = merged_training_data([stick, _friction_high_data()], stick_mu=end)
+    mf3 = MultiFidelitySurrogate(slip_low, restarts=1, folds=0).fit(merged, seed=0)
+    np.testing.assert_allclose(mf3.predict(merged.theta[20:22]).force, stick.force[20:22], rtol=1e-4)
+    beyond = synthetic(np.vstack([HIGH_THETA, 0.9 * LO]), True, "high-campaign")
+    with pytest.raises(ValueError, match=r"1 high-fidelity points .* outside the low-fidelity surrogate's"):
+        MultiFidelitySurrogate(slip_low, restarts=1, folds=0).fit(
+            merged_training_data([beyond, _friction_high_data()], stick_mu=end), seed=0
+        )
+    friction = _friction_high_data()
+    friction.theta[0, :2] = LO  # with mu inside its range: the slip's box holds
+    with pytest.raises(ValueError, match=r"1 high-fidelity points .* outside the low-fidelity surrogate's"):
+        MultiFidelitySurrogate(slip_low, restarts=1, folds=0).fit(
+            merged_training_data([stick, friction], stick_mu=end), seed=0
+        )
+
+
 def test_the_training_function_merges_campaigns_at_the_low_levels_mu_end(slip_low, tmp_path):
     low_file = save_surrogate(slip_low, tmp_path / "slip.safetensors")
     model = train_multi_fidelity(low_file, [mf_campaign(), as_campaign(_friction_high_data())], folds=0)
