@@ -7,11 +7,12 @@ high-fidelity points (what a fit pushes through to its bounds, :class:`Emulation
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable
 from typing import Any
 
 import numpy as np
-from sklearn.model_selection import KFold
+from sklearn.model_selection import KFold, StratifiedKFold
 
 from .base import TrainingData
 from .emulation_error import EmulationError
@@ -52,6 +53,7 @@ def k_fold_discrepancy_errors(
     folds: int,
     seed: int,
     steps: int,
+    strata: np.ndarray | None = None,
 ) -> tuple[EmulationError, dict[str, Any]]:
     """Held-out errors of the discrepancy model (PCA truncation and GP together).
 
@@ -70,6 +72,11 @@ def k_fold_discrepancy_errors(
         Seed of the folds' shuffle and of the GP's training.
     steps : int
         Steps of the test (the outputs' log force part).
+    strata : ndarray of bool, shape (n,), optional
+        The points of a merged campaign that are stick points (the others have a mu axis): the
+        folds are stratified by it (scikit-learn's ``StratifiedKFold``), so that every fold's rest
+        keeps points of both and the model over mu can be fitted (with two friction points, a
+        plain ``KFold`` could hold both out together). None: ``KFold``.
 
     Returns
     -------
@@ -78,10 +85,28 @@ def k_fold_discrepancy_errors(
         are kept).
     dict
         Folds, points, and the errors' RMS and largest values (force percent, field mm).
+
+    Raises
+    ------
+    ValueError
+        With ``strata``, where fewer than two points are of one kind (a fold's rest would have none).
     """
     folds = min(folds, data.n)
+    if strata is None:
+        splits = KFold(folds, shuffle=True, random_state=seed).split(data.theta)
+    else:
+        strata = np.asarray(strata, bool)
+        fewest = min(int(strata.sum()), int((~strata).sum()))
+        if fewest < 2:
+            raise ValueError(
+                f"the k-fold errors of a merged campaign need at least two stick points and two with "
+                f"mu, got {int(strata.sum())} and {int((~strata).sum())}: train with more, or without folds"
+            )
+        with warnings.catch_warnings():  # fewer of a kind than folds: some folds hold none of it
+            warnings.filterwarnings("ignore", message="The least populated class", category=UserWarning)
+            splits = list(StratifiedKFold(folds, shuffle=True, random_state=seed).split(data.theta, strata))
     df, du, held = [], [], []
-    for train, test in KFold(folds, shuffle=True, random_state=seed).split(data.theta):
+    for train, test in splits:
         held.append(test)
         model = make_model().fit(data.subset(train), seed=seed)
         pred = model.predict(data.theta[test])

@@ -270,10 +270,23 @@ class MultiFidelitySurrogate(DiscrepancyCovariance, TwoLevelSurrogate):
         )
         if self.folds >= 2:
             self.discrepancy_error, self.meta["discrepancy_kfold"] = k_fold_discrepancy_errors(
-                self._discrepancy_model, D, folds=self.folds, seed=seed, steps=self.n_steps
+                self._discrepancy_model,
+                D,
+                folds=self.folds,
+                seed=seed,
+                steps=self.n_steps,
+                strata=self._strata(D),
             )
         self.meta["fit_s"] = time.perf_counter() - t0
         return self
+
+    def _strata(self, data: TrainingData) -> np.ndarray | None:
+        """For a campaign merged over (c1, c5, mu) with stick points at ``stick_mu`` and points with
+        a mu axis: which are stick points (the k-fold is stratified by it); None otherwise."""
+        if not isinstance(self.low, SlipSurrogate) or self.stick_mu is None or "mu" not in data.parameters:
+            return None
+        at_stick = np.isclose(data.theta[:, -1], self._resolved_stick_mu(), rtol=1e-9, atol=0.0)
+        return at_stick if 0 < at_stick.sum() < data.n else None
 
     def _set_box(self) -> None:
         """The box a fit stays in: the discrepancy's over its parameters (the high campaign's), the

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from sklearn.model_selection import KFold
 
 from indentation_studio.campaign.loader import CampaignData
 from indentation_studio.design.objective import Objective
@@ -487,6 +488,29 @@ def test_merged_stick_points_are_judged_by_the_stick_surrogates_box(slip_low):
         MultiFidelitySurrogate(slip_low, restarts=1, folds=0).fit(
             merged_training_data([stick, friction], stick_mu=end), seed=0
         )
+
+
+def test_the_k_fold_of_a_merged_campaign_keeps_friction_points_in_every_folds_rest(slip_low, high_data):
+    """With two friction points beside twenty stick points, a plain 5-fold split can hold both out
+    together; the fold's rest then has mu at one value and its model over mu cannot be fitted ("cannot
+    be scaled", session 35 on the shipped campaigns). The folds are stratified by stick / friction."""
+    end = float(slip_low.scaler.hi[2])
+    merged = merged_training_data([high_data, _friction_high_data().subset(np.arange(2))], stick_mu=end)
+    friction = np.flatnonzero(merged.theta[:, 2] != end)
+    seed = next(  # a seed whose plain KFold holds both friction points out in one fold
+        k
+        for k in range(100)
+        if any(
+            set(friction) <= set(test)
+            for _, test in KFold(5, shuffle=True, random_state=k).split(merged.theta)
+        )
+    )
+    mf3 = MultiFidelitySurrogate(slip_low, restarts=1, folds=5).fit(merged, seed=seed)
+    kfold = mf3.meta["discrepancy_kfold"]
+    assert kfold["folds"] == 5 and kfold["points"] == 22 and np.isfinite(kfold["force_max_pct"])
+    one = merged_training_data([high_data, _friction_high_data().subset(np.arange(1))], stick_mu=end)
+    with pytest.raises(ValueError, match="at least two stick points and two with mu, got 20 and 1"):
+        MultiFidelitySurrogate(slip_low, restarts=1, folds=5).fit(one, seed=0)
 
 
 def test_the_training_function_merges_campaigns_at_the_low_levels_mu_end(slip_low, tmp_path):
