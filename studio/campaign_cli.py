@@ -178,12 +178,15 @@ def run(
 
 
 def _points_progress(bar) -> Callable[[int, int, dict[str, int]], None]:
-    """The runner's progress on ``bar``: points finished, done and failed, points a minute."""
+    """The runner's progress on ``bar``: points finished, done and failed, and the pace (points a
+    minute, or minutes a point where a point takes longer: a level-3 friction campaign's said
+    "0.0 points/min")."""
     t0 = time.perf_counter()
 
     def report(done: int, total: int, counts: dict[str, int]) -> None:
         rate = done / max(time.perf_counter() - t0, 1e-9) * 60.0
-        bar.update(done, f"done {counts['done']} failed {counts['failed']}  {rate:.1f} points/min", total)
+        pace = f"{rate:.1f} points/min" if rate >= 1.0 or rate == 0.0 else f"{1.0 / rate:.1f} min a point"
+        bar.update(done, f"done {counts['done']} failed {counts['failed']}  {pace}", total)
 
     return report
 

@@ -9,7 +9,7 @@ from typer.testing import CliRunner
 
 from indentation_studio.forward.convergence.mesh_study import nodes_on_sphere
 from indentation_studio.forward.result import SimulationResult
-from indentation_studio.studio import progress
+from indentation_studio.studio import campaign_cli, progress
 from indentation_studio.studio.cli import app
 
 runner = CliRunner()
@@ -166,3 +166,20 @@ def test_the_time_left_of_a_resumed_run_is_the_rate_of_its_own_steps(monkeypatch
     assert lines[0].endswith("elapsed 100.0 s, eta 1000.0 s") and lines[1].endswith(
         "elapsed 200.0 s, eta 900.0 s"
     )
+
+
+def test_a_campaign_of_long_points_reports_minutes_a_point(monkeypatch):
+    """A level-3 friction campaign's log said "0.0 points/min" after a point of 1,629 s."""
+    clock = iter([0.0, 1629.2, 60.0])
+    monkeypatch.setattr(campaign_cli.time, "perf_counter", lambda: next(clock))
+    said = []
+
+    class Bar:
+        def update(self, completed, info="", total=None):
+            said.append(info)
+
+    report = campaign_cli._points_progress(Bar())
+    report(1, 13, {"done": 3, "failed": 1})
+    assert said[-1] == "done 3 failed 1  27.2 min a point"
+    report(10, 13, {"done": 12, "failed": 1})
+    assert said[-1] == "done 12 failed 1  10.0 points/min"
