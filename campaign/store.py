@@ -41,6 +41,7 @@ import pandas as pd
 from filelock import FileLock
 
 from .. import __version__
+from ..forward.checkpoint import checkpoint_progress
 from ..forward.mesh import build_mesh
 from ..forward.result import SimulationResult
 from .checksums import Problem, file_digest, full_disk_as_error, read_spec, write_checked, write_spec
@@ -261,9 +262,11 @@ class CampaignStore(StoreIndex):
         dict
             Name, folder, points and counts by status, flagged FEBio steps and reruns, wall
             times, failures, the slowest points, problems, claims, the unfinished points that
-            resume from a checkpoint (``resumable``) and the store's size.
+            resume from a checkpoint (``resumable``) and where each stood there (``resumable_at``:
+            :func:`forward.checkpoint.checkpoint_progress`), and the store's size.
         """
         c = self.counts()
+        resumable = sorted(int(p.stem) for p in self.checkpoints_dir.glob("[0-9]*.pkl") if p.stem.isdigit())
         walls = self.index["wall_s"].dropna()
         failed = self.index[self.index["status"].astype(str) == "failed"]
         slowest = self.index.dropna(subset=["wall_s"]).nlargest(5, "wall_s")
@@ -299,8 +302,10 @@ class CampaignStore(StoreIndex):
             "problems": [p.to_dict() for p in self.problems],
             "hashed_now": len(self.hashed_now),
             "claims": self.claims.holders(lease_timeout_s),
-            "resumable": sorted(
-                int(p.stem) for p in self.checkpoints_dir.glob("[0-9]*.pkl") if p.stem.isdigit()
-            ),
+            "resumable": resumable,
+            "resumable_at": [
+                {"point": i, **(checkpoint_progress(self.checkpoint_path(i)) or {"unreadable": True})}
+                for i in resumable
+            ],
             "store_bytes": sum(p.stat().st_size for p in self.root.rglob("*") if p.is_file()),
         }

@@ -16,6 +16,7 @@ __all__ = [
     "MID_STEP_CHECKPOINT_S",
     "READABLE_CHECKPOINT_FORMATS",
     "CheckpointMismatch",
+    "checkpoint_progress",
     "read_checkpoint",
     "run_identity",
     "write_checkpoint",
@@ -122,3 +123,36 @@ def read_checkpoint(path: Path, identity: dict) -> dict:
             "to start this run from the beginning"
         )
     return state
+
+
+def checkpoint_progress(path: Path) -> dict | None:
+    """Where the run that wrote a checkpoint stood: its depth (inside a step cut back, the last
+    converged increment's), the protocol's final depth, the steps finished and of how many, and
+    its solver time. What ``campaign status`` prints for a point that will resume there.
+
+    Parameters
+    ----------
+    path : Path
+        The checkpoint file (a pickle: only checkpoints your own runs wrote).
+
+    Returns
+    -------
+    dict or None
+        ``depth_mm``, ``of_mm``, ``steps_done``, ``steps``, ``elapsed_s``; None where the file is
+        not a readable checkpoint.
+    """
+    try:
+        with open(path, "rb") as fh:
+            saved = pickle.load(fh)
+        state, protocol = saved["state"], saved["identity"]["spec"]["protocol"]
+        depths = list(state["depths"])
+        mid = state.get("mid_step")
+        return {
+            "depth_mm": float(mid["depth"] if mid else depths[-1]),
+            "of_mm": float(protocol["steps"] * protocol["step_size"]),
+            "steps_done": len(depths) - 1,
+            "steps": int(protocol["steps"]),
+            "elapsed_s": float(state["elapsed_s"]),
+        }
+    except Exception:  # a file cut short, foreign or of another layout: nothing to say of it
+        return None

@@ -90,6 +90,14 @@ def _print_summary(summary: dict[str, Any], title: str) -> None:
             f"(checkpoints/): {points}",
             highlight=False,
         )
+    for r in summary.get("resumable_at", [])[:10]:
+        where = (
+            "its checkpoint is unreadable (solved from its start)"
+            if r.get("unreadable")
+            else f"{r['depth_mm']:g} of {r['of_mm']:g} mm ({r['steps_done']} of {r['steps']} steps) after "
+            f"{r['elapsed_s']:.0f} s of solver time"
+        )
+        out.print(f"point {r['point']} at its last checkpoint: {where}", highlight=False)
     for h in summary.get("held_by_other_runs", []):
         out.print(
             f"point {h['point']}: left to the run holding it ({h['host']} pid {h['pid']})", highlight=False

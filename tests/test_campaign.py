@@ -206,6 +206,9 @@ def test_a_point_stopped_after_a_step_resumes_there_with_the_uninterrupted_resul
     s = run_campaign(store, jobs=1, timeout_s=1e-6)
     assert s["failed"] == 1 and "after step 1 of 2" in s["failures"][0]["error"]
     assert s["resumable"] == [0] and store.checkpoint_path(0).is_file()
+    at = s["resumable_at"][0]  # where `campaign status` says it stands
+    assert (at["point"], at["depth_mm"], at["of_mm"], at["steps_done"], at["steps"]) == (0, 0.5, 1.0, 1, 2)
+    assert at["elapsed_s"] > 0
     with caplog.at_level("INFO", logger="indentation_studio.forward.solver"):
         s = run_campaign(CampaignStore.open(tmp_path / "r"), jobs=1, retry_failed=True)
     assert s["done"] == 1 and s["resumable"] == []
@@ -233,6 +236,7 @@ def test_a_checkpoint_it_cannot_resume_from_is_kept_aside_and_the_point_solved_f
     store = CampaignStore.create_or_open(tmp_path, _spec("m", "c1=6:6:1,c5=300:300:1"))
     store.checkpoints_dir.mkdir()
     store.checkpoint_path(0).write_bytes(b"not a checkpoint")
+    assert store.summary()["resumable_at"] == [{"point": 0, "unreadable": True}]
     with caplog.at_level("WARNING", logger="indentation_studio.campaign.executors"):
         s = run_campaign(store, jobs=1)
     assert s["done"] == 1 and s["resumable"] == []
