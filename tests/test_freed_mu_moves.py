@@ -233,6 +233,25 @@ def test_a_fit_freeing_mu_carries_the_freed_move_and_one_holding_it_does_not(
     )
     assert "mu_free" not in (held["model_error"]["error_budget_source"] or {})
     np.testing.assert_allclose(held["model_error"]["error_budget_pct"], [3.0, 4.0])
+    # the mesh's move on mu itself (its outputs changed as mu 5 % higher at THETA: at the noisy
+    # fit, mu moves 3.8 %, the rest taken by c1 and c5) is a part of mu's model error: root sum of
+    # squares with the others, so at least it
+    assert 2.0 < added["mu_pct"] < 5.0
+    assert freed["friction"]["mu_model_pct"] >= added["mu_pct"]
+
+
+def test_the_mesh_moves_mu_itself_by_what_its_change_looks_like_in_mu(mu_surrogate):
+    objective, p = _objective(mu_surrogate)
+    other = mu_surrogate.predict(np.array([[THETA[0], THETA[1], 1.5]]))
+    change = np.concatenate(
+        [np.log(other.force[0]) - np.log(p.force[0]), (other.displacement[0] - p.displacement[0]).ravel()]
+    )
+    free, held = mesh_moves(objective, ETA, mu_surrogate, THETA, change, with_mu=True)
+    assert free.shape == (3,) and held.shape == (2,)
+    np.testing.assert_allclose(free, [0.0, 0.0, np.log(0.5 / 1.5)], atol=1e-6)
+    moves = freed_mu_moves(objective, ETA, mu_surrogate, THETA, _differences(p, change), with_mu=True)
+    np.testing.assert_allclose(moves[:, 2], np.log(0.5 / 1.5), atol=1e-6)
+    np.testing.assert_allclose(moves[:, :2], -np.tile(held, (4, 1)), atol=1e-6)
 
 
 def test_a_fit_freeing_mu_without_the_outputs_says_its_bound_leaves_that_out(

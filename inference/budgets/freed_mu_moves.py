@@ -149,6 +149,13 @@ def mesh_differences_from_runs(
 
 def _refit(objective: Objective, eta: np.ndarray, predictor, theta: np.ndarray, box) -> np.ndarray:
     """log theta of the fit of ``objective`` on ``predictor`` from ``theta``, kept inside ``box``."""
+    return _refit_with_cost(objective, eta, predictor, theta, box)[0]
+
+
+def _refit_with_cost(
+    objective: Objective, eta: np.ndarray, predictor, theta: np.ndarray, box
+) -> tuple[np.ndarray, float]:
+    """:func:`_refit` and its least-squares cost."""
     z_lo, z_hi = np.log(box[0]), np.log(box[1])
 
     def residuals(z: np.ndarray) -> np.ndarray:
@@ -162,7 +169,7 @@ def _refit(objective: Objective, eta: np.ndarray, predictor, theta: np.ndarray, 
     sol = least_squares(
         residuals, z0, jac=jacobian, bounds=(z_lo, z_hi), method="trf", max_nfev=REFIT_EVALUATIONS
     )
-    return sol.x
+    return sol.x, float(sol.cost)
 
 
 def _fit_with_mu(theta) -> np.ndarray:
@@ -182,6 +189,7 @@ def freed_mu_moves(
     differences: MeshDifferences,
     *,
     only: np.ndarray | None = None,
+    with_mu: bool = False,
 ) -> np.ndarray:
     """What freeing mu adds to each point's mesh error in the fit at ``theta`` (refits).
 
@@ -205,11 +213,14 @@ def freed_mu_moves(
         The budget's points' output differences.
     only : numpy.ndarray of bool, optional
         (n,) the points to move (the others' rows are NaN); default all.
+    with_mu : bool, default False
+        Also mu's own move with mu free, a third column (log mu; held, it does not move).
 
     Returns
     -------
     numpy.ndarray
-        (n, 2) move(mu free) - move(mu held) in log c1, log c5 at each point.
+        (n, 2) move(mu free) - move(mu held) in log c1, log c5 at each point ((n, 3) with
+        ``with_mu``).
 
     Raises
     ------
@@ -218,14 +229,17 @@ def freed_mu_moves(
     """
     theta = _fit_with_mu(theta)
     changes = differences.outputs_at(surrogate.top_xyz)
-    moves = np.full((len(changes), 2), np.nan)
+    moves = np.full((len(changes), 3 if with_mu else 2), np.nan)
     for k in np.flatnonzero(np.ones(len(changes), bool) if only is None else only):
-        moves[k] = np.subtract(*mesh_moves(objective, eta, surrogate, theta, changes[k]))
+        free, held = mesh_moves(objective, eta, surrogate, theta, changes[k], with_mu=True)
+        moves[k, :2] = free[:2] - held
+        if with_mu:
+            moves[k, 2] = free[2]
     return moves
 
 
 def mesh_moves(
-    objective: Objective, eta, surrogate, theta: np.ndarray, change: np.ndarray
+    objective: Objective, eta, surrogate, theta: np.ndarray, change: np.ndarray, *, with_mu: bool = False
 ) -> tuple[np.ndarray, np.ndarray]:
     """How one output change d moves the fit at ``theta``, with mu free and with mu held (refits).
 
@@ -244,11 +258,19 @@ def mesh_moves(
         (3,) the fit (c1, c5 kPa, mu).
     change : numpy.ndarray
         (steps + steps * nodes * 3,) d: log force per step, then the field (mm).
+    with_mu : bool, default False
+        Also mu's own move with mu free (log mu_hat - log mu_refit), the free move's third value:
+        the refit with the lowest cost of those started at the fit and at mu's range ends
+        ((c1, c5) the fit's), because mu's objective has more than one valley. On stick data made on
+        contact-L4 a surrogate with friction fitted mu = 0.32, where the level-3 stick the budget's
+        differences lead back to lies at the range's end; a refit from the fit alone moved mu by
+        1.4 % (session 35).
 
     Returns
     -------
     (numpy.ndarray, numpy.ndarray)
-        (2,) the move with mu free and (2,) with mu held, in log c1, log c5.
+        (2,) the move with mu free ((3,) with ``with_mu``) and (2,) with mu held, in log c1, log c5
+        (and log mu).
 
     Raises
     ------
@@ -263,10 +285,18 @@ def mesh_moves(
     box = np.asarray(surrogate.scaler.lo, float), np.asarray(surrogate.scaler.hi, float)
     mu = float(np.clip(theta[2], box[0][2], box[1][2]))
     moved = MovedOutputs(surrogate, -np.asarray(change, float))
-    z = np.log(theta[:2])
-    free = z - _refit(objective, e, moved, theta, box)[:2]
-    held = z - _refit(objective, e, FixedParameter(moved, "mu", mu), theta[:2], (box[0][:2], box[1][:2]))
-    return free, held
+    z = np.log(np.append(theta[:2], mu))
+    refit, cost = _refit_with_cost(objective, e, moved, theta, box)
+    free = z - refit
+    held = z[:2] - _refit(objective, e, FixedParameter(moved, "mu", mu), theta[:2], (box[0][:2], box[1][:2]))
+    if not with_mu:
+        return free[:2], held
+    mu_move = free[2]
+    for end in (box[0][2], box[1][2]):  # mu's other valleys: the lowest cost's mu
+        other, other_cost = _refit_with_cost(objective, e, moved, np.append(theta[:2], end), box)
+        if other_cost < cost:
+            mu_move, cost = z[2] - other[2], other_cost
+    return np.append(free[:2], mu_move), held
 
 
 def points_read(points: np.ndarray, theta: np.ndarray) -> np.ndarray:
@@ -308,7 +338,10 @@ def with_freed_mu(
     The moves are read at the fit as the budget is (``budget_at``: interpolated inside the points'
     hull; outside, the nearest point's move and the largest of the nearest ones' plus their spread);
     the correction is moved by -d and the budget's half-width grows by |d| (percent of the fit). Its
-    source records the added correction and width (``budget_source['mu_free']``).
+    source records the added correction and width (``budget_source['mu_free']``), and the mesh's
+    move on mu itself, the largest over the points read (``mu_pct``, percent of mu: a part of mu's
+    model error, :func:`inference.fit.error_parts.mu_model_error_pct`; on stick data a fit that
+    takes the mesh's error for slip moves mu across its range).
 
     Parameters
     ----------
@@ -322,7 +355,11 @@ def with_freed_mu(
     ModelError
     """
     read = points_read(differences.points, theta)
-    d = 100.0 * np.expm1(freed_mu_moves(objective, eta, surrogate, theta, differences, only=read))
+    moves = freed_mu_moves(objective, eta, surrogate, theta, differences, only=read, with_mu=True)
+    # the mesh's move on mu itself, the largest of those read, as the larger side of a move in log
+    # (mu 0.32 -> 3: +830 %, where the move's own expm1 says -89 %)
+    mu_pct = float(100.0 * np.expm1(np.abs(moves[read, 2]).max())) if read.any() else 0.0
+    d = 100.0 * np.expm1(moves[:, :2])
     d[~read] = 0.0  # (n, 2) percent; the points the budget does not read at theta weigh nothing
     points = [
         {
@@ -347,6 +384,7 @@ def with_freed_mu(
             "c5_pct": float(add_width[1]),
             "c1_correction_pct": float(add_correction[0]),
             "c5_correction_pct": float(add_correction[1]),
+            "mu_pct": mu_pct,
             "where": at["source"]["where"],
             "file": differences.meta.get("file"),
             "points": len(points),

@@ -33,6 +33,7 @@ __all__ = [
     "FRICTION_DISCREPANCY_UNMEASURED",
     "MU_FREED",
     "left_out_with_friction",
+    "mesh_move_on_mu_pct",
     "model_error_with_mu",
     "mu_held_out_refits",
     "mu_model_error_pct",
@@ -196,8 +197,33 @@ def mu_held_out_refits(inputs: FitInputs, theta: np.ndarray) -> HeldOutRefits | 
     return held_out_refits(inputs.objective, inputs.eta, model, inside, box, errors)
 
 
+def mesh_move_on_mu_pct(model_error: ModelError | None) -> float | None:
+    """The mesh's move on mu that a fit freeing mu carries in its model error
+    (``budget_source['mu_free']['mu_pct']``, :func:`~indentation_studio.inference.budgets.freed_mu_moves.with_freed_mu`),
+    percent of mu; None where it was not measured.
+
+    Parameters
+    ----------
+    model_error : ModelError or None
+        The fit's model error over (c1, c5).
+
+    Returns
+    -------
+    float or None
+    """
+    source = getattr(model_error, "budget_source", None)
+    if not isinstance(source, dict):
+        return None
+    return (source.get("mu_free") or {}).get("mu_pct")
+
+
 def mu_model_error_pct(
-    inputs: FitInputs, theta: np.ndarray, *, on_surrogate: bool, refits: HeldOutRefits | None = None
+    inputs: FitInputs,
+    theta: np.ndarray,
+    *,
+    on_surrogate: bool,
+    refits: HeldOutRefits | None = None,
+    mesh_mu_pct: float | None = None,
 ) -> float | None:
     """What the model's own errors leave on a fitted mu: a 95 % half-width, percent of mu.
 
@@ -221,6 +247,12 @@ def mu_model_error_pct(
         The final stage is on the surrogate.
     refits : HeldOutRefits, optional
         :func:`mu_held_out_refits` at ``theta``, where made.
+    mesh_mu_pct : float, optional
+        The mesh's move on mu (the error budget's points' level-3 less level-4 outputs moved
+        through the fit with mu free: ``budget_source['mu_free']['mu_pct']`` of
+        :func:`~indentation_studio.inference.budgets.freed_mu_moves.with_freed_mu`), a part too:
+        the discrepancy's errors are level 3's, and on level-4 stick data a surrogate that learned
+        friction took the mesh's error for slip (mu 0.32, 95 % within (0.27, 0.38), session 35).
 
     Returns
     -------
@@ -243,6 +275,8 @@ def mu_model_error_pct(
             parts.append(float(error.discrepancy_pct[2]))
     if refits is not None:
         parts.append(refits.half_width_pct(2))
+    if mesh_mu_pct is not None and np.isfinite(mesh_mu_pct):
+        parts.append(float(mesh_mu_pct))
     return float(np.hypot.reduce(parts)) if parts else None
 
 

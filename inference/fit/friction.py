@@ -15,6 +15,7 @@ from ..adequacy.of_fit import training_box_ends
 from ..budgets.model_error import has_high_fidelity_level
 from ..experiment.processing_error import REGISTRATION_MM
 from .error_parts import (
+    mesh_move_on_mu_pct,
     model_error_with_mu,
     mu_held_out_refits,
     mu_model_error_pct,
@@ -272,7 +273,13 @@ def _fit_with_friction(
             )
         fit.mu_refits = refits
         fit.mu_unmeasured = mu_model_error_unmeasured(inputs)
-        fit.mu_model_pct = mu_model_error_pct(inputs, final.theta, on_surrogate=not refine, refits=refits)
+        fit.mu_model_pct = mu_model_error_pct(
+            inputs,
+            final.theta,
+            on_surrogate=not refine,
+            refits=refits,
+            mesh_mu_pct=mesh_move_on_mu_pct(fit.model_error),
+        )
     if stage == "confirm":
         say(f"confirming on the FE solver at {np.round(final.theta, 3).tolist()} ...")
         if treatment.mode == "known":

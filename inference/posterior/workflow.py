@@ -28,6 +28,7 @@ from ..experiment.data import ExperimentData
 from ..experiment.processing_error import REGISTRATION_MM
 from ..fit.error_parts import (
     left_out_with_friction,
+    mesh_move_on_mu_pct,
     model_error_with_mu,
     mu_held_out_refits,
     mu_model_error_pct,
@@ -378,7 +379,13 @@ def sample_posterior_for(
         )
         if fit.theta.size == 3 and model_error is not None:  # mu sampled: its own model error beside
             refits = mu_held_out_refits(inputs, fit.theta)
-            mu_model_pct = mu_model_error_pct(inputs, fit.theta, on_surrogate=True, refits=refits)
+            mu_model_pct = mu_model_error_pct(
+                inputs,
+                fit.theta,
+                on_surrogate=True,
+                refits=refits,
+                mesh_mu_pct=mesh_move_on_mu_pct(model_error),
+            )
             model_error = model_error.with_mu(mu_model_pct)
     else:
         model_error = model_error_at(inputs.objective, inputs.eta, model, fit.theta)
