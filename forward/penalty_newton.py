@@ -69,7 +69,7 @@ STICK_STEP_LIMIT = 0.2
 #: stick's and the slip's linearisations each send it to the other side: contact-L3, R = 4.77 mm,
 #: {17.98, 210.5} kPa, mu 2.17 from 13.18 mm on, the residual stayed at 0.3834 of 500.8 mN (7.7
 #: times the tolerance) for 60 Newton iterations at every increment down to 1/64 of a step, and
-#: the run failed after 100 minutes on one step (docs/validation/solver-and-speed.md, "A point at
+#: the run failed after 96 minutes on one step (docs/validation/solver-and-speed.md, "A point at
 #: its cone's edge").
 STALL_STEPS = 3
 STALL_DECREASE = 0.01
