@@ -364,6 +364,8 @@ def test_a_stick_experiments_posterior_says_mu_is_not_identified(mu_surrogate, t
     # the fit's bounds ride along for the corner plot, (c1, c5) around the (moved) fit
     b = np.array(d["fit_bounds"])
     assert b.shape == (3, 2) and np.all(b[:2, 0] < post.marker[:2]) and np.all(post.marker[:2] < b[:2, 1])
+    # mu's within its prior's range, as the fit's interval is (the demo's were [-12.3, 15.3])
+    assert post.mu_range[0] <= b[2, 0] <= b[2, 1] <= post.mu_range[1]
     fig = corner_figure(post.posterior, post.marker, bounds=b, not_identified=post.not_identified)
     said = [t.get_text() for ax in fig.axes for t in ax.texts]
     assert any("mu not identified" in t for t in said)

@@ -109,11 +109,16 @@ class ExperimentPosterior:
     def fit_bounds(self) -> np.ndarray:
         """(p, 2) the fit's 95 % bounds as a fit reports them (eq. 6 and the same model-error parts).
 
-        Around the fit moved as the samples were (:attr:`marker`).
+        Around the fit moved as the samples were (:attr:`marker`); mu's within its prior's range, as
+        the fit's interval is (nothing is known outside it: the demo's was [-12.3, 15.3]).
         """
         pct = combined_pct(self._laplace_pct(self.fit.s), self.model_error)
         centre = self.marker
-        return np.column_stack([centre * (1 - pct / 100.0), centre * (1 + pct / 100.0)])
+        bounds = np.column_stack([centre * (1 - pct / 100.0), centre * (1 + pct / 100.0)])
+        if self.friction.fits_mu and self.mu_range is not None:
+            k = self.posterior.parameters.index("mu")
+            bounds[k] = np.clip(bounds[k], *self.mu_range)
+        return bounds
 
     @property
     def contact(self) -> str:
