@@ -231,7 +231,7 @@ def freed_mu_moves(
     changes = differences.outputs_at(surrogate.top_xyz)
     moves = np.full((len(changes), 3 if with_mu else 2), np.nan)
     for k in np.flatnonzero(np.ones(len(changes), bool) if only is None else only):
-        free, held = mesh_moves(objective, eta, surrogate, theta, changes[k], with_mu=True)
+        free, held = mesh_moves(objective, eta, surrogate, theta, changes[k], with_mu=with_mu)
         moves[k, :2] = free[:2] - held
         if with_mu:
             moves[k, 2] = free[2]
