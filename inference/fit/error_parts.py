@@ -223,7 +223,7 @@ def mu_model_error_pct(
     *,
     on_surrogate: bool,
     refits: HeldOutRefits | None = None,
-    mesh_mu_pct: float | None = None,
+    model_error: ModelError | None = None,
 ) -> float | None:
     """What the model's own errors leave on a fitted mu: a 95 % half-width, percent of mu.
 
@@ -247,10 +247,10 @@ def mu_model_error_pct(
         The final stage is on the surrogate.
     refits : HeldOutRefits, optional
         :func:`mu_held_out_refits` at ``theta``, where made.
-    mesh_mu_pct : float, optional
-        The mesh's move on mu (the error budget's points' level-3 less level-4 outputs moved
-        through the fit with mu free: ``budget_source['mu_free']['mu_pct']`` of
-        :func:`~indentation_studio.inference.budgets.freed_mu_moves.with_freed_mu`), a part too:
+    model_error : ModelError, optional
+        The fit's model error over (c1, c5): the mesh's move on mu it carries
+        (:func:`mesh_move_on_mu_pct`: the error budget's points' level-3 less level-4 outputs moved
+        through the fit with mu free) is a part too:
         the discrepancy's errors are level 3's, and on level-4 stick data a surrogate that learned
         friction took the mesh's error for slip (mu 0.32, 95 % within (0.27, 0.38), session 35).
 
@@ -275,6 +275,7 @@ def mu_model_error_pct(
             parts.append(float(error.discrepancy_pct[2]))
     if refits is not None:
         parts.append(refits.half_width_pct(2))
+    mesh_mu_pct = mesh_move_on_mu_pct(model_error)
     if mesh_mu_pct is not None and np.isfinite(mesh_mu_pct):
         parts.append(float(mesh_mu_pct))
     return float(np.hypot.reduce(parts)) if parts else None

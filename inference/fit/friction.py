@@ -15,7 +15,6 @@ from ..adequacy.of_fit import training_box_ends
 from ..budgets.model_error import has_high_fidelity_level
 from ..experiment.processing_error import REGISTRATION_MM
 from .error_parts import (
-    mesh_move_on_mu_pct,
     model_error_with_mu,
     mu_held_out_refits,
     mu_model_error_pct,
@@ -278,7 +277,7 @@ def _fit_with_friction(
             final.theta,
             on_surrogate=not refine,
             refits=refits,
-            mesh_mu_pct=mesh_move_on_mu_pct(fit.model_error),
+            model_error=fit.model_error,
         )
     if stage == "confirm":
         say(f"confirming on the FE solver at {np.round(final.theta, 3).tolist()} ...")

@@ -28,7 +28,6 @@ from ..experiment.data import ExperimentData
 from ..experiment.processing_error import REGISTRATION_MM
 from ..fit.error_parts import (
     left_out_with_friction,
-    mesh_move_on_mu_pct,
     model_error_with_mu,
     mu_held_out_refits,
     mu_model_error_pct,
@@ -389,7 +388,7 @@ def sample_posterior_for(
                 fit.theta,
                 on_surrogate=True,
                 refits=refits,
-                mesh_mu_pct=mesh_move_on_mu_pct(model_error),
+                model_error=model_error,
             )
             model_error = model_error.with_mu(mu_model_pct)
     else:
