@@ -195,9 +195,13 @@ class MultiFidelitySurrogate(DiscrepancyCovariance, TwoLevelSurrogate):
         learned a little inside that box, c1 from 1.016 rather than 1 kPa in the shipped ones)."""
         inside = low.inside_box(theta)
         if low is self.low and isinstance(low, SlipSurrogate) and self.stick_mu is not None:
-            at_stick = np.isclose(theta[:, -1], self._resolved_stick_mu(), rtol=1e-9, atol=0.0)
-            inside |= at_stick & low.stick.inside_box(theta[:, :-1])
+            inside |= self._at_stick_mu(theta) & low.stick.inside_box(theta[:, :-1])
         return inside
+
+    def _at_stick_mu(self, theta: np.ndarray) -> np.ndarray:
+        """Which points over (c1, c5, mu) are a merged stick campaign's: mu at ``stick_mu``
+        (:func:`~.training_set.merged_training_data` sets it exactly)."""
+        return np.isclose(theta[:, -1], self._resolved_stick_mu(), rtol=1e-9, atol=0.0)
 
     def discrepancy_data(self, data: TrainingData) -> TrainingData:
         """The discrepancies D of the high-fidelity ``data`` from the low surrogate (module eq. 1a, 1b).
@@ -285,7 +289,7 @@ class MultiFidelitySurrogate(DiscrepancyCovariance, TwoLevelSurrogate):
         a mu axis: which are stick points (the k-fold is stratified by it); None otherwise."""
         if not isinstance(self.low, SlipSurrogate) or self.stick_mu is None or "mu" not in data.parameters:
             return None
-        at_stick = np.isclose(data.theta[:, -1], self._resolved_stick_mu(), rtol=1e-9, atol=0.0)
+        at_stick = self._at_stick_mu(data.theta)
         return at_stick if 0 < at_stick.sum() < data.n else None
 
     def _set_box(self) -> None:
