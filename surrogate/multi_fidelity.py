@@ -45,19 +45,20 @@ from typing import Any
 
 import numpy as np
 
-from ..forward.predictor import FixedParameter, Prediction, ReducedBasis
+from ..forward.predictor import Prediction, ReducedBasis
 from .base import FieldSurrogate, InputScaler, TrainingData, padded_jacobian
 from .discrepancy_covariance import DiscrepancyCovariance
 from .discrepancy_errors import k_fold_discrepancy_errors, pca_truncation_errors
-from .fidelity_levels import LowAtStickMu, interpolation_matrix
+from .fidelity_levels import interpolation_matrix
 from .gaussian_process import GaussianProcessSurrogate
 from .slip_surrogate import SlipSurrogate
+from .stick_convention import StickConvention
 from .two_level import TwoLevelSurrogate, model_differences
 
 __all__ = ["MultiFidelitySurrogate", "interpolation_matrix", "model_differences"]
 
 
-class MultiFidelitySurrogate(DiscrepancyCovariance, TwoLevelSurrogate):
+class MultiFidelitySurrogate(StickConvention, DiscrepancyCovariance, TwoLevelSurrogate):
     """A low-fidelity surrogate plus a GP of its discrepancy from a high-fidelity campaign.
 
     Predicts the high fidelity on the high campaign's top nodes (module docstring, eq. 1a, 1b).
@@ -125,40 +126,6 @@ class MultiFidelitySurrogate(DiscrepancyCovariance, TwoLevelSurrogate):
             max_components=self.max_components,
         )
 
-    @property
-    def learned_at_stick(self) -> bool:
-        """Whether the discrepancy was learned at the perfect stick and is applied at every mu.
-
-        True when it is over fewer parameters (c1, c5) than the low level's (c1, c5, mu): module
-        eq. 2a, 2b.
-
-        Returns
-        -------
-        bool
-        """
-        return len(self.discrepancy.parameters) < len(self.low.parameters)
-
-    def _low_for(self, data: TrainingData):
-        """The low level the high campaign ``data`` is compared with: the low surrogate itself over
-        the same parameters, or, when ``data`` is a perfect-stick campaign over (c1, c5), a
-        stick-plus-slip low level at ``stick_mu`` (eq. 2; its stick surrogate where ``stick_mu``
-        is None)."""
-        low = self.low
-        if tuple(data.parameters) == tuple(low.parameters):
-            return low
-        if isinstance(low, SlipSurrogate) and tuple(data.parameters) == tuple(low.stick.parameters):
-            return low.stick if self.stick_mu is None else LowAtStickMu(low, self._resolved_stick_mu())
-        raise ValueError(
-            f"parameters: {low.parameters} (low) vs {tuple(data.parameters)} (high); a high campaign over "
-            "(c1, c5) needs a stick-plus-slip low surrogate ('slip') to be learned at the stick"
-        )
-
-    def _resolved_stick_mu(self) -> float:
-        """``stick_mu`` as a number: "end" is the low level's mu range end."""
-        if self.stick_mu == "end":
-            return float(self.low.scaler.hi[list(self.low.parameters).index("mu")])
-        return float(self.stick_mu)
-
     # ------------------------------------------------------------------ training
     def _check_compatible(self, data: TrainingData) -> None:
         problems = []
@@ -187,21 +154,6 @@ class MultiFidelitySurrogate(DiscrepancyCovariance, TwoLevelSurrogate):
                 f"outside the low-fidelity surrogate's training box {low.scaler.lo.tolist()} .. "
                 f"{low.scaler.hi.tolist()}: it would extrapolate there"
             )
-
-    def _inside_low_box(self, low, theta: np.ndarray) -> np.ndarray:
-        """Which high points the low level ``low`` covers: its box, and for a campaign merged over
-        (c1, c5, mu) also a stick point (mu at ``stick_mu``) whose (c1, c5) lies in the stick
-        surrogate's box, as :class:`LowAtStickMu` judges a stick campaign's (the slip's change is
-        learned a little inside that box, c1 from 1.016 rather than 1 kPa in the shipped ones)."""
-        inside = low.inside_box(theta)
-        if low is self.low and isinstance(low, SlipSurrogate) and self.stick_mu is not None:
-            inside |= self._at_stick_mu(theta) & low.stick.inside_box(theta[:, :-1])
-        return inside
-
-    def _at_stick_mu(self, theta: np.ndarray) -> np.ndarray:
-        """Which points over (c1, c5, mu) are a merged stick campaign's: mu at ``stick_mu``
-        (:func:`~.training_set.merged_training_data` sets it exactly)."""
-        return np.isclose(theta[:, -1], self._resolved_stick_mu(), rtol=1e-9, atol=0.0)
 
     def discrepancy_data(self, data: TrainingData) -> TrainingData:
         """The discrepancies D of the high-fidelity ``data`` from the low surrogate (module eq. 1a, 1b).
@@ -284,14 +236,6 @@ class MultiFidelitySurrogate(DiscrepancyCovariance, TwoLevelSurrogate):
         self.meta["fit_s"] = time.perf_counter() - t0
         return self
 
-    def _strata(self, data: TrainingData) -> np.ndarray | None:
-        """For a campaign merged over (c1, c5, mu) with stick points at ``stick_mu`` and points with
-        a mu axis: which are stick points (the k-fold is stratified by it); None otherwise."""
-        if not isinstance(self.low, SlipSurrogate) or self.stick_mu is None or "mu" not in data.parameters:
-            return None
-        at_stick = self._at_stick_mu(data.theta)
-        return at_stick if 0 < at_stick.sum() < data.n else None
-
     def _set_box(self) -> None:
         """The box a fit stays in: the discrepancy's over its parameters (the high campaign's), the
         low level's over the rest (mu, for a discrepancy learned at the stick)."""
@@ -303,38 +247,6 @@ class MultiFidelitySurrogate(DiscrepancyCovariance, TwoLevelSurrogate):
     def _discrepancy_theta(self, theta: np.ndarray) -> np.ndarray:
         """The parameters the discrepancy is a function of: all, or (c1, c5) when learned at the stick."""
         return theta[:, : len(self.discrepancy.parameters)]
-
-    def stick_level(self):
-        """This surrogate at the perfect stick, over (c1, c5).
-
-        What a high stick campaign is validated against: itself at ``stick_mu``, where a stick
-        campaign's discrepancy was learned (eq. 2, or a merged campaign's stick points); for a
-        file made before ``stick_mu`` (None), the low level's stick surrogate plus the same
-        discrepancy.
-
-        Returns
-        -------
-        Predictor
-            Over (c1, c5).
-
-        Raises
-        ------
-        ValueError
-            If neither: the discrepancy was learned over the low level's parameters with no mu
-            taken as the stick.
-        """
-        if self.stick_mu is not None:
-            return FixedParameter(self, "mu", self._resolved_stick_mu())
-        if not self.learned_at_stick:
-            raise ValueError("the discrepancy was learned over the low level's parameters, not at the stick")
-        model = type(self)(self.low.stick, **self.hyperparameters())
-        model.discrepancy, model.interpolation = self.discrepancy, self.interpolation
-        model.parameters = tuple(self.discrepancy.parameters)
-        model.depth, model.top_xyz = self.depth, self.top_xyz
-        model.n_steps, model.n_nodes = self.n_steps, self.n_nodes
-        model.discrepancy_error = self.discrepancy_error
-        model._set_box()
-        return model
 
     def corrected(self, low_model) -> MultiFidelitySurrogate:
         """The high fidelity as ``low_model`` plus this surrogate's discrepancy.
