@@ -62,11 +62,31 @@ class StoreLayout:
         return self.root / "leases"
 
     def result_path(self, point: int) -> Path:
-        """The result file of ``point``, ``points/<point>.npz``."""
+        """The result file of ``point``, ``points/<point>.npz``.
+
+        Parameters
+        ----------
+        point : int
+            The point's number in the design.
+
+        Returns
+        -------
+        pathlib.Path
+        """
         return self.points_dir / f"{point:05d}.npz"
 
     def partial_path(self, point: int) -> Path:
-        """The file of failed ``point``'s finished steps, ``points/<point>.partial.npz``."""
+        """The file of failed ``point``'s finished steps, ``points/<point>.partial.npz``.
+
+        Parameters
+        ----------
+        point : int
+            The point's number in the design.
+
+        Returns
+        -------
+        pathlib.Path
+        """
         return self.points_dir / f"{point:05d}.partial.npz"
 
     @property
@@ -75,10 +95,31 @@ class StoreLayout:
         return self.root / "checkpoints"
 
     def checkpoint_path(self, point: int) -> Path:
-        """The restart file of ``point`` while it is unfinished, ``checkpoints/<point>.pkl``
-        (:meth:`forward.solver.EmbeddedSolver.run`'s ``checkpoint``)."""
+        """The restart file of ``point`` while it is unfinished, ``checkpoints/<point>.pkl``.
+
+        :meth:`forward.solver.EmbeddedSolver.run`'s ``checkpoint``.
+
+        Parameters
+        ----------
+        point : int
+            The point's number in the design.
+
+        Returns
+        -------
+        pathlib.Path
+        """
         return self.checkpoints_dir / f"{point:05d}.pkl"
 
     def lease_path(self, point: int) -> Path:
-        """The lease file of ``point``, ``leases/<point>.json``."""
+        """The lease file of ``point``, ``leases/<point>.json``.
+
+        Parameters
+        ----------
+        point : int
+            The point's number in the design.
+
+        Returns
+        -------
+        pathlib.Path
+        """
         return self.leases_dir / f"{point:05d}.json"

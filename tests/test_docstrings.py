@@ -168,13 +168,24 @@ def _documented_in_a_base(cls, name: str) -> bool:
 
 def _public_methods():
     """'package.Class.method' -> function, for the public methods and properties an exported class
-    defines itself (inherited ones are checked where they are defined; an override without its own
-    docstring, where the base class documents it)."""
+    defines itself or takes from a base of the package that is not exported (a mixin such as
+    ``StickConvention``; those of exported bases are checked where they are defined; an override
+    without its own docstring, where the base class documents it)."""
     out = {}
+    exported = {id(c) for c in EXPORTED.values() if inspect.isclass(c)}
     for qualified, cls in EXPORTED.items():
         if not inspect.isclass(cls) or qualified.split(".")[-1] in OWNED_ELSEWHERE:
             continue
-        for name, member in vars(cls).items():
+        mixins = [
+            b
+            for b in cls.__mro__[1:]
+            if b.__module__.startswith("indentation_studio.") and id(b) not in exported
+        ]
+        members = {}
+        for base in reversed(mixins):
+            members |= vars(base)
+        members |= vars(cls)
+        for name, member in members.items():
             if isinstance(member, classmethod | staticmethod):
                 member = member.__func__
             func = member.fget if isinstance(member, property) else member
