@@ -31,7 +31,8 @@ __getattr__, __dir__, __all__ = lazy.attach(
         "posterior.sampling": ["Posterior", "sample_posterior"],
         "budgets.model_error_parts": ["ModelError", "combined_pct", "model_error_scope"],
         "budgets.fit_moves": ["emulation_error_pct", "emulation_moves"],
-        "budgets.freed_mu_moves": ["freed_mu_moves", "mesh_differences_from_runs", "with_freed_mu"],
+        "budgets.freed_mu_moves": ["freed_mu_moves", "with_freed_mu"],
+        "budgets.mesh_difference_runs": ["mesh_differences_from_runs"],
         "budgets.model_error": [
             "budget_correction",
             "model_error_at",
@@ -40,7 +41,8 @@ __getattr__, __dir__, __all__ = lazy.attach(
             "with_processing_error",
         ],
         "experiment.processing_error": ["REGISTRATION_MM", "ProcessingError", "processing_error_at"],
-        "posterior.workflow": ["ExperimentPosterior", "sample_posterior_for"],
+        "posterior.experiment_posterior": ["ExperimentPosterior"],
+        "posterior.workflow": ["sample_posterior_for"],
         "confirmation": ["Confirmation", "confirm"],
         "budgets.mesh_check": ["MeshCheck", "check_mesh_at"],
         "lab.experiment_import": [

@@ -343,10 +343,8 @@ def test_mu_counts_as_identified_only_with_an_interval_inside_its_range():
 
 def test_a_stick_experiments_posterior_says_mu_is_not_identified(mu_surrogate, tmp_path):
     from indentation_studio.inference.experiment.synthetic import write_synthetic_experiment
-    from indentation_studio.inference.posterior.workflow import (
-        interval_reaches_prior_end,
-        sample_posterior_for,
-    )
+    from indentation_studio.inference.posterior.experiment_posterior import interval_reaches_prior_end
+    from indentation_studio.inference.posterior.workflow import sample_posterior_for
     from indentation_studio.studio.figures import corner_figure
 
     model = mu_surrogate

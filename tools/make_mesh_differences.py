@@ -21,7 +21,7 @@ from pathlib import Path
 from indentation_studio import __version__
 from indentation_studio.forward.convergence.mesh_family import contact_mesh
 from indentation_studio.forward.result import SimulationResult
-from indentation_studio.inference.budgets.freed_mu_moves import mesh_differences_from_runs
+from indentation_studio.inference.budgets.mesh_difference_runs import mesh_differences_from_runs
 from indentation_studio.surrogate.error_budgets import indentation_test_of
 from indentation_studio.surrogate.persistence import load_surrogate
 
