@@ -47,6 +47,7 @@ import numpy as np
 
 from ..forward.predictor import Prediction, ReducedBasis
 from .base import FieldSurrogate, InputScaler, TrainingData, padded_jacobian
+from .carried_emulation_error import CarriedEmulationError
 from .discrepancy_covariance import DiscrepancyCovariance
 from .discrepancy_errors import k_fold_discrepancy_errors, pca_truncation_errors
 from .fidelity_levels import interpolation_matrix
@@ -58,7 +59,9 @@ from .two_level import TwoLevelSurrogate, model_differences
 __all__ = ["MultiFidelitySurrogate", "interpolation_matrix", "model_differences"]
 
 
-class MultiFidelitySurrogate(StickConvention, DiscrepancyCovariance, TwoLevelSurrogate):
+class MultiFidelitySurrogate(
+    StickConvention, DiscrepancyCovariance, CarriedEmulationError, TwoLevelSurrogate
+):
     """A low-fidelity surrogate plus a GP of its discrepancy from a high-fidelity campaign.
 
     Predicts the high fidelity on the high campaign's top nodes (module docstring, eq. 1a, 1b).
@@ -290,45 +293,6 @@ class MultiFidelitySurrogate(StickConvention, DiscrepancyCovariance, TwoLevelSur
         model._meta = self.meta
         model.discrepancy_error = self.discrepancy_error
         return model
-
-    #: The low level's held-out errors on its own top nodes: what the file keeps (a few times fewer
-    #: numbers than on the high nodes), moved to the high nodes when it is read.
-    low_emulation_error = None
-    #: The discrepancy's own held-out errors (:func:`.discrepancy_errors.k_fold_discrepancy_errors`: the multi-fidelity
-    #: prediction's errors at the high-fidelity points, an EmulationError on the high top nodes);
-    #: None where it was trained without folds or read from a file made before they were kept.
-    discrepancy_error = None
-
-    def kept_emulation_error(self):
-        """The held-out errors its file keeps: the low level's, on the low top nodes.
-
-        Returns
-        -------
-        EmulationError or None
-            The low level's errors when it had them, else :attr:`emulation_error`.
-        """
-        return self.low_emulation_error if self.low_emulation_error is not None else self.emulation_error
-
-    def restore_emulation_error(self, kept) -> None:
-        """Set :attr:`emulation_error`: errors on the low top nodes are moved to the high ones.
-
-        The low surrogate's own error is this one's (the discrepancy is learned on top of it), and
-        the interpolation W carries it to the high nodes as it carries the low prediction (eq. 1b).
-
-        Parameters
-        ----------
-        kept : EmulationError or None
-            The low level's errors (on its top nodes) or errors already on the high nodes.
-        """
-        low_nodes = len(self.low.top_xyz)
-        if (
-            kept is not None
-            and low_nodes != self.n_nodes
-            and kept.directions.shape[1] == kept.width(low_nodes)
-        ):
-            self.low_emulation_error, self.emulation_error = kept, kept.carried(self._carried)
-        else:
-            self.emulation_error = kept
 
     # ------------------------------------------------------------------ prediction
     def _carried(self, u: np.ndarray) -> np.ndarray:
