@@ -83,11 +83,19 @@ def _print_summary(summary: dict[str, Any], title: str) -> None:
             f"heartbeat {c['heartbeat_age_s']:g} s ago): {state}",
             highlight=False,
         )
-    if summary.get("resumable"):
-        points = ", ".join(str(i) for i in summary["resumable"][:10])
+    failed = {f["point"] for f in summary.get("failures", [])}
+    pending = [i for i in summary.get("resumable", []) if i not in failed]
+    if pending:
+        points = ", ".join(str(i) for i in pending[:10])
         out.print(
-            f"{len(summary['resumable'])} unfinished points resume from their last finished step "
-            f"(checkpoints/): {points}",
+            f"{len(pending)} unfinished points resume from their last finished step (checkpoints/): {points}",
+            highlight=False,
+        )
+    kept = [i for i in summary.get("resumable", []) if i in failed]  # a failed point keeps its checkpoint
+    if kept:
+        points = ", ".join(str(i) for i in kept[:10])
+        out.print(
+            f"{len(kept)} failed points resume from their last finished step only with --retry-failed: {points}",
             highlight=False,
         )
     for r in summary.get("resumable_at", [])[:10]:
@@ -97,7 +105,8 @@ def _print_summary(summary: dict[str, Any], title: str) -> None:
             else f"{r['depth_mm']:g} of {r['of_mm']:g} mm ({r['steps_done']} of {r['steps']} steps) after "
             f"{r['elapsed_s']:.0f} s of solver time"
         )
-        out.print(f"point {r['point']} at its last checkpoint: {where}", highlight=False)
+        state = " (failed)" if r["point"] in failed else ""
+        out.print(f"point {r['point']}{state} at its last checkpoint: {where}", highlight=False)
     for h in summary.get("held_by_other_runs", []):
         out.print(
             f"point {h['point']}: left to the run holding it ({h['host']} pid {h['pid']})", highlight=False

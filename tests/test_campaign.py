@@ -209,6 +209,11 @@ def test_a_point_stopped_after_a_step_resumes_there_with_the_uninterrupted_resul
     at = s["resumable_at"][0]  # where `campaign status` says it stands
     assert (at["point"], at["depth_mm"], at["of_mm"], at["steps_done"], at["steps"]) == (0, 0.5, 1.0, 1, 2)
     assert at["elapsed_s"] > 0
+    # a failed point keeps its checkpoint, but a plain run does not resume it: status says so
+    text = CliRunner().invoke(app, ["campaign", "status", "--name", "r", "--runs-dir", str(tmp_path)]).stdout
+    assert "1 failed points resume from their last finished step only with --retry-failed: 0" in text
+    assert "point 0 (failed) at its last checkpoint: 0.5 of 1 mm (1 of 2 steps)" in text
+    assert "unfinished points resume" not in text
     with caplog.at_level("INFO", logger="indentation_studio.forward.solver"):
         s = run_campaign(CampaignStore.open(tmp_path / "r"), jobs=1, retry_failed=True)
     assert s["done"] == 1 and s["resumable"] == []
