@@ -13,7 +13,8 @@ preconditioner's Python). The cases:
 * ``a``: contact-L4, R = 4.77 mm, {c1, c5} = {3, 120} kPa, stick (the surface penalty);
 * ``b``: contact-L4, R = 8 mm, {7, 520} kPa, Coulomb mu = 0.3;
 * ``c``: contact-L1, R = 4.77 mm, {3, 540} kPa, mu = 0.3;
-* ``d``: contact-L3, R = 4.77 mm, {10, 350} kPa, stick, with sensitivities.
+* ``d``: contact-L3, R = 4.77 mm, {10, 350} kPa, stick, with sensitivities;
+* ``e``: ``c``'s point with the stick (the yardstick of the goal "friction at most twice the stick").
 
 All run the paper's 0.5 mm steps, 28 of them unless ``--steps`` says fewer (the L4 cases take
 an hour or more: their first steps only). Each case's inputs, the code's version (commit, and
@@ -57,6 +58,8 @@ CASES: dict[str, dict] = {
     "b": {"mesh": "contact-L4", "radius": 8.0, "c1": 7.0, "c5": 520.0, "friction": 0.3, "sens": False},
     "c": {"mesh": "contact-L1", "radius": 4.77, "c1": 3.0, "c5": 540.0, "friction": 0.3, "sens": False},
     "d": {"mesh": "contact-L3", "radius": 4.77, "c1": 10.0, "c5": 350.0, "friction": None, "sens": True},
+    # (c)'s point with the stick: the goal's yardstick (contact-L1 with friction at most twice it)
+    "e": {"mesh": "contact-L1", "radius": 4.77, "c1": 3.0, "c5": 540.0, "friction": None, "sens": False},
 }
 
 #: py-spy's samples by what they were doing: the first rule (in this order) whose frames all occur
