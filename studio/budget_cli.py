@@ -242,7 +242,9 @@ def merge_budgets_cmd(budget: BUDGETS_TO_MERGE, out: STUDY_BUDGET_OUT, as_json: 
     Console().print(
         f"wrote {out}: {payload['reference']['points']} points ("
         + ", ".join("{" + f"{c1:g}, {c5:g}" + "}" for c1, c5 in points)
-        + f" kPa) from {len(budget)} budgets"
+        + f" kPa) from {len(budget)} budgets",
+        soft_wrap=True,  # the path whole, whatever its length
+        highlight=False,
     )
 
 

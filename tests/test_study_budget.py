@@ -448,7 +448,8 @@ def test_budgets_of_other_settings_or_the_same_point_twice_do_not_merge(tmp_path
 
 def test_the_merge_command_writes_the_whole(tmp_path):
     _, a, b = _split_budget(tmp_path, shipped_budgets_folder() / "fit-model-R4.77.json")
-    out = tmp_path / "m.json"
+    out = tmp_path / ("a-folder-whose-name-is-long-" * 3) / "m.json"  # the line is not broken
+    out.parent.mkdir()
     r = CliRunner().invoke(
         app, ["design", "merge-budgets", "--budget", str(a), "--budget", str(b), "--out", str(out)]
     )
