@@ -4,8 +4,9 @@ parameters (issue 57, option (i): an error budget is measured with mu held, a pl
 and mu takes up the part of the mesh's error that looks like slip).
 
 Reading only, below the surrogates and the fits (as :mod:`.error_budgets`): making the file from
-runs is :mod:`indentation_studio.inference.budgets.freed_mu_moves`' job and
-``tools/make_mesh_differences.py``'s. Shipped files are package data,
+runs is :mod:`indentation_studio.inference.budgets.mesh_difference_runs`' job and
+``tools/make_mesh_differences.py``'s (moving them through a fit,
+:mod:`indentation_studio.inference.budgets.freed_mu_moves`'). Shipped files are package data,
 ``indentation_studio/error_budgets/mesh-differences-*.npz``, found by test and mesh as the budgets
 are (:func:`shipped_mesh_differences`). See docs/validation/model-error.md ("The mesh's move with mu
 free")."""
